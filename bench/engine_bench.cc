@@ -1,0 +1,99 @@
+// Engine benchmarks (Google Benchmark):
+//  - BM_ChainRhs/N: ns per right-hand-side evaluation of a chain of N mass-spring-dampers
+//    (cost must grow linearly with N);
+//  - BM_ChainCompile/N: causality + plan for the chain (N = 10,000 must take under 1 s);
+//  - BM_ChainSimulate/N: wall time per simulated second (BDF, rtol 1e-6).
+// Run: build/release/bench/multibond_bench  (or --benchmark_filter=Rhs)
+
+#include <benchmark/benchmark.h>
+
+#include "multibond/compile/compiled_model.h"
+#include "multibond/sim/simulator.h"
+
+namespace mb = multibond;
+
+namespace {
+
+/// N masses on 1-junctions; neighbours joined by a spring and a damper in parallel on their
+/// relative velocity (a 0-junction and a 1-junction); a force step on the first mass.
+mb::BondGraph MakeChain(int n) {
+  mb::BondGraph g("chain");
+  g.AddSe("force", {{mb::TimeFunction::Step(1.0)}});
+  for (int i = 0; i < n; ++i) {
+    const std::string v = "v" + std::to_string(i);
+    g.AddJunction(v, mb::ElementKind::kOne);
+    g.AddI("m" + std::to_string(i), mb::Param::Scalar(1.0 + 0.01 * i));
+    g.Connect(v, "m" + std::to_string(i));
+    if (i == 0) g.Connect("force", v);
+    if (i > 0) {
+      const std::string k = std::to_string(i);
+      g.AddJunction("n" + k, mb::ElementKind::kZero);
+      g.AddJunction("rel" + k, mb::ElementKind::kOne);
+      g.AddC("k" + k, mb::Param::Scalar(100.0));
+      g.AddR("c" + k, mb::Param::Scalar(0.5));
+      g.Connect("v" + std::to_string(i - 1), "n" + k);
+      g.Connect("n" + k, v);
+      g.Connect("n" + k, "rel" + k);
+      g.Connect("rel" + k, "k" + k);
+      g.Connect("rel" + k, "c" + k);
+    }
+  }
+  return g;
+}
+
+void BM_ChainRhs(benchmark::State& state) {
+  const auto model = mb::CompiledModel::Compile(MakeChain(static_cast<int>(state.range(0))));
+  mb::Workspace ws = model->MakeWorkspace();
+  Eigen::VectorXd x = model->MakeInitialState(), xdot(x.size());
+  for (int i = 0; i < x.size(); ++i) x[i] = 1e-3 * (i % 7);
+  double t = 0.0;
+  for (auto _ : state) {
+    model->CalcDerivatives(t, x.data(), xdot.data(), ws);
+    benchmark::DoNotOptimize(xdot.data());
+    t += 1e-9;
+  }
+  state.counters["states"] = static_cast<double>(model->num_states());
+  state.counters["ns_per_state"] = benchmark::Counter(static_cast<double>(model->num_states()),
+                                                      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  state.SetComplexityN(state.range(0));
+}
+BENCHMARK(BM_ChainRhs)->Arg(10)->Arg(100)->Arg(1000)->Arg(10000)->Complexity(benchmark::oN);
+
+void BM_ChainCompile(benchmark::State& state) {
+  const mb::BondGraph g = MakeChain(static_cast<int>(state.range(0)));
+  for (auto _ : state) {
+    auto model = mb::CompiledModel::Compile(g);
+    benchmark::DoNotOptimize(model.get());
+  }
+  state.SetComplexityN(state.range(0));
+}
+BENCHMARK(BM_ChainCompile)->Arg(10)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond)->Complexity();
+
+class NullObserver : public mb::Observer {
+ public:
+  void OnStart(const std::vector<mb::Column>&) override {}
+  void OnSample(const std::vector<double>&) override {}
+  void OnFinish(const mb::RunSummary&) override {}
+};
+
+void BM_ChainSimulate(benchmark::State& state) {
+  const auto model = mb::CompiledModel::Compile(MakeChain(static_cast<int>(state.range(0))));
+  mb::RunOptions o;
+  o.t_end = 1.0;
+  o.dt = 0.01;
+  o.integrator.method = mb::Method::kBdf;
+  o.integrator.rtol = 1e-6;
+  o.integrator.atol = 1e-9;
+  long rhs = 0;
+  for (auto _ : state) {
+    NullObserver obs;
+    rhs = mb::Simulate(*model, o, obs).stats.rhs_evals;
+  }
+  state.counters["rhs_evals"] = static_cast<double>(rhs);
+  state.SetLabel("wall time per simulated second");
+}
+BENCHMARK(BM_ChainSimulate)->Arg(10)->Arg(100)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,717 @@
+#include "multibond/compile/compiled_model.h"
+
+#include <algorithm>
+#include <numeric>
+#include <queue>
+
+#include <fmt/format.h>
+
+namespace multibond {
+
+namespace {
+
+class UnionFind {
+ public:
+  explicit UnionFind(int n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
+  int Root(int i) {
+    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
+    return i;
+  }
+  void Merge(int a, int b) {
+    a = Root(a), b = Root(b);
+    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
+  }
+
+ private:
+  std::vector<int> parent_;
+};
+
+void AppendRowMajor(std::vector<double>& pool, const Eigen::MatrixXd& m) {
+  for (int r = 0; r < m.rows(); ++r)
+    for (int c = 0; c < m.cols(); ++c) pool.push_back(m(r, c));
+}
+
+}  // namespace
+
+std::vector<std::string> ComponentNames(int n, const std::vector<std::string>& names) {
+  if (static_cast<int>(names.size()) == n) return names;
+  if (n == 1) return {};
+  if (n == 3) return {"x", "y", "z"};
+  std::vector<std::string> out;
+  for (int i = 1; i <= n; ++i) out.push_back(std::to_string(i));
+  return out;
+}
+
+std::shared_ptr<const CompiledModel> CompiledModel::Compile(BondGraph graph, const CompileOptions& options) {
+  std::shared_ptr<CompiledModel> m(new CompiledModel());
+  m->graph_ = std::move(graph);
+  m->options_ = options;
+  m->Build();
+  return m;
+}
+
+void CompiledModel::Build() {
+  const BondGraph& g = graph_;
+  DiagnosticSink sink;
+  structure_ = AnalyzeStructure(g, options_.default_domain, sink);
+  sink.ThrowIfErrors();
+  causality_ = AssignCausality(g, structure_);
+  if (causality_.has_errors()) throw ModelError(causality_.diagnostics);
+
+  const int nb = g.num_bonds();
+  const auto& dim = structure_.bond_dim;
+  auto effort_into = [&](int b, int e) { return causality_.EffortInto(g, b, e); };
+
+  // --- Slot classes: shared efforts at 0-junctions, shared flows at 1-junctions. ---
+  UnionFind uf(2 * nb);  // slot 2b = effort of bond b, 2b+1 = flow
+  for (int i = 0; i < g.num_elements(); ++i) {
+    const Element& e = g.element(i);
+    if (!IsJunction(e.kind)) continue;
+    const int parity = e.kind == ElementKind::kZero ? 0 : 1;
+    for (int b : e.bonds) uf.Merge(2 * e.bonds.front() + parity, 2 * b + parity);
+  }
+  std::vector<int> class_of_root(2 * nb, -1);
+  effort_class_.resize(nb);
+  flow_class_.resize(nb);
+  for (int s = 0; s < 2 * nb; ++s) {
+    const int root = uf.Root(s);
+    if (class_of_root[root] < 0) {
+      class_of_root[root] = static_cast<int>(class_offset_.size());
+      class_offset_.push_back(num_slots_);
+      class_size_.push_back(dim[s / 2]);
+      num_slots_ += dim[s / 2];
+      const DomainUnits u = UnitsOf(structure_.bond_domain[s / 2]);
+      class_units_.push_back(s % 2 == 0 ? u.effort : u.flow);
+      class_names_.emplace_back();
+    }
+    (s % 2 == 0 ? effort_class_ : flow_class_)[s / 2] = class_of_root[root];
+  }
+  auto name_class = [&](int c, const std::string& n) {
+    if (class_names_[c].empty()) class_names_[c] = n;
+  };
+  for (int i = 0; i < g.num_elements(); ++i) {
+    const Element& e = g.element(i);
+    if (e.kind == ElementKind::kZero) name_class(effort_class_[e.bonds.front()], e.name + ".e");
+    if (e.kind == ElementKind::kOne) name_class(flow_class_[e.bonds.front()], e.name + ".f");
+  }
+  for (int i = 0; i < g.num_elements(); ++i) {
+    const Element& e = g.element(i);
+    if (IsOnePort(e.kind)) {
+      name_class(effort_class_[e.bonds.front()], e.name + ".e");
+      name_class(flow_class_[e.bonds.front()], e.name + ".f");
+    } else if (IsTwoPort(e.kind)) {
+      name_class(effort_class_[structure_.port_in[i]], e.name + ".e1");
+      name_class(flow_class_[structure_.port_in[i]], e.name + ".f1");
+      name_class(effort_class_[structure_.port_out[i]], e.name + ".e2");
+      name_class(flow_class_[structure_.port_out[i]], e.name + ".f2");
+    }
+  }
+  for (int b = 0; b < nb; ++b) {
+    name_class(effort_class_[b], g.bond(b).name + ".e");
+    name_class(flow_class_[b], g.bond(b).name + ".f");
+  }
+
+  // --- State layout. ---
+  element_block_.assign(g.num_elements(), -1);
+  aux_block_.assign(g.aux_states().size(), -1);
+  energy_matrix_.resize(g.num_elements());
+  std::vector<double> x0;
+  auto add_block = [&](StateBlock::Kind kind, int owner, int size, const std::string& base,
+                       const std::vector<std::string>& comps, const std::string& unit) {
+    blocks_.push_back({kind, owner, static_cast<int>(state_names_.size()), size});
+    for (int k = 0; k < size; ++k) {
+      state_names_.push_back(comps.empty() ? base : base + "." + comps[k]);
+      state_units_.push_back(unit);
+    }
+    return static_cast<int>(blocks_.size()) - 1;
+  };
+  for (int i = 0; i < g.num_elements(); ++i) {
+    const Element& e = g.element(i);
+    if (!IsStorage(e.kind)) continue;
+    const int b = e.bonds.front(), n = dim[b];
+    const DomainUnits u = UnitsOf(structure_.bond_domain[b]);
+    const bool inertia = e.kind == ElementKind::kI;
+    element_block_[i] = add_block(inertia ? StateBlock::Kind::kMomentum : StateBlock::Kind::kDisplacement, i, n,
+                                  e.name + (inertia ? ".p" : ".q"), ComponentNames(n, e.components),
+                                  inertia ? u.momentum : u.displacement);
+    for (int k = 0; k < n; ++k) x0.push_back(e.initial.size() == n ? e.initial(k) : 0.0);
+    const Eigen::MatrixXd p = e.param.AsMatrix(n, n);
+    energy_matrix_[i] = inertia ? Eigen::MatrixXd(p.inverse()) : p;
+  }
+  for (size_t a = 0; a < g.aux_states().size(); ++a) {
+    const AuxState& s = g.aux_states()[a];
+    const int of = g.Find(s.of);
+    const int b = g.element(of).bonds.front(), n = dim[b];
+    if (s.kind == AuxState::Kind::kOrientation) {
+      aux_block_[a] = add_block(StateBlock::Kind::kOrientation, static_cast<int>(a), 9, s.name,
+                                {"11", "12", "13", "21", "22", "23", "31", "32", "33"}, "-");
+      const Eigen::Matrix3d r0 = s.initial.size() == 9 ? Eigen::Matrix3d(s.initial) : Eigen::Matrix3d::Identity();
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) x0.push_back(r0(r, c));
+    } else {
+      const std::string unit = s.unit.empty() ? UnitsOf(structure_.bond_domain[b]).displacement : s.unit;
+      aux_block_[a] = add_block(StateBlock::Kind::kIntegral, static_cast<int>(a), n, s.name,
+                                ComponentNames(n, s.components.empty() ? g.element(of).components : s.components), unit);
+      for (int k = 0; k < n; ++k) x0.push_back(s.initial.size() == n ? s.initial(k) : 0.0);
+    }
+  }
+  if (options_.energy_account) {
+    for (int i = 0; i < g.num_elements(); ++i) {
+      const Element& e = g.element(i);
+      if (IsSource(e.kind)) add_block(StateBlock::Kind::kWork, i, 1, e.name + ".work", {}, "J");
+      if (e.kind == ElementKind::kR) add_block(StateBlock::Kind::kDissipation, i, 1, e.name + ".dissipated", {}, "J");
+      if (IsSource(e.kind) || e.kind == ElementKind::kR) x0.push_back(0.0);
+    }
+  }
+  x0_ = Eigen::Map<Eigen::VectorXd>(x0.data(), static_cast<Eigen::Index>(x0.size()));
+  auto state_offset = [&](int block) { return blocks_[block].offset; };
+  auto aux_offset = [&](const std::string& name) { return state_offset(aux_block_[g.FindAux(name)]); };
+
+  // --- Moduli of MTF and MGY, evaluated once per right-hand side. ---
+  std::vector<int> modulus_of(g.num_elements(), -1);
+  for (int i = 0; i < g.num_elements(); ++i) {
+    const Element& e = g.element(i);
+    if (e.kind != ElementKind::kMTF && e.kind != ElementKind::kMGY) continue;
+    const Modulus& mod = e.modulus;
+    ModulusEval me{mod.kind, mod.rows(), mod.cols(), num_moduli_, -1, -1, -1, -1, mod.scale, mod.transpose, mod.lever};
+    num_moduli_ += me.rows * me.cols;
+    if (mod.kind != Modulus::Kind::kConstant) me.rotation = aux_offset(mod.rotation);
+    if (mod.left.size() > 0) {
+      me.left = static_cast<int>(coef_.size());
+      AppendRowMajor(coef_, mod.left);
+    }
+    if (mod.kind == Modulus::Kind::kConstant) {
+      me.constant = static_cast<int>(coef_.size());
+      AppendRowMajor(coef_, mod.constant);
+    }
+    // The inverse is needed when the effort enters at port 1 (backward transformer) or a
+    // gyrator is driven by efforts.
+    if (effort_into(structure_.port_in[i], i)) {
+      me.out_inverse = num_moduli_;
+      num_moduli_ += me.rows * me.cols;
+    }
+    modulus_of[i] = static_cast<int>(moduli_.size());
+    moduli_.push_back(me);
+  }
+
+  // --- Instructions: one per computed slot class. ---
+  const int nclasses = num_slot_classes();
+  definitions_.assign(nclasses, Definition{Definition::Kind::kSource, -1, {}});
+  std::vector<int> writer(nclasses, -1);
+  std::vector<std::vector<int>> reads;  // per instruction: slot classes read
+  std::vector<Instr> instrs;
+  auto emit = [&](Instr in, int out_class, std::vector<int> in_classes, Definition def) {
+    if (writer[out_class] >= 0) {
+      throw ModelError(Diagnostic{Diagnostic::Severity::kError, g.element(in.element).where, g.element(in.element).name,
+                                  fmt::format("variable '{}' is computed twice (by {} and {})", class_names_[out_class],
+                                              Describe(g, instrs[writer[out_class]].element), Describe(g, in.element)),
+                                  "this is a causality conflict the analysis did not catch; please report it", {}});
+    }
+    in.dst = class_offset_[out_class];
+    writer[out_class] = static_cast<int>(instrs.size());
+    instrs.push_back(in);
+    reads.push_back(std::move(in_classes));
+    def.element = in.element;
+    definitions_[out_class] = std::move(def);
+  };
+  // dst = A src, with A given as a matrix (scalar multiples of the identity become kScale).
+  auto emit_linear = [&](int element, int out_class, int in_class, const Eigen::MatrixXd& a, const std::string& symbol) {
+    Instr in{};
+    in.element = element;
+    in.n = class_size_[out_class];
+    in.m = class_size_[in_class];
+    in.src = class_offset_[in_class];
+    in.coef = static_cast<int>(coef_.size());
+    const bool scalar = a.rows() == a.cols() && a.isApprox(a(0, 0) * Eigen::MatrixXd::Identity(a.rows(), a.cols()), 0.0);
+    if (scalar) {
+      in.op = Op::kScale;
+      coef_.push_back(a(0, 0));
+    } else {
+      in.op = Op::kMatrix;
+      AppendRowMajor(coef_, a);
+    }
+    const double sign = (scalar && a(0, 0) == -1.0) ? -1.0 : 1.0;
+    const std::string coef = (scalar && std::abs(a(0, 0)) == 1.0) ? "" : symbol;
+    emit(in, out_class, {in_class}, {Definition::Kind::kLinear, element, {{in_class, sign, coef}}});
+  };
+  auto emit_modulated = [&](int element, int out_class, int in_class, int mode, const std::string& symbol) {
+    Instr in{};
+    in.op = Op::kModulated;
+    in.element = element;
+    in.n = class_size_[out_class];
+    in.m = class_size_[in_class];
+    in.src = class_offset_[in_class];
+    const ModulusEval& me = moduli_[modulus_of[element]];
+    in.coef = mode >= 2 ? me.out_inverse : me.out;
+    in.count = mode;
+    emit(in, out_class, {in_class}, {Definition::Kind::kLinear, element, {{in_class, 1.0, symbol}}});
+  };
+
+  for (int i = 0; i < g.num_elements(); ++i) {
+    const Element& e = g.element(i);
+    switch (e.kind) {
+      case ElementKind::kSe:
+      case ElementKind::kSf: {
+        const int b = e.bonds.front(), n = dim[b];
+        Instr in{};
+        in.op = Op::kSource;
+        in.element = i;
+        in.n = n;
+        in.coef = static_cast<int>(source_fns_.size());
+        for (int k = 0; k < n; ++k) source_fns_.push_back(e.source.components.size() == 1 ? e.source.components[0] : e.source.components[k]);
+        emit(in, e.kind == ElementKind::kSe ? effort_class_[b] : flow_class_[b], {}, {Definition::Kind::kSource, i, {}});
+        break;
+      }
+      case ElementKind::kI: {
+        const int b = e.bonds.front(), n = dim[b];
+        Instr in{};
+        in.element = i;
+        in.n = n;
+        in.src = state_offset(element_block_[i]);
+        in.coef = static_cast<int>(coef_.size());
+        if (!e.rotation.empty()) {
+          in.op = Op::kIFlowRotated;
+          in.aux = aux_offset(e.rotation);
+          AppendRowMajor(coef_, energy_matrix_[i]);  // Ib^-1
+        } else if (e.param.is_scalar) {
+          in.op = Op::kIFlowDiag;
+          coef_.push_back(1.0 / e.param.scalar);
+        } else {
+          in.op = Op::kIFlowMatrix;
+          AppendRowMajor(coef_, energy_matrix_[i]);
+        }
+        emit(in, flow_class_[b], {}, {Definition::Kind::kMomentumFlow, i, {}});
+        break;
+      }
+      case ElementKind::kC: {
+        const int b = e.bonds.front(), n = dim[b];
+        const double sigma = g.PowerSign(b, i);
+        Instr in{};
+        in.element = i;
+        in.n = n;
+        in.src = state_offset(element_block_[i]);
+        in.coef = static_cast<int>(coef_.size());
+        if (e.param.is_scalar) {
+          in.op = Op::kCEffortDiag;
+          coef_.push_back(sigma * e.param.scalar);
+        } else {
+          in.op = Op::kCEffortMatrix;
+          AppendRowMajor(coef_, sigma * e.param.matrix);
+        }
+        emit(in, effort_class_[b], {}, {Definition::Kind::kStiffnessEffort, i, {}});
+        break;
+      }
+      case ElementKind::kR: {
+        const int b = e.bonds.front(), n = dim[b];
+        const double sigma = g.PowerSign(b, i);
+        const Eigen::MatrixXd r = e.param.AsMatrix(n, n);
+        if (!effort_into(b, i)) {
+          emit_linear(i, effort_class_[b], flow_class_[b], sigma * r, e.name + ".R");
+        } else {
+          Eigen::FullPivLU<Eigen::MatrixXd> lu(r);
+          if (!lu.isInvertible())
+            throw ModelError(Diagnostic{Diagnostic::Severity::kError, e.where, e.name,
+                                        "resistor in conductance causality (effort in, flow out) has a singular resistance",
+                                        "give it a non-zero resistance, or change the structure so that its flow is imposed", {}});
+          emit_linear(i, flow_class_[b], effort_class_[b], sigma * Eigen::MatrixXd(lu.inverse()), "1/" + e.name + ".R");
+        }
+        break;
+      }
+      case ElementKind::kZero:
+      case ElementKind::kOne: {
+        const bool zero = e.kind == ElementKind::kZero;
+        int strong = -1;
+        for (int b : e.bonds)
+          if (effort_into(b, i) == zero) strong = b;
+        MB_ASSERT(strong >= 0, "junction without a strong bond after causality");
+        Instr in{};
+        in.op = Op::kSum;
+        in.element = i;
+        in.n = dim[strong];
+        in.coef = static_cast<int>(sum_terms_.size());
+        Definition def{Definition::Kind::kSum, i, {}};
+        std::vector<int> in_classes;
+        const double s_strong = g.PowerSign(strong, i);
+        for (int b : e.bonds) {
+          if (b == strong) continue;
+          const int c = zero ? flow_class_[b] : effort_class_[b];
+          const double sign = -s_strong * g.PowerSign(b, i);
+          sum_terms_.push_back(class_offset_[c]);
+          sum_signs_.push_back(sign);
+          in_classes.push_back(c);
+          def.terms.push_back({c, sign, ""});
+        }
+        in.count = static_cast<int>(in_classes.size());
+        emit(in, zero ? flow_class_[strong] : effort_class_[strong], in_classes, def);
+        break;
+      }
+      case ElementKind::kTF:
+      case ElementKind::kGY:
+      case ElementKind::kMTF:
+      case ElementKind::kMGY: {
+        const int b1 = structure_.port_in[i], b2 = structure_.port_out[i];
+        const bool gyrator = e.kind == ElementKind::kGY || e.kind == ElementKind::kMGY;
+        const bool modulated = e.kind == ElementKind::kMTF || e.kind == ElementKind::kMGY;
+        const bool forward = !effort_into(b1, i);  // flow given at port 1
+        // Inputs and outputs of the two equations, by causality:
+        //   TF forward:  f2 = M f1,      e1 = M^T e2     TF backward: e2 = M^-T e1, f1 = M^-1 f2
+        //   GY forward:  e2 = M f1,      e1 = M^T f2     GY backward: f2 = M^-T e1, f1 = M^-1 e2
+        struct Eq { int out, in, mode; };
+        Eq eq[2];
+        if (!gyrator) {
+          eq[0] = forward ? Eq{flow_class_[b2], flow_class_[b1], 0} : Eq{effort_class_[b2], effort_class_[b1], 3};
+          eq[1] = forward ? Eq{effort_class_[b1], effort_class_[b2], 1} : Eq{flow_class_[b1], flow_class_[b2], 2};
+        } else {
+          eq[0] = forward ? Eq{effort_class_[b2], flow_class_[b1], 0} : Eq{flow_class_[b2], effort_class_[b1], 3};
+          eq[1] = forward ? Eq{effort_class_[b1], flow_class_[b2], 1} : Eq{flow_class_[b1], effort_class_[b2], 2};
+        }
+        static const char* kSuffix[] = {"", "^T", "^-1", "^-T"};
+        for (const Eq& q : eq) {
+          const std::string symbol = e.name + (modulated ? ".M" : ".r") + kSuffix[q.mode];
+          if (modulated) {
+            emit_modulated(i, q.out, q.in, q.mode, symbol);
+          } else {
+            const Eigen::MatrixXd mm = e.param.AsMatrix(dim[b2], dim[b1]);
+            Eigen::MatrixXd a;
+            switch (q.mode) {
+              case 0: a = mm; break;
+              case 1: a = mm.transpose(); break;
+              case 2: a = mm.inverse(); break;
+              default: a = mm.inverse().transpose(); break;
+            }
+            emit_linear(i, q.out, q.in, a, symbol);
+          }
+        }
+        break;
+      }
+    }
+  }
+  for (int c = 0; c < nclasses; ++c)
+    MB_ASSERT(writer[c] >= 0, "slot '" + class_names_[c] + "' has no writer after causality");
+
+  // --- Order: topological sort of the causal dependencies; a cycle is an algebraic loop. ---
+  const int ni = static_cast<int>(instrs.size());
+  std::vector<int> indegree(ni, 0);
+  std::vector<std::vector<int>> users(ni);
+  for (int k = 0; k < ni; ++k)
+    for (int c : reads[k]) {
+      users[writer[c]].push_back(k);
+      ++indegree[k];
+    }
+  std::priority_queue<int, std::vector<int>, std::greater<int>> ready;  // deterministic order
+  for (int k = 0; k < ni; ++k)
+    if (indegree[k] == 0) ready.push(k);
+  std::vector<int> order;
+  while (!ready.empty()) {
+    const int k = ready.top();
+    ready.pop();
+    order.push_back(k);
+    for (int u : users[k])
+      if (--indegree[u] == 0) ready.push(u);
+  }
+  if (static_cast<int>(order.size()) != ni) {
+    // Walk back from a blocked instruction through blocked inputs until a node repeats: a cycle.
+    int k = 0;
+    while (indegree[k] == 0) ++k;
+    std::vector<int> seen(ni, -1), walk;
+    while (seen[k] < 0) {
+      seen[k] = static_cast<int>(walk.size());
+      walk.push_back(k);
+      for (int c : reads[k])
+        if (indegree[writer[c]] > 0) {
+          k = writer[c];
+          break;
+        }
+    }
+    std::vector<int> cycle(walk.begin() + seen[k], walk.end());
+    std::reverse(cycle.begin(), cycle.end());
+    std::vector<int> elements;
+    std::string vars;
+    for (int c : cycle) {
+      elements.push_back(instrs[c].element);
+      for (int cls = 0; cls < nclasses; ++cls)
+        if (writer[cls] == c) vars += (vars.empty() ? "" : ", ") + class_names_[cls];
+    }
+    elements.push_back(elements.front());
+    Diagnostic d;
+    d.where = g.element(elements.front()).where;
+    d.element = g.element(elements.front()).name;
+    d.message = "algebraic loop: these variables depend on themselves with no storage element in between";
+    d.details.push_back("loop: " + FormatPath(g, elements));
+    d.details.push_back("variables: " + vars);
+    d.hint = "add a storage element in the loop (a small C or I where the physics has one), or merge the resistors into one";
+    throw ModelError(d);
+  }
+  for (int k : order) plan_.push_back(instrs[k]);
+
+  // --- Derivatives. ---
+  for (const StateBlock& blk : blocks_) {
+    Gather gt{blk.kind, blk.offset, blk.size, -1, -1, -1, 1.0};
+    switch (blk.kind) {
+      case StateBlock::Kind::kMomentum:
+      case StateBlock::Kind::kDisplacement:
+        gt.effort = class_offset_[derivative_source(blk)];
+        gt.sign = derivative_sign(blk);
+        break;
+      case StateBlock::Kind::kOrientation:
+      case StateBlock::Kind::kIntegral: {
+        const int of = g.Find(g.aux_states()[blk.owner].of);
+        gt.flow = class_offset_[flow_class_[g.element(of).bonds.front()]];
+        break;
+      }
+      case StateBlock::Kind::kWork:
+      case StateBlock::Kind::kDissipation: {
+        const int b = g.element(blk.owner).bonds.front();
+        gt.effort = class_offset_[effort_class_[b]];
+        gt.flow = class_offset_[flow_class_[b]];
+        gt.size = dim[b];
+        const double sigma = g.PowerSign(b, blk.owner);
+        gt.sign = blk.kind == StateBlock::Kind::kWork ? -sigma : sigma;
+        break;
+      }
+    }
+    gathers_.push_back(gt);
+  }
+}
+
+int CompiledModel::derivative_source(const StateBlock& b) const {
+  const int bond = graph_.element(b.owner).bonds.front();
+  return b.kind == StateBlock::Kind::kMomentum ? effort_class_[bond] : flow_class_[bond];
+}
+
+double CompiledModel::derivative_sign(const StateBlock& b) const {
+  // I: dp/dt = sigma e; C: dq/dt = f.
+  if (b.kind != StateBlock::Kind::kMomentum) return 1.0;
+  return graph_.PowerSign(graph_.element(b.owner).bonds.front(), b.owner);
+}
+
+Workspace CompiledModel::MakeWorkspace() const {
+  Workspace ws;
+  ws.slots.assign(num_slots_, 0.0);
+  ws.moduli.assign(num_moduli_, 0.0);
+  return ws;
+}
+
+Eigen::VectorXd CompiledModel::MakeInitialState() const { return x0_; }
+
+void CompiledModel::EvalModuli(const double* x, double* out) const {
+  for (const ModulusEval& me : moduli_) {
+    // Core 3x3 (or constant) factor, then the left selection and the scale.
+    Eigen::Matrix3d core;
+    if (me.kind != Modulus::Kind::kConstant) {
+      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(x + me.rotation);
+      if (me.kind == Modulus::Kind::kRotation) {
+        core = me.transpose ? Eigen::Matrix3d(r.transpose()) : Eigen::Matrix3d(r);
+      } else {
+        const Eigen::Vector3d a = r * me.lever;  // lever arm in the inertial frame
+        core << 0, a.z(), -a.y(), -a.z(), 0, a.x(), a.y(), -a.x(), 0;  // -[a x]
+      }
+    }
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> m(out + me.out, me.rows, me.cols);
+    if (me.kind == Modulus::Kind::kConstant) {
+      m = me.scale * Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+                         coef_.data() + me.constant, me.rows, me.cols);
+    } else if (me.left >= 0) {
+      m.noalias() = me.scale * Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(
+                                   coef_.data() + me.left, me.rows, 3) * core;
+    } else {
+      m = me.scale * core;
+    }
+    if (me.out_inverse >= 0) {
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> inv(out + me.out_inverse, me.rows, me.cols);
+      if (me.kind == Modulus::Kind::kRotation && me.left < 0)
+        inv = m.transpose() / (me.scale * me.scale);  // a scaled rotation: inverse by transpose
+      else if (me.rows == 3)
+        inv = Eigen::Matrix3d(m).inverse();
+      else
+        inv = m.inverse();
+    }
+  }
+}
+
+void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Workspace& ws) const {
+  double* w = ws.slots.data();
+  double* mod = ws.moduli.data();
+  if (!moduli_.empty()) EvalModuli(x, mod);
+  const double* c = coef_.data();
+  for (const Instr& in : plan_) {
+    double* dst = w + in.dst;
+    switch (in.op) {
+      case Op::kSource:
+        for (int k = 0; k < in.n; ++k) dst[k] = source_fns_[in.coef + k](t);
+        break;
+      case Op::kIFlowDiag:
+      case Op::kCEffortDiag:
+        for (int k = 0; k < in.n; ++k) dst[k] = c[in.coef] * x[in.src + k];
+        break;
+      case Op::kIFlowMatrix:
+      case Op::kCEffortMatrix:
+        for (int r = 0; r < in.n; ++r) {
+          double s = 0.0;
+          for (int k = 0; k < in.n; ++k) s += c[in.coef + r * in.n + k] * x[in.src + k];
+          dst[r] = s;
+        }
+        break;
+      case Op::kIFlowRotated: {
+        // f = R Ib^-1 R^T h: the inertia tensor turns with the body (no Euler junction structure).
+        const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(x + in.aux);
+        const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> ib_inv(c + in.coef);
+        const Eigen::Map<const Eigen::Vector3d> h(x + in.src);
+        Eigen::Map<Eigen::Vector3d> f(dst);
+        f.noalias() = r * (ib_inv * (r.transpose() * h));
+        break;
+      }
+      case Op::kScale:
+        for (int k = 0; k < in.n; ++k) dst[k] = c[in.coef] * w[in.src + k];
+        break;
+      case Op::kMatrix:
+        for (int r = 0; r < in.n; ++r) {
+          double s = 0.0;
+          for (int k = 0; k < in.m; ++k) s += c[in.coef + r * in.m + k] * w[in.src + k];
+          dst[r] = s;
+        }
+        break;
+      case Op::kModulated: {
+        const double* a = mod + in.coef;
+        // Stored row-major as (rows x cols) of M (or of M^-1); modes 1 and 3 read it transposed.
+        if (in.count == 0 || in.count == 2) {
+          for (int r = 0; r < in.n; ++r) {
+            double s = 0.0;
+            for (int k = 0; k < in.m; ++k) s += a[r * in.m + k] * w[in.src + k];
+            dst[r] = s;
+          }
+        } else {
+          for (int r = 0; r < in.n; ++r) {
+            double s = 0.0;
+            for (int k = 0; k < in.m; ++k) s += a[k * in.n + r] * w[in.src + k];
+            dst[r] = s;
+          }
+        }
+        break;
+      }
+      case Op::kSum: {
+        const int* src = sum_terms_.data() + in.coef;
+        const double* sign = sum_signs_.data() + in.coef;
+        for (int k = 0; k < in.n; ++k) {
+          double s = 0.0;
+          for (int j = 0; j < in.count; ++j) s += sign[j] * w[src[j] + k];
+          dst[k] = s;
+        }
+        break;
+      }
+    }
+  }
+  for (const Gather& gt : gathers_) {
+    double* out = xdot + gt.state;
+    switch (gt.kind) {
+      case StateBlock::Kind::kMomentum:
+      case StateBlock::Kind::kDisplacement:
+        for (int k = 0; k < gt.size; ++k) out[k] = gt.sign * w[gt.effort + k];
+        break;
+      case StateBlock::Kind::kIntegral:
+        for (int k = 0; k < gt.size; ++k) out[k] = w[gt.flow + k];
+        break;
+      case StateBlock::Kind::kOrientation: {
+        // dR/dt = [w x] R
+        const double* om = w + gt.flow;
+        const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(x + gt.state);
+        Eigen::Matrix3d skew;
+        skew << 0, -om[2], om[1], om[2], 0, -om[0], -om[1], om[0], 0;
+        Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> rdot(out);
+        rdot.noalias() = skew * r;
+        break;
+      }
+      case StateBlock::Kind::kWork:
+      case StateBlock::Kind::kDissipation: {
+        double p = 0.0;
+        for (int k = 0; k < gt.size; ++k) p += w[gt.effort + k] * w[gt.flow + k];
+        out[0] = gt.sign * p;
+        break;
+      }
+    }
+  }
+}
+
+std::optional<VariableRef> CompiledModel::FindVariable(const std::string& name) const {
+  // States by full name of their block ("mass.p", "A.R", "A.r").
+  for (const StateBlock& b : blocks_) {
+    const std::string& first = state_names_[b.offset];
+    std::string base = first;
+    if (b.size > 1 || b.kind == StateBlock::Kind::kOrientation) base = first.substr(0, first.rfind('.'));
+    if (base == name) {
+      VariableRef v{VariableRef::In::kState, b.offset, b.size, state_units_[b.offset], {}};
+      for (int k = 0; k < b.size; ++k)
+        if (state_names_[b.offset + k] != base) v.components.push_back(state_names_[b.offset + k].substr(base.size() + 1));
+      return v;
+    }
+  }
+  const auto dot = name.rfind('.');
+  if (dot == std::string::npos) return std::nullopt;
+  const int e = graph_.Find(name.substr(0, dot));
+  if (e < 0) return std::nullopt;
+  const Element& el = graph_.element(e);
+  const std::string var = name.substr(dot + 1);
+  int cls = -1;
+  if (IsTwoPort(el.kind)) {
+    const int b1 = structure_.port_in[e], b2 = structure_.port_out[e];
+    if (var == "e1") cls = effort_class_[b1];
+    if (var == "f1") cls = flow_class_[b1];
+    if (var == "e2") cls = effort_class_[b2];
+    if (var == "f2") cls = flow_class_[b2];
+  } else if (!el.bonds.empty()) {
+    if (var == "e") cls = effort_class_[el.bonds.front()];
+    if (var == "f") cls = flow_class_[el.bonds.front()];
+  }
+  if (cls < 0) return std::nullopt;
+  return VariableRef{VariableRef::In::kSlot, class_offset_[cls], class_size_[cls], class_units_[cls],
+                     ComponentNames(class_size_[cls], el.components)};
+}
+
+void CompiledModel::Read(const VariableRef& v, const double* x, const Workspace& ws, double* out) const {
+  const double* from = v.in == VariableRef::In::kState ? x + v.offset : ws.slots.data() + v.offset;
+  std::copy(from, from + v.size, out);
+}
+
+double CompiledModel::StoredEnergy(int element, const double* x) const {
+  const int blk = element_block_.at(element);
+  if (blk < 0) return 0.0;
+  const StateBlock& b = blocks_[blk];
+  const Eigen::Map<const Eigen::VectorXd> s(x + b.offset, b.size);
+  const Element& e = graph_.element(element);
+  if (e.kind == ElementKind::kI && !e.rotation.empty()) {
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(x + blocks_[aux_block_[graph_.FindAux(e.rotation)]].offset);
+    const Eigen::Vector3d hb = r.transpose() * s;  // angular momentum in the body frame
+    return 0.5 * hb.dot(energy_matrix_[element] * hb);
+  }
+  return 0.5 * s.dot(energy_matrix_[element] * s);
+}
+
+double CompiledModel::KineticEnergy(const double* x) const {
+  double sum = 0.0;
+  for (const StateBlock& b : blocks_)
+    if (b.kind == StateBlock::Kind::kMomentum) sum += StoredEnergy(b.owner, x);
+  return sum;
+}
+
+double CompiledModel::PotentialEnergy(const double* x) const {
+  double sum = 0.0;
+  for (const StateBlock& b : blocks_)
+    if (b.kind == StateBlock::Kind::kDisplacement) sum += StoredEnergy(b.owner, x);
+  return sum;
+}
+
+double CompiledModel::Work(const double* x) const {
+  double sum = 0.0;
+  for (const StateBlock& b : blocks_)
+    if (b.kind == StateBlock::Kind::kWork) sum += x[b.offset];
+  return sum;
+}
+
+double CompiledModel::Dissipated(const double* x) const {
+  double sum = 0.0;
+  for (const StateBlock& b : blocks_)
+    if (b.kind == StateBlock::Kind::kDissipation) sum += x[b.offset];
+  return sum;
+}
+
+}  // namespace multibond

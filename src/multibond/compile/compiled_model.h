@@ -1,0 +1,185 @@
+#pragma once
+/// \file
+/// The compile/run contract (docs/design.md):
+///   BondGraph (editable)  --Compile()-->  CompiledModel (immutable: state layout, evaluation plan)
+///   CompiledModel::MakeWorkspace()  -->  Workspace (every effort/flow slot, allocated once)
+///   CompiledModel::CalcDerivatives(t, x, xdot, workspace): the right-hand side; allocates nothing.
+/// Efforts at a 0-junction and flows at a 1-junction share one workspace slot, so junctions cost
+/// nothing but their sums. Every other computed variable is one instruction of the plan, in an
+/// order found by topological sort of the causal dependencies (a cycle is an algebraic loop).
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "multibond/causality/causality.h"
+#include "multibond/core/graph.h"
+#include "multibond/core/structure.h"
+
+namespace multibond {
+
+struct CompileOptions {
+  std::string default_domain;  ///< domain of bonds that no element names
+  bool energy_account = true;  ///< integrate each source's work and each resistor's dissipation
+};
+
+/// Scratch of one evaluation: every effort and flow, and the moduli of the MTF/MGY. Made by
+/// CompiledModel::MakeWorkspace; the right-hand side writes here and nowhere else.
+struct Workspace {
+  std::vector<double> slots;
+  std::vector<double> moduli;
+};
+
+/// A named, contiguous group of states (I momenta, C displacements, auxiliary states, energy).
+struct StateBlock {
+  enum class Kind { kMomentum, kDisplacement, kOrientation, kIntegral, kWork, kDissipation };
+  Kind kind;
+  int owner;   ///< element index (I, C, source, R) or aux index (orientation, integral)
+  int offset;  ///< first entry in the state vector
+  int size;
+};
+
+/// Where a named variable lives and how to read it.
+struct VariableRef {
+  enum class In { kState, kSlot };
+  In in = In::kSlot;
+  int offset = 0;
+  int size = 1;
+  std::string unit;
+  std::vector<std::string> components;  ///< suffixes ("x", "y", "z", "11", ...), empty for scalars
+};
+
+/// One step of the plan, described symbolically for `multibond equations`.
+struct Definition {
+  enum class Kind { kSource, kMomentumFlow, kStiffnessEffort, kLinear, kSum };
+  Kind kind;
+  int element;  ///< the element that computes it
+  struct Term {
+    int slot_class;  ///< input (kLinear, kSum)
+    double sign;
+    std::string coef;  ///< symbol of the coefficient ("" = 1)
+  };
+  std::vector<Term> terms;
+};
+
+class CompiledModel {
+ public:
+  /// Analyses structure and causality and builds the plan. Throws ModelError with every problem
+  /// found (structure, causality conflicts, derivative causality, algebraic loops).
+  static std::shared_ptr<const CompiledModel> Compile(BondGraph graph, const CompileOptions& options = {});
+
+  int num_states() const { return static_cast<int>(state_names_.size()); }
+  /// The right-hand side: fills `ws` with every effort and flow and writes dx/dt. No allocation.
+  void CalcDerivatives(double t, const double* x, double* xdot, Workspace& ws) const;
+
+  Workspace MakeWorkspace() const;
+  Eigen::VectorXd MakeInitialState() const;
+
+  const BondGraph& graph() const { return graph_; }
+  const Structure& structure() const { return structure_; }
+  const CausalAssignment& causality() const { return causality_; }
+  const std::vector<std::string>& state_names() const { return state_names_; }
+  const std::vector<std::string>& state_units() const { return state_units_; }
+  const std::vector<StateBlock>& state_blocks() const { return blocks_; }
+  int num_instructions() const { return static_cast<int>(plan_.size()); }
+
+  /// Looks up "<element>.e|f|e1|f1|e2|f2|p|q" or an auxiliary state's name.
+  std::optional<VariableRef> FindVariable(const std::string& name) const;
+  /// Reads a variable after CalcDerivatives has filled `ws` at state x.
+  void Read(const VariableRef& v, const double* x, const Workspace& ws, double* out) const;
+
+  // --- energy account (from the state; the workspace must have been filled at x) ---
+  double StoredEnergy(int element, const double* x) const;  ///< I or C
+  double KineticEnergy(const double* x) const;
+  double PotentialEnergy(const double* x) const;
+  double Work(const double* x) const;        ///< total work of all sources so far
+  double Dissipated(const double* x) const;  ///< total dissipated in all resistors so far
+  bool has_energy_account() const { return options_.energy_account; }
+
+  // --- symbolic view of the plan, for `multibond equations` ---
+  int slot_class_of_effort(int bond) const { return effort_class_[bond]; }
+  int slot_class_of_flow(int bond) const { return flow_class_[bond]; }
+  int num_slot_classes() const { return static_cast<int>(class_offset_.size()); }
+  const Definition& definition(int slot_class) const { return definitions_[slot_class]; }
+  /// A readable name for a slot class: "j.f", "spring.e", "gear.f2".
+  const std::string& slot_class_name(int slot_class) const { return class_names_[slot_class]; }
+  /// The slot class each state block's derivative reads (e for I, f for C and integrals).
+  int derivative_source(const StateBlock& b) const;
+  double derivative_sign(const StateBlock& b) const;
+
+ private:
+  CompiledModel() = default;
+  void Build();
+
+  enum class Op : unsigned char {
+    kSource, kIFlowDiag, kIFlowMatrix, kIFlowRotated, kCEffortDiag, kCEffortMatrix,
+    kScale, kMatrix, kModulated, kSum,
+  };
+  /// One instruction. Plain data: the loop over the plan dispatches on `op` only.
+  struct Instr {
+    Op op;
+    int n = 1;       ///< output size
+    int m = 1;       ///< input size
+    int dst = 0;     ///< workspace offset of the output
+    int src = 0;     ///< workspace offset of the input, or state offset (I, C)
+    int coef = 0;    ///< offset in coef_ (scale, matrices, sum terms) or in moduli (modulated)
+    int count = 0;   ///< kSum: number of terms; kModulated: 0 = M, 1 = M^T, 2 = M^-1, 3 = M^-T
+    int aux = 0;     ///< kIFlowRotated: state offset of R
+    int element = -1;
+  };
+  struct ModulusEval {
+    Modulus::Kind kind;
+    int rows, cols;
+    int out;          ///< offset in Workspace::moduli of M (rows*cols, row-major)
+    int out_inverse;  ///< offset of M^-1 or -1 if not needed
+    int rotation;     ///< state offset of R (row-major 3x3)
+    int left;         ///< offset in coef_ of the left matrix (rows x 3) or -1
+    int constant;     ///< offset in coef_ of the constant matrix or -1
+    double scale;
+    bool transpose;
+    Eigen::Vector3d lever;
+  };
+  struct Gather {
+    StateBlock::Kind kind;
+    int state, size, effort, flow, rotation;
+    double sign;
+  };
+
+  void EvalModuli(const double* x, double* moduli) const;
+
+  BondGraph graph_;
+  CompileOptions options_;
+  Structure structure_;
+  CausalAssignment causality_;
+
+  std::vector<int> effort_class_, flow_class_;  ///< per bond
+  std::vector<int> class_offset_, class_size_;
+  std::vector<std::string> class_names_, class_units_;
+  std::vector<Definition> definitions_;
+  int num_slots_ = 0;
+  int num_moduli_ = 0;
+
+  std::vector<Instr> plan_;
+  std::vector<double> coef_;
+  std::vector<int> sum_terms_;      ///< kSum: workspace offsets of the terms
+  std::vector<double> sum_signs_;  ///< kSum: their signs (parallel to sum_terms_)
+  std::vector<ModulusEval> moduli_;
+  std::vector<Gather> gathers_;
+  std::vector<TimeFunction> source_fns_;
+
+  std::vector<StateBlock> blocks_;
+  std::vector<std::string> state_names_, state_units_;
+  Eigen::VectorXd x0_;
+  std::vector<int> element_block_;  ///< per element: its state block (I, C) or -1
+  std::vector<int> aux_block_;      ///< per aux state
+  std::vector<Eigen::MatrixXd> energy_matrix_;  ///< per element: I^-1 (I) or K (C); Ib^-1 for rotated I
+};
+
+/// Component suffixes for a bond of dimension n: none for 1, x y z for 3, 1..n otherwise,
+/// unless `names` gives them.
+std::vector<std::string> ComponentNames(int n, const std::vector<std::string>& names = {});
+
+}  // namespace multibond

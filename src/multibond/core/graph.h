@@ -1,0 +1,200 @@
+#pragma once
+/// \file
+/// The editable multibond graph: elements, bonds, auxiliary states and declared outputs.
+/// It is built by the model loader or through this API, then compiled (compile/compiled_model.h)
+/// into an immutable model. Nothing here knows about any particular model.
+///
+/// Sign conventions (power = e . f flows in the direction of the half-arrow, tail -> head):
+///  - I, C, R see the bond's effort with the sign sigma = +1 if the bond points into them and -1
+///    if it points out (the flow is shared): I: dp/dt = sigma e, f = I^-1 p;
+///    C: dq/dt = f, sigma e = K q; R: sigma e = R f.
+///  - TF/MTF (port 1 = the bond pointing in, port 2 = the bond pointing out), modulus M (n2 x n1):
+///    f2 = M f1, e1 = M^T e2.   GY/MGY: e2 = M f1, e1 = M^T f2.
+///  - 0-junction: common effort, sum of signed flows (in +, out -) = 0;
+///    1-junction: common flow, sum of signed efforts = 0.
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "multibond/core/error.h"
+#include "multibond/core/time_function.h"
+
+namespace multibond {
+
+enum class ElementKind { kSe, kSf, kI, kC, kR, kTF, kMTF, kGY, kMGY, kZero, kOne };
+
+/// "Se", "Sf", "I", "C", "R", "TF", "MTF", "GY", "MGY", "0", "1".
+const char* KindName(ElementKind k);
+std::optional<ElementKind> ParseKind(const std::string& s);
+bool IsJunction(ElementKind k);
+bool IsTwoPort(ElementKind k);
+bool IsOnePort(ElementKind k);
+bool IsSource(ElementKind k);
+bool IsStorage(ElementKind k);
+
+/// A parameter given either as a scalar (meaning scalar * identity) or as a matrix.
+struct Param {
+  bool is_scalar = true;
+  double scalar = 0.0;
+  Eigen::MatrixXd matrix;
+
+  static Param Scalar(double v) { return Param{true, v, {}}; }
+  static Param Matrix(Eigen::MatrixXd m) { return Param{false, 0.0, std::move(m)}; }
+  /// The parameter as a rows x cols matrix (a scalar becomes scalar * identity).
+  Eigen::MatrixXd AsMatrix(int rows, int cols) const;
+  int rows() const { return is_scalar ? 0 : static_cast<int>(matrix.rows()); }
+  int cols() const { return is_scalar ? 0 : static_cast<int>(matrix.cols()); }
+};
+
+/// The modulus of an MTF or MGY: a matrix that depends on the state.
+///   kConstant: M = scale * left * constant
+///   kRotation: M = scale * left * R       (or R^T if transpose) with R an orientation state
+///   kLever:    M = scale * left * (-[(R r)x])  so that M w = w x (R r): the velocity that a
+///              body-fixed point r (body frame) gets from the angular velocity w (paper eq. 1-6)
+/// `left` is empty for the identity; it is how directions are selected (e.g. rows y, z).
+struct Modulus {
+  enum class Kind { kConstant, kRotation, kLever };
+  Kind kind = Kind::kConstant;
+  double scale = 1.0;
+  Eigen::MatrixXd left;
+  Eigen::MatrixXd constant;
+  std::string rotation;  ///< name of the orientation state (kRotation, kLever)
+  bool transpose = false;
+  Eigen::Vector3d lever = Eigen::Vector3d::Zero();
+
+  int rows() const;  ///< output dimension (n2)
+  int cols() const;  ///< input dimension (n1)
+  /// True when M can be inverted whatever the state (square and, for kLever, never).
+  bool invertible() const;
+  std::string ToString() const;
+};
+
+/// A source value: one time function per component (a single function is broadcast).
+struct SourceValue {
+  std::vector<TimeFunction> components;
+};
+
+struct Element {
+  std::string name;
+  ElementKind kind = ElementKind::kOne;
+  SourceLocation where;
+  int dim = 0;  ///< bond dimension at this element (one-ports, junctions); 0 = infer
+  /// I: inertia; C: stiffness K (effort = K q); R: resistance (effort = R f); TF, GY: ratio.
+  Param param;
+  /// I only: if non-empty, the inertia is R Ib R^T with Ib = param (3x3) and R this orientation.
+  std::string rotation;
+  Modulus modulus;            ///< MTF, MGY
+  SourceValue source;         ///< Se, Sf
+  Eigen::VectorXd initial;    ///< I: p(0); C: q(0) (empty = zero)
+  std::string domain;         ///< "translation", "rotation", "electrical", "hydraulic", ... ("" = infer)
+  std::vector<std::string> components;  ///< component names of a multi-dimensional bond
+  std::vector<int> bonds;     ///< filled by BondGraph::Connect, in order of connection
+};
+
+struct Bond {
+  std::string name;
+  int from = -1;  ///< tail element
+  int to = -1;    ///< head element (the half-arrow points here)
+  int dim = 0;    ///< 0 = infer
+  SourceLocation where;
+};
+
+/// A state integrated from a flow that is not a power variable: an orientation matrix or a
+/// position. `of` names a 1-junction (its common flow) or a one-port element (its bond's flow).
+struct AuxState {
+  enum class Kind {
+    kOrientation,  ///< dR/dt = [w x] R, w = the 3-dimensional flow of `of`; R stored as 9 entries
+    kIntegral,     ///< dx/dt = f, the flow of `of`
+  };
+  std::string name;
+  Kind kind = Kind::kIntegral;
+  std::string of;
+  Eigen::MatrixXd initial;  ///< kOrientation: 3x3 (default identity); kIntegral: n x 1 (default 0)
+  std::vector<std::string> components;
+  std::string unit;  ///< kIntegral: unit of the integral (e.g. "m"); "" = from the domain
+  SourceLocation where;
+};
+
+/// A declared output: a column `name` showing the variable `variable` (see docs/model-format.md:
+/// "<element>.e", "<element>.f", "<element>.e1", ..., "<element>.p", "<element>.q", an aux state).
+struct OutputDecl {
+  std::string name;
+  std::string variable;
+  SourceLocation where;
+};
+
+class BondGraph {
+ public:
+  explicit BondGraph(std::string name = "model") : name_(std::move(name)) {}
+
+  /// Adds an element and returns its index. Throws ModelError on a duplicate name.
+  int Add(Element e);
+  int AddSe(const std::string& name, SourceValue v, int dim = 1);
+  int AddSf(const std::string& name, SourceValue v, int dim = 1);
+  int AddI(const std::string& name, Param inertia, int dim = 1);
+  int AddC(const std::string& name, Param stiffness, int dim = 1);
+  int AddR(const std::string& name, Param resistance, int dim = 1);
+  int AddTF(const std::string& name, Param ratio);
+  int AddGY(const std::string& name, Param ratio);
+  int AddMTF(const std::string& name, Modulus m);
+  int AddMGY(const std::string& name, Modulus m);
+  int AddJunction(const std::string& name, ElementKind zero_or_one, int dim = 0);
+
+  /// Connects `from` -> `to` (half-arrow at `to`). Throws ModelError for unknown names.
+  int Connect(const std::string& from, const std::string& to, int dim = 0, std::string bond_name = {},
+              SourceLocation where = {});
+  int AddAux(AuxState a);
+  void AddOutput(OutputDecl o) { outputs_.push_back(std::move(o)); }
+
+  const std::string& name() const { return name_; }
+  void set_source_file(std::string f) { source_file_ = std::move(f); }
+  const std::string& source_file() const { return source_file_; }
+
+  int num_elements() const { return static_cast<int>(elements_.size()); }
+  int num_bonds() const { return static_cast<int>(bonds_.size()); }
+  const Element& element(int i) const { return elements_.at(i); }
+  Element& element(int i) { return elements_.at(i); }
+  const Bond& bond(int i) const { return bonds_.at(i); }
+  Bond& bond(int i) { return bonds_.at(i); }
+  const std::vector<Element>& elements() const { return elements_; }
+  const std::vector<Bond>& bonds() const { return bonds_; }
+  const std::vector<AuxState>& aux_states() const { return aux_; }
+  const std::vector<OutputDecl>& outputs() const { return outputs_; }
+
+  /// Index of the element called `name`, or -1.
+  int Find(const std::string& name) const;
+  int FindAux(const std::string& name) const;
+  /// The element at the other end of bond b from element e.
+  int Other(int bond, int element) const;
+  /// +1 if bond b points into element e, -1 if it points out.
+  int PowerSign(int bond, int element) const;
+
+ private:
+  std::string name_;
+  std::string source_file_;
+  std::vector<Element> elements_;
+  std::vector<Bond> bonds_;
+  std::vector<AuxState> aux_;
+  std::vector<OutputDecl> outputs_;
+  std::map<std::string, int> index_;
+  std::map<std::string, int> aux_index_;
+};
+
+/// Adds elements under a name prefix: Scope(g, "A").Name("w") == "A.w". Submodels are built with
+/// it: a function that adds a group of elements under a scope and exposes some as its ports.
+class Scope {
+ public:
+  Scope(BondGraph& g, std::string prefix) : g_(g), prefix_(std::move(prefix)) {}
+  std::string Name(const std::string& local) const { return prefix_.empty() ? local : prefix_ + "." + local; }
+  BondGraph& graph() { return g_; }
+
+ private:
+  BondGraph& g_;
+  std::string prefix_;
+};
+
+}  // namespace multibond

@@ -1,0 +1,15 @@
+#pragma once
+/// \file
+/// The ODE interface between a model and an integrator: dx/dt = f(t, x).
+
+namespace multibond {
+
+class OdeSystem {
+ public:
+  virtual ~OdeSystem() = default;
+  virtual int num_states() const = 0;
+  /// Computes xdot = f(t, x). x and xdot have num_states() entries. Must not allocate.
+  virtual void CalcDerivatives(double t, const double* x, double* xdot) = 0;
+};
+
+}  // namespace multibond

@@ -1,0 +1,253 @@
+#include "multibond/core/structure.h"
+
+#include <cmath>
+#include <numeric>
+
+#include <fmt/format.h>
+
+namespace multibond {
+
+namespace {
+
+/// Union-find with an optional value per class (dimension or domain), reporting conflicts.
+template <typename T>
+class ValueUnion {
+ public:
+  explicit ValueUnion(int n) : parent_(n), value_(n), has_(n, false) { std::iota(parent_.begin(), parent_.end(), 0); }
+  int Root(int i) {
+    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
+    return i;
+  }
+  /// Merges the classes of a and b; returns false on conflicting values.
+  bool Merge(int a, int b) {
+    a = Root(a), b = Root(b);
+    if (a == b) return true;
+    parent_[b] = a;
+    if (has_[b]) {
+      if (has_[a] && value_[a] != value_[b]) return false;
+      value_[a] = value_[b];
+      has_[a] = true;
+    }
+    return true;
+  }
+  bool Set(int i, const T& v) {
+    i = Root(i);
+    if (has_[i]) return value_[i] == v;
+    value_[i] = v;
+    has_[i] = true;
+    return true;
+  }
+  bool Has(int i) { return has_[Root(i)]; }
+  const T& Get(int i) { return value_[Root(i)]; }
+
+ private:
+  std::vector<int> parent_;
+  std::vector<T> value_;
+  std::vector<bool> has_;
+};
+
+bool AllFinite(const Eigen::MatrixXd& m) { return m.allFinite(); }
+
+bool IsPositiveDefinite(const Eigen::MatrixXd& m) {
+  if (m.rows() != m.cols()) return false;
+  if (!m.isApprox(m.transpose(), 1e-12 * (1.0 + m.norm()))) return false;
+  Eigen::LLT<Eigen::MatrixXd> llt(m);
+  return llt.info() == Eigen::Success;
+}
+
+bool IsPositiveSemiDefinite(const Eigen::MatrixXd& m) {
+  if (m.rows() != m.cols()) return false;
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (m + m.transpose()));
+  return es.eigenvalues().minCoeff() >= -1e-12 * (1.0 + m.norm());
+}
+
+/// The dimension an element's own parameters fix for its bond (0 = none).
+int OwnDim(const Element& e) {
+  if (e.dim > 0) return e.dim;
+  if (IsOnePort(e.kind)) {
+    if (e.kind == ElementKind::kI && !e.rotation.empty()) return 3;
+    if (!e.param.is_scalar) return e.param.rows();
+    if (IsSource(e.kind) && e.source.components.size() > 1) return static_cast<int>(e.source.components.size());
+    if (e.initial.size() > 1) return static_cast<int>(e.initial.size());
+  }
+  return 0;
+}
+
+}  // namespace
+
+DomainUnits UnitsOf(const std::string& domain) {
+  if (domain == "translation") return {"N", "m/s", "N s", "m"};
+  if (domain == "rotation") return {"N m", "rad/s", "N m s", "rad"};
+  if (domain == "electrical") return {"V", "A", "V s", "C"};
+  if (domain == "hydraulic") return {"Pa", "m^3/s", "Pa s", "m^3"};
+  return {"-", "-", "-", "-"};
+}
+
+const std::vector<std::string>& KnownDomains() {
+  static const std::vector<std::string> kDomains = {"translation", "rotation", "electrical", "hydraulic", "generic"};
+  return kDomains;
+}
+
+int Structure::dim_of(const BondGraph& g, int element) const {
+  const Element& e = g.element(element);
+  return e.bonds.empty() ? 1 : bond_dim[e.bonds.front()];
+}
+
+Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain, DiagnosticSink& sink) {
+  const int nb = g.num_bonds();
+  Structure s;
+  s.port_in.assign(g.num_elements(), -1);
+  s.port_out.assign(g.num_elements(), -1);
+  ValueUnion<int> dims(nb);
+  ValueUnion<std::string> domains(nb);
+
+  auto dim_conflict = [&](const Element& e, const std::string& what) {
+    sink.Error(e.where, e.name, "bond dimension mismatch: " + what,
+               "check the sizes of the matrices and vectors given for the connected elements");
+  };
+
+  for (int b = 0; b < nb; ++b)
+    if (g.bond(b).dim > 0) dims.Set(b, g.bond(b).dim);
+
+  for (int i = 0; i < g.num_elements(); ++i) {
+    const Element& e = g.element(i);
+    const int n = static_cast<int>(e.bonds.size());
+    // Ports.
+    if (n == 0) {
+      sink.Error(e.where, e.name, fmt::format("dangling element: {} '{}' has no bond", KindName(e.kind), e.name),
+                 "connect it with a bond, or remove it");
+      continue;
+    }
+    if (IsOnePort(e.kind) && n != 1) {
+      sink.Error(e.where, e.name, fmt::format("{} is a one-port element but has {} bonds", KindName(e.kind), n),
+                 "connect several bonds through a 0- or 1-junction");
+      continue;
+    }
+    if (IsTwoPort(e.kind)) {
+      for (int b : e.bonds) {
+        if (g.bond(b).to == i) {
+          if (s.port_in[i] >= 0) sink.Error(e.where, e.name, "two-port element has more than one bond pointing in", "a two-port has one bond in (port 1) and one out (port 2)");
+          s.port_in[i] = b;
+        } else {
+          if (s.port_out[i] >= 0) sink.Error(e.where, e.name, "two-port element has more than one bond pointing out", "a two-port has one bond in (port 1) and one out (port 2)");
+          s.port_out[i] = b;
+        }
+      }
+      if (n != 2 || s.port_in[i] < 0 || s.port_out[i] < 0) {
+        sink.Error(e.where, e.name, fmt::format("{} needs exactly one bond in (port 1) and one bond out (port 2), has {}", KindName(e.kind), n),
+                   "orient the bonds through the transformer or gyrator: in on one side, out on the other");
+        continue;
+      }
+    }
+    // Dimensions.
+    if (IsOnePort(e.kind) || IsJunction(e.kind)) {
+      const int own = OwnDim(e);
+      for (int b : e.bonds) {
+        if (own > 0 && !dims.Set(b, own)) dim_conflict(e, fmt::format("its parameters are {}-dimensional but bond '{}' is {}-dimensional", own, g.bond(b).name, dims.Get(b)));
+        if (b != e.bonds.front() && !dims.Merge(e.bonds.front(), b)) dim_conflict(e, "bonds of different dimensions meet here");
+      }
+    } else {
+      const int in = s.port_in[i], out = s.port_out[i];
+      int rows = 0, cols = 0;
+      if (e.kind == ElementKind::kMTF || e.kind == ElementKind::kMGY) {
+        rows = e.modulus.rows();
+        cols = e.modulus.cols();
+      } else if (!e.param.is_scalar) {
+        rows = e.param.rows();
+        cols = e.param.cols();
+      }
+      if (rows > 0) {
+        if (!dims.Set(in, cols)) dim_conflict(e, fmt::format("port 1 (in) needs dimension {}, bond '{}' has {}", cols, g.bond(in).name, dims.Get(in)));
+        if (!dims.Set(out, rows)) dim_conflict(e, fmt::format("port 2 (out) needs dimension {}, bond '{}' has {}", rows, g.bond(out).name, dims.Get(out)));
+      } else if (!dims.Merge(in, out)) {
+        dim_conflict(e, "a scalar ratio needs the same dimension on both ports");
+      }
+    }
+    // Domains.
+    if (!IsTwoPort(e.kind)) {
+      for (int b : e.bonds) {
+        if (!e.domain.empty() && !domains.Set(b, e.domain))
+          sink.Error(e.where, e.name, fmt::format("domain '{}' conflicts with '{}' of bond '{}'", e.domain, domains.Get(b), g.bond(b).name),
+                     "elements joined by junctions share one physical domain");
+        if (b != e.bonds.front() && !domains.Merge(e.bonds.front(), b))
+          sink.Error(e.where, e.name, "bonds of different domains meet here", "change domains only through a TF or GY");
+      }
+    }
+  }
+
+  s.bond_dim.resize(nb);
+  s.bond_domain.resize(nb);
+  for (int b = 0; b < nb; ++b) {
+    s.bond_dim[b] = dims.Has(b) ? dims.Get(b) : 1;
+    s.bond_domain[b] = domains.Has(b) ? domains.Get(b) : default_domain;
+  }
+
+  // Parameters, now that dimensions are known.
+  for (int i = 0; i < g.num_elements(); ++i) {
+    const Element& e = g.element(i);
+    if (e.bonds.empty() || (IsOnePort(e.kind) && e.bonds.size() != 1)) continue;
+    const int n = s.dim_of(g, i);
+    const Eigen::MatrixXd* m = e.param.is_scalar ? nullptr : &e.param.matrix;
+    const double v = e.param.scalar;
+    auto bad = [&](const std::string& what, const std::string& hint) { sink.Error(e.where, e.name, what, hint); };
+    if ((m && !AllFinite(*m)) || (!m && !std::isfinite(v))) {
+      bad("parameter is not a finite number", "give a finite value");
+      continue;
+    }
+    switch (e.kind) {
+      case ElementKind::kI:
+        if (m ? !IsPositiveDefinite(*m) : !(v > 0))
+          bad(m ? "inertia matrix must be symmetric positive definite" : fmt::format("inertia must be > 0 (got {:g})", v),
+              "an inertia (mass, moment of inertia, inductance) is positive");
+        if (!e.rotation.empty() && g.FindAux(e.rotation) < 0)
+          bad(fmt::format("rotation '{}' is not an orientation state", e.rotation), "declare it under states with kind: orientation");
+        break;
+      case ElementKind::kC:
+        if (m ? !IsPositiveDefinite(*m) : !(v > 0))
+          bad(m ? "stiffness matrix must be symmetric positive definite" : fmt::format("stiffness must be > 0 (got {:g})", v),
+              "a compliance stores energy only with a positive stiffness");
+        break;
+      case ElementKind::kR:
+        if (m ? !IsPositiveSemiDefinite(*m) : !(v >= 0))
+          bad(m ? "resistance matrix must be positive semi-definite" : fmt::format("resistance must be >= 0 (got {:g})", v),
+              "a negative resistance would create energy");
+        break;
+      case ElementKind::kSe:
+      case ElementKind::kSf: {
+        const size_t nc = e.source.components.size();
+        if (nc != 1 && static_cast<int>(nc) != n)
+          bad(fmt::format("source has {} components but its bond is {}-dimensional", nc, n), "give one value per component, or a single value for all");
+        break;
+      }
+      case ElementKind::kMTF:
+      case ElementKind::kMGY:
+        if (e.modulus.kind != Modulus::Kind::kConstant && g.FindAux(e.modulus.rotation) < 0)
+          bad(fmt::format("modulus refers to '{}', which is not an orientation state", e.modulus.rotation),
+              "declare it under states with kind: orientation");
+        break;
+      default:
+        break;
+    }
+    if (IsStorage(e.kind) && e.initial.size() > 0 && e.initial.size() != n)
+      bad(fmt::format("initial value has {} components, the bond {}", e.initial.size(), n), "give one initial value per component");
+  }
+  for (const AuxState& a : g.aux_states()) {
+    const int of = g.Find(a.of);
+    if (of < 0) {
+      sink.Error(a.where, a.name, fmt::format("state integrates the flow of '{}', which does not exist", a.of), "name a 1-junction or a one-port element");
+      continue;
+    }
+    const Element& e = g.element(of);
+    if (e.kind == ElementKind::kZero || IsTwoPort(e.kind)) {
+      sink.Error(a.where, a.name, fmt::format("'{}' is a {}: it has no single flow to integrate", a.of, KindName(e.kind)), "name a 1-junction or a one-port element");
+      continue;
+    }
+    if (e.bonds.empty()) continue;
+    const int n = s.dim_of(g, of);
+    if (a.kind == AuxState::Kind::kOrientation && n != 3)
+      sink.Error(a.where, a.name, fmt::format("an orientation integrates a 3-dimensional angular velocity; '{}' is {}-dimensional", a.of, n));
+  }
+  return s;
+}
+
+}  // namespace multibond

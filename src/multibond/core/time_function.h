@@ -1,0 +1,35 @@
+#pragma once
+/// \file
+/// Source values as functions of time: constant, step, ramp, sine, table (linear interpolation).
+
+#include <string>
+#include <vector>
+
+namespace multibond {
+
+/// A scalar function of time. Evaluating it never allocates.
+struct TimeFunction {
+  enum class Kind { kConstant, kStep, kRamp, kSine, kTable };
+  Kind kind = Kind::kConstant;
+  double value = 0.0;     ///< constant value; step height after the step; ramp offset; sine offset
+  double before = 0.0;    ///< step: value before the step
+  double start = 0.0;     ///< step/ramp: time of the step or ramp start [s]
+  double slope = 0.0;     ///< ramp: slope [unit/s]
+  double amplitude = 0.0; ///< sine amplitude
+  double frequency = 0.0; ///< sine frequency [Hz]
+  double phase = 0.0;     ///< sine phase [rad]
+  std::vector<double> table_t, table_v;  ///< table: strictly increasing times and values
+
+  static TimeFunction Constant(double v);
+  static TimeFunction Step(double height, double at = 0.0, double before = 0.0);
+  static TimeFunction Ramp(double slope, double start = 0.0, double offset = 0.0);
+  static TimeFunction Sine(double amplitude, double frequency_hz, double phase = 0.0, double offset = 0.0);
+  static TimeFunction Table(std::vector<double> t, std::vector<double> v);
+
+  double operator()(double t) const;
+  bool is_constant() const { return kind == Kind::kConstant; }
+  /// Human-readable form, e.g. "step(1 at t=0)".
+  std::string ToString() const;
+};
+
+}  // namespace multibond

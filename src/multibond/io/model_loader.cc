@@ -1,0 +1,697 @@
+#include "multibond/io/model_loader.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+namespace multibond {
+
+namespace {
+
+using Env = std::map<std::string, double>;  // submodel parameters in scope
+
+const std::vector<std::string> kTopKeys = {"model", "description", "domain", "elements", "bonds", "states", "outputs", "simulation", "submodels"};
+const std::vector<std::string> kCommonKeys = {"type", "dim", "domain", "components", "description"};
+
+class Loader {
+ public:
+  Loader(std::string file, std::string text) : file_(std::move(file)), text_(std::move(text)) {}
+
+  LoadedModel Load() {
+    LoadedModel out{BondGraph("model"), {}, {}, file_, text_};
+    YAML::Node root;
+    try {
+      root = YAML::Load(text_);
+    } catch (const YAML::Exception& e) {
+      sink_.Error(Loc(e.mark), "", "YAML syntax error: " + e.msg, "check indentation, colons and brackets near this place");
+      sink_.ThrowIfErrors();
+    }
+    if (!root.IsMap()) {
+      sink_.Error({file_, 1, 1}, "", "a model file must be a YAML mapping with at least 'elements' and 'bonds'",
+                  "start from an example in examples/");
+      sink_.ThrowIfErrors();
+    }
+    CheckKeys(root, kTopKeys, "");
+    std::string name = "model";
+    if (root["model"]) name = Str(root["model"], "model");
+    graph_ = BondGraph(name);
+    graph_.set_source_file(file_);
+    if (root["domain"]) out.compile.default_domain = Domain(root["domain"], "domain");
+    if (root["submodels"]) ReadSubmodelDefs(root["submodels"]);
+    if (!root["elements"]) sink_.Error({file_, 1, 1}, "", "the model has no 'elements' section", "list the elements under 'elements:'");
+    if (!root["bonds"]) sink_.Error({file_, 1, 1}, "", "the model has no 'bonds' section", "list the bonds under 'bonds:', e.g. '- force -> mass'");
+    ReadScope(root, "", Env{}, 0);
+    if (root["outputs"]) ReadOutputs(root["outputs"]);
+    if (root["simulation"]) ReadSimulation(root["simulation"], out.simulation);
+    sink_.ThrowIfErrors();
+    out.graph = std::move(graph_);
+    return out;
+  }
+
+ private:
+  struct SubmodelDef {
+    YAML::Node node;
+    Env defaults;
+    std::set<std::string> ports;
+  };
+
+  SourceLocation Loc(const YAML::Mark& m) const {
+    if (m.line < 0) return {file_, 0, 0};
+    return {file_, m.line + 1, m.column + 1};
+  }
+  SourceLocation Loc(const YAML::Node& n) const { return Loc(n.Mark()); }
+
+  void CheckKeys(const YAML::Node& map, const std::vector<std::string>& allowed, const std::string& element) {
+    if (!map.IsMap()) return;
+    for (const auto& kv : map) {
+      const std::string key = kv.first.Scalar();
+      if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
+      const std::string guess = DidYouMean(key, allowed);
+      std::string allowed_list;
+      for (const auto& a : allowed) allowed_list += (allowed_list.empty() ? "" : ", ") + a;
+      sink_.Error(Loc(kv.first), element, fmt::format("unknown key '{}'", key),
+                  guess.empty() ? "known keys here: " + allowed_list : fmt::format("did you mean '{}'?", guess));
+    }
+  }
+
+  std::string Str(const YAML::Node& n, const std::string& element) {
+    if (!n.IsScalar()) {
+      sink_.Error(Loc(n), element, "expected a text value", "write a single word or a quoted string");
+      return {};
+    }
+    return n.Scalar();
+  }
+
+  std::string Domain(const YAML::Node& n, const std::string& element) {
+    const std::string d = Str(n, element);
+    const auto& known = KnownDomains();
+    if (!d.empty() && std::find(known.begin(), known.end(), d) == known.end()) {
+      const std::string guess = DidYouMean(d, known);
+      sink_.Error(Loc(n), element, fmt::format("unknown domain '{}'", d),
+                  guess.empty() ? "use translation, rotation, electrical, hydraulic or generic" : fmt::format("did you mean '{}'?", guess));
+    }
+    return d == "generic" ? "" : d;
+  }
+
+  /// A finite number, or a $parameter of the enclosing submodel.
+  double Number(const YAML::Node& n, const std::string& element, const Env& env, bool* ok = nullptr) {
+    auto fail = [&](const std::string& msg, const std::string& hint) {
+      sink_.Error(Loc(n), element, msg, hint);
+      if (ok) *ok = false;
+      return 0.0;
+    };
+    if (!n.IsScalar()) return fail("expected a number", "write a plain number such as 1.5 or 2e-3");
+    const std::string s = n.Scalar();
+    if (!s.empty() && s[0] == '$') {
+      const auto it = env.find(s.substr(1));
+      if (it == env.end()) return fail(fmt::format("unknown parameter '{}'", s), "declare it under the submodel's 'parameters'");
+      return it->second;
+    }
+    const char* begin = s.c_str();
+    char* end = nullptr;
+    const double v = std::strtod(begin, &end);
+    if (s.empty() || end != begin + s.size()) return fail(fmt::format("expected a number, got '{}'", s), "write a plain number such as 1.5 or 2e-3");
+    if (!std::isfinite(v)) return fail(fmt::format("'{}' is not a finite number", s), "NaN and infinities are not allowed in a model");
+    return v;
+  }
+
+  Eigen::VectorXd Vector(const YAML::Node& n, const std::string& element, const Env& env) {
+    if (n.IsScalar()) return Eigen::VectorXd::Constant(1, Number(n, element, env));
+    if (!n.IsSequence()) {
+      sink_.Error(Loc(n), element, "expected a list of numbers", "write e.g. [0, 0, 1]");
+      return {};
+    }
+    Eigen::VectorXd v(static_cast<Eigen::Index>(n.size()));
+    for (size_t i = 0; i < n.size(); ++i) v(static_cast<Eigen::Index>(i)) = Number(n[i], element, env);
+    return v;
+  }
+
+  Eigen::MatrixXd Matrix(const YAML::Node& n, const std::string& element, const Env& env) {
+    if (!n.IsSequence() || n.size() == 0 || !n[0].IsSequence()) {
+      sink_.Error(Loc(n), element, "expected a matrix (a list of rows)", "write e.g. [[1, 0], [0, 1]]");
+      return {};
+    }
+    const size_t rows = n.size(), cols = n[0].size();
+    Eigen::MatrixXd m(rows, cols);
+    for (size_t r = 0; r < rows; ++r) {
+      if (!n[r].IsSequence() || n[r].size() != cols) {
+        sink_.Error(Loc(n[r]), element, fmt::format("matrix row {} has {} entries, the first row {}", r + 1, n[r].IsSequence() ? n[r].size() : 1, cols),
+                    "every row of a matrix has the same length");
+        return {};
+      }
+      for (size_t c = 0; c < cols; ++c) m(r, c) = Number(n[r][c], element, env);
+    }
+    return m;
+  }
+
+  /// A scalar, a diagonal given as a list, or a full matrix.
+  Param ReadParam(const YAML::Node& n, const std::string& element, const Env& env) {
+    if (n.IsScalar()) return Param::Scalar(Number(n, element, env));
+    if (n.IsSequence() && n.size() > 0 && n[0].IsSequence()) return Param::Matrix(Matrix(n, element, env));
+    if (n.IsSequence()) {
+      const Eigen::VectorXd d = Vector(n, element, env);
+      return Param::Matrix(d.asDiagonal());
+    }
+    sink_.Error(Loc(n), element, "expected a number, a list (diagonal) or a matrix", "write e.g. 2.0, [1, 2, 3] or [[1, 0], [0, 1]]");
+    return Param::Scalar(1.0);
+  }
+
+  TimeFunction ReadTimeFunction(const YAML::Node& n, const std::string& element, const Env& env) {
+    if (n.IsScalar()) return TimeFunction::Constant(Number(n, element, env));
+    if (!n.IsMap() || n.size() != 1) {
+      sink_.Error(Loc(n), element, "expected a number or one of {step: ...}, {ramp: ...}, {sine: ...}, {table: ...}",
+                  "e.g. effort: {step: {value: 1, at: 0}}");
+      return {};
+    }
+    const std::string kind = n.begin()->first.Scalar();
+    const YAML::Node v = n.begin()->second;
+    auto get = [&](const char* key, double dflt) { return v[key] ? Number(v[key], element, env) : dflt; };
+    if (kind == "step") {
+      if (v.IsScalar()) return TimeFunction::Step(Number(v, element, env));
+      CheckKeys(v, {"value", "at", "before"}, element);
+      return TimeFunction::Step(get("value", 1.0), get("at", 0.0), get("before", 0.0));
+    }
+    if (kind == "ramp") {
+      CheckKeys(v, {"slope", "start", "offset"}, element);
+      return TimeFunction::Ramp(get("slope", 1.0), get("start", 0.0), get("offset", 0.0));
+    }
+    if (kind == "sine") {
+      CheckKeys(v, {"amplitude", "frequency", "phase", "offset"}, element);
+      return TimeFunction::Sine(get("amplitude", 1.0), get("frequency", 1.0), get("phase", 0.0), get("offset", 0.0));
+    }
+    if (kind == "table") {
+      std::vector<double> t, val;
+      if (!v.IsSequence() || v.size() < 2) {
+        sink_.Error(Loc(v), element, "a table needs at least two [time, value] rows", "write e.g. table: [[0, 0], [1, 5]]");
+        return {};
+      }
+      for (const auto& row : v) {
+        if (!row.IsSequence() || row.size() != 2) {
+          sink_.Error(Loc(row), element, "a table row is [time, value]");
+          return {};
+        }
+        t.push_back(Number(row[0], element, env));
+        val.push_back(Number(row[1], element, env));
+        if (t.size() > 1 && !(t.back() > t[t.size() - 2])) sink_.Error(Loc(row), element, "table times must increase strictly");
+      }
+      return TimeFunction::Table(std::move(t), std::move(val));
+    }
+    const std::string guess = DidYouMean(kind, {"step", "ramp", "sine", "table"});
+    sink_.Error(Loc(n.begin()->first), element, fmt::format("unknown time function '{}'", kind),
+                guess.empty() ? "use step, ramp, sine or table" : fmt::format("did you mean '{}'?", guess));
+    return {};
+  }
+
+  SourceValue ReadSource(const YAML::Node& n, const std::string& element, const Env& env) {
+    SourceValue v;
+    if (n.IsSequence())
+      for (const auto& c : n) v.components.push_back(ReadTimeFunction(c, element, env));
+    else
+      v.components.push_back(ReadTimeFunction(n, element, env));
+    return v;
+  }
+
+  Eigen::MatrixXd Selection(const YAML::Node& n, const std::string& element) {
+    static const std::map<std::string, int> kAxes = {{"x", 0}, {"y", 1}, {"z", 2}, {"0", 0}, {"1", 1}, {"2", 2}};
+    if (!n.IsSequence() || n.size() == 0 || n.size() > 3) {
+      sink_.Error(Loc(n), element, "rows must be a list of axes", "write e.g. rows: [y, z]");
+      return {};
+    }
+    Eigen::MatrixXd s = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n.size()), 3);
+    for (size_t i = 0; i < n.size(); ++i) {
+      const auto it = kAxes.find(n[i].Scalar());
+      if (it == kAxes.end()) {
+        sink_.Error(Loc(n[i]), element, fmt::format("unknown axis '{}'", n[i].Scalar()), "axes are x, y, z");
+        continue;
+      }
+      s(static_cast<Eigen::Index>(i), it->second) = 1.0;
+    }
+    return s;
+  }
+
+  Modulus ReadModulus(const YAML::Node& n, const std::string& element, const std::string& prefix, const Env& env) {
+    Modulus m;
+    if (!n.IsMap()) {
+      sink_.Error(Loc(n), element, "modulus must be a mapping",
+                  "e.g. {rotation: A.R, transpose: true}, {lever: A.R, r: [0.1, 0, 0]} or {matrix: [[...]]}");
+      return m;
+    }
+    CheckKeys(n, {"rotation", "transpose", "lever", "r", "matrix", "rows", "left", "scale"}, element);
+    if (n["scale"]) m.scale = Number(n["scale"], element, env);
+    if (n["rows"]) m.left = Selection(n["rows"], element);
+    if (n["left"]) m.left = Matrix(n["left"], element, env);
+    if (n["matrix"]) {
+      m.kind = Modulus::Kind::kConstant;
+      m.constant = Matrix(n["matrix"], element, env);
+    } else if (n["rotation"]) {
+      m.kind = Modulus::Kind::kRotation;
+      m.rotation = Qualify(prefix, Str(n["rotation"], element));
+      if (n["transpose"]) m.transpose = Bool(n["transpose"], element);
+    } else if (n["lever"]) {
+      m.kind = Modulus::Kind::kLever;
+      m.rotation = Qualify(prefix, Str(n["lever"], element));
+      if (!n["r"]) sink_.Error(Loc(n), element, "a lever modulus needs 'r', the point in the body frame", "add r: [x, y, z]");
+      else {
+        const Eigen::VectorXd r = Vector(n["r"], element, env);
+        if (r.size() == 3) m.lever = r;
+        else sink_.Error(Loc(n["r"]), element, "r must have 3 components");
+      }
+    } else {
+      sink_.Error(Loc(n), element, "modulus needs one of 'rotation', 'lever' or 'matrix'");
+    }
+    if (m.left.size() > 0 && m.kind == Modulus::Kind::kConstant && m.left.cols() != m.constant.rows())
+      sink_.Error(Loc(n), element, "left matrix and modulus matrix do not fit together");
+    return m;
+  }
+
+  bool Bool(const YAML::Node& n, const std::string& element) {
+    const std::string s = n.IsScalar() ? n.Scalar() : "";
+    if (s == "true" || s == "yes") return true;
+    if (s == "false" || s == "no") return false;
+    sink_.Error(Loc(n), element, "expected true or false");
+    return false;
+  }
+
+  static std::string Qualify(const std::string& prefix, const std::string& local) {
+    return prefix.empty() ? local : prefix + "." + local;
+  }
+
+  void ReadSubmodelDefs(const YAML::Node& n) {
+    if (!n.IsMap()) {
+      sink_.Error(Loc(n), "submodels", "expected a mapping of submodel names to definitions");
+      return;
+    }
+    for (const auto& kv : n) {
+      const std::string name = kv.first.Scalar();
+      const YAML::Node def = kv.second;
+      if (!def.IsMap()) {
+        sink_.Error(Loc(def), name, "a submodel definition is a mapping with parameters, ports, elements and bonds");
+        continue;
+      }
+      CheckKeys(def, {"description", "parameters", "ports", "elements", "bonds", "states", "domain"}, name);
+      if (ParseKind(name)) sink_.Error(Loc(kv.first), name, "a submodel cannot be named like an element kind");
+      SubmodelDef sd{def, {}, {}};
+      if (def["parameters"]) {
+        for (const auto& p : def["parameters"]) sd.defaults[p.first.Scalar()] = Number(p.second, name, Env{});
+      }
+      if (def["ports"]) {
+        for (const auto& p : def["ports"]) sd.ports.insert(p.Scalar());
+      }
+      submodels_[name] = sd;
+    }
+  }
+
+  /// Reads the elements, bonds and states of a model or of a submodel instance under `prefix`.
+  void ReadScope(const YAML::Node& scope, const std::string& prefix, const Env& env, int depth) {
+    if (depth > 16) {
+      sink_.Error(Loc(scope), prefix, "submodels nested more than 16 deep (a submodel that contains itself?)");
+      return;
+    }
+    const YAML::Node elements = scope["elements"];
+    if (elements && !elements.IsMap()) {
+      sink_.Error(Loc(elements), "elements", "'elements' must be a mapping of names to element specifications",
+                  "write e.g. 'mass: {type: I, inertia: 1.0}'");
+    } else if (elements) {
+      std::map<std::string, SourceLocation> seen;
+      for (const auto& kv : elements) {
+        const std::string local = kv.first.Scalar();
+        if (seen.count(local)) {
+          Diagnostic d;
+          d.where = Loc(kv.first);
+          d.element = local;
+          d.message = "duplicate element name";
+          d.details.push_back("first defined at " + seen[local].ToString());
+          d.hint = "give every element a unique name";
+          sink_.Add(d);
+          continue;
+        }
+        seen[local] = Loc(kv.first);
+        if (local.empty() || local.find_first_of(" \t>") != std::string::npos || local.find("->") != std::string::npos) {
+          sink_.Error(Loc(kv.first), local, "element names may not contain spaces or '->'", "use letters, digits, '_' and '.'");
+          continue;
+        }
+        ReadElement(Qualify(prefix, local), kv.second, Loc(kv.first), prefix, env, depth);
+      }
+    }
+    if (scope["states"]) ReadStates(scope["states"], prefix, env);
+    const YAML::Node bonds = scope["bonds"];
+    if (bonds && !bonds.IsSequence()) {
+      sink_.Error(Loc(bonds), "bonds", "'bonds' must be a list", "write e.g. '- force -> mass'");
+    } else if (bonds) {
+      for (const auto& b : bonds) ReadBond(b, prefix, env);
+    }
+  }
+
+  void ReadElement(const std::string& name, const YAML::Node& spec, const SourceLocation& where, const std::string& prefix,
+                   const Env& env, int depth) {
+    if (!spec.IsMap()) {
+      sink_.Error(where, name, "an element is a mapping with at least a 'type'", "write e.g. '{type: C, stiffness: 100}'");
+      return;
+    }
+    if (!spec["type"]) {
+      sink_.Error(where, name, "element has no 'type'", "add type: Se, Sf, I, C, R, TF, MTF, GY, MGY, 0, 1 or a submodel name");
+      return;
+    }
+    const std::string type = spec["type"].Scalar();
+    if (submodels_.count(type)) {
+      Instantiate(name, type, spec, where, env, depth);
+      return;
+    }
+    const auto kind = ParseKind(type);
+    if (!kind) {
+      std::vector<std::string> names = {"Se", "Sf", "I", "C", "R", "TF", "MTF", "GY", "MGY", "0", "1"};
+      for (const auto& [sm, def] : submodels_) names.push_back(sm);
+      const std::string guess = DidYouMean(type, names);
+      sink_.Error(Loc(spec["type"]), name, fmt::format("unknown element type '{}'", type),
+                  guess.empty() ? "use Se, Sf, I, C, R, TF, MTF, GY, MGY, 0, 1 or a submodel name" : fmt::format("did you mean '{}'?", guess));
+      return;
+    }
+    Element e;
+    e.name = name;
+    e.kind = *kind;
+    e.where = where;
+    std::vector<std::string> keys = kCommonKeys;
+    auto require = [&](const char* key, const char* hint) {
+      if (spec[key]) return true;
+      sink_.Error(where, name, fmt::format("{} needs '{}'", KindName(e.kind), key), hint);
+      return false;
+    };
+    switch (e.kind) {
+      case ElementKind::kSe:
+      case ElementKind::kSf: {
+        const char* key = e.kind == ElementKind::kSe ? "effort" : "flow";
+        keys.push_back(key);
+        if (require(key, e.kind == ElementKind::kSe ? "e.g. effort: 1.0 or effort: {step: 1.0}" : "e.g. flow: 0 or flow: {sine: {amplitude: 1, frequency: 2}}"))
+          e.source = ReadSource(spec[key], name, env);
+        break;
+      }
+      case ElementKind::kI:
+        keys.insert(keys.end(), {"inertia", "p0", "rotation"});
+        if (require("inertia", "e.g. inertia: 2.0 (kg, kg m^2, H, ...)")) e.param = ReadParam(spec["inertia"], name, env);
+        if (spec["p0"]) e.initial = Vector(spec["p0"], name, env);
+        if (spec["rotation"]) e.rotation = Qualify(prefix, Str(spec["rotation"], name));
+        break;
+      case ElementKind::kC:
+        keys.insert(keys.end(), {"stiffness", "compliance", "q0"});
+        if (spec["stiffness"] && spec["compliance"]) sink_.Error(where, name, "give either 'stiffness' or 'compliance', not both");
+        if (spec["compliance"]) {
+          Param c = ReadParam(spec["compliance"], name, env);
+          if (c.is_scalar) {
+            if (!(c.scalar > 0)) sink_.Error(Loc(spec["compliance"]), name, fmt::format("compliance must be > 0 (got {:g})", c.scalar));
+            e.param = Param::Scalar(1.0 / c.scalar);
+          } else {
+            e.param = Param::Matrix(c.matrix.inverse());
+          }
+        } else if (require("stiffness", "e.g. stiffness: 100 (N/m, N m/rad, 1/F, ...)")) {
+          e.param = ReadParam(spec["stiffness"], name, env);
+        }
+        if (spec["q0"]) e.initial = Vector(spec["q0"], name, env);
+        break;
+      case ElementKind::kR:
+        keys.push_back("resistance");
+        if (require("resistance", "e.g. resistance: 2.0 (N s/m, N m s/rad, ohm, ...)")) e.param = ReadParam(spec["resistance"], name, env);
+        break;
+      case ElementKind::kTF:
+      case ElementKind::kGY:
+        keys.push_back("ratio");
+        if (require("ratio", "e.g. ratio: 0.25, or a matrix (rows = port 2, columns = port 1)")) {
+          e.param = ReadParam(spec["ratio"], name, env);
+          if (e.param.is_scalar && e.param.scalar == 0.0) sink_.Error(Loc(spec["ratio"]), name, "ratio must not be 0");
+        }
+        break;
+      case ElementKind::kMTF:
+      case ElementKind::kMGY:
+        keys.push_back("modulus");
+        if (require("modulus", "e.g. modulus: {rotation: A.R, transpose: true}")) e.modulus = ReadModulus(spec["modulus"], name, prefix, env);
+        break;
+      case ElementKind::kZero:
+      case ElementKind::kOne:
+        break;
+    }
+    CheckKeys(spec, keys, name);
+    if (spec["dim"]) {
+      const double d = Number(spec["dim"], name, env);
+      if (d < 1 || d > 64 || d != std::floor(d)) sink_.Error(Loc(spec["dim"]), name, fmt::format("dim must be a whole number from 1 to 64 (got {:g})", d));
+      else e.dim = static_cast<int>(d);
+    }
+    if (spec["domain"]) e.domain = Domain(spec["domain"], name);
+    if (spec["components"])
+      for (const auto& c : spec["components"]) e.components.push_back(c.Scalar());
+    if (graph_.Find(name) >= 0 || graph_.FindAux(name) >= 0) {
+      sink_.Error(where, name, "duplicate name", "give every element and state a unique name");
+      return;
+    }
+    graph_.Add(std::move(e));
+  }
+
+  void Instantiate(const std::string& name, const std::string& type, const YAML::Node& spec, const SourceLocation& where,
+                   const Env& outer, int depth) {
+    const SubmodelDef& def = submodels_.at(type);
+    Env env = def.defaults;
+    std::vector<std::string> keys = {"type", "description"};
+    for (const auto& [p, v] : def.defaults) keys.push_back(p);
+    CheckKeys(spec, keys, name);
+    for (const auto& kv : spec) {
+      const std::string key = kv.first.Scalar();
+      if (key != "type" && key != "description" && def.defaults.count(key)) env[key] = Number(kv.second, name, outer);
+    }
+    instance_ports_[name] = def.ports;
+    instance_where_[name] = where;
+    ReadScope(def.node, name, env, depth + 1);
+  }
+
+  /// Resolves a bond end: a local name in this scope, or "instance.port" of a submodel instance.
+  std::string Endpoint(const std::string& local, const std::string& prefix, const YAML::Node& at) {
+    const std::string full = Qualify(prefix, local);
+    const auto dot = full.rfind('.');
+    if (dot != std::string::npos) {
+      const std::string inst = full.substr(0, dot);
+      const auto it = instance_ports_.find(inst);
+      if (it != instance_ports_.end() && !it->second.count(full.substr(dot + 1)) && graph_.Find(full) >= 0) {
+        std::string ports;
+        for (const auto& p : it->second) ports += (ports.empty() ? "" : ", ") + p;
+        sink_.Error(Loc(at), full, fmt::format("'{}' is not a port of submodel instance '{}'", full.substr(dot + 1), inst),
+                    ports.empty() ? "the submodel exposes no ports" : "its ports are: " + ports);
+      }
+    }
+    return full;
+  }
+
+  void ReadBond(const YAML::Node& b, const std::string& prefix, const Env& env) {
+    std::string from, to, name;
+    int dim = 0;
+    if (b.IsScalar()) {
+      const std::string s = b.Scalar();
+      const auto arrow = s.find("->");
+      if (arrow == std::string::npos) {
+        sink_.Error(Loc(b), s, "a bond is written 'from -> to'", "e.g. '- force -> j1' (the half-arrow points to 'to')");
+        return;
+      }
+      auto trim = [](std::string x) {
+        const auto a = x.find_first_not_of(" \t"), z = x.find_last_not_of(" \t");
+        return a == std::string::npos ? std::string() : x.substr(a, z - a + 1);
+      };
+      from = trim(s.substr(0, arrow));
+      to = trim(s.substr(arrow + 2));
+    } else if (b.IsSequence() && b.size() == 2) {
+      from = b[0].Scalar();
+      to = b[1].Scalar();
+    } else if (b.IsMap()) {
+      CheckKeys(b, {"from", "to", "name", "dim"}, "bond");
+      if (!b["from"] || !b["to"]) {
+        sink_.Error(Loc(b), "bond", "a bond needs 'from' and 'to'");
+        return;
+      }
+      from = b["from"].Scalar();
+      to = b["to"].Scalar();
+      if (b["name"]) name = Qualify(prefix, b["name"].Scalar());
+      if (b["dim"]) dim = static_cast<int>(Number(b["dim"], "bond", env));
+    } else {
+      sink_.Error(Loc(b), "bond", "a bond is 'from -> to', [from, to] or {from: ..., to: ...}");
+      return;
+    }
+    const std::string f = Endpoint(from, prefix, b), t = Endpoint(to, prefix, b);
+    bool ok = true;
+    for (const auto& [end, local] : {std::pair{f, from}, std::pair{t, to}}) {
+      if (graph_.Find(end) >= 0) continue;
+      ok = false;
+      std::vector<std::string> names;
+      for (const auto& e : graph_.elements()) names.push_back(e.name);
+      const std::string guess = DidYouMean(end, names);
+      sink_.Error(Loc(b), end, "bond refers to an element that does not exist",
+                  guess.empty() ? "define it under 'elements'" : fmt::format("did you mean '{}'?", guess));
+    }
+    if (!ok) return;
+    if (f == t) {
+      sink_.Error(Loc(b), f, "bond connects an element to itself");
+      return;
+    }
+    graph_.Connect(f, t, dim, name, Loc(b));
+  }
+
+  void ReadStates(const YAML::Node& n, const std::string& prefix, const Env& env) {
+    if (!n.IsMap()) {
+      sink_.Error(Loc(n), "states", "'states' must be a mapping of names to {kind: orientation|integral, of: ...}");
+      return;
+    }
+    for (const auto& kv : n) {
+      const std::string name = Qualify(prefix, kv.first.Scalar());
+      const YAML::Node s = kv.second;
+      AuxState a;
+      a.name = name;
+      a.where = Loc(kv.first);
+      if (!s.IsMap()) {
+        sink_.Error(a.where, name, "a state is a mapping {kind: ..., of: ...}");
+        continue;
+      }
+      CheckKeys(s, {"kind", "of", "initial", "components", "unit", "description"}, name);
+      const std::string kind = s["kind"] ? s["kind"].Scalar() : "";
+      if (kind == "orientation") a.kind = AuxState::Kind::kOrientation;
+      else if (kind == "integral") a.kind = AuxState::Kind::kIntegral;
+      else {
+        const std::string guess = DidYouMean(kind, {"orientation", "integral"});
+        sink_.Error(s["kind"] ? Loc(s["kind"]) : a.where, name, fmt::format("unknown state kind '{}'", kind),
+                    guess.empty() ? "use kind: orientation or kind: integral" : fmt::format("did you mean '{}'?", guess));
+        continue;
+      }
+      if (!s["of"]) {
+        sink_.Error(a.where, name, "state needs 'of': the 1-junction or one-port whose flow it integrates");
+        continue;
+      }
+      a.of = Qualify(prefix, s["of"].Scalar());
+      if (s["initial"]) {
+        if (a.kind == AuxState::Kind::kOrientation) {
+          a.initial = Matrix(s["initial"], name, env);
+          if (a.initial.rows() != 3 || a.initial.cols() != 3) sink_.Error(Loc(s["initial"]), name, "an orientation's initial value is a 3x3 matrix");
+          else if (!(a.initial.transpose() * a.initial).isApprox(Eigen::Matrix3d::Identity(), 1e-9) || a.initial.determinant() < 0)
+            sink_.Error(Loc(s["initial"]), name, "the initial orientation is not a rotation matrix (R^T R = I, det R = +1)");
+        } else {
+          a.initial = Vector(s["initial"], name, env);
+        }
+      }
+      if (s["components"])
+        for (const auto& c : s["components"]) a.components.push_back(c.Scalar());
+      if (s["unit"]) a.unit = s["unit"].Scalar();
+      if (graph_.Find(name) >= 0 || graph_.FindAux(name) >= 0) {
+        sink_.Error(a.where, name, "duplicate name", "give every element and state a unique name");
+        continue;
+      }
+      graph_.AddAux(std::move(a));
+    }
+  }
+
+  void ReadOutputs(const YAML::Node& n) {
+    if (!n.IsSequence()) {
+      sink_.Error(Loc(n), "outputs", "'outputs' must be a list", "e.g. '- spring.e' or '- {name: position, variable: spring.q}'");
+      return;
+    }
+    for (const auto& o : n) {
+      OutputDecl d;
+      d.where = Loc(o);
+      if (o.IsScalar()) {
+        d.name = d.variable = o.Scalar();
+      } else if (o.IsMap()) {
+        CheckKeys(o, {"name", "variable"}, "output");
+        if (!o["variable"]) {
+          sink_.Error(d.where, "output", "an output needs 'variable'");
+          continue;
+        }
+        d.variable = o["variable"].Scalar();
+        d.name = o["name"] ? o["name"].Scalar() : d.variable;
+      } else {
+        sink_.Error(d.where, "output", "an output is a variable name or {name: ..., variable: ...}");
+        continue;
+      }
+      graph_.AddOutput(d);
+    }
+  }
+
+  void ReadSimulation(const YAML::Node& n, SimulationDefaults& s) {
+    CheckKeys(n, {"t_end", "dt", "solver", "rtol", "atol", "step", "max_step"}, "simulation");
+    const Env none;
+    auto positive = [&](const char* key, std::optional<double>& out) {
+      if (!n[key]) return;
+      const double v = Number(n[key], "simulation", none);
+      if (!(v > 0)) sink_.Error(Loc(n[key]), "simulation", fmt::format("{} must be > 0 (got {:g})", key, v));
+      out = v;
+    };
+    positive("t_end", s.t_end);
+    positive("dt", s.dt);
+    positive("rtol", s.rtol);
+    positive("atol", s.atol);
+    positive("step", s.step);
+    positive("max_step", s.max_step);
+    if (n["solver"]) {
+      s.solver = n["solver"].Scalar();
+      try {
+        ParseMethodName(*s.solver);
+      } catch (const std::invalid_argument& e) {
+        sink_.Error(Loc(n["solver"]), "simulation", e.what());
+      }
+    }
+  }
+
+  static void ParseMethodName(const std::string& s) { (void)ParseMethod(s); }
+
+  std::string file_, text_;
+  BondGraph graph_;
+  DiagnosticSink sink_;
+  std::map<std::string, SubmodelDef> submodels_;
+  std::map<std::string, std::set<std::string>> instance_ports_;
+  std::map<std::string, SourceLocation> instance_where_;
+};
+
+int EditDistance(const std::string& a, const std::string& b) {
+  std::vector<int> prev(b.size() + 1), cur(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) prev[j] = static_cast<int>(j);
+  for (size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = static_cast<int>(i);
+    for (size_t j = 1; j <= b.size(); ++j)
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (std::tolower(a[i - 1]) == std::tolower(b[j - 1]) ? 0 : 1)});
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+}  // namespace
+
+std::string DidYouMean(const std::string& word, const std::vector<std::string>& candidates) {
+  std::string best;
+  int best_d = 3;
+  for (const auto& c : candidates) {
+    const int d = EditDistance(word, c);
+    if (d < best_d || (d == best_d && best.empty() && !word.empty() && c.rfind(word, 0) == 0)) {
+      best_d = d;
+      best = c;
+    }
+  }
+  if (best.empty())
+    for (const auto& c : candidates)
+      if (word.size() >= 3 && c.rfind(word, 0) == 0) return c;
+  return best_d <= std::max<int>(1, static_cast<int>(word.size()) / 3) || best_d <= 2 ? best : "";
+}
+
+LoadedModel LoadModelString(const std::string& yaml, const std::string& file) { return Loader(file, yaml).Load(); }
+
+LoadedModel LoadModelFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    Diagnostic d;
+    d.where.file = path;
+    d.message = "cannot open the model file";
+    d.hint = "check the path and the file's permissions";
+    throw ModelError(d);
+  }
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return LoadModelString(ss.str(), path);
+}
+
+}  // namespace multibond

@@ -1,0 +1,35 @@
+#pragma once
+/// \file
+/// Reads a multibond model file (YAML, see docs/model-format.md) into a BondGraph. Every problem
+/// found is collected and thrown together as one ModelError, each with file:line:column, the
+/// element's name, what is wrong and a hint.
+
+#include <optional>
+#include <string>
+
+#include "multibond/compile/compiled_model.h"
+#include "multibond/solve/integrator.h"
+
+namespace multibond {
+
+/// Run settings a model file may carry (the command line overrides them).
+struct SimulationDefaults {
+  std::optional<double> t_end, dt, rtol, atol, step, max_step;
+  std::optional<std::string> solver;
+};
+
+struct LoadedModel {
+  BondGraph graph;
+  CompileOptions compile;
+  SimulationDefaults simulation;
+  std::string file;  ///< path as given ("<string>" for text)
+  std::string text;  ///< the file's content, for hashing and provenance
+};
+
+LoadedModel LoadModelFile(const std::string& path);
+LoadedModel LoadModelString(const std::string& yaml, const std::string& file = "<string>");
+
+/// The closest of `candidates` to `word` (edit distance <= 2 or a prefix), or "".
+std::string DidYouMean(const std::string& word, const std::vector<std::string>& candidates);
+
+}  // namespace multibond

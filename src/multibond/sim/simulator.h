@@ -1,0 +1,102 @@
+#pragma once
+/// \file
+/// Runs a compiled model: drives an integrator from output time to output time, evaluates the
+/// output columns (states, declared outputs, every effort and flow on request, the energy
+/// account) and hands each sample to an observer. Solver failures and interruptions do not throw:
+/// they end the run with a status, and the samples computed until then have been delivered.
+
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "multibond/compile/compiled_model.h"
+#include "multibond/solve/integrator.h"
+
+namespace multibond {
+
+/// The compiled model as an OdeSystem, with its own workspace (one per simulation).
+class ModelSystem : public OdeSystem {
+ public:
+  explicit ModelSystem(const CompiledModel& model) : model_(model), ws_(model.MakeWorkspace()) {}
+  int num_states() const override { return model_.num_states(); }
+  void CalcDerivatives(double t, const double* x, double* xdot) override { model_.CalcDerivatives(t, x, xdot, ws_); }
+  Workspace& workspace() { return ws_; }
+
+ private:
+  const CompiledModel& model_;
+  Workspace ws_;
+};
+
+struct RunOptions {
+  double t_start = 0.0;
+  double t_end = 1.0;
+  double dt = 1e-3;  ///< output interval
+  IntegratorOptions integrator;
+  bool all_variables = false;  ///< a column for every element's effort and flow
+  /// Set from another thread or a signal handler to stop the run after the current output.
+  const std::atomic<bool>* stop = nullptr;
+  /// Called with the fraction done, at most a few times per second.
+  std::function<void(double)> progress;
+};
+
+struct Column {
+  std::string name;  ///< e.g. "mass.p", "A.omega.z", "energy.residual"
+  std::string unit;  ///< e.g. "N s"; "-" when dimensionless or unknown
+  std::string Header() const { return name + " [" + unit + "]"; }
+};
+
+enum class RunStatus { kOk, kFailed, kInterrupted };
+const char* RunStatusName(RunStatus s);
+
+struct RunSummary {
+  RunStatus status = RunStatus::kOk;
+  std::string message;   ///< why the run stopped early ("" when ok)
+  double t_reached = 0.0;
+  long samples = 0;
+  IntegratorStats stats;
+  double wall_seconds = 0.0;
+  double energy_work = 0.0, energy_stored = 0.0, energy_dissipated = 0.0, energy_residual = 0.0;
+  double max_abs_energy_residual = 0.0;
+};
+
+/// Receives the samples of a run as they are computed.
+class Observer {
+ public:
+  virtual ~Observer() = default;
+  virtual void OnStart(const std::vector<Column>& columns) = 0;
+  virtual void OnSample(const std::vector<double>& row) = 0;
+  virtual void OnFinish(const RunSummary& summary) = 0;
+};
+
+/// Keeps every sample in memory (tests, small runs, plots).
+class RecordingObserver : public Observer {
+ public:
+  void OnStart(const std::vector<Column>& columns) override { columns_ = columns; }
+  void OnSample(const std::vector<double>& row) override { rows_.push_back(row); }
+  void OnFinish(const RunSummary& summary) override { summary_ = summary; }
+  const std::vector<Column>& columns() const { return columns_; }
+  const std::vector<std::vector<double>>& rows() const { return rows_; }
+  const RunSummary& summary() const { return summary_; }
+  /// Index of the column called `name` (without unit); throws std::out_of_range if absent.
+  int Index(const std::string& name) const;
+  /// The value of column `name` in the last row.
+  double Last(const std::string& name) const { return rows_.back().at(Index(name)); }
+  /// The value of column `name` linearly interpolated at time t.
+  double At(const std::string& name, double t) const;
+
+ private:
+  std::vector<Column> columns_;
+  std::vector<std::vector<double>> rows_;
+  RunSummary summary_;
+};
+
+/// The output columns of a run: time, states, declared outputs, (all variables), energy.
+std::vector<Column> MakeColumns(const CompiledModel& model, bool all_variables);
+
+/// Runs the model. Throws ModelError for a declared output that names no variable and
+/// std::invalid_argument for inconsistent options; solver failures end the run with kFailed.
+RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Observer& observer);
+
+}  // namespace multibond

@@ -1,0 +1,67 @@
+#pragma once
+/// \file
+/// The integrator interface. Every SUNDIALS header is included by the .cc files of this folder
+/// only; callers see this interface and SolverError.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "multibond/core/error.h"
+#include "multibond/core/ode_system.h"
+
+namespace multibond {
+
+enum class Method {
+  kBdf,            ///< CVODE, variable-order BDF, Newton with dense finite-difference Jacobian
+  kAdams,          ///< CVODE, Adams-Moulton, fixed-point iteration
+  kDormandPrince,  ///< ARKODE ERKStep, Dormand-Prince 5(4), adaptive
+  kRk4,            ///< ARKODE ERKStep, classical RK4 Butcher table, fixed step
+};
+
+/// Parses "bdf", "adams", "dopri5"/"dormand-prince", "rk4"; throws std::invalid_argument.
+Method ParseMethod(const std::string& name);
+const char* MethodName(Method m);
+
+struct IntegratorOptions {
+  Method method = Method::kBdf;
+  double rtol = 1e-8;
+  double atol = 1e-10;
+  /// Per-state absolute tolerances (empty = use atol for every state).
+  std::vector<double> atol_per_state;
+  /// Step size for fixed-step methods (required for kRk4; if > 0 with kDormandPrince, fixed step).
+  double fixed_step = 0.0;
+  double max_step = 0.0;        ///< 0 = no limit
+  double initial_step = 0.0;    ///< 0 = solver's choice
+  long max_steps_per_output = 1000000;  ///< between two AdvanceTo calls
+};
+
+struct IntegratorStats {
+  long steps = 0;
+  long rhs_evals = 0;           ///< including those used for finite-difference Jacobians
+  long jac_evals = 0;
+  long linear_setups = 0;
+  long error_test_failures = 0;
+  long nonlinear_failures = 0;
+  double last_step = 0.0;
+};
+
+class Integrator {
+ public:
+  virtual ~Integrator() = default;
+  /// (Re)starts the integration at t0 from x0 (num_states() entries).
+  virtual void Reset(double t0, const double* x0) = 0;
+  /// Integrates to tout and writes x(tout) into x. Throws SolverError (with the time reached and
+  /// the solver's flag) on failure; any exception thrown by the system's CalcDerivatives is
+  /// rethrown here after the solver has returned.
+  virtual void AdvanceTo(double tout, double* x) = 0;
+  virtual double time() const = 0;
+  virtual IntegratorStats stats() const = 0;
+  virtual const IntegratorOptions& options() const = 0;
+};
+
+/// Makes the integrator the options ask for. The system must outlive the integrator.
+/// Throws std::invalid_argument for inconsistent options (e.g. rk4 without a step).
+std::unique_ptr<Integrator> MakeIntegrator(OdeSystem& system, const IntegratorOptions& options);
+
+}  // namespace multibond

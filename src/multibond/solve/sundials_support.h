@@ -1,0 +1,128 @@
+#pragma once
+/// \file
+/// Private to solve/: RAII ownership of SUNDIALS objects and the C callbacks shared by the CVODE
+/// and ARKODE integrators. Not installed API; include only from this folder's .cc files.
+
+#include <cmath>
+#include <cstdlib>
+#include <exception>
+#include <limits>
+#include <memory>
+#include <new>
+#include <string>
+#include <type_traits>
+#include <utility>
+
+#include <nvector/nvector_serial.h>
+#include <sundials/sundials_context.h>
+#include <sundials/sundials_linearsolver.h>
+#include <sundials/sundials_matrix.h>
+#include <sundials/sundials_nvector.h>
+
+#include "multibond/solve/integrator.h"
+
+namespace multibond::sun {
+
+struct ContextDeleter {
+  void operator()(SUNContext ctx) const noexcept { SUNContext_Free(&ctx); }
+};
+struct VectorDeleter {
+  void operator()(N_Vector v) const noexcept { N_VDestroy(v); }
+};
+struct MatrixDeleter {
+  void operator()(SUNMatrix m) const noexcept { SUNMatDestroy(m); }
+};
+struct LinearSolverDeleter {
+  void operator()(SUNLinearSolver ls) const noexcept { SUNLinSolFree(ls); }
+};
+/// For the malloc'd strings of CVodeGetReturnFlagName / ERKStepGetReturnFlagName.
+struct CFreeDeleter {
+  void operator()(char* p) const noexcept { std::free(p); }
+};
+
+using ContextPtr = std::unique_ptr<std::remove_pointer_t<SUNContext>, ContextDeleter>;
+using VectorPtr = std::unique_ptr<std::remove_pointer_t<N_Vector>, VectorDeleter>;
+using MatrixPtr = std::unique_ptr<std::remove_pointer_t<SUNMatrix>, MatrixDeleter>;
+using LinearSolverPtr = std::unique_ptr<std::remove_pointer_t<SUNLinearSolver>, LinearSolverDeleter>;
+using CString = std::unique_ptr<char, CFreeDeleter>;
+
+/// SUNDIALS constructors report failure by returning NULL; the only cause is memory.
+template <typename T>
+T NonNull(T p) {
+  if (p == nullptr) throw std::bad_alloc();
+  return p;
+}
+
+inline ContextPtr MakeContext() {
+  SUNContext ctx = nullptr;
+  if (SUNContext_Create(nullptr, &ctx) != 0) throw std::bad_alloc();
+  return ContextPtr(NonNull(ctx));
+}
+
+inline VectorPtr MakeVector(sunindextype n, SUNContext ctx) {
+  return VectorPtr(NonNull(N_VNew_Serial(n, ctx)));
+}
+
+/// The smallest step worth taking from time t on: a few units in the last place of t; below
+/// it t + h rounds to (almost) t. Near a finite-time singularity the adaptive controllers
+/// shrink h to ~1e-170 and keep "accepting" steps that no longer move t until
+/// max_steps_per_output is exhausted (1e6 steps, seconds); with this hmin they fail at once
+/// ("error test failed with |h| = hmin"). Based on the start of the output interval, not its
+/// end: a stiff initial layer at t ~ 0 legitimately needs steps far below ulp(tout). So the
+/// guard is off (0) on an interval that starts at t = 0. Set anew for every output interval.
+inline double MinUsefulStep(double t) {
+  constexpr double kUlps = 4.0;
+  return kUlps * std::numeric_limits<double>::epsilon() * std::abs(t);
+}
+
+/// What the C callbacks share with the integrator (passed as user_data / eh_data). It must not
+/// move while the solver memory exists, hence the integrators are neither copyable nor movable.
+struct CallbackState {
+  explicit CallbackState(OdeSystem& s) : system(&s) {}
+  OdeSystem* system;
+  std::exception_ptr pending;  ///< thrown by CalcDerivatives; rethrown after the solver returns
+  std::string last_error;      ///< last error message SUNDIALS wanted to print
+  std::string last_warning;    ///< last warning (e.g. "t + h = t on the next step")
+
+  void ClearMessages() noexcept {
+    last_error.clear();
+    last_warning.clear();
+  }
+  /// The most useful recorded message: the error if any, else the last warning.
+  const std::string& message() const { return last_error.empty() ? last_warning : last_error; }
+};
+
+/// The RHS for CVODE and ERKStep. No C++ exception may unwind through SUNDIALS' C frames, so an
+/// exception is parked and -1 (unrecoverable) returned; the integrator rethrows it.
+inline int Rhs(sunrealtype t, N_Vector x, N_Vector xdot, void* user_data) noexcept {
+  auto* state = static_cast<CallbackState*>(user_data);
+  try {
+    state->system->CalcDerivatives(t, N_VGetArrayPointer(x), N_VGetArrayPointer(xdot));
+    return 0;
+  } catch (...) {
+    state->pending = std::current_exception();
+    return -1;
+  }
+}
+
+/// Replaces SUNDIALS' default handler (which prints to stderr): records the message instead.
+/// Signature matches both CVErrHandlerFn and ARKErrHandlerFn.
+inline void RecordMessage(int error_code, const char* /*module*/, const char* /*function*/,
+                          char* msg, void* eh_data) noexcept {
+  auto* state = static_cast<CallbackState*>(eh_data);
+  try {
+    (error_code < 0 ? state->last_error : state->last_warning) = msg != nullptr ? msg : "";
+  } catch (...) {
+    // Out of memory while copying a diagnostic: dropping the text is the only safe option.
+  }
+}
+
+/// Rethrows an exception parked by Rhs, if any.
+inline void RethrowPending(CallbackState& state) {
+  if (state.pending) {
+    std::exception_ptr e = std::exchange(state.pending, nullptr);
+    std::rethrow_exception(e);
+  }
+}
+
+}  // namespace multibond::sun

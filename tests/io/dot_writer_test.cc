@@ -1,0 +1,3 @@
+#include "multibond/io/dot_writer.h"
+#include <gtest/gtest.h>
+TEST(X, Y) {}

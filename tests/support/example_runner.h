@@ -1,0 +1,49 @@
+#pragma once
+// Test helpers: load a shipped example, compile it and run it into memory.
+
+#include <string>
+
+#include "multibond/io/model_loader.h"
+#include "multibond/sim/simulator.h"
+
+namespace multibond::testing {
+
+inline std::string ExamplePath(const std::string& name) { return std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + name; }
+
+/// Loads examples/<name>, compiles it and simulates it with the file's simulation settings,
+/// overridden by `t_end` and `dt` when they are > 0.
+inline RecordingObserver RunExample(const std::string& name, double t_end = 0.0, double dt = 0.0,
+                                    Method method = Method::kBdf) {
+  const LoadedModel lm = LoadModelFile(ExamplePath(name));
+  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+  RunOptions o;
+  o.t_end = t_end > 0 ? t_end : lm.simulation.t_end.value_or(1.0);
+  o.dt = dt > 0 ? dt : lm.simulation.dt.value_or(1e-3);
+  o.integrator.method = method;
+  o.integrator.rtol = lm.simulation.rtol.value_or(1e-10);
+  o.integrator.atol = lm.simulation.atol.value_or(1e-12);
+  RecordingObserver rec;
+  Simulate(*model, o, rec);
+  return rec;
+}
+
+/// The energy balance of a run, measured two ways (see docs/design.md, "energy account"):
+///  - the largest |energy.residual| = |W - dE - D| / |W| over the samples after `from_fraction`
+///    of the run (at the very start W is ~0 and the ratio is 0/0);
+///  - the largest absolute imbalance |W - dE - D| over the whole run, relative to max |W|.
+/// Returns the larger of the two.
+inline double MaxEnergyResidual(const RecordingObserver& rec, double from_fraction = 0.1) {
+  const int res = rec.Index("energy.residual"), w = rec.Index("energy.work");
+  const int k = rec.Index("energy.kinetic"), p = rec.Index("energy.potential"), d = rec.Index("energy.dissipated");
+  const double t0 = rec.rows().front()[0], t1 = rec.rows().back()[0];
+  const double e0 = rec.rows().front()[k] + rec.rows().front()[p];
+  double max_rel = 0.0, max_abs = 0.0, max_work = 0.0;
+  for (const auto& row : rec.rows()) {
+    if (row[0] >= t0 + from_fraction * (t1 - t0)) max_rel = std::max(max_rel, std::abs(row[res]));
+    max_abs = std::max(max_abs, std::abs(row[w] - (row[k] + row[p] - e0) - row[d]));
+    max_work = std::max({max_work, std::abs(row[w]), e0});
+  }
+  return std::max(max_rel, max_work > 0 ? max_abs / max_work : max_abs);
+}
+
+}  // namespace multibond::testing
