@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
+
 namespace multibond {
 namespace {
 
@@ -149,8 +151,11 @@ TEST(EquationsTest, LatexIsEscapedAndAligned) {
     EXPECT_EQ(l.find("*"), std::string::npos) << l;
     EXPECT_EQ(l.find("d("), std::string::npos) << l;
     // Every '_' is an escaped one or a subscript.
-    for (size_t k = 0; k < l.size(); ++k)
-      if (l[k] == '_') EXPECT_TRUE((k > 0 && l[k - 1] == '\\') || (k + 1 < l.size() && l[k + 1] == '{')) << l;
+    for (size_t k = 0; k < l.size(); ++k) {
+      if (l[k] == '_') {
+        EXPECT_TRUE((k > 0 && l[k - 1] == '\\') || (k + 1 < l.size() && l[k + 1] == '{')) << l;
+      }
+    }
   }
   EXPECT_EQ(rows, 2);
   // Rows are separated by \\, the last one is not terminated.
@@ -246,13 +251,13 @@ BondGraph Chain(int n) {
   BondGraph g("chain");
   g.AddI("mass", Param::Scalar(1.0));
   for (int k = 0; k <= n; ++k) {
-    const std::string j = "j" + std::to_string(k), s = "s" + std::to_string(k), c = "c" + std::to_string(k);
+    const std::string j = fmt::format("j{}", k), s = fmt::format("s{}", k), c = fmt::format("c{}", k);
     g.AddJunction(j, ElementKind::kOne);
     g.AddSe(s, Value(1.0));
     g.AddC(c, Param::Scalar(1.0));
     g.Connect(s, j);
     g.Connect(j, c);
-    g.Connect(k == 0 ? "j0" : "j" + std::to_string(k - 1), k == 0 ? "mass" : j);
+    g.Connect(fmt::format("j{}", std::max(k - 1, 0)), k == 0 ? "mass" : j);
   }
   return g;
 }
@@ -271,17 +276,19 @@ TEST(EquationsTest, BigExpressionsAreCutAtJunctionVariables) {
   // Every leaf of the expression appears exactly once over the equation and its intermediates.
   std::string block;
   for (auto it = eq; it != lines.end() && !it->empty(); ++it) block += *it + "\n";
-  for (int k = 0; k <= 100; ++k) EXPECT_EQ(Count(block, " s" + std::to_string(k) + "(t)"), 1) << k << "\n" << block;
-  // The intermediates are defined in evaluation order: each is used above its definition.
-  std::vector<std::string> names;
+  for (int k = 0; k <= 100; ++k) EXPECT_EQ(Count(block, fmt::format("s{}(t)", k)), 1) << k << "\n" << block;
+  // The intermediates are listed in evaluation order (inputs first): in this chain each one is
+  // used by the next, and the last by the equation.
+  std::vector<std::string> names, defs;
   for (auto it = eq + 2; it != lines.end() && it->rfind("    ", 0) == 0; ++it) {
     const std::string name = it->substr(4, it->find(" = ") - 4);
     EXPECT_NE(name.find("->"), std::string::npos) << *it;  // bond-named effort between two 1-junctions
     names.push_back(name);
+    defs.push_back(it->substr(it->find(" = ")));
   }
   ASSERT_GE(names.size(), 1u) << block;
-  for (size_t k = 0; k + 1 < names.size(); ++k)
-    EXPECT_NE(block.find(names[k + 1] + "\n"), std::string::npos) << names[k + 1] << " is not used at a line end\n" << block;
+  for (size_t k = 0; k + 1 < names.size(); ++k) EXPECT_NE(defs[k + 1].find(names[k]), std::string::npos) << block;
+  EXPECT_NE(eq->find(names.back()), std::string::npos) << block;
   // 2 * 101 leaves: 12 paths shown, the rest counted.
   EXPECT_NE(block.find("  path: ... and 190 more\n"), std::string::npos) << block;
   EXPECT_EQ(Count(block, "  path: Se") + Count(block, "  path: C"), 12) << block;

@@ -1,3 +1,323 @@
+// MakeDot and RenderWithGraphviz: bonds as half-arrows with causal strokes, clusters, derivative
+// causality in red, escaping, and that Graphviz accepts what we write.
 #include "multibond/io/dot_writer.h"
+
 #include <gtest/gtest.h>
-TEST(X, Y) {}
+
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+namespace multibond {
+namespace {
+
+namespace fs = std::filesystem;
+
+SourceValue Value(double v) { return SourceValue{{TimeFunction::Constant(v)}}; }
+
+BondGraph MassSpringDamper() {
+  BondGraph g("msd");
+  g.AddSe("force", Value(1.0));
+  g.AddJunction("j", ElementKind::kOne);
+  g.AddI("mass", Param::Scalar(2.0));
+  g.AddC("spring", Param::Scalar(100.0));
+  g.AddR("damper", Param::Scalar(0.5));
+  g.Connect("force", "j");
+  g.Connect("j", "mass");
+  g.Connect("j", "spring");
+  g.Connect("j", "damper");
+  return g;
+}
+
+/// Drive -> 1 j1 (I J1) -> TF gear (ratio 2) -> 1 j2 (I J2): J2 is rigidly tied to J1, so it
+/// ends in derivative causality.
+BondGraph RigidGear() {
+  BondGraph g("rigid gear");
+  g.AddSe("drive", Value(1.0));
+  g.AddJunction("j1", ElementKind::kOne);
+  g.AddI("J1", Param::Scalar(0.1));
+  g.AddTF("gear", Param::Scalar(2.0));
+  g.AddJunction("j2", ElementKind::kOne);
+  g.AddI("J2", Param::Scalar(0.4));
+  g.Connect("drive", "j1");
+  g.Connect("j1", "J1");
+  g.Connect("j1", "gear");
+  g.Connect("gear", "j2");
+  g.Connect("j2", "J2");
+  return g;
+}
+
+struct Analysed {
+  Structure structure;
+  CausalAssignment causality;
+};
+
+Analysed Analyse(const BondGraph& g) {
+  DiagnosticSink sink;
+  Analysed a;
+  a.structure = AnalyzeStructure(g, "", sink);
+  EXPECT_FALSE(sink.has_errors());
+  a.causality = AssignCausality(g, a.structure);
+  return a;
+}
+
+/// The edge statements ("e0 -> e1 [...]"), in order.
+std::vector<std::string> Edges(const std::string& dot) {
+  std::vector<std::string> out;
+  static const std::regex edge(R"(^\s*e\d+ -> e\d+ \[.*\];$)");
+  std::istringstream in(dot);
+  for (std::string line; std::getline(in, line);)
+    if (std::regex_match(line, edge)) out.push_back(line);
+  return out;
+}
+
+/// The statement of element `index`'s node.
+std::string NodeLine(const std::string& dot, int index) {
+  std::istringstream in(dot);
+  const std::string head = fmt::format("e{} [", index);
+  for (std::string line; std::getline(in, line);) {
+    const auto at = line.find_first_not_of(' ');
+    if (at != std::string::npos && line.compare(at, head.size(), head) == 0) return line;
+  }
+  return "";
+}
+
+/// A fresh directory under the temporary directory, removed at the end of the test.
+class TempDir {
+ public:
+  TempDir() {
+    std::string templ = (fs::temp_directory_path() / "multibond-dot-test-XXXXXX").string();
+    path_ = mkdtemp(templ.data());
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+std::string ReadFile(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// Writes `dot` and renders it to SVG; returns the SVG text ("" on failure, with a test failure).
+std::string RenderSvg(const std::string& dot, const TempDir& dir, const std::string& stem = "graph") {
+  const fs::path dot_path = dir.path() / (stem + ".dot"), svg_path = dir.path() / (stem + ".svg");
+  std::ofstream(dot_path) << dot;
+  std::string error;
+  EXPECT_TRUE(RenderWithGraphviz(dot_path.string(), svg_path.string(), "svg", &error)) << error << "\n" << dot;
+  if (!fs::exists(svg_path)) return "";
+  return ReadFile(svg_path);
+}
+
+TEST(DotWriterTest, OneEdgePerBondWithStrokes) {
+  const BondGraph g = MassSpringDamper();
+  const Analysed a = Analyse(g);
+  const std::string dot = MakeDot(g, &a.structure, &a.causality);
+  EXPECT_EQ(dot.rfind("digraph \"msd\" {", 0), 0u) << dot;
+  const std::vector<std::string> edges = Edges(dot);
+  ASSERT_EQ(static_cast<int>(edges.size()), g.num_bonds()) << dot;
+  for (int b = 0; b < g.num_bonds(); ++b) {
+    const std::string& e = edges[b];
+    EXPECT_EQ(e.find(fmt::format("e{} -> e{} ", g.bond(b).from, g.bond(b).to)), e.find_first_not_of(' ')) << e;
+    EXPECT_NE(e.find("tee"), std::string::npos) << e;
+    EXPECT_NE(e.find("lvee"), std::string::npos) << e;
+    // The stroke at the head is drawn with the half-arrow, at the tail on its own.
+    if (a.causality.stroke_at_head[b]) {
+      EXPECT_NE(e.find("arrowhead=teelvee"), std::string::npos) << e;
+      EXPECT_EQ(e.find("arrowtail"), std::string::npos) << e;
+    } else {
+      EXPECT_NE(e.find("dir=both"), std::string::npos) << e;
+      EXPECT_NE(e.find("arrowtail=tee"), std::string::npos) << e;
+    }
+    // Default bond names are not labels, and scalar bonds have no dimension label.
+    EXPECT_EQ(e.find("label="), std::string::npos) << e;
+  }
+  // Source -> junction: the source imposes the effort (stroke at the junction, the head).
+  EXPECT_NE(edges[0].find("arrowhead=teelvee"), std::string::npos);
+  // The C imposes its effort on the junction: the stroke is at the tail (j).
+  EXPECT_NE(edges[2].find("arrowtail=tee"), std::string::npos);
+  // Plain-text nodes, labelled by kind and name; junctions with the name in small type.
+  EXPECT_NE(dot.find("shape=plaintext"), std::string::npos);
+  EXPECT_NE(NodeLine(dot, 2).find("label=\"I: mass\""), std::string::npos) << dot;
+  EXPECT_NE(NodeLine(dot, 1).find("label=<1<BR/><FONT POINT-SIZE=\"8\">j</FONT>>"), std::string::npos) << dot;
+  EXPECT_EQ(dot.find("red"), std::string::npos);
+  EXPECT_EQ(dot.find("cluster"), std::string::npos);
+}
+
+TEST(DotWriterTest, WithoutCausalityOrStructure) {
+  const BondGraph g = MassSpringDamper();
+  const std::string dot = MakeDot(g, nullptr, nullptr);
+  const std::vector<std::string> edges = Edges(dot);
+  ASSERT_EQ(static_cast<int>(edges.size()), g.num_bonds()) << dot;
+  EXPECT_EQ(dot.find("tee"), std::string::npos) << dot;
+  for (const std::string& e : edges) EXPECT_NE(e.find("arrowhead=lvee"), std::string::npos) << e;
+}
+
+TEST(DotWriterTest, DerivativeCausalityIsRed) {
+  const BondGraph g = RigidGear();
+  const Analysed a = Analyse(g);
+  ASSERT_EQ(a.causality.derivative, std::vector<int>{g.Find("J2")});
+  const std::string dot = MakeDot(g, &a.structure, &a.causality);
+  const std::string j2 = NodeLine(dot, g.Find("J2"));
+  EXPECT_NE(j2.find("color=red"), std::string::npos) << dot;
+  EXPECT_NE(j2.find("tooltip=\"derivative causality at I 'J2'"), std::string::npos) << j2;
+  EXPECT_EQ(NodeLine(dot, g.Find("J1")).find("red"), std::string::npos) << dot;
+  const std::vector<std::string> edges = Edges(dot);
+  ASSERT_EQ(static_cast<int>(edges.size()), g.num_bonds());
+  for (const std::string& e : edges) EXPECT_NE(e.find("tee"), std::string::npos) << e;
+
+  TempDir dir;
+  const std::string svg = RenderSvg(dot, dir);
+  EXPECT_NE(svg.find("<svg"), std::string::npos) << svg.substr(0, 200);
+  EXPECT_NE(svg.find("I: J2"), std::string::npos);
+}
+
+TEST(DotWriterTest, ClustersByDottedPrefix) {
+  BondGraph g("two bodies");
+  g.AddSe("drive", Value(1.0));
+  g.AddJunction("A.w", ElementKind::kOne);
+  g.AddI("A.J", Param::Scalar(1.0));
+  g.AddJunction("B.w", ElementKind::kOne);
+  g.AddI("B.J", Param::Scalar(1.0));
+  g.AddC("B.arm.k", Param::Scalar(1.0));
+  g.AddR("B.arm.c", Param::Scalar(1.0));
+  g.AddJunction("link", ElementKind::kZero);
+  g.AddC("solo.k", Param::Scalar(1.0));  // a prefix of its own: no cluster
+  g.Connect("drive", "A.w");
+  g.Connect("A.w", "A.J");
+  g.Connect("A.w", "link");
+  g.Connect("link", "B.w");
+  g.Connect("link", "solo.k");
+  g.Connect("B.w", "B.J");
+  g.Connect("B.w", "B.arm.k");
+  g.Connect("B.w", "B.arm.c");
+  const Analysed a = Analyse(g);
+  const std::string dot = MakeDot(g, &a.structure, &a.causality);
+  EXPECT_NE(dot.find("subgraph cluster_A {"), std::string::npos) << dot;
+  EXPECT_NE(dot.find("subgraph cluster_B {"), std::string::npos) << dot;
+  EXPECT_NE(dot.find("subgraph \"cluster_B.arm\" {"), std::string::npos) << dot;
+  EXPECT_EQ(dot.find("cluster_solo"), std::string::npos) << dot;
+  // A.J is inside cluster A; B.arm is nested in B.
+  const size_t a_open = dot.find("subgraph cluster_A {"), b_open = dot.find("subgraph cluster_B {");
+  const size_t arm_open = dot.find("subgraph \"cluster_B.arm\" {");
+  EXPECT_LT(a_open, dot.find("label=\"I: A.J\""));
+  EXPECT_LT(b_open, arm_open);
+  EXPECT_LT(arm_open, dot.find("label=\"C: B.arm.k\""));
+  EXPECT_EQ(static_cast<int>(Edges(dot).size()), g.num_bonds());
+
+  DotOptions flat;
+  flat.group_by_prefix = false;
+  EXPECT_EQ(MakeDot(g, &a.structure, &a.causality, flat).find("cluster"), std::string::npos);
+
+  TempDir dir;
+  EXPECT_NE(RenderSvg(dot, dir).find("<svg"), std::string::npos);
+}
+
+TEST(DotWriterTest, LabelsShowDimensionAndGivenNames) {
+  BondGraph g("spatial");
+  g.AddSe("torque", Value(1.0), 3);
+  g.AddJunction("w", ElementKind::kOne, 3);
+  g.AddI("J", Param::Scalar(1.0), 3);
+  g.AddR("b", Param::Scalar(0.1), 3);
+  g.Connect("torque", "w");
+  g.Connect("w", "J", 0, "spin");
+  g.Connect("b", "w");
+  const Analysed a = Analyse(g);
+  const std::vector<std::string> edges = Edges(MakeDot(g, &a.structure, &a.causality));
+  ASSERT_EQ(edges.size(), 3u);
+  EXPECT_NE(edges[0].find("label=\"3\""), std::string::npos) << edges[0];
+  EXPECT_NE(edges[1].find("label=\"spin\\n3\""), std::string::npos) << edges[1];
+  EXPECT_EQ(edges[2].find("b->w\\n"), std::string::npos) << edges[2];
+  // Dimensions are unknown without the structure.
+  const std::vector<std::string> bare = Edges(MakeDot(g, nullptr, nullptr));
+  EXPECT_EQ(bare[0].find("label="), std::string::npos) << bare[0];
+  EXPECT_NE(bare[1].find("label=\"spin\""), std::string::npos) << bare[1];
+}
+
+TEST(DotWriterTest, EscapesNames) {
+  BondGraph g("say \"hi\"");
+  g.AddSe("src \"1\"", Value(1.0));
+  g.AddJunction("a<b>&c", ElementKind::kOne);
+  g.AddI("back\\slash", Param::Scalar(1.0));
+  g.Connect("src \"1\"", "a<b>&c", 0, "the \"bond\"");
+  g.Connect("a<b>&c", "back\\slash");
+  const Analysed a = Analyse(g);
+  const std::string dot = MakeDot(g, &a.structure, &a.causality);
+  EXPECT_NE(dot.find("digraph \"say \\\"hi\\\"\""), std::string::npos) << dot;
+  EXPECT_NE(dot.find("label=\"Se: src \\\"1\\\"\""), std::string::npos) << dot;
+  EXPECT_NE(dot.find("label=\"I: back\\\\slash\""), std::string::npos) << dot;
+  EXPECT_NE(dot.find("a&lt;b&gt;&amp;c"), std::string::npos) << dot;
+  EXPECT_NE(dot.find("label=\"the \\\"bond\\\"\""), std::string::npos) << dot;
+  TempDir dir;
+  const std::string svg = RenderSvg(dot, dir);
+  EXPECT_NE(svg.find("<svg"), std::string::npos);
+  EXPECT_NE(svg.find("back\\slash"), std::string::npos);
+}
+
+TEST(DotWriterTest, Deterministic) {
+  const BondGraph g = RigidGear();
+  const Analysed a = Analyse(g);
+  const Analysed b = Analyse(g);
+  EXPECT_EQ(MakeDot(g, &a.structure, &a.causality), MakeDot(g, &b.structure, &b.causality));
+}
+
+TEST(DotWriterTest, RenderSvgAndPng) {
+  const BondGraph g = MassSpringDamper();
+  const Analysed a = Analyse(g);
+  TempDir dir;
+  // A path with a space and a quote goes through untouched (no shell).
+  const fs::path dot_path = dir.path() / "my \"model\".dot";
+  std::ofstream(dot_path) << MakeDot(g, &a.structure, &a.causality);
+  const fs::path svg = dir.path() / "out file.svg", png = dir.path() / "out.png";
+  std::string error;
+  ASSERT_TRUE(RenderWithGraphviz(dot_path.string(), svg.string(), "svg", &error)) << error;
+  const std::string text = ReadFile(svg);
+  EXPECT_TRUE(text.rfind("<?xml", 0) == 0 || text.find("<svg") != std::string::npos) << text.substr(0, 200);
+  ASSERT_TRUE(RenderWithGraphviz(dot_path.string(), png.string(), "png", &error)) << error;
+  EXPECT_EQ(ReadFile(png).substr(1, 3), "PNG");
+}
+
+TEST(DotWriterTest, RenderReportsFailures) {
+  TempDir dir;
+  std::string error;
+  EXPECT_FALSE(RenderWithGraphviz((dir.path() / "missing.dot").string(), (dir.path() / "x.svg").string(), "svg", &error));
+  EXPECT_NE(error.find("failed"), std::string::npos) << error;
+
+  const fs::path bad = dir.path() / "bad.dot";
+  std::ofstream(bad) << "digraph { this is not dot ";
+  error.clear();
+  EXPECT_FALSE(RenderWithGraphviz(bad.string(), (dir.path() / "bad.svg").string(), "svg", &error));
+  EXPECT_NE(error.find("syntax error"), std::string::npos) << error;
+
+  error.clear();
+  EXPECT_FALSE(RenderWithGraphviz(bad.string(), (dir.path() / "x.svg").string(), "svg; rm -rf /", &error));
+  EXPECT_NE(error.find("invalid Graphviz output format"), std::string::npos) << error;
+
+  // No `dot` on the PATH.
+  const char* old = std::getenv("PATH");
+  const std::string saved = old ? old : "";
+  setenv("PATH", dir.path().c_str(), 1);
+  error.clear();
+  const bool ok = RenderWithGraphviz(bad.string(), (dir.path() / "x.svg").string(), "svg", &error);
+  setenv("PATH", saved.c_str(), 1);
+  EXPECT_FALSE(ok);
+  EXPECT_NE(error.find("Graphviz is not installed"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace multibond

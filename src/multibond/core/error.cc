@@ -46,6 +46,12 @@ void DiagnosticSink::Error(SourceLocation where, std::string element, std::strin
   diagnostics_.push_back(std::move(d));
 }
 
+void DiagnosticSink::Error(std::string code, SourceLocation where, std::string element, std::string message,
+                           std::string hint) {
+  Error(std::move(where), std::move(element), std::move(message), std::move(hint));
+  diagnostics_.back().code = std::move(code);
+}
+
 bool DiagnosticSink::has_errors() const {
   for (const auto& d : diagnostics_)
     if (d.severity == Diagnostic::Severity::kError) return true;

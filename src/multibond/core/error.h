@@ -29,6 +29,9 @@ struct Diagnostic {
   std::string message;  ///< what is wrong
   std::string hint;     ///< how to fix it ("" if none)
   std::vector<std::string> details;  ///< extra lines (causal paths, loop members)
+  /// A stable identifier of the kind of problem (e.g. "param.range", "causality.derivative");
+  /// tests and tools match on it rather than on the wording.
+  std::string code;
   std::string ToString() const;
 };
 
@@ -47,6 +50,8 @@ class ModelError : public std::runtime_error {
 class DiagnosticSink {
  public:
   void Error(SourceLocation where, std::string element, std::string message, std::string hint = {});
+  /// The same with a diagnostic code.
+  void Error(std::string code, SourceLocation where, std::string element, std::string message, std::string hint = {});
   void Add(Diagnostic d) { diagnostics_.push_back(std::move(d)); }
   bool has_errors() const;
   const std::vector<Diagnostic>& diagnostics() const { return diagnostics_; }

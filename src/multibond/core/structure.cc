@@ -102,7 +102,7 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
   ValueUnion<std::string> domains(nb);
 
   auto dim_conflict = [&](const Element& e, const std::string& what) {
-    sink.Error(e.where, e.name, "bond dimension mismatch: " + what,
+    sink.Error("structure.dimension", e.where, e.name, "bond dimension mismatch: " + what,
                "check the sizes of the matrices and vectors given for the connected elements");
   };
 
@@ -114,7 +114,7 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
     const int n = static_cast<int>(e.bonds.size());
     // Ports.
     if (n == 0) {
-      sink.Error(e.where, e.name, fmt::format("dangling element: {} '{}' has no bond", KindName(e.kind), e.name),
+      sink.Error("structure.dangling", e.where, e.name, fmt::format("dangling element: {} '{}' has no bond", KindName(e.kind), e.name),
                  "connect it with a bond, or remove it");
       continue;
     }
@@ -189,7 +189,7 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
     const int n = s.dim_of(g, i);
     const Eigen::MatrixXd* m = e.param.is_scalar ? nullptr : &e.param.matrix;
     const double v = e.param.scalar;
-    auto bad = [&](const std::string& what, const std::string& hint) { sink.Error(e.where, e.name, what, hint); };
+    auto bad = [&](const std::string& what, const std::string& hint) { sink.Error("param.range", e.where, e.name, what, hint); };
     if ((m && !AllFinite(*m)) || (!m && !std::isfinite(v))) {
       bad("parameter is not a finite number", "give a finite value");
       continue;

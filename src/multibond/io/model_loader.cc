@@ -1,5 +1,7 @@
 #include "multibond/io/model_loader.h"
 
+#include "multibond/core/structure.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -50,6 +52,14 @@ class Loader {
     ReadScope(root, "", Env{}, 0);
     if (root["outputs"]) ReadOutputs(root["outputs"]);
     if (root["simulation"]) ReadSimulation(root["simulation"], out.simulation);
+    if (sink_.has_errors()) {
+      // Report the parameter problems of what could be read too, so that one pass shows them all.
+      // (Structural problems of a partly read graph would mostly be echoes of the errors above.)
+      DiagnosticSink structural;
+      AnalyzeStructure(graph_, out.compile.default_domain, structural);
+      for (const auto& d : structural.diagnostics())
+        if (d.code == "param.range") sink_.Add(d);
+    }
     sink_.ThrowIfErrors();
     out.graph = std::move(graph_);
     return out;
@@ -114,6 +124,8 @@ class Loader {
       if (it == env.end()) return fail(fmt::format("unknown parameter '{}'", s), "declare it under the submodel's 'parameters'");
       return it->second;
     }
+    if (s == ".nan" || s == ".NaN" || s == ".NAN" || s == ".inf" || s == ".Inf" || s == "-.inf" || s == "+.inf" || s == "-.Inf")
+      return fail(fmt::format("'{}' is not a finite number", s), "NaN and infinities are not allowed in a model");
     const char* begin = s.c_str();
     char* end = nullptr;
     const double v = std::strtod(begin, &end);
@@ -474,7 +486,8 @@ class Loader {
     if (dot != std::string::npos) {
       const std::string inst = full.substr(0, dot);
       const auto it = instance_ports_.find(inst);
-      if (it != instance_ports_.end() && !it->second.count(full.substr(dot + 1)) && graph_.Find(full) >= 0) {
+      const bool inside = prefix == inst || prefix.rfind(inst + ".", 0) == 0;  // the instance's own bonds
+      if (!inside && it != instance_ports_.end() && !it->second.count(full.substr(dot + 1)) && graph_.Find(full) >= 0) {
         std::string ports;
         for (const auto& p : it->second) ports += (ports.empty() ? "" : ", ") + p;
         sink_.Error(Loc(at), full, fmt::format("'{}' is not a port of submodel instance '{}'", full.substr(dot + 1), inst),

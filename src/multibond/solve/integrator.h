@@ -14,7 +14,7 @@ namespace multibond {
 
 enum class Method {
   kBdf,            ///< CVODE, variable-order BDF, Newton with dense finite-difference Jacobian
-  kAdams,          ///< CVODE, Adams-Moulton, fixed-point iteration
+  kAdams,          ///< CVODE, Adams-Moulton, Newton with dense finite-difference Jacobian (see adams note in cvode_integrator.cc)
   kDormandPrince,  ///< ARKODE ERKStep, Dormand-Prince 5(4), adaptive
   kRk4,            ///< ARKODE ERKStep, classical RK4 Butcher table, fixed step
 };

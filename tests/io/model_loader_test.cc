@@ -1,0 +1,256 @@
+// The model loader: what a good file becomes, and what every kind of bad input is told.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "multibond/io/model_loader.h"
+#include "multibond/sim/simulator.h"
+
+namespace multibond {
+namespace {
+
+using ::testing::HasSubstr;
+
+/// Loads `yaml` expecting a ModelError; returns its diagnostics.
+std::vector<Diagnostic> Errors(const std::string& yaml) {
+  try {
+    LoadedModel lm = LoadModelString(yaml, "m.yaml");
+    CompiledModel::Compile(lm.graph, lm.compile);
+  } catch (const ModelError& e) {
+    return e.diagnostics();
+  }
+  ADD_FAILURE() << "expected a ModelError for:\n" << yaml;
+  return {};
+}
+
+const char* kMsd = R"(model: msd
+domain: translation
+elements:
+  force:  {type: Se, effort: {step: {value: 1.0, at: 0}}}
+  mass:   {type: I, inertia: 1.0}
+  spring: {type: C, stiffness: 100.0}
+  damper: {type: R, resistance: 2.0}
+  j:      {type: "1"}
+bonds:
+  - force -> j
+  - [j, mass]
+  - {from: j, to: spring}
+  - j -> damper
+)";
+
+TEST(ModelLoader, ReadsElementsBondsAndLocations) {
+  const LoadedModel lm = LoadModelString(kMsd, "m.yaml");
+  const BondGraph& g = lm.graph;
+  EXPECT_EQ(g.name(), "msd");
+  EXPECT_EQ(g.num_elements(), 5);
+  EXPECT_EQ(g.num_bonds(), 4);
+  EXPECT_EQ(lm.compile.default_domain, "translation");
+  const Element& spring = g.element(g.Find("spring"));
+  EXPECT_EQ(spring.kind, ElementKind::kC);
+  EXPECT_DOUBLE_EQ(spring.param.scalar, 100.0);
+  EXPECT_EQ(spring.where.file, "m.yaml");
+  EXPECT_EQ(spring.where.line, 6);
+  EXPECT_EQ(spring.where.column, 3);
+  EXPECT_EQ(g.bond(1).from, g.Find("j"));
+  EXPECT_EQ(g.bond(1).to, g.Find("mass"));
+}
+
+TEST(ModelLoader, YamlSyntaxErrorHasLineAndColumn) {
+  const auto ds = Errors("elements:\n  a: {type: I, inertia: [1, 2}\n");
+  ASSERT_EQ(ds.size(), 1u);
+  EXPECT_THAT(ds[0].message, HasSubstr("YAML syntax error"));
+  EXPECT_EQ(ds[0].where.line, 2);
+  EXPECT_GT(ds[0].where.column, 0);
+}
+
+TEST(ModelLoader, UnknownKeySuggestsTheClosestOne) {
+  const auto ds = Errors(R"(elements:
+  m: {type: I, inertai: 1.0}
+  s: {type: Se, effort: 1}
+bonds: [s -> m]
+)");
+  ASSERT_GE(ds.size(), 1u);
+  bool found = false;
+  for (const auto& d : ds) {
+    if (d.message.find("unknown key 'inertai'") == std::string::npos) continue;
+    found = true;
+    EXPECT_EQ(d.element, "m");
+    EXPECT_EQ(d.where.line, 2);
+    EXPECT_EQ(d.hint, "did you mean 'inertia'?");
+  }
+  EXPECT_TRUE(found);
+}
+
+TEST(ModelLoader, CollectsEveryErrorNotJustTheFirst) {
+  const auto ds = Errors(R"(elements:
+  m: {type: I, inertia: -1.0}
+  k: {type: C, stiffness: .nan}
+  r: {type: R, resistance: abc}
+  x: {type: Q}
+  s: {type: Se}
+bonds: [s -> m, s -> nowhere]
+)");
+  std::string all;
+  for (const auto& d : ds) all += d.ToString() + "\n";
+  EXPECT_THAT(all, HasSubstr("m.yaml:3:"));
+  EXPECT_THAT(all, HasSubstr("'.nan' is not a finite number"));
+  EXPECT_THAT(all, HasSubstr("expected a number, got 'abc'"));
+  EXPECT_THAT(all, HasSubstr("unknown element type 'Q'"));
+  EXPECT_THAT(all, HasSubstr("Se needs 'effort'"));
+  EXPECT_THAT(all, HasSubstr("nowhere: bond refers to an element that does not exist"));
+  EXPECT_GE(ds.size(), 6u);
+}
+
+TEST(ModelLoader, NegativeMassAndIndefiniteMatrixAreRejectedWithElementName) {
+  auto ds = Errors(R"(elements:
+  s: {type: Se, effort: 1}
+  m: {type: I, inertia: -2}
+bonds: [s -> m]
+)");
+  ASSERT_EQ(ds.size(), 1u);
+  EXPECT_EQ(ds[0].element, "m");
+  EXPECT_THAT(ds[0].message, HasSubstr("inertia must be > 0 (got -2)"));
+  EXPECT_EQ(ds[0].where.line, 3);
+  ds = Errors(R"(elements:
+  s: {type: Se, effort: [1, 1]}
+  m: {type: I, inertia: [[1, 2], [2, 1]]}
+bonds: [s -> m]
+)");
+  ASSERT_EQ(ds.size(), 1u);
+  EXPECT_THAT(ds[0].message, HasSubstr("symmetric positive definite"));
+}
+
+TEST(ModelLoader, DuplicateNamesPointAtBothPlaces) {
+  const auto ds = Errors(R"(elements:
+  m: {type: I, inertia: 1}
+  m: {type: C, stiffness: 1}
+bonds: []
+)");
+  ASSERT_GE(ds.size(), 1u);
+  EXPECT_THAT(ds[0].message, HasSubstr("duplicate element name"));
+  EXPECT_EQ(ds[0].where.line, 3);
+  ASSERT_EQ(ds[0].details.size(), 1u);
+  EXPECT_THAT(ds[0].details[0], HasSubstr("m.yaml:2:3"));
+}
+
+TEST(ModelLoader, DanglingElementAndDimensionMismatch) {
+  auto ds = Errors(R"(elements:
+  s: {type: Se, effort: 1}
+  m: {type: I, inertia: 1}
+  lonely: {type: C, stiffness: 1}
+bonds: [s -> m]
+)");
+  ASSERT_EQ(ds.size(), 1u);
+  EXPECT_EQ(ds[0].element, "lonely");
+  EXPECT_THAT(ds[0].message, HasSubstr("dangling"));
+  ds = Errors(R"(elements:
+  s: {type: Se, effort: [1, 2, 3]}
+  j: {type: "1"}
+  m: {type: I, inertia: [[1, 0], [0, 1]]}
+bonds: [s -> j, j -> m]
+)");
+  ASSERT_GE(ds.size(), 1u);
+  EXPECT_THAT(ds[0].message, HasSubstr("bond dimension mismatch"));
+}
+
+TEST(ModelLoader, TimeFunctions) {
+  const LoadedModel lm = LoadModelString(R"(elements:
+  a: {type: Se, effort: {ramp: {slope: 2, start: 1}}}
+  b: {type: Se, effort: {sine: {amplitude: 2, frequency: 0.25}}}
+  c: {type: Se, effort: {table: [[0, 0], [1, 10], [3, 30]]}}
+  d: {type: Se, effort: {step: {value: 5, at: 2, before: 1}}}
+  j: {type: "0"}
+  k: {type: C, stiffness: 1}
+bonds: [a -> j, b -> j, c -> j, d -> j, j -> k]
+)");
+  auto fn = [&](const char* n) { return lm.graph.element(lm.graph.Find(n)).source.components.at(0); };
+  EXPECT_DOUBLE_EQ(fn("a")(0.5), 0.0);
+  EXPECT_DOUBLE_EQ(fn("a")(3.0), 4.0);
+  EXPECT_NEAR(fn("b")(1.0), 2.0, 1e-15);  // sin(pi/2)
+  EXPECT_DOUBLE_EQ(fn("c")(2.0), 20.0);
+  EXPECT_DOUBLE_EQ(fn("c")(9.0), 30.0);
+  EXPECT_DOUBLE_EQ(fn("d")(1.999), 1.0);
+  EXPECT_DOUBLE_EQ(fn("d")(2.0), 5.0);
+}
+
+TEST(ModelLoader, SubmodelsExpandWithParametersAndPorts) {
+  // Two masses, each a submodel instance with its own parameters, joined by a spring.
+  const char* yaml = R"(model: two_carts
+domain: translation
+submodels:
+  cart:
+    parameters: {m: 1.0, c: 0.0}
+    ports: [v]
+    elements:
+      v: {type: "1"}
+      mass: {type: I, inertia: $m}
+      friction: {type: R, resistance: $c}
+    bonds: [v -> mass, v -> friction]
+elements:
+  push: {type: Se, effort: {step: 1}}
+  a: {type: cart, m: 2.0, c: 0.5}
+  b: {type: cart, m: 3.0}
+  link: {type: "0"}
+  spring: {type: C, stiffness: 50}
+bonds:
+  - push -> a.v
+  - a.v -> link
+  - link -> b.v
+  - link -> spring
+simulation: {t_end: 200}
+)";
+  const LoadedModel lm = LoadModelString(yaml);
+  const BondGraph& g = lm.graph;
+  ASSERT_GE(g.Find("a.mass"), 0);
+  ASSERT_GE(g.Find("b.friction"), 0);
+  EXPECT_DOUBLE_EQ(g.element(g.Find("a.mass")).param.scalar, 2.0);
+  EXPECT_DOUBLE_EQ(g.element(g.Find("b.mass")).param.scalar, 3.0);
+  EXPECT_DOUBLE_EQ(g.element(g.Find("b.friction")).param.scalar, 0.0);  // the default
+  // Physics: a constant push against friction 0.5 on cart a: terminal speed 1 / 0.5 = 2 m/s for both.
+  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+  RunOptions o;
+  o.t_end = 200;
+  o.dt = 0.5;
+  RecordingObserver rec;
+  Simulate(*model, o, rec);
+  EXPECT_NEAR(rec.Last("a.mass.p") / 2.0, 2.0, 1e-5);
+  EXPECT_NEAR(rec.Last("b.mass.p") / 3.0, 2.0, 1e-5);
+
+  // Reaching inside an instance through something that is not a port is an error.
+  std::string bad = yaml;
+  bad.replace(bad.find("  - link -> spring"), 18, "  - b.mass -> spring");
+  const auto ds = Errors(bad);
+  ASSERT_GE(ds.size(), 1u);
+  EXPECT_THAT(ds[0].message, HasSubstr("'mass' is not a port of submodel instance 'b'"));
+  EXPECT_THAT(ds[0].hint, HasSubstr("v"));
+}
+
+TEST(ModelLoader, UnknownParameterInSubmodel) {
+  const auto ds = Errors(R"(submodels:
+  s:
+    elements: {k: {type: C, stiffness: $kk}}
+    bonds: []
+elements:
+  x: {type: s}
+bonds: []
+)");
+  ASSERT_GE(ds.size(), 1u);
+  EXPECT_THAT(ds[0].message, HasSubstr("unknown parameter '$kk'"));
+}
+
+TEST(ModelLoader, MissingFileIsAModelError) {
+  try {
+    LoadModelFile("/nonexistent/model.yaml");
+    FAIL();
+  } catch (const ModelError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("cannot open the model file"));
+  }
+}
+
+TEST(DidYouMean, FindsCloseWords) {
+  EXPECT_EQ(DidYouMean("stifness", {"stiffness", "compliance"}), "stiffness");
+  EXPECT_EQ(DidYouMean("xyz", {"stiffness", "compliance"}), "");
+}
+
+}  // namespace
+}  // namespace multibond

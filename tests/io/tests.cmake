@@ -1,0 +1,2 @@
+multibond_test(io/model_loader_test.cc LIBS multibond::io LABELS unit)
+multibond_test(io/dot_writer_test.cc LIBS multibond::io LABELS unit)
