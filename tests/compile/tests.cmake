@@ -1,1 +1,2 @@
 multibond_test(compile/equations_test.cc LIBS multibond::compile LABELS unit)
+multibond_test(compile/compiled_model_test.cc LIBS multibond::sim LABELS unit)

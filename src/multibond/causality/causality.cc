@@ -55,6 +55,7 @@ class Scap {
       const Bond& bond = g_.bond(b);
       Diagnostic d;
       d.severity = Diagnostic::Severity::kWarning;
+      d.code = "causality.arbitrary";
       d.where = bond.where;
       d.element = bond.name;
       d.message = "causality of this bond is not fixed by any source, storage or resistor; chosen arbitrarily";
@@ -137,6 +138,7 @@ class Scap {
       Diagnostic d;
       d.where = e.where;
       d.element = e.name;
+      d.code = "causality.undetermined";
       d.message = fmt::format("causal conflict: no bond of {} determines its common {}", Describe(g_, j),
                               e.kind == ElementKind::kZero ? "effort" : "flow");
       for (int b : e.bonds) d.details.push_back("path: " + FormatPath(g_, r_.PathTo(b)));
@@ -163,6 +165,7 @@ class Scap {
         Diagnostic d;
         d.where = e.where;
         d.element = e.name;
+        d.code = "causality.conflict";
         d.message = fmt::format("causal conflict at {}: both ports are given the {}", Describe(g_, i), a ? "effort" : "flow");
         d.details.push_back("port 1: " + FormatPath(g_, r_.PathTo(in)));
         d.details.push_back("port 2: " + FormatPath(g_, r_.PathTo(out)));
@@ -178,12 +181,16 @@ class Scap {
     if (why.why == CausalAssignment::Why::kPropagated) return;
     const Bond& bond = g_.bond(b);
     if (!reported_bonds_.insert(b)) return;
+    const std::vector<int> other = r_.PathTo(b);
+    const ElementKind k = g_.element(why.element).kind;
+    const char* var = k == ElementKind::kSe ? "effort" : k == ElementKind::kSf ? "flow" : "causality";
     Diagnostic d;
     d.where = g_.element(why.element).where;
     d.element = g_.element(why.element).name;
-    d.message = fmt::format("causal conflict: {} needs to set the causality of bond '{}', already fixed", Describe(g_, why.element), bond.name);
-    d.details.push_back("fixed by: " + FormatPath(g_, r_.PathTo(b)));
-    d.hint = "two sources (or a source and a constraint) impose the same variable; remove one or put a compliant element between them";
+    d.code = "causality.conflict";
+    d.message = fmt::format("causal conflict: {} and {} both impose the {} on {}", Describe(g_, why.element),
+                            Describe(g_, other.front()), var, Describe(g_, g_.Other(b, why.element)));
+    d.details.push_back("already imposed by: " + FormatPath(g_, other));
     r_.diagnostics.push_back(d);
   }
 
@@ -193,6 +200,7 @@ class Scap {
     Diagnostic d;
     d.where = e.where;
     d.element = e.name;
+    d.code = "causality.conflict";
     d.message = fmt::format("causal conflict at {}: {} bonds impose its common {}", Describe(g_, j), strong.size(), zero ? "effort" : "flow");
     for (int b : strong) d.details.push_back("path: " + FormatPath(g_, r_.PathTo(b)));
     d.hint = zero ? "two effort sources (or an effort source and a C) on one 0-junction: put an R or a C between them"
@@ -213,6 +221,7 @@ class Scap {
     Diagnostic d;
     d.where = e.where;
     d.element = e.name;
+    d.code = "causality.derivative";
     const char* var = e.kind == ElementKind::kI ? "flow" : "effort";
     if (via >= 0)
       d.message = fmt::format("derivative causality at {}: its {} is fixed by {} from {}", Describe(g_, i), var,

@@ -312,7 +312,8 @@ void CompiledModel::Build() {
           if (!lu.isInvertible())
             throw ModelError(Diagnostic{Diagnostic::Severity::kError, e.where, e.name,
                                         "resistor in conductance causality (effort in, flow out) has a singular resistance",
-                                        "give it a non-zero resistance, or change the structure so that its flow is imposed", {}});
+                                        "give it a non-zero resistance, or change the structure so that its flow is imposed", {},
+                                        "param.singular"});
           emit_linear(i, flow_class_[b], effort_class_[b], sigma * Eigen::MatrixXd(lu.inverse()), "1/" + e.name + ".R");
         }
         break;
@@ -436,6 +437,7 @@ void CompiledModel::Build() {
     Diagnostic d;
     d.where = g.element(elements.front()).where;
     d.element = g.element(elements.front()).name;
+    d.code = "causality.algebraic_loop";
     d.message = "algebraic loop: these variables depend on themselves with no storage element in between";
     d.details.push_back("loop: " + FormatPath(g, elements));
     d.details.push_back("variables: " + vars);

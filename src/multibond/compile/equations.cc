@@ -88,7 +88,13 @@ std::string Render(const Expr& e, bool latex) {
 /// Text usable inside \mathrm{}: LaTeX specials escaped.
 std::string LatexEscape(const std::string& s) {
   std::string out;
-  for (char ch : s) {
+  for (size_t k = 0; k < s.size(); ++k) {
+    const char ch = s[k];
+    if (ch == '-' && k + 1 < s.size() && s[k + 1] == '>') {  // default bond names "a->b"
+      out += "{\\to}";
+      ++k;
+      continue;
+    }
     switch (ch) {
       case '_': out += "\\_"; break;
       case '{': out += "\\{"; break;

@@ -1,0 +1,1 @@
+multibond_test(causality/causality_test.cc LIBS multibond::causality LABELS unit)
