@@ -179,7 +179,6 @@ class Scap {
     // Conflicts at junctions and two-ports are reported by their own rules; here a source or a
     // forced two-port wants a bond that another one already decided.
     if (why.why == CausalAssignment::Why::kPropagated) return;
-    const Bond& bond = g_.bond(b);
     if (!reported_bonds_.insert(b)) return;
     const std::vector<int> other = r_.PathTo(b);
     const ElementKind k = g_.element(why.element).kind;

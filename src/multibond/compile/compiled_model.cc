@@ -205,7 +205,8 @@ void CompiledModel::Build() {
       throw ModelError(Diagnostic{Diagnostic::Severity::kError, g.element(in.element).where, g.element(in.element).name,
                                   fmt::format("variable '{}' is computed twice (by {} and {})", class_names_[out_class],
                                               Describe(g, instrs[writer[out_class]].element), Describe(g, in.element)),
-                                  "this is a causality conflict the analysis did not catch; please report it", {}});
+                                  "this is a causality conflict the analysis did not catch; please report it", {},
+                                  "internal.double_writer"});
     }
     in.dst = class_offset_[out_class];
     writer[out_class] = static_cast<int>(instrs.size());
@@ -214,8 +215,10 @@ void CompiledModel::Build() {
     def.element = in.element;
     definitions_[out_class] = std::move(def);
   };
-  // dst = A src, with A given as a matrix (scalar multiples of the identity become kScale).
-  auto emit_linear = [&](int element, int out_class, int in_class, const Eigen::MatrixXd& a, const std::string& symbol) {
+  // dst = sign * A src. The numbers carry the sign; the definition keeps it apart from the
+  // coefficient's symbol so that `multibond equations` shows "- damper.R f" whatever the values.
+  auto emit_linear = [&](int element, int out_class, int in_class, double sign, const Eigen::MatrixXd& a,
+                         const std::string& symbol) {
     Instr in{};
     in.element = element;
     in.n = class_size_[out_class];
@@ -225,14 +228,12 @@ void CompiledModel::Build() {
     const bool scalar = a.rows() == a.cols() && a.isApprox(a(0, 0) * Eigen::MatrixXd::Identity(a.rows(), a.cols()), 0.0);
     if (scalar) {
       in.op = Op::kScale;
-      coef_.push_back(a(0, 0));
+      coef_.push_back(sign * a(0, 0));
     } else {
       in.op = Op::kMatrix;
-      AppendRowMajor(coef_, a);
+      AppendRowMajor(coef_, sign * a);
     }
-    const double sign = (scalar && a(0, 0) == -1.0) ? -1.0 : 1.0;
-    const std::string coef = (scalar && std::abs(a(0, 0)) == 1.0) ? "" : symbol;
-    emit(in, out_class, {in_class}, {Definition::Kind::kLinear, element, {{in_class, sign, coef}}});
+    emit(in, out_class, {in_class}, {Definition::Kind::kLinear, element, {{in_class, sign, symbol}}});
   };
   auto emit_modulated = [&](int element, int out_class, int in_class, int mode, const std::string& symbol) {
     Instr in{};
@@ -306,7 +307,7 @@ void CompiledModel::Build() {
         const double sigma = g.PowerSign(b, i);
         const Eigen::MatrixXd r = e.param.AsMatrix(n, n);
         if (!effort_into(b, i)) {
-          emit_linear(i, effort_class_[b], flow_class_[b], sigma * r, e.name + ".R");
+          emit_linear(i, effort_class_[b], flow_class_[b], sigma, r, e.name + ".R");
         } else {
           Eigen::FullPivLU<Eigen::MatrixXd> lu(r);
           if (!lu.isInvertible())
@@ -314,7 +315,8 @@ void CompiledModel::Build() {
                                         "resistor in conductance causality (effort in, flow out) has a singular resistance",
                                         "give it a non-zero resistance, or change the structure so that its flow is imposed", {},
                                         "param.singular"});
-          emit_linear(i, flow_class_[b], effort_class_[b], sigma * Eigen::MatrixXd(lu.inverse()), "1/" + e.name + ".R");
+          emit_linear(i, flow_class_[b], effort_class_[b], sigma, Eigen::MatrixXd(lu.inverse()),
+                      e.param.is_scalar ? "1/" + e.name + ".R" : e.name + ".R^-1");
         }
         break;
       }
@@ -368,7 +370,9 @@ void CompiledModel::Build() {
         }
         static const char* kSuffix[] = {"", "^T", "^-1", "^-T"};
         for (const Eq& q : eq) {
-          const std::string symbol = e.name + (modulated ? ".M" : ".r") + kSuffix[q.mode];
+          // A scalar ratio needs no transpose: r or 1/r.
+          const std::string symbol = !modulated && e.param.is_scalar ? (q.mode >= 2 ? "1/" + e.name + ".r" : e.name + ".r")
+                                                                     : e.name + (modulated ? ".M" : ".r") + kSuffix[q.mode];
           if (modulated) {
             emit_modulated(i, q.out, q.in, q.mode, symbol);
           } else {
@@ -380,7 +384,7 @@ void CompiledModel::Build() {
               case 2: a = mm.inverse(); break;
               default: a = mm.inverse().transpose(); break;
             }
-            emit_linear(i, q.out, q.in, a, symbol);
+            emit_linear(i, q.out, q.in, 1.0, a, symbol);
           }
         }
         break;
@@ -456,11 +460,9 @@ void CompiledModel::Build() {
         gt.sign = derivative_sign(blk);
         break;
       case StateBlock::Kind::kOrientation:
-      case StateBlock::Kind::kIntegral: {
-        const int of = g.Find(g.aux_states()[blk.owner].of);
-        gt.flow = class_offset_[flow_class_[g.element(of).bonds.front()]];
+      case StateBlock::Kind::kIntegral:
+        gt.flow = class_offset_[derivative_source(blk)];
         break;
-      }
       case StateBlock::Kind::kWork:
       case StateBlock::Kind::kDissipation: {
         const int b = g.element(blk.owner).bonds.front();
@@ -477,8 +479,15 @@ void CompiledModel::Build() {
 }
 
 int CompiledModel::derivative_source(const StateBlock& b) const {
-  const int bond = graph_.element(b.owner).bonds.front();
-  return b.kind == StateBlock::Kind::kMomentum ? effort_class_[bond] : flow_class_[bond];
+  switch (b.kind) {
+    case StateBlock::Kind::kMomentum:
+      return effort_class_[graph_.element(b.owner).bonds.front()];
+    case StateBlock::Kind::kOrientation:
+    case StateBlock::Kind::kIntegral:  // owner is an aux state: the flow of what it integrates
+      return flow_class_[graph_.element(graph_.Find(graph_.aux_states()[b.owner].of)).bonds.front()];
+    default:
+      return flow_class_[graph_.element(b.owner).bonds.front()];
+  }
 }
 
 double CompiledModel::derivative_sign(const StateBlock& b) const {
@@ -523,9 +532,10 @@ void CompiledModel::EvalModuli(const double* x, double* out) const {
       Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> inv(out + me.out_inverse, me.rows, me.cols);
       if (me.kind == Modulus::Kind::kRotation && me.left < 0)
         inv = m.transpose() / (me.scale * me.scale);  // a scaled rotation: inverse by transpose
-      else if (me.rows == 3)
-        inv = Eigen::Matrix3d(m).inverse();
-      else
+      else if (me.rows == 3 && me.cols == 3) {
+        using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+        Eigen::Map<Rm3>(out + me.out_inverse) = Eigen::Map<const Rm3>(out + me.out).inverse();
+      } else
         inv = m.inverse();
     }
   }
