@@ -93,6 +93,7 @@ int Graph(const std::string& path, const std::string& out) {
   const fs::path outp(out);
   const std::string ext = outp.extension().string();
   const fs::path dot_path = ext == ".dot" || ext == ".gv" ? outp : fs::path(outp).replace_extension(".dot");
+  if (dot_path.has_parent_path()) fs::create_directories(dot_path.parent_path());
   mb::WriteFileAtomic(dot_path.string(), dot);
   std::cout << "wrote " << dot_path.string() << '\n';
   const std::vector<std::string> formats = ext == ".png" ? std::vector<std::string>{"png"} : std::vector<std::string>{"svg"};

@@ -1,0 +1,2 @@
+multibond_test(cli/cli_test.cc LIBS nlohmann_json::nlohmann_json LABELS cli)
+add_dependencies(cli_cli_test multibond_cli)
