@@ -110,7 +110,7 @@ struct RunArgs {
   std::string model, out;
   std::optional<double> t_end, dt, rtol, atol, step, max_step;
   std::optional<std::string> solver;
-  bool all_variables = false, quiet = false;
+  bool all_variables = false, quiet = false, no_projection = false;
 };
 
 int Run(const RunArgs& a, const std::vector<std::string>& argv) {
@@ -132,6 +132,7 @@ int Run(const RunArgs& a, const std::vector<std::string>& argv) {
   o.integrator.fixed_step = a.step.value_or(d.step.value_or(0.0));
   o.integrator.max_step = a.max_step.value_or(d.max_step.value_or(0.0));
   o.all_variables = a.all_variables;
+  o.integrator.project = !a.no_projection;
   o.stop = &g_stop;
   const bool tty = isatty(fileno(stderr)) && !a.quiet;
   if (tty) o.progress = [&](double f) { std::fprintf(stderr, "\r  t = %-10.4g s  %3.0f%%", o.t_start + f * (o.t_end - o.t_start), 100 * f); };
@@ -208,6 +209,8 @@ int main(int argc, char** argv) {
   run->add_option("--step", ra.step, "fixed step [s] for rk4 (or a fixed-step dopri5)")->check(CLI::PositiveNumber);
   run->add_option("--max-step", ra.max_step, "largest step [s] of the adaptive methods")->check(CLI::PositiveNumber);
   run->add_flag("--all-variables", ra.all_variables, "add a column for every effort and flow");
+  run->add_flag("--no-projection", ra.no_projection,
+                "do not re-orthonormalise orientation matrices after each step (shows the raw drift)");
   run->add_flag("-q,--quiet", ra.quiet, "no progress and no summary");
 
   app.add_subcommand("version", "Print the version");

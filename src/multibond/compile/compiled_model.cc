@@ -132,7 +132,8 @@ void CompiledModel::Build() {
     const DomainUnits u = UnitsOf(structure_.bond_domain[b]);
     const bool inertia = e.kind == ElementKind::kI;
     element_block_[i] = add_block(inertia ? StateBlock::Kind::kMomentum : StateBlock::Kind::kDisplacement, i, n,
-                                  e.name + (inertia ? ".p" : ".q"), ComponentNames(n, e.components),
+                                  e.state_name.empty() ? e.name + (inertia ? ".p" : ".q") : e.state_name,
+                                  ComponentNames(n, e.components),
                                   inertia ? u.momentum : u.displacement);
     for (int k = 0; k < n; ++k) x0.push_back(e.initial.size() == n ? e.initial(k) : 0.0);
     const Eigen::MatrixXd p = e.param.AsMatrix(n, n);
@@ -173,12 +174,20 @@ void CompiledModel::Build() {
     const Element& e = g.element(i);
     if (e.kind != ElementKind::kMTF && e.kind != ElementKind::kMGY) continue;
     const Modulus& mod = e.modulus;
-    ModulusEval me{mod.kind, mod.rows(), mod.cols(), num_moduli_, -1, -1, -1, -1, mod.scale, mod.transpose, mod.lever};
+    ModulusEval me{mod.kind, mod.rows(), mod.cols(), num_moduli_, -1, -1, -1, -1, -1, mod.scale, mod.transpose, mod.lever};
     num_moduli_ += me.rows * me.cols;
     if (mod.kind != Modulus::Kind::kConstant) me.rotation = aux_offset(mod.rotation);
     if (mod.left.size() > 0) {
       me.left = static_cast<int>(coef_.size());
       AppendRowMajor(coef_, mod.left);
+    }
+    if (mod.right.size() > 0) {
+      // Stored padded to 3x3 so that the evaluation multiplies fixed-size matrices.
+      MB_ASSERT(mod.right.rows() == 3 && mod.right.cols() <= 3, "a modulus' right factor is 3 x n with n <= 3");
+      Eigen::Matrix3d padded = Eigen::Matrix3d::Zero();
+      padded.leftCols(mod.right.cols()) = mod.right;
+      me.right = static_cast<int>(coef_.size());
+      AppendRowMajor(coef_, padded);
     }
     if (mod.kind == Modulus::Kind::kConstant) {
       me.constant = static_cast<int>(coef_.size());
@@ -462,6 +471,8 @@ void CompiledModel::Build() {
       case StateBlock::Kind::kOrientation:
       case StateBlock::Kind::kIntegral:
         gt.flow = class_offset_[derivative_source(blk)];
+        // For an orientation, `sign` carries the stabilisation gain (0 = none).
+        gt.sign = blk.kind == StateBlock::Kind::kOrientation ? g.aux_states()[blk.owner].stabilization : 1.0;
         break;
       case StateBlock::Kind::kWork:
       case StateBlock::Kind::kDissipation: {
@@ -496,6 +507,25 @@ double CompiledModel::derivative_sign(const StateBlock& b) const {
   return graph_.PowerSign(graph_.element(b.owner).bonds.front(), b.owner);
 }
 
+bool CompiledModel::has_invariants() const {
+  for (const StateBlock& b : blocks_)
+    if (b.kind == StateBlock::Kind::kOrientation) return true;
+  return false;
+}
+
+void CompiledModel::Project(double* x) const {
+  using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+  for (const StateBlock& b : blocks_) {
+    if (b.kind != StateBlock::Kind::kOrientation) continue;
+    Eigen::Map<Rm3> r(x + b.offset);
+    for (int k = 0; k < 2; ++k) {
+      const Rm3 rtr = r.transpose() * r;
+      const Rm3 next = 0.5 * r * (3.0 * Rm3::Identity() - rtr);
+      r = next;
+    }
+  }
+}
+
 Workspace CompiledModel::MakeWorkspace() const {
   Workspace ws;
   ws.slots.assign(num_slots_, 0.0);
@@ -518,19 +548,21 @@ void CompiledModel::EvalModuli(const double* x, double* out) const {
         core << 0, a.z(), -a.y(), -a.z(), 0, a.x(), a.y(), -a.x(), 0;  // -[a x]
       }
     }
-    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> m(out + me.out, me.rows, me.cols);
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    Eigen::Map<RowMajor> m(out + me.out, me.rows, me.cols);
     if (me.kind == Modulus::Kind::kConstant) {
-      m = me.scale * Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
-                         coef_.data() + me.constant, me.rows, me.cols);
-    } else if (me.left >= 0) {
-      m.noalias() = me.scale * Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(
-                                   coef_.data() + me.left, me.rows, 3) * core;
+      m = me.scale * Eigen::Map<const RowMajor>(coef_.data() + me.constant, me.rows, me.cols);
     } else {
-      m = me.scale * core;
+      if (me.right >= 0) core = core * Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(coef_.data() + me.right);
+      if (me.left >= 0)
+        m.noalias() = me.scale * Eigen::Map<const RowMajor>(coef_.data() + me.left, me.rows, 3) *
+                      core.leftCols(me.cols);
+      else
+        m = me.scale * core.leftCols(me.cols);
     }
     if (me.out_inverse >= 0) {
       Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> inv(out + me.out_inverse, me.rows, me.cols);
-      if (me.kind == Modulus::Kind::kRotation && me.left < 0)
+      if (me.kind == Modulus::Kind::kRotation && me.left < 0 && me.right < 0)
         inv = m.transpose() / (me.scale * me.scale);  // a scaled rotation: inverse by transpose
       else if (me.rows == 3 && me.cols == 3) {
         using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
@@ -624,12 +656,13 @@ void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Wor
         for (int k = 0; k < gt.size; ++k) out[k] = w[gt.flow + k];
         break;
       case StateBlock::Kind::kOrientation: {
-        // dR/dt = [w x] R
+        // dR/dt = [w x] R  (- g (R R^T - I) R: zero on SO(3), pulls a drifting R back)
         const double* om = w + gt.flow;
         const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(x + gt.state);
         Eigen::Matrix3d skew;
         skew << 0, -om[2], om[1], om[2], 0, -om[0], -om[1], om[0], 0;
         Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> rdot(out);
+        if (gt.sign > 0.0) skew -= gt.sign * (r * r.transpose() - Eigen::Matrix3d::Identity());
         rdot.noalias() = skew * r;
         break;
       }
@@ -659,10 +692,19 @@ std::optional<VariableRef> CompiledModel::FindVariable(const std::string& name) 
   }
   const auto dot = name.rfind('.');
   if (dot == std::string::npos) return std::nullopt;
-  const int e = graph_.Find(name.substr(0, dot));
-  if (e < 0) return std::nullopt;
+  const std::string owner = name.substr(0, dot), var = name.substr(dot + 1);
+  const int e = graph_.Find(owner);
+  if (e < 0) {
+    // A named bond: "<bond>.e" or "<bond>.f".
+    for (int b = 0; b < graph_.num_bonds(); ++b) {
+      if (graph_.bond(b).name != owner || (var != "e" && var != "f")) continue;
+      const int cls = var == "e" ? effort_class_[b] : flow_class_[b];
+      return VariableRef{VariableRef::In::kSlot, class_offset_[cls], class_size_[cls], class_units_[cls],
+                         ComponentNames(class_size_[cls])};
+    }
+    return std::nullopt;
+  }
   const Element& el = graph_.element(e);
-  const std::string var = name.substr(dot + 1);
   int cls = -1;
   if (IsTwoPort(el.kind)) {
     const int b1 = structure_.port_in[e], b2 = structure_.port_out[e];

@@ -75,6 +75,12 @@ class CompiledModel {
   /// The right-hand side: fills `ws` with every effort and flow and writes dx/dt. No allocation.
   void CalcDerivatives(double t, const double* x, double* xdot, Workspace& ws) const;
 
+  /// True if the state holds orientation matrices (which Project keeps orthonormal).
+  bool has_invariants() const;
+  /// Replaces every orientation matrix in x by the nearest rotation (two Bjorck iterations,
+  /// R <- R (3 I - R^T R) / 2, quadratically convergent near SO(3)). No allocation.
+  void Project(double* x) const;
+
   Workspace MakeWorkspace() const;
   Eigen::VectorXd MakeInitialState() const;
 
@@ -137,6 +143,7 @@ class CompiledModel {
     int out_inverse;  ///< offset of M^-1 or -1 if not needed
     int rotation;     ///< state offset of R (row-major 3x3)
     int left;         ///< offset in coef_ of the left matrix (rows x 3) or -1
+    int right;        ///< offset in coef_ of the right matrix (3 x cols) or -1
     int constant;     ///< offset in coef_ of the constant matrix or -1
     double scale;
     bool transpose;

@@ -46,6 +46,7 @@ int Modulus::rows() const {
 
 int Modulus::cols() const {
   if (kind == Kind::kConstant) return static_cast<int>(constant.cols());
+  if (kind == Kind::kRotation && right.size() > 0) return static_cast<int>(right.cols());
   return 3;
 }
 
@@ -53,6 +54,7 @@ bool Modulus::invertible() const {
   if (rows() != cols()) return false;
   if (kind == Kind::kLever) return false;  // a cross-product matrix is always singular
   if (left.size() > 0 && std::abs(left.determinant()) < 1e-300) return false;
+  if (right.size() > 0 && std::abs(right.determinant()) < 1e-300) return false;
   if (kind == Kind::kConstant && std::abs(constant.determinant()) < 1e-300) return false;
   return scale != 0.0;
 }

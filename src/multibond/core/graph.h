@@ -52,15 +52,17 @@ struct Param {
 
 /// The modulus of an MTF or MGY: a matrix that depends on the state.
 ///   kConstant: M = scale * left * constant
-///   kRotation: M = scale * left * R       (or R^T if transpose) with R an orientation state
+///   kRotation: M = scale * left * R * right      (or R^T if transpose) with R an orientation state
 ///   kLever:    M = scale * left * (-[(R r)x])  so that M w = w x (R r): the velocity that a
 ///              body-fixed point r (body frame) gets from the angular velocity w (paper eq. 1-6)
-/// `left` is empty for the identity; it is how directions are selected (e.g. rows y, z).
+/// `left` and `right` are empty for the identity; `left` selects directions (e.g. rows y, z),
+/// `right` (3 x n, kRotation only) maps body-frame directions (e.g. a drive's axis).
 struct Modulus {
   enum class Kind { kConstant, kRotation, kLever };
   Kind kind = Kind::kConstant;
   double scale = 1.0;
   Eigen::MatrixXd left;
+  Eigen::MatrixXd right;
   Eigen::MatrixXd constant;
   std::string rotation;  ///< name of the orientation state (kRotation, kLever)
   bool transpose = false;
@@ -90,6 +92,9 @@ struct Element {
   Modulus modulus;            ///< MTF, MGY
   SourceValue source;         ///< Se, Sf
   Eigen::VectorXd initial;    ///< I: p(0); C: q(0) (empty = zero)
+  /// I, C: the name of the state (default "<name>.p" for I, "<name>.q" for C). The rigid-body
+  /// library names a body's momenta "B.p" and "B.h" this way.
+  std::string state_name;
   std::string domain;         ///< "translation", "rotation", "electrical", "hydraulic", ... ("" = infer)
   std::vector<std::string> components;  ///< component names of a multi-dimensional bond
   std::vector<int> bonds;     ///< filled by BondGraph::Connect, in order of connection
@@ -116,14 +121,29 @@ struct AuxState {
   Eigen::MatrixXd initial;  ///< kOrientation: 3x3 (default identity); kIntegral: n x 1 (default 0)
   std::vector<std::string> components;
   std::string unit;  ///< kIntegral: unit of the integral (e.g. "m"); "" = from the domain
+  /// kOrientation: gain g > 0 adds -g (R R^T - I) R to dR/dt, which vanishes on the rotation
+  /// group and pulls a drifting R back to it (0 = plain integration).
+  double stabilization = 0.0;
   SourceLocation where;
 };
 
-/// A declared output: a column `name` showing the variable `variable` (see docs/model-format.md:
-/// "<element>.e", "<element>.f", "<element>.e1", ..., "<element>.p", "<element>.q", an aux state).
+/// A declared output (see docs/model-format.md). Variables are named "<element>.e", "<element>.f",
+/// "<two-port>.e1|f1|e2|f2", "<bond>.e|f" for named bonds, or a state ("mass.p", "A.R").
 struct OutputDecl {
+  enum class Kind {
+    kVariable,       ///< the variable `variable`
+    kSum,            ///< sum of coefficient * variable over `terms` (all of one size)
+    kPoint,          ///< position + rotation * point: a body-fixed point in the inertial frame
+    kOrthonormality  ///< |R^T R - I| (Frobenius) of the orientation state `rotation`
+  };
+  Kind kind = Kind::kVariable;
   std::string name;
   std::string variable;
+  std::vector<std::pair<std::string, double>> terms;
+  std::string position, rotation;  ///< kPoint: integral state of the position; orientation state
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  std::string unit;                ///< "" = the unit of the (first) variable
+  std::vector<std::string> components;  ///< "" = those of the variable
   SourceLocation where;
 };
 

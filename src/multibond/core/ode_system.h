@@ -10,6 +10,11 @@ class OdeSystem {
   virtual int num_states() const = 0;
   /// Computes xdot = f(t, x). x and xdot have num_states() entries. Must not allocate.
   virtual void CalcDerivatives(double t, const double* x, double* xdot) = 0;
+  /// True if the exact solution stays on a manifold that Project() can restore (for example
+  /// orientation matrices, which stay orthonormal). Integrators then project after each step.
+  virtual bool has_invariants() const { return false; }
+  /// Moves x (num_states() entries) onto that manifold, in place. Must not allocate.
+  virtual void Project(double* /*x*/) {}
 };
 
 }  // namespace multibond

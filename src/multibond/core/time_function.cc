@@ -73,6 +73,16 @@ double TimeFunction::operator()(double t) const {
   return 0.0;
 }
 
+TimeFunction TimeFunction::Scaled(double factor) const {
+  TimeFunction f = *this;
+  f.value *= factor;
+  f.before *= factor;
+  f.slope *= factor;
+  f.amplitude *= factor;
+  for (double& v : f.table_v) v *= factor;
+  return f;
+}
+
 std::string TimeFunction::ToString() const {
   switch (kind) {
     case Kind::kConstant: return fmt::format("{:g}", value);

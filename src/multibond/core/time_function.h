@@ -27,6 +27,8 @@ struct TimeFunction {
   static TimeFunction Table(std::vector<double> t, std::vector<double> v);
 
   double operator()(double t) const;
+  /// The same function multiplied by `factor`.
+  TimeFunction Scaled(double factor) const;
   bool is_constant() const { return kind == Kind::kConstant; }
   /// Human-readable form, e.g. "step(1 at t=0)".
   std::string ToString() const;

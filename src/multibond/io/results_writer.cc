@@ -82,7 +82,8 @@ nlohmann::json MakeRunRecord(const std::string& model_file, const std::string& m
   j["model"] = {{"file", model_file}, {"name", model_name}, {"sha256", Sha256Hex(model_text)}};
   j["options"] = {{"t_start", options.t_start}, {"t_end", options.t_end}, {"dt", options.dt},
                   {"solver", MethodName(io.method)}, {"rtol", io.rtol}, {"atol", io.atol},
-                  {"step", io.fixed_step}, {"max_step", io.max_step}, {"all_variables", options.all_variables}};
+                  {"step", io.fixed_step}, {"max_step", io.max_step}, {"all_variables", options.all_variables},
+                  {"projection", io.project}};
   j["status"] = RunStatusName(summary.status);
   if (!summary.message.empty()) j["message"] = summary.message;
   j["t_reached"] = summary.t_reached;

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -10,11 +11,18 @@ namespace multibond {
 namespace {
 
 /// How to compute one output column. Built together with the column names, so that a name and
-/// its value cannot drift apart.
+/// its value cannot drift apart. Variables, sums of variables and body points are all linear
+/// combinations of state entries and workspace slots.
 struct ColumnSource {
-  enum class Kind { kTime, kState, kSlot, kStored, kWork, kKinetic, kPotential, kDissipated, kResidual };
+  enum class Kind { kTime, kLinear, kOrthonormality, kStored, kWork, kKinetic, kPotential, kDissipated, kResidual };
+  struct Term {
+    bool state;
+    int offset;
+    double coef;
+  };
   Kind kind;
-  int index = 0;  ///< state or slot offset, or element for kStored
+  int index = 0;  ///< element for kStored, state offset of R for kOrthonormality
+  std::vector<Term> terms;
 };
 
 struct Layout {
@@ -22,12 +30,18 @@ struct Layout {
   std::vector<ColumnSource> sources;
   void Add(std::string name, std::string unit, ColumnSource src) {
     columns.push_back({std::move(name), unit.empty() ? "-" : std::move(unit)});
-    sources.push_back(src);
+    sources.push_back(std::move(src));
   }
-  void AddVariable(const std::string& base, const VariableRef& v) {
-    const auto kind = v.in == VariableRef::In::kState ? ColumnSource::Kind::kState : ColumnSource::Kind::kSlot;
-    for (int k = 0; k < v.size; ++k)
-      Add(v.components.empty() ? base : base + "." + v.components[k], v.unit, {kind, v.offset + k});
+  /// One column per component of sum_k coef_k * var_k.
+  void AddLinear(const std::string& base, const std::vector<std::pair<VariableRef, double>>& vars, const std::string& unit,
+                 const std::vector<std::string>& components) {
+    const VariableRef& first = vars.front().first;
+    const std::vector<std::string>& comps = components.empty() ? first.components : components;
+    for (int k = 0; k < first.size; ++k) {
+      ColumnSource src{ColumnSource::Kind::kLinear, 0, {}};
+      for (const auto& [v, c] : vars) src.terms.push_back({v.in == VariableRef::In::kState, v.offset + k, c});
+      Add(comps.empty() || first.size == 1 ? base : base + "." + comps[k], unit.empty() ? first.unit : unit, std::move(src));
+    }
   }
 };
 
@@ -35,28 +49,65 @@ Layout MakeLayout(const CompiledModel& model, bool all_variables) {
   Layout l;
   l.Add("time", "s", {ColumnSource::Kind::kTime});
   for (int i = 0; i < model.num_states(); ++i)
-    l.Add(model.state_names()[i], model.state_units()[i], {ColumnSource::Kind::kState, i});
+    l.Add(model.state_names()[i], model.state_units()[i], {ColumnSource::Kind::kLinear, 0, {{true, i, 1.0}}});
   DiagnosticSink sink;
+  auto find = [&](const OutputDecl& o, const std::string& var) -> std::optional<VariableRef> {
+    auto v = model.FindVariable(var);
+    if (!v)
+      sink.Error("output.unknown_variable", o.where, o.name, fmt::format("output refers to '{}', which is no variable of the model", var),
+                 "name '<element>.e' or '.f' (two-ports: .e1 .f1 .e2 .f2), '<bond>.e', '<I>.p', '<C>.q' or a state");
+    return v;
+  };
   for (const OutputDecl& o : model.graph().outputs()) {
-    const auto v = model.FindVariable(o.variable);
-    if (!v) {
-      sink.Error(o.where, o.name, fmt::format("output refers to '{}', which is no variable of the model", o.variable),
-                 "name '<element>.e' or '.f' (two-ports: .e1 .f1 .e2 .f2), '<I>.p', '<C>.q' or a state");
-      continue;
+    switch (o.kind) {
+      case OutputDecl::Kind::kVariable:
+        if (auto v = find(o, o.variable)) l.AddLinear(o.name, {{*v, 1.0}}, o.unit, o.components);
+        break;
+      case OutputDecl::Kind::kSum: {
+        std::vector<std::pair<VariableRef, double>> vars;
+        for (const auto& [var, c] : o.terms)
+          if (auto v = find(o, var)) vars.push_back({*v, c});
+        if (vars.size() != o.terms.size() || vars.empty()) break;
+        bool same = true;
+        for (const auto& [v, c] : vars) same = same && v.size == vars.front().first.size;
+        if (!same) {
+          sink.Error("output.size", o.where, o.name, "the terms of a sum output have different sizes");
+          break;
+        }
+        l.AddLinear(o.name, vars, o.unit, o.components);
+        break;
+      }
+      case OutputDecl::Kind::kPoint: {
+        const auto r = find(o, o.position), rot = find(o, o.rotation);
+        if (!r || !rot) break;
+        if (r->size != 3 || rot->size != 9) {
+          sink.Error("output.size", o.where, o.name, "a point needs a 3-component position and an orientation");
+          break;
+        }
+        static const char* kXyz[] = {"x", "y", "z"};
+        for (int i = 0; i < 3; ++i) {
+          ColumnSource src{ColumnSource::Kind::kLinear, 0, {{true, r->offset + i, 1.0}}};
+          for (int j = 0; j < 3; ++j) src.terms.push_back({true, rot->offset + 3 * i + j, o.point[j]});
+          l.Add(o.name + "." + kXyz[i], o.unit.empty() ? r->unit : o.unit, std::move(src));
+        }
+        break;
+      }
+      case OutputDecl::Kind::kOrthonormality:
+        if (const auto rot = find(o, o.rotation)) l.Add(o.name, "-", {ColumnSource::Kind::kOrthonormality, rot->offset, {}});
+        break;
     }
-    l.AddVariable(o.name, *v);
   }
   sink.ThrowIfErrors();
   if (all_variables) {
     for (int c = 0; c < model.num_slot_classes(); ++c) {
       const auto v = model.FindVariable(model.slot_class_name(c));
-      if (v) l.AddVariable(model.slot_class_name(c), *v);
+      if (v) l.AddLinear(model.slot_class_name(c), {{*v, 1.0}}, "", {});
     }
   }
   if (model.has_energy_account()) {
     for (const StateBlock& b : model.state_blocks())
       if (b.kind == StateBlock::Kind::kMomentum || b.kind == StateBlock::Kind::kDisplacement)
-        l.Add(model.graph().element(b.owner).name + ".energy", "J", {ColumnSource::Kind::kStored, b.owner});
+        l.Add(model.graph().element(b.owner).name + ".energy", "J", {ColumnSource::Kind::kStored, b.owner, {}});
     l.Add("energy.work", "J", {ColumnSource::Kind::kWork});
     l.Add("energy.kinetic", "J", {ColumnSource::Kind::kKinetic});
     l.Add("energy.potential", "J", {ColumnSource::Kind::kPotential});
@@ -66,13 +117,22 @@ Layout MakeLayout(const CompiledModel& model, bool all_variables) {
   return l;
 }
 
-/// (work - (stored - stored at start) - dissipated), relative to the larger of |work| and the
-/// energy stored at the start (the plain energy error when both are zero).
-double Residual(double work, double stored, double stored0, double dissipated) {
-  const double num = work - (stored - stored0) - dissipated;
-  const double scale = std::max(std::abs(work), std::abs(stored0));
-  return scale > 0.0 ? num / scale : num;
-}
+/// The energy balance: (work - (stored - stored at start) - dissipated) relative to the largest
+/// energy the run has handled so far (|work|, stored, dissipated). For a driven run whose work
+/// grows, that is the work itself; dividing by the current work instead would blow up whenever
+/// a conservative source's work passes through zero (a pendulum under gravity).
+class EnergyBalance {
+ public:
+  explicit EnergyBalance(double stored0) : stored0_(stored0), scale_(std::abs(stored0)) {}
+  double Residual(double work, double stored, double dissipated) {
+    scale_ = std::max({scale_, std::abs(work), std::abs(stored), std::abs(dissipated)});
+    const double num = work - (stored - stored0_) - dissipated;
+    return scale_ > 0.0 ? num / scale_ : num;
+  }
+
+ private:
+  double stored0_, scale_;
+};
 
 }  // namespace
 
@@ -119,33 +179,47 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   Eigen::VectorXd xdot(x.size());
   auto integrator = MakeIntegrator(system, options.integrator);
   integrator->Reset(options.t_start, x.data());
-  const double stored0 = model.KineticEnergy(x.data()) + model.PotentialEnergy(x.data());
+  EnergyBalance balance(model.KineticEnergy(x.data()) + model.PotentialEnergy(x.data()));
 
   RunSummary summary;
   std::vector<double> row(layout.columns.size());
+  const bool project = options.integrator.project && model.has_invariants();
   auto sample = [&](double t) {
+    // Between steps the integrator reports an interpolant; with projection on, the reported
+    // orientations are its nearest rotations, like the integrated state itself.
+    if (project) model.Project(x.data());
     model.CalcDerivatives(t, x.data(), xdot.data(), ws);  // fills every effort and flow at (t, x)
     const double work = model.Work(x.data()), kin = model.KineticEnergy(x.data());
     const double pot = model.PotentialEnergy(x.data()), diss = model.Dissipated(x.data());
+    const double residual = balance.Residual(work, kin + pot, diss);
     for (size_t c = 0; c < row.size(); ++c) {
       const ColumnSource& s = layout.sources[c];
       switch (s.kind) {
         case ColumnSource::Kind::kTime: row[c] = t; break;
-        case ColumnSource::Kind::kState: row[c] = x[s.index]; break;
-        case ColumnSource::Kind::kSlot: row[c] = ws.slots[s.index]; break;
+        case ColumnSource::Kind::kLinear: {
+          double v = 0.0;
+          for (const auto& term : s.terms) v += term.coef * (term.state ? x[term.offset] : ws.slots[term.offset]);
+          row[c] = v;
+          break;
+        }
+        case ColumnSource::Kind::kOrthonormality: {
+          const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(x.data() + s.index);
+          row[c] = (r.transpose() * r - Eigen::Matrix3d::Identity()).norm();
+          break;
+        }
         case ColumnSource::Kind::kStored: row[c] = model.StoredEnergy(s.index, x.data()); break;
         case ColumnSource::Kind::kWork: row[c] = work; break;
         case ColumnSource::Kind::kKinetic: row[c] = kin; break;
         case ColumnSource::Kind::kPotential: row[c] = pot; break;
         case ColumnSource::Kind::kDissipated: row[c] = diss; break;
-        case ColumnSource::Kind::kResidual: row[c] = Residual(work, kin + pot, stored0, diss); break;
+        case ColumnSource::Kind::kResidual: row[c] = residual; break;
       }
     }
     summary.t_reached = t;
     summary.energy_work = work;
     summary.energy_stored = kin + pot;
     summary.energy_dissipated = diss;
-    summary.energy_residual = Residual(work, kin + pot, stored0, diss);
+    summary.energy_residual = residual;
     summary.max_abs_energy_residual = std::max(summary.max_abs_energy_residual, std::abs(summary.energy_residual));
     ++summary.samples;
     observer.OnSample(row);

@@ -22,6 +22,8 @@ class ModelSystem : public OdeSystem {
   explicit ModelSystem(const CompiledModel& model) : model_(model), ws_(model.MakeWorkspace()) {}
   int num_states() const override { return model_.num_states(); }
   void CalcDerivatives(double t, const double* x, double* xdot) override { model_.CalcDerivatives(t, x, xdot, ws_); }
+  bool has_invariants() const override { return model_.has_invariants(); }
+  void Project(double* x) override { model_.Project(x); }
   Workspace& workspace() { return ws_; }
 
  private:

@@ -79,6 +79,9 @@ struct ErkCallbackState : sun::CallbackState {
 /// no error test, so an unstable step size or a finite-time blow-up would otherwise march on
 /// with inf/NaN states and return them as results.
 int CheckStateFinite(sunrealtype t, N_Vector y, void* user_data) noexcept {
+  // Restore the system's invariants first (orthonormal orientations), as CVODE's projection does.
+  auto* common = static_cast<sun::CallbackState*>(user_data);
+  if (common->project) common->system->Project(N_VGetArrayPointer(y));
   const sunrealtype* v = N_VGetArrayPointer(y);
   const sunindextype n = N_VGetLength(y);
   for (sunindextype i = 0; i < n; ++i) {
@@ -97,7 +100,7 @@ class ArkodeIntegrator final : public Integrator {
   ArkodeIntegrator(OdeSystem& system, const IntegratorOptions& options)
       : options_(options),
         n_(system.num_states()),
-        callbacks_(system),
+        callbacks_(system, options.project),
         ctx_(sun::MakeContext()),
         y_(sun::MakeVector(n_, ctx_.get())) {}
 
@@ -196,6 +199,7 @@ class ArkodeIntegrator final : public Integrator {
       // whose reuse is valid, one extra evaluation per fixed step.
       Check(ERKStepSetPostprocessStepFn(mem, CheckStateFinite), t0);
     } else {
+      if (callbacks_.project) Check(ERKStepSetPostprocessStepFn(mem, CheckStateFinite), t0);
       if (options_.max_step > 0) Check(ERKStepSetMaxStep(mem, options_.max_step), t0);
       if (options_.initial_step > 0) Check(ERKStepSetInitStep(mem, options_.initial_step), t0);
     }

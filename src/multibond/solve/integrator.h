@@ -34,6 +34,8 @@ struct IntegratorOptions {
   double max_step = 0.0;        ///< 0 = no limit
   double initial_step = 0.0;    ///< 0 = solver's choice
   long max_steps_per_output = 1000000;  ///< between two AdvanceTo calls
+  /// Project the state onto the system's invariant manifold after every step (if it has one).
+  bool project = true;
 };
 
 struct IntegratorStats {

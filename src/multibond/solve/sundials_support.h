@@ -3,6 +3,7 @@
 /// Private to solve/: RAII ownership of SUNDIALS objects and the C callbacks shared by the CVODE
 /// and ARKODE integrators. Not installed API; include only from this folder's .cc files.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <exception>
@@ -78,8 +79,10 @@ inline double MinUsefulStep(double t) {
 /// What the C callbacks share with the integrator (passed as user_data / eh_data). It must not
 /// move while the solver memory exists, hence the integrators are neither copyable nor movable.
 struct CallbackState {
-  explicit CallbackState(OdeSystem& s) : system(&s) {}
+  explicit CallbackState(OdeSystem& s, bool project_invariants = false)
+      : system(&s), project(project_invariants && s.has_invariants()) {}
   OdeSystem* system;
+  bool project;  ///< restore the system's invariants after every step
   std::exception_ptr pending;  ///< thrown by CalcDerivatives; rethrown after the solver returns
   std::string last_error;      ///< last error message SUNDIALS wanted to print
   std::string last_warning;    ///< last warning (e.g. "t + h = t on the next step")
@@ -103,6 +106,20 @@ inline int Rhs(sunrealtype t, N_Vector x, N_Vector xdot, void* user_data) noexce
     state->pending = std::current_exception();
     return -1;
   }
+}
+
+/// CVODE's projection callback: corr = P(y) - y, with P the system's projection onto its
+/// invariant manifold. The error estimate is not projected (CVodeSetProjErrEst off).
+inline int ProjectCorrection(sunrealtype /*t*/, N_Vector y, N_Vector corr, sunrealtype /*eps*/, N_Vector /*err*/,
+                             void* user_data) noexcept {
+  auto* state = static_cast<CallbackState*>(user_data);
+  const sunindextype n = N_VGetLength(y);
+  const sunrealtype* yv = N_VGetArrayPointer(y);
+  sunrealtype* c = N_VGetArrayPointer(corr);
+  std::copy_n(yv, n, c);
+  state->system->Project(c);
+  for (sunindextype i = 0; i < n; ++i) c[i] -= yv[i];
+  return 0;
 }
 
 /// Replaces SUNDIALS' default handler (which prints to stderr): records the message instead.

@@ -1,0 +1,598 @@
+#include "multibond/mech/mechanism.h"
+
+#include <map>
+
+#include <fmt/format.h>
+
+namespace multibond::mech {
+
+namespace {
+
+const std::vector<std::string> kXyz = {"x", "y", "z"};
+
+/// Expands a Mechanism into bond-graph elements. Each body contributes its two 1-junctions
+/// (v, omega), their inertias and its R, r states; each coupling a small junction structure
+/// (0-junction for relative flows, TF/MTF for frames and lever arms, a 1-junction with C and R).
+class Expander {
+ public:
+  Expander(const Mechanism& m, BondGraph& g, DiagnosticSink& sink) : m_(m), g_(g), sink_(sink) {}
+
+  void Run() {
+    Validate();
+    if (sink_.has_errors()) return;
+    for (const Body& b : m_.bodies()) AddBody(b);
+    for (const Joint& j : m_.joints()) AddJoint(j);
+    for (const GearMesh& gm : m_.gears()) AddGear(gm);
+    for (const Drive& d : m_.drives()) AddDrive(d);
+    for (const Point& p : m_.points()) AddPointOutput(p);
+    for (const Body& b : m_.bodies()) AddBodyOutputs(b);
+  }
+
+ private:
+  struct BodyInfo {
+    const Body* body;
+    std::vector<std::pair<std::string, double>> force_terms, moment_terms;
+  };
+
+  bool IsGround(const std::string& n) const { return n == kGround; }
+  const Body* FindBody(const std::string& n) const {
+    for (const Body& b : m_.bodies())
+      if (b.name == n) return &b;
+    return nullptr;
+  }
+
+  // --- validation -------------------------------------------------------------------------
+
+  void Validate() {
+    std::map<std::string, SourceLocation> names;
+    auto unique = [&](const std::string& n, const SourceLocation& w) {
+      if (n == kGround) sink_.Error("mech.name", w, n, "'ground' is reserved for the inertial frame", "choose another name");
+      if (names.count(n))
+        sink_.Error("mech.duplicate", w, n, "duplicate name (first used at " + names[n].ToString() + ")", "give every body, joint, gear, drive and point a unique name");
+      names[n] = w;
+    };
+    for (const Body& b : m_.bodies()) {
+      unique(b.name, b.where);
+      if (!(b.mass.mass > 0) || !std::isfinite(b.mass.mass))
+        sink_.Error("param.range", b.where, b.name, fmt::format("mass must be > 0 (got {:g})", b.mass.mass), "give a density and shape, or a positive mass");
+      if (b.mass.has_rotation()) {
+        Eigen::LLT<Eigen::Matrix3d> llt(b.mass.inertia);
+        if (!b.mass.inertia.isApprox(b.mass.inertia.transpose(), 1e-12) || llt.info() != Eigen::Success)
+          sink_.Error("param.range", b.where, b.name, "inertia tensor must be symmetric positive definite",
+                      "check the principal moments (each below the sum of the other two)");
+      }
+      if (!(b.orientation.transpose() * b.orientation).isApprox(Eigen::Matrix3d::Identity(), 1e-9) || b.orientation.determinant() < 0)
+        sink_.Error("param.range", b.where, b.name, "initial orientation is not a rotation matrix", "give an orthonormal matrix with det +1, or an axis and angle");
+    }
+    auto body_ref = [&](const std::string& n, const SourceLocation& w, const std::string& owner, bool ground_ok, bool need_rotation) {
+      if (IsGround(n)) {
+        if (!ground_ok) sink_.Error("mech.reference", w, owner, "the ground cannot be used here", "name a body");
+        return;
+      }
+      const Body* b = FindBody(n);
+      if (!b) {
+        sink_.Error("mech.reference", w, owner, fmt::format("refers to body '{}', which does not exist", n), "define it under 'bodies'");
+        return;
+      }
+      if (need_rotation && !b->mass.has_rotation())
+        sink_.Error("mech.reference", w, owner, fmt::format("body '{}' is a point mass: it has no rotation to couple", n),
+                    "give it a shape or an inertia tensor");
+    };
+    auto coupling = [&](const std::optional<Coupling>& c, const SourceLocation& w, const std::string& owner, const char* what) {
+      if (!c) return;
+      const int k = static_cast<int>(c->directions.rows());
+      if (k < 1 || k > 3 || c->directions.cols() != 3 || c->stiffness.size() != k || c->damping.size() != k) {
+        sink_.Error("mech.coupling", w, owner, fmt::format("{} coupling needs 1 to 3 directions with one stiffness and damping each", what));
+        return;
+      }
+      for (int i = 0; i < k; ++i) {
+        if (!(c->stiffness[i] > 0))
+          sink_.Error("param.range", w, owner, fmt::format("{} stiffness must be > 0 (got {:g})", what, c->stiffness[i]),
+                      "a compliant coupling needs a positive stiffness; leave a direction out to make it free");
+        if (!(c->damping[i] >= 0)) sink_.Error("param.range", w, owner, fmt::format("{} damping must be >= 0 (got {:g})", what, c->damping[i]));
+      }
+      if (Eigen::FullPivLU<Eigen::MatrixXd>(c->directions).rank() < k)
+        sink_.Error("mech.coupling", w, owner, fmt::format("{} directions are not independent", what));
+    };
+    for (const Joint& j : m_.joints()) {
+      unique(j.name, j.where);
+      body_ref(j.parent, j.where, j.name, true, j.rotation.has_value() || !j.parent_point.isZero());
+      body_ref(j.child, j.where, j.name, false, j.rotation.has_value() || !j.child_point.isZero());
+      if (j.parent == j.child) sink_.Error("mech.reference", j.where, j.name, "a joint needs two different bodies");
+      if (!j.translation && !j.rotation) sink_.Error("mech.coupling", j.where, j.name, "the joint couples nothing", "give it a translation or a rotation coupling");
+      coupling(j.translation, j.where, j.name, "translational");
+      coupling(j.rotation, j.where, j.name, "rotational");
+    }
+    if (sink_.has_errors()) return;
+    for (const Joint& j : m_.joints()) WarnIfDeflected(j);
+    for (const GearMesh& gm : m_.gears()) {
+      unique(gm.name, gm.where);
+      body_ref(gm.carrier, gm.where, gm.name, true, true);
+      body_ref(gm.body_a, gm.where, gm.name, false, true);
+      body_ref(gm.body_b, gm.where, gm.name, false, true);
+      if (!(gm.teeth_a > 0) || !(gm.teeth_b > 0)) sink_.Error("param.range", gm.where, gm.name, "teeth counts must be > 0");
+      if (!(gm.stiffness > 0)) sink_.Error("param.range", gm.where, gm.name, fmt::format("mesh stiffness must be > 0 (got {:g})", gm.stiffness), "a rigid mesh needs an ideal constraint; give the mesh a stiffness");
+      if (!(gm.damping >= 0)) sink_.Error("param.range", gm.where, gm.name, "mesh damping must be >= 0");
+      if (gm.axis_a.norm() < 1e-12 || gm.axis_b.norm() < 1e-12) sink_.Error("param.range", gm.where, gm.name, "gear axes must be non-zero vectors");
+    }
+    for (const Drive& d : m_.drives()) {
+      unique(d.name, d.where);
+      const bool angular = d.kind == Drive::Kind::kAngularVelocity || d.kind == Drive::Kind::kTorque;
+      body_ref(d.body, d.where, d.name, false, angular || !d.point.isZero());
+      if (d.kind == Drive::Kind::kAngularVelocity) body_ref(d.reference, d.where, d.name, true, true);
+      if (d.kind == Drive::Kind::kVelocity && !IsGround(d.reference))
+        sink_.Error("mech.reference", d.where, d.name, "a velocity drive acts relative to the ground", "remove 'reference'");
+      const bool velocity = d.kind == Drive::Kind::kAngularVelocity || d.kind == Drive::Kind::kVelocity;
+      if (velocity && !(d.stiffness > 0)) sink_.Error("param.range", d.where, d.name, "a velocity drive acts through a coupling: its stiffness must be > 0", "give K and R (the paper's drive: K = 1000, R = 5)");
+      if (velocity && !(d.damping >= 0)) sink_.Error("param.range", d.where, d.name, "drive damping must be >= 0");
+      if (d.axis.norm() < 1e-12) sink_.Error("param.range", d.where, d.name, "drive axis must be a non-zero vector");
+    }
+    for (const Point& p : m_.points()) {
+      unique(p.name, p.where);
+      body_ref(p.body, p.where, p.name, false, !p.at.isZero());
+    }
+  }
+
+  /// Position of a joint's attachment on `body` (ground: the absolute point) at t = 0.
+  Eigen::Vector3d AttachmentAtStart(const std::string& body, const Eigen::Vector3d& point) const {
+    if (IsGround(body)) return point;
+    const Body* b = FindBody(body);
+    return b->position + b->orientation * point;
+  }
+
+  void WarnIfDeflected(const Joint& j) {
+    if (!j.translation) return;
+    const Eigen::Vector3d gap = AttachmentAtStart(j.child, j.child_point) - AttachmentAtStart(j.parent, j.parent_point);
+    if (gap.norm() <= 1e-9) return;
+    Diagnostic d;
+    d.severity = Diagnostic::Severity::kWarning;
+    d.code = "mech.initial_gap";
+    d.where = j.where;
+    d.element = j.name;
+    d.message = fmt::format("the attachment points are {:.3g} m apart at t = 0; the coupling takes this offset as its rest position", gap.norm());
+    d.hint = "check 'at' against the bodies' positions";
+    sink_.Add(d);
+  }
+
+  // --- expansion --------------------------------------------------------------------------
+
+  void Bond(const std::string& from, const std::string& to, const std::string& name) { g_.Connect(from, to, 0, name); }
+
+  Element Make(const std::string& name, ElementKind kind, int dim, const std::string& domain, const SourceLocation& where) {
+    Element e;
+    e.name = name;
+    e.kind = kind;
+    e.dim = dim;
+    e.domain = domain;
+    e.where = where;
+    return e;
+  }
+
+  void AddBody(const Body& b) {
+    info_[b.name] = BodyInfo{&b, {}, {}};
+    Element v = Make(b.name + ".v", ElementKind::kOne, 3, "translation", b.where);
+    v.components = kXyz;
+    g_.Add(v);
+    Element mass = Make(b.name + ".mass", ElementKind::kI, 3, "translation", b.where);
+    mass.param = Param::Scalar(b.mass.mass);
+    mass.state_name = b.name + ".p";
+    mass.initial = b.mass.mass * b.velocity;
+    mass.components = kXyz;
+    g_.Add(mass);
+    Bond(b.name + ".v", b.name + ".mass", b.name + ".mass");
+    AuxState r;
+    r.name = b.name + ".r";
+    r.kind = AuxState::Kind::kIntegral;
+    r.of = b.name + ".v";
+    r.initial = b.position;
+    r.unit = "m";
+    r.components = kXyz;
+    r.where = b.where;
+    g_.AddAux(r);
+    if (b.mass.has_rotation()) {
+      Element w = Make(b.name + ".omega", ElementKind::kOne, 3, "rotation", b.where);
+      w.components = kXyz;
+      g_.Add(w);
+      Element inertia = Make(b.name + ".inertia", ElementKind::kI, 3, "rotation", b.where);
+      inertia.param = Param::Matrix(b.mass.inertia);
+      inertia.rotation = b.name + ".R";
+      inertia.state_name = b.name + ".h";
+      inertia.initial = b.orientation * b.mass.inertia * b.orientation.transpose() * b.omega;
+      inertia.components = kXyz;
+      g_.Add(inertia);
+      Bond(b.name + ".omega", b.name + ".inertia", b.name + ".inertia");
+      AuxState rot;
+      rot.name = b.name + ".R";
+      rot.kind = AuxState::Kind::kOrientation;
+      rot.of = b.name + ".omega";
+      rot.initial = b.orientation;
+      rot.stabilization = b.stabilization;
+      rot.where = b.where;
+      g_.AddAux(rot);
+    }
+    if (!m_gravity().isZero()) {
+      Element grav = Make(b.name + ".gravity", ElementKind::kSe, 3, "translation", b.where);
+      for (int i = 0; i < 3; ++i) grav.source.components.push_back(TimeFunction::Constant(b.mass.mass * m_gravity()[i]));
+      g_.Add(grav);
+      Bond(b.name + ".gravity", b.name + ".v", b.name + ".gravity");
+    }
+  }
+
+  const Eigen::Vector3d& m_gravity() const { return gravity_; }
+
+  /// The 1-junction whose flow is w_child - w_parent (the child's omega for the ground), built
+  /// once per pair and shared by every coupling of the pair.
+  std::string RelativeOmega(const std::string& child, const std::string& parent) {
+    if (IsGround(parent)) return child + ".omega";
+    const std::string key = child + "~" + parent;
+    if (relative_.count(key)) return relative_[key];
+    const std::string diff = key + ".w_diff", rel = key + ".w";
+    g_.AddJunction(diff, ElementKind::kZero, 3);
+    Element r = Make(rel, ElementKind::kOne, 3, "rotation", {});
+    r.components = kXyz;
+    g_.Add(r);
+    Bond(child + ".omega", diff, key + ".child");
+    Bond(diff, parent + ".omega", key + ".parent");
+    Bond(diff, rel, key + ".rel");
+    info_[child].moment_terms.push_back({key + ".child.e", -1.0});
+    info_[parent].moment_terms.push_back({key + ".parent.e", +1.0});
+    relative_[key] = rel;
+    return rel;
+  }
+
+  /// A TF (constant directions) or MTF (directions turning with a body) mapping 3-vectors of the
+  /// inertial frame to components along `rows`, in the coupling's frame.
+  void AddFrameElement(const std::string& name, Coupling::Frame frame, const std::string& parent, const std::string& child,
+                       const Eigen::MatrixXd& rows, const SourceLocation& where) {
+    const std::string body = frame == Coupling::Frame::kChild ? child : parent;
+    if (frame == Coupling::Frame::kWorld || IsGround(body)) {
+      Element tf = Make(name, ElementKind::kTF, 0, "", where);
+      tf.param = Param::Matrix(rows);
+      g_.Add(tf);
+      return;
+    }
+    Modulus m;
+    m.kind = Modulus::Kind::kRotation;
+    m.rotation = body + ".R";
+    m.transpose = true;
+    if (!rows.isApprox(Eigen::MatrixXd::Identity(3, 3), 0.0)) m.left = rows;
+    Element mtf = Make(name, ElementKind::kMTF, 0, "", where);
+    mtf.modulus = m;
+    g_.Add(mtf);
+  }
+
+  /// A 1-junction `name` of dimension k with a C (K) and an R on it, fed by `from`.
+  void AddCompliance(const std::string& from, const std::string& name, const Eigen::VectorXd& k, const Eigen::VectorXd& r,
+                     const std::string& domain, const std::vector<std::string>& comps, const SourceLocation& where) {
+    const int n = static_cast<int>(k.size());
+    Element j = Make(name, ElementKind::kOne, n, domain, where);
+    j.components = comps;
+    g_.Add(j);
+    Element c = Make(name + ".K", ElementKind::kC, n, domain, where);
+    c.param = n == 1 ? Param::Scalar(k[0]) : Param::Matrix(k.asDiagonal());
+    c.components = comps;
+    g_.Add(c);
+    Element d = Make(name + ".R", ElementKind::kR, n, domain, where);
+    d.param = n == 1 ? Param::Scalar(r[0]) : Param::Matrix(r.asDiagonal());
+    d.components = comps;
+    g_.Add(d);
+    Bond(from, name, name + ".in");
+    Bond(name, name + ".K", name + ".K");
+    Bond(name, name + ".R", name + ".R");
+  }
+
+  std::vector<std::string> DirectionNames(const Coupling& c) {
+    if (!c.components.empty()) return c.components;
+    const int k = static_cast<int>(c.directions.rows());
+    if (k == 1) return {};
+    std::vector<std::string> out;
+    for (int i = 0; i < k; ++i) {
+      int axis = -1;
+      for (int a = 0; a < 3; ++a)
+        if (c.directions.row(i).isApprox(Eigen::RowVector3d::Unit(a))) axis = a;
+      out.push_back(axis >= 0 ? kXyz[axis] : std::to_string(i + 1));
+    }
+    return out;
+  }
+
+  void AddOutput(OutputDecl o) { g_.AddOutput(std::move(o)); }
+
+  OutputDecl SumOutput(const std::string& name, std::vector<std::pair<std::string, double>> terms, const std::string& unit,
+                       const SourceLocation& where) {
+    OutputDecl o;
+    o.kind = OutputDecl::Kind::kSum;
+    o.name = name;
+    o.terms = std::move(terms);
+    o.unit = unit;
+    o.components = kXyz;
+    o.where = where;
+    return o;
+  }
+
+  void AddJoint(const Joint& j) {
+    if (j.translation) {
+      const Coupling& c = *j.translation;
+      const std::string sum = j.name + ".t_sum";
+      g_.AddJunction(sum, ElementKind::kZero, 3);
+      Bond(j.child + ".v", sum, j.name + ".t_child");
+      info_[j.child].force_terms.push_back({j.name + ".t_child.e", -1.0});
+      if (!j.child_point.isZero()) AddLever(j.name + ".t_child_arm", j.child, j.child_point, +1.0, sum);
+      if (!IsGround(j.parent)) {
+        Bond(sum, j.parent + ".v", j.name + ".t_parent");
+        info_[j.parent].force_terms.push_back({j.name + ".t_parent.e", +1.0});
+        if (!j.parent_point.isZero()) AddLever(j.name + ".t_parent_arm", j.parent, j.parent_point, -1.0, sum);
+      }
+      AddFrameElement(j.name + ".t_frame", c.frame, j.parent, j.child, c.directions, j.where);
+      Bond(sum, j.name + ".t_frame", j.name + ".t_frame");
+      AddCompliance(j.name + ".t_frame", j.name + ".t", c.stiffness, c.damping, "translation", DirectionNames(c), j.where);
+      AddOutput(SumOutput(j.name + ".F", {{j.name + ".t_child.e", -1.0}}, "N", j.where));
+    }
+    if (j.rotation) {
+      const Coupling& c = *j.rotation;
+      const std::string rel = RelativeOmega(j.child, j.parent);
+      AddFrameElement(j.name + ".r_frame", c.frame, j.parent, j.child, c.directions, j.where);
+      Bond(rel, j.name + ".r_frame", j.name + ".r_in");
+      if (IsGround(j.parent)) info_[j.child].moment_terms.push_back({j.name + ".r_in.e", -1.0});
+      AddCompliance(j.name + ".r_frame", j.name + ".r", c.stiffness, c.damping, "rotation", DirectionNames(c), j.where);
+      AddOutput(SumOutput(j.name + ".M", {{j.name + ".r_in.e", -1.0}}, "N m", j.where));
+    }
+  }
+
+  /// An MTF carrying the lever arm of a body point: its flow is scale * (w x R point), into `sum`.
+  void AddLever(const std::string& name, const std::string& body, const Eigen::Vector3d& point, double scale,
+                const std::string& sum) {
+    Modulus m;
+    m.kind = Modulus::Kind::kLever;
+    m.rotation = body + ".R";
+    m.lever = point;
+    m.scale = scale;
+    Element e = Make(name, ElementKind::kMTF, 0, "", {});
+    e.modulus = m;
+    g_.Add(e);
+    Bond(body + ".omega", name, name + ".w");
+    Bond(name, sum, name + ".v");
+    info_[body].moment_terms.push_back({name + ".w.e", -1.0});
+  }
+
+  /// A 1 x 3 map from a relative angular velocity to a spin about `axis` of `frame_body` times
+  /// `scale` (TF for the ground, MTF otherwise).
+  void AddSpin(const std::string& name, const std::string& frame_body, const Eigen::Vector3d& axis, double scale) {
+    const Eigen::MatrixXd row = scale * axis.normalized().transpose();
+    if (IsGround(frame_body)) {
+      Element tf = Make(name, ElementKind::kTF, 0, "", {});
+      tf.param = Param::Matrix(row);
+      g_.Add(tf);
+      return;
+    }
+    Modulus m;
+    m.kind = Modulus::Kind::kRotation;
+    m.rotation = frame_body + ".R";
+    m.transpose = true;
+    m.left = row;
+    Element mtf = Make(name, ElementKind::kMTF, 0, "", {});
+    mtf.modulus = m;
+    g_.Add(mtf);
+  }
+
+  void AddGear(const GearMesh& gm) {
+    const std::string sum = gm.name + ".sum";
+    g_.AddJunction(sum, ElementKind::kZero, 1);
+    const std::pair<const std::string*, std::pair<Eigen::Vector3d, double>> sides[] = {
+        {&gm.body_a, {gm.axis_a, 1.0}}, {&gm.body_b, {gm.axis_b, gm.teeth_b / gm.teeth_a}}};
+    const char* tag[] = {"a", "b"};
+    for (int i = 0; i < 2; ++i) {
+      const std::string& body = *sides[i].first;
+      const std::string rel = RelativeOmega(body, gm.carrier);
+      const std::string spin = gm.name + "." + tag[i];
+      AddSpin(spin, gm.carrier, sides[i].second.first, sides[i].second.second);
+      Bond(rel, spin, spin + ".in");
+      Bond(spin, sum, spin + ".out");
+      if (IsGround(gm.carrier)) info_[body].moment_terms.push_back({spin + ".in.e", -1.0});
+    }
+    AddCompliance(sum, gm.name + ".mesh", Eigen::VectorXd::Constant(1, gm.stiffness), Eigen::VectorXd::Constant(1, gm.damping),
+                  "rotation", {}, gm.where);
+    OutputDecl torque;
+    torque.name = gm.name + ".torque";
+    torque.variable = sum + ".e";
+    torque.where = gm.where;
+    AddOutput(torque);
+  }
+
+  void AddDrive(const Drive& d) {
+    switch (d.kind) {
+      case Drive::Kind::kAngularVelocity:
+      case Drive::Kind::kVelocity: {
+        const bool angular = d.kind == Drive::Kind::kAngularVelocity;
+        const std::string from = angular ? RelativeOmega(d.body, d.reference) : d.body + ".v";
+        const std::string axis = d.name + ".axis", diff = d.name + ".diff";
+        AddSpin(axis, angular ? d.reference : std::string(kGround), d.axis, 1.0);
+        Bond(from, axis, d.name + ".in");
+        if (IsGround(d.reference) || !angular) {
+          auto& terms = angular ? info_[d.body].moment_terms : info_[d.body].force_terms;
+          terms.push_back({d.name + ".in.e", -1.0});
+        }
+        g_.AddJunction(diff, ElementKind::kZero, 1);
+        Bond(axis, diff, d.name + ".spin");
+        Element src = Make(d.name + ".source", ElementKind::kSf, 1, angular ? "rotation" : "translation", d.where);
+        src.source.components = {d.value};
+        g_.Add(src);
+        Bond(diff, d.name + ".source", d.name + ".source");
+        AddCompliance(diff, d.name + ".coupling", Eigen::VectorXd::Constant(1, d.stiffness), Eigen::VectorXd::Constant(1, d.damping),
+                      angular ? "rotation" : "translation", {}, d.where);
+        // The coupling's effort tau acts on the body as -tau along the axis.
+        OutputDecl o = SumOutput(d.name + (angular ? ".torque" : ".force"), {{diff + ".e", -1.0}}, angular ? "N m" : "N", d.where);
+        o.components.clear();
+        AddOutput(o);
+        break;
+      }
+      case Drive::Kind::kTorque:
+      case Drive::Kind::kForce: {
+        const bool torque = d.kind == Drive::Kind::kTorque;
+        Element src = Make(d.name + ".source", ElementKind::kSe, 3, torque ? "rotation" : "translation", d.where);
+        const Eigen::Vector3d a = d.axis.normalized();
+        for (int i = 0; i < 3; ++i) src.source.components.push_back(d.value.Scaled(a[i]));
+        src.components = kXyz;
+        g_.Add(src);
+        if (torque) {
+          Bond(d.name + ".source", d.body + ".omega", d.name + ".source");
+        } else if (d.point.isZero()) {
+          Bond(d.name + ".source", d.body + ".v", d.name + ".source");
+        } else {
+          const std::string at = d.name + ".at";
+          g_.AddJunction(at, ElementKind::kZero, 3);
+          Bond(d.name + ".source", at, d.name + ".source");
+          Bond(at, d.body + ".v", d.name + ".v");
+          AddLever(d.name + ".arm", d.body, d.point, -1.0, at);
+          info_[d.body].moment_terms.pop_back();  // an applied force is no coupling
+        }
+        OutputDecl o;
+        o.name = d.name + (torque ? ".torque" : ".force");
+        o.variable = d.name + ".source.e";
+        o.where = d.where;
+        AddOutput(o);
+        break;
+      }
+    }
+  }
+
+  void AddPointOutput(const Point& p) {
+    OutputDecl o;
+    o.kind = OutputDecl::Kind::kPoint;
+    o.name = p.name;
+    o.position = p.body + ".r";
+    o.rotation = p.body + ".R";
+    o.point = p.at;
+    o.unit = "m";
+    o.where = p.where;
+    if (!FindBody(p.body)->mass.has_rotation()) {  // a point mass: its CoM is the point
+      o.kind = OutputDecl::Kind::kVariable;
+      o.variable = p.body + ".r";
+    }
+    AddOutput(o);
+  }
+
+  void AddBodyOutputs(const Body& b) {
+    const BodyInfo& info = info_.at(b.name);
+    OutputDecl v;
+    v.name = b.name + ".v";
+    v.variable = b.name + ".v.f";
+    v.where = b.where;
+    AddOutput(v);
+    // A body with no coupling still gets F (and M) columns, identically zero.
+    auto terms_or_zero = [&](std::vector<std::pair<std::string, double>> t, const std::string& junction) {
+      if (t.empty()) t.push_back({junction + ".f", 0.0});
+      return t;
+    };
+    AddOutput(SumOutput(b.name + ".F", terms_or_zero(info.force_terms, b.name + ".v"), "N", b.where));
+    if (b.mass.has_rotation()) {
+      OutputDecl w;
+      w.name = b.name + ".omega";
+      w.variable = b.name + ".omega.f";
+      w.where = b.where;
+      AddOutput(w);
+      AddOutput(SumOutput(b.name + ".M", terms_or_zero(info.moment_terms, b.name + ".omega"), "N m", b.where));
+      OutputDecl orth;
+      orth.kind = OutputDecl::Kind::kOrthonormality;
+      orth.name = b.name + ".orthonormality";
+      orth.rotation = b.name + ".R";
+      orth.where = b.where;
+      AddOutput(orth);
+    }
+  }
+
+ public:
+  Eigen::Vector3d gravity_ = Eigen::Vector3d::Zero();
+
+ private:
+  const Mechanism& m_;
+  BondGraph& g_;
+  DiagnosticSink& sink_;
+  std::map<std::string, BodyInfo> info_;
+  std::map<std::string, std::string> relative_;
+};
+
+}  // namespace
+
+Eigen::Matrix<double, 2, 3> Perpendicular(const Eigen::Vector3d& axis) {
+  const Eigen::Vector3d a = axis.normalized();
+  // Start from the coordinate axis least aligned with a, so the result is well conditioned.
+  int k = 0;
+  for (int i = 1; i < 3; ++i)
+    if (std::abs(a[i]) < std::abs(a[k])) k = i;
+  const Eigen::Vector3d u = (Eigen::Vector3d::Unit(k) - a * a[k]).normalized();
+  const Eigen::Vector3d v = a.cross(u);
+  Eigen::Matrix<double, 2, 3> m;
+  m.row(0) = u.transpose();
+  m.row(1) = v.transpose();
+  return m;
+}
+
+namespace {
+
+Coupling Uniform(const Eigen::MatrixXd& rows, double k, double r, Coupling::Frame frame) {
+  Coupling c;
+  c.directions = rows;
+  c.stiffness = Eigen::VectorXd::Constant(rows.rows(), k);
+  c.damping = Eigen::VectorXd::Constant(rows.rows(), r);
+  c.frame = frame;
+  return c;
+}
+
+Joint Base(std::string name, std::string kind, std::string parent, std::string child, const Eigen::Vector3d& at) {
+  Joint j;
+  j.name = std::move(name);
+  j.kind = std::move(kind);
+  j.parent = std::move(parent);
+  j.child = std::move(child);
+  j.parent_point = at;
+  return j;
+}
+
+}  // namespace
+
+Joint MakeRevolute(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at,
+                   const Eigen::Vector3d& axis, double k_t, double r_t, double k_r, double r_r) {
+  Joint j = Base(std::move(name), "revolute", std::move(parent), std::move(child), at);
+  j.translation = Uniform(Eigen::Matrix3d::Identity(), k_t, r_t, Coupling::Frame::kWorld);
+  j.rotation = Uniform(Perpendicular(axis), k_r, r_r, Coupling::Frame::kParent);
+  return j;
+}
+
+Joint MakeFixed(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at, double k_t, double r_t,
+                double k_r, double r_r) {
+  Joint j = Base(std::move(name), "fixed", std::move(parent), std::move(child), at);
+  j.translation = Uniform(Eigen::Matrix3d::Identity(), k_t, r_t, Coupling::Frame::kWorld);
+  j.rotation = Uniform(Eigen::Matrix3d::Identity(), k_r, r_r, Coupling::Frame::kParent);
+  return j;
+}
+
+Joint MakeSpherical(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at, double k_t,
+                    double r_t) {
+  Joint j = Base(std::move(name), "spherical", std::move(parent), std::move(child), at);
+  j.translation = Uniform(Eigen::Matrix3d::Identity(), k_t, r_t, Coupling::Frame::kWorld);
+  return j;
+}
+
+Joint MakePrismatic(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at,
+                    const Eigen::Vector3d& axis, double k_t, double r_t, double k_r, double r_r) {
+  Joint j = Base(std::move(name), "prismatic", std::move(parent), std::move(child), at);
+  j.translation = Uniform(Perpendicular(axis), k_t, r_t, Coupling::Frame::kParent);
+  j.rotation = Uniform(Eigen::Matrix3d::Identity(), k_r, r_r, Coupling::Frame::kParent);
+  return j;
+}
+
+void Mechanism::ExpandInto(BondGraph& g, DiagnosticSink& sink) const {
+  Expander e(*this, g, sink);
+  e.gravity_ = gravity_;
+  e.Run();
+}
+
+BondGraph Mechanism::Build(const std::string& name) const {
+  BondGraph g(name);
+  DiagnosticSink sink;
+  ExpandInto(g, sink);
+  sink.ThrowIfErrors();
+  return g;
+}
+
+}  // namespace multibond::mech

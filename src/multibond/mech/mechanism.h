@@ -1,0 +1,151 @@
+#pragma once
+/// \file
+/// The rigid-body multibond library: bodies, joints (compliant couplings), gear meshes, drives and
+/// points, expanded into an ordinary BondGraph made of the engine's elements, after the paper's
+/// formulation (Vaz & Hirai): per body a translational momentum p = m v at the centre of mass and
+/// an angular momentum h = R Ib R^T w in the inertial frame (no Euler junction structure), with
+/// the orientation R and position r as states integrated from the flows. docs/mechanisms.md shows
+/// each component's expansion.
+///
+/// Names in the expanded graph (B a body, J a joint, G a gear mesh, D a drive):
+///   B.v, B.omega (1-junctions: CoM velocity and angular velocity, inertial frame),
+///   B.p, B.h (states: momenta), B.R (orientation state, R.11 ... R.33), B.r (CoM position),
+///   outputs B.v, B.omega, B.F, B.M (sum of the couplings' forces and moments on B, inertial
+///   frame, moments about the CoM), B.orthonormality (|R^T R - I|);
+///   J.F, J.M (force and moment of the joint on its child, inertial frame), J.t.K, J.t.R, J.r.K,
+///   J.r.R (the couplings' C and R); G.torque, G.deflection; D.torque (or D.force); points P.x,y,z.
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "multibond/core/graph.h"
+#include "multibond/mech/mass_properties.h"
+
+namespace multibond::mech {
+
+/// The name that stands for the inertial frame (a fixed, massless "body").
+inline constexpr const char* kGround = "ground";
+
+struct Body {
+  std::string name;
+  MassProperties mass;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();     ///< CoM at t = 0 [m]
+  Eigen::Matrix3d orientation = Eigen::Matrix3d::Identity();  ///< R(0): body frame -> inertial
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();     ///< CoM velocity at t = 0 [m/s]
+  Eigen::Vector3d omega = Eigen::Vector3d::Zero();        ///< angular velocity at t = 0, inertial [rad/s]
+  double stabilization = 0.0;  ///< orientation drift control gain (see AuxState::stabilization)
+  SourceLocation where;
+};
+
+/// A set of compliant directions: one C (stiffness) and one R (damping) per direction.
+struct Coupling {
+  enum class Frame { kParent, kWorld, kChild };
+  /// Rows are the directions (unit vectors) in `frame`; k x 3 with k = 1, 2 or 3.
+  Eigen::MatrixXd directions = Eigen::Matrix3d::Identity();
+  Eigen::VectorXd stiffness;  ///< per direction (N/m or N m/rad)
+  Eigen::VectorXd damping;    ///< per direction (N s/m or N m s/rad)
+  Frame frame = Frame::kWorld;
+  std::vector<std::string> components;  ///< names of the directions ("x", "y", ...)
+};
+
+/// A joint: compliant couplings between a point of the parent (or of the ground) and a point of
+/// the child. Translation acts on v_child_point - v_parent_point, rotation on chosen components of
+/// w_child - w_parent expressed in the chosen frame. Free directions carry nothing.
+struct Joint {
+  std::string name;
+  std::string kind = "coupling";  ///< for reports: coupling, revolute, fixed, spherical, prismatic, held
+  std::string parent = kGround;
+  std::string child;
+  Eigen::Vector3d parent_point = Eigen::Vector3d::Zero();  ///< parent frame from its CoM; ground: absolute
+  Eigen::Vector3d child_point = Eigen::Vector3d::Zero();   ///< child frame, from its CoM
+  std::optional<Coupling> translation, rotation;
+  SourceLocation where;
+};
+
+/// Named joint kinds. `axis` is in the parent's frame; k_t, r_t (translation) and k_r, r_r
+/// (rotation) apply to every coupled direction.
+Joint MakeRevolute(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at,
+                   const Eigen::Vector3d& axis, double k_t, double r_t, double k_r, double r_r);
+Joint MakeFixed(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at, double k_t,
+                double r_t, double k_r, double r_r);
+Joint MakeSpherical(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at, double k_t,
+                    double r_t);
+Joint MakePrismatic(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at,
+                    const Eigen::Vector3d& axis, double k_t, double r_t, double k_r, double r_r);
+
+/// Two unit vectors orthogonal to `axis` and to each other (rows of a 2 x 3 matrix).
+Eigen::Matrix<double, 2, 3> Perpendicular(const Eigen::Vector3d& axis);
+
+/// A gear mesh: a transformer between the spins of two bodies relative to a carrier, in the
+/// carrier's frame: s_i = axis_i . (R_c^T (w_i - w_c)). The mesh deflection rate
+/// d = s_a + (teeth_b / teeth_a) s_b is zero when the gears roll without slip, so the axes are
+/// oriented such that rolling means teeth_a s_a + teeth_b s_b = 0. A C (stiffness) and an R
+/// (damping) act on d; the mesh torque acts on both gears and its reaction on the carrier.
+struct GearMesh {
+  std::string name;
+  std::string carrier = kGround;
+  std::string body_a, body_b;
+  Eigen::Vector3d axis_a = Eigen::Vector3d::UnitZ(), axis_b = Eigen::Vector3d::UnitZ();  ///< carrier frame
+  double teeth_a = 1.0, teeth_b = 1.0;
+  double stiffness = 0.0, damping = 0.0;  ///< N m/rad, N m s/rad (referred to gear a)
+  SourceLocation where;
+};
+
+/// A drive. Velocity drives impose a flow source on a compliant coupling (the paper's drive);
+/// effort drives apply a torque or force directly.
+struct Drive {
+  enum class Kind { kAngularVelocity, kVelocity, kTorque, kForce };
+  std::string name;
+  Kind kind = Kind::kAngularVelocity;
+  std::string body;
+  std::string reference = kGround;  ///< velocity drives: the body the velocity is relative to
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  ///< in the reference's frame (torque/force: inertial)
+  TimeFunction value;               ///< rad/s, m/s, N m or N along the axis
+  double stiffness = 0.0, damping = 0.0;  ///< velocity drives' coupling
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();  ///< force drives: application point (body frame)
+  SourceLocation where;
+};
+
+/// A body-fixed point whose inertial position is reported: r_B + R_B at.
+struct Point {
+  std::string name;
+  std::string body;
+  Eigen::Vector3d at = Eigen::Vector3d::Zero();
+  SourceLocation where;
+};
+
+class Mechanism {
+ public:
+  void AddBody(Body b) { bodies_.push_back(std::move(b)); }
+  void AddJoint(Joint j) { joints_.push_back(std::move(j)); }
+  void AddGear(GearMesh g) { gears_.push_back(std::move(g)); }
+  void AddDrive(Drive d) { drives_.push_back(std::move(d)); }
+  void AddPoint(Point p) { points_.push_back(std::move(p)); }
+  void SetGravity(const Eigen::Vector3d& g) { gravity_ = g; }
+
+  const std::vector<Body>& bodies() const { return bodies_; }
+  const std::vector<Joint>& joints() const { return joints_; }
+  const std::vector<GearMesh>& gears() const { return gears_; }
+  const std::vector<Drive>& drives() const { return drives_; }
+  const std::vector<Point>& points() const { return points_; }
+  bool empty() const { return bodies_.empty(); }
+
+  /// Checks the mechanism (unknown bodies, bad parameters, couplings deflected at t = 0) into
+  /// `sink`, then adds its expansion to `g`. Nothing is added if there are errors.
+  void ExpandInto(BondGraph& g, DiagnosticSink& sink) const;
+  /// A new graph with the expansion; throws ModelError.
+  BondGraph Build(const std::string& name = "mechanism") const;
+
+ private:
+  std::vector<Body> bodies_;
+  std::vector<Joint> joints_;
+  std::vector<GearMesh> gears_;
+  std::vector<Drive> drives_;
+  std::vector<Point> points_;
+  Eigen::Vector3d gravity_ = Eigen::Vector3d::Zero();
+};
+
+}  // namespace multibond::mech

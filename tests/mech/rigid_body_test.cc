@@ -1,0 +1,295 @@
+// The rigid-body library against closed-form answers and invariants (issue 3).
+
+#include <cmath>
+#include <numbers>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "multibond/compile/compiled_model.h"
+#include "multibond/mech/mechanism.h"
+#include "multibond/sim/simulator.h"
+
+namespace multibond::mech {
+namespace {
+
+using std::numbers::pi;
+
+RecordingObserver Simulated(const Mechanism& m, double t_end, double dt, double rtol = 1e-10, double atol = 1e-12,
+                            bool project = true) {
+  const auto model = CompiledModel::Compile(m.Build("test"));
+  RunOptions o;
+  o.t_end = t_end;
+  o.dt = dt;
+  o.integrator.rtol = rtol;
+  o.integrator.atol = atol;
+  o.integrator.project = project;
+  RecordingObserver rec;
+  Simulate(*model, o, rec);
+  EXPECT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
+  return rec;
+}
+
+Eigen::Matrix3d OrientationAt(const RecordingObserver& rec, size_t row, const std::string& body) {
+  Eigen::Matrix3d r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) r(i, j) = rec.rows()[row][rec.Index(body + ".R." + std::to_string(10 * (i + 1) + j + 1))];
+  return r;
+}
+
+Eigen::Vector3d VectorAt(const RecordingObserver& rec, size_t row, const std::string& name) {
+  return {rec.rows()[row][rec.Index(name + ".x")], rec.rows()[row][rec.Index(name + ".y")], rec.rows()[row][rec.Index(name + ".z")]};
+}
+
+/// Times at which `f(row)` changes sign, linearly interpolated.
+template <typename F>
+std::vector<double> ZeroCrossings(const RecordingObserver& rec, F f) {
+  std::vector<double> out;
+  double prev = f(0);
+  for (size_t k = 1; k < rec.rows().size(); ++k) {
+    const double cur = f(k);
+    if ((prev < 0) != (cur < 0)) {
+      const double t0 = rec.rows()[k - 1][0], t1 = rec.rows()[k][0];
+      out.push_back(t0 + (t1 - t0) * prev / (prev - cur));
+    }
+    prev = cur;
+  }
+  return out;
+}
+
+double MaxEnergyResidual(const RecordingObserver& rec, double from_fraction = 0.1) {
+  const int res = rec.Index("energy.residual");
+  const double t_from = rec.rows().back()[0] * from_fraction;
+  double m = 0.0;
+  for (const auto& row : rec.rows())
+    if (row[0] >= t_from) m = std::max(m, std::abs(row[res]));
+  return m;
+}
+
+TEST(MassProperties, ShapesMatchTextbookFormulas) {
+  const MassProperties disc = MassProperties::Cylinder(2700, 0.4, 0.01, 2);  // the paper's crown wheel
+  const double m = 2700 * pi * 0.2 * 0.2 * 0.01;
+  EXPECT_NEAR(disc.mass, m, 1e-12);
+  EXPECT_NEAR(disc.inertia(2, 2), m * 0.04 / 2, 1e-15);
+  EXPECT_NEAR(disc.inertia(0, 0), m * (3 * 0.04 + 1e-4) / 12, 1e-15);
+  const MassProperties box = MassProperties::Box(1000, {0.1, 0.2, 0.3});
+  EXPECT_NEAR(box.mass, 6.0, 1e-12);
+  EXPECT_NEAR(box.inertia(0, 0), 6.0 * (0.04 + 0.09) / 12, 1e-15);
+  const MassProperties ball = MassProperties::Sphere(1000, 0.2);
+  EXPECT_NEAR(ball.inertia(1, 1), 0.4 * ball.mass * 0.01, 1e-15);
+  EXPECT_FALSE(MassProperties::PointMass(1).has_rotation());
+}
+
+TEST(RigidBody, TorqueFreeFlipConservesEnergyAndMomentumAndHasTheEllipticPeriod) {
+  // An asymmetric body (I1 < I2 < I3) spun near its intermediate axis: the Dzhanibekov flip.
+  const double i1 = 1, i2 = 2, i3 = 3;
+  const Eigen::Vector3d w0(0.25, 5.0, 0.25);  // body = inertial frame at t = 0
+  Mechanism m;
+  Body b;
+  b.name = "B";
+  b.mass = MassProperties::Given(1.0, Eigen::Vector3d(i1, i2, i3).asDiagonal());
+  b.omega = w0;
+  m.AddBody(b);
+  const RecordingObserver rec = Simulated(m, 20.0, 1e-3, 1e-11, 1e-13);
+
+  const Eigen::Vector3d iw = Eigen::Vector3d(i1, i2, i3).cwiseProduct(w0);
+  const double two_e = w0.dot(iw), l2 = iw.squaredNorm();
+  double max_de = 0, max_dh = 0;
+  for (size_t k = 0; k < rec.rows().size(); ++k) {
+    max_de = std::max(max_de, std::abs(2 * rec.rows()[k][rec.Index("energy.kinetic")] - two_e) / two_e);
+    max_dh = std::max(max_dh, std::abs(VectorAt(rec, k, "B.h").squaredNorm() - l2) / l2);
+  }
+  EXPECT_LT(max_de, 1e-8);
+  EXPECT_LT(max_dh, 1e-8);
+
+  // Landau & Lifshitz, Mechanics, sec. 37 (L^2 > 2 E I2): the body-frame w2 ~ sn(tau, k) with
+  // tau = lambda t, lambda = sqrt((I3 - I2)(L^2 - 2 E I1) / (I1 I2 I3)); sn changes sign every 2 K(k).
+  ASSERT_GT(l2, two_e * i2);
+  const double lambda = std::sqrt((i3 - i2) * (l2 - two_e * i1) / (i1 * i2 * i3));
+  const double k2 = (i2 - i1) * (two_e * i3 - l2) / ((i3 - i2) * (l2 - two_e * i1));
+  const double half_period = 2 * std::comp_ellint_1(std::sqrt(k2)) / lambda;
+  const auto crossings = ZeroCrossings(rec, [&](size_t k) {
+    return (OrientationAt(rec, k, "B").transpose() * VectorAt(rec, k, "B.omega"))[1];
+  });
+  ASSERT_GE(crossings.size(), 4u);
+  const double measured = (crossings.back() - crossings.front()) / static_cast<double>(crossings.size() - 1);
+  EXPECT_NEAR(measured, half_period, 1e-6 * half_period);
+  EXPECT_EQ(rec.Last("energy.work"), 0.0);
+}
+
+TEST(RigidBody, OrientationStaysOrthonormalAtDefaultTolerances) {
+  Mechanism m;
+  Body b;
+  b.name = "B";
+  b.mass = MassProperties::Box(1000, {0.1, 0.2, 0.3});
+  b.omega = Eigen::Vector3d(3.0, -7.0, 11.0);
+  m.AddBody(b);
+  auto worst_drift = [](const RecordingObserver& rec) {
+    double worst = 0;
+    for (const auto& row : rec.rows()) worst = std::max(worst, row[rec.Index("B.orthonormality")]);
+    return worst;
+  };
+  // The CLI's defaults (BDF, rtol 1e-8, atol 1e-10, projection on), then the same without the
+  // projection: the drift column shows what the integration alone does.
+  EXPECT_LT(worst_drift(Simulated(m, 10.0, 1e-2, 1e-8, 1e-10)), 1e-9);
+  EXPECT_GT(worst_drift(Simulated(m, 10.0, 1e-2, 1e-8, 1e-10, false)), 1e-7);
+}
+
+TEST(RigidBody, HorizontalGyroscopePrecessesAtMglOverIsS) {
+  // A disc spinning about its horizontal symmetry axis (body x), its centre l from a spherical
+  // pivot: steady precession at exactly W = m g l / (I_s s) (theta = 90 degrees).
+  const double g = 9.81, l = 0.1, s = 200.0;
+  const MassProperties disc = MassProperties::Cylinder(7800, 0.1, 0.02, 0);
+  const double big_omega = disc.mass * g * l / (disc.inertia(0, 0) * s);
+  Mechanism m;
+  m.SetGravity({0, 0, -g});
+  Body b;
+  b.name = "rotor";
+  b.mass = disc;
+  b.position = {l, 0, 0};
+  b.omega = {s, 0, big_omega};
+  b.velocity = Eigen::Vector3d(0, 0, big_omega).cross(b.position);
+  m.AddBody(b);
+  Joint pivot = MakeSpherical("pivot", kGround, "rotor", Eigen::Vector3d::Zero(), 1e8, 200);
+  pivot.child_point = {-l, 0, 0};
+  m.AddJoint(pivot);
+  const double t_end = 2.0;
+  const RecordingObserver rec = Simulated(m, t_end, 1e-3);
+  // Azimuth of the spin axis (the first column of R), unwrapped.
+  double phi = 0, prev = 0;
+  for (size_t k = 0; k < rec.rows().size(); ++k) {
+    const Eigen::Matrix3d r = OrientationAt(rec, k, "rotor");
+    const double a = std::atan2(r(1, 0), r(0, 0));
+    if (k > 0) phi += std::remainder(a - prev, 2 * pi);
+    prev = a;
+  }
+  EXPECT_NEAR(phi / t_end, big_omega, 1e-4 * big_omega);
+  EXPECT_LT(MaxEnergyResidual(rec), 1e-8);
+}
+
+/// A uniform bar of length 1 m hanging from a stiff revolute joint about y at its top end.
+Mechanism Pendulum(double theta0, double* inertia_pivot, double* mass) {
+  const double len = 1.0, l = len / 2;
+  const MassProperties bar = MassProperties::Box(2700, {0.02, 0.02, len});
+  *inertia_pivot = bar.inertia(1, 1) + bar.mass * l * l;
+  *mass = bar.mass;
+  Mechanism m;
+  m.SetGravity({0, 0, -9.81});
+  Body b;
+  b.name = "bar";
+  b.mass = bar;
+  b.orientation = Eigen::AngleAxisd(theta0, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  b.position = b.orientation * Eigen::Vector3d(0, 0, -l);
+  m.AddBody(b);
+  Joint j = MakeRevolute("hinge", kGround, "bar", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitY(), 1e9, 2e3, 1e7, 20);
+  j.child_point = {0, 0, l};
+  m.AddJoint(j);
+  return m;
+}
+
+TEST(RigidBody, CompoundPendulumSmallAmplitudePeriod) {
+  double ip, mass;
+  const Mechanism m = Pendulum(0.01, &ip, &mass);
+  const double t0 = 2 * pi * std::sqrt(ip / (mass * 9.81 * 0.5));
+  // The hinge deflects by ~1e-8 m: an absolute tolerance of 1e-15 resolves it to 1e-7, so that
+  // the energy balance of this small swing (~3e-4 J) is checked at the same 1e-8 as elsewhere.
+  const RecordingObserver rec = Simulated(m, 4 * t0, 1e-4, 1e-10, 1e-15);
+  const auto crossings = ZeroCrossings(rec, [&](size_t k) { return rec.rows()[k][rec.Index("bar.r.x")]; });
+  ASSERT_GE(crossings.size(), 6u);
+  const double period = 2 * (crossings.back() - crossings.front()) / static_cast<double>(crossings.size() - 1);
+  EXPECT_NEAR(period, t0, 1e-4 * t0);  // the amplitude correction theta0^2/16 is 6e-6
+  EXPECT_LT(MaxEnergyResidual(rec), 1e-8);
+}
+
+TEST(RigidBody, CompoundPendulumReactionAtTheBottomOfTheSwing) {
+  const double theta0 = 0.5;
+  double ip, mass;
+  const Mechanism m = Pendulum(theta0, &ip, &mass);
+  const double t0 = 2 * pi * std::sqrt(ip / (mass * 9.81 * 0.5));
+  const RecordingObserver rec = Simulated(m, 0.6 * t0, 1e-4);
+  const auto crossings = ZeroCrossings(rec, [&](size_t k) { return rec.rows()[k][rec.Index("bar.r.x")]; });
+  ASSERT_GE(crossings.size(), 1u);
+  // At the bottom the joint carries the weight and the centripetal force: m g + m l w^2, with
+  // w^2 = 2 m g l (1 - cos theta0) / I_pivot; the tangential force is zero.
+  const double w2 = 2 * mass * 9.81 * 0.5 * (1 - std::cos(theta0)) / ip;
+  const double expected = mass * 9.81 + mass * 0.5 * w2;
+  EXPECT_NEAR(rec.At("hinge.F.z", crossings[0]), expected, 1e-4 * expected);
+  EXPECT_NEAR(rec.At("hinge.F.x", crossings[0]), 0.0, 1e-4 * expected);
+  EXPECT_NEAR(rec.At("bar.F.z", crossings[0]), expected, 1e-4 * expected);  // the only coupling
+}
+
+/// Two spur gears (20 and 40 teeth) on revolute joints to `carrier`, gear a driven at 10 rad/s
+/// relative to the carrier, gear b loaded by a viscous drag to the carrier.
+Mechanism GearPair(bool spinning_carrier) {
+  Mechanism m;
+  auto disc = [](const std::string& name, double d, const Eigen::Vector3d& at) {
+    Body b;
+    b.name = name;
+    b.mass = MassProperties::Cylinder(7800, d, 0.01, 2);
+    b.position = at;
+    return b;
+  };
+  std::string carrier = kGround;
+  if (spinning_carrier) {
+    carrier = "arm";
+    m.AddBody(disc("arm", 0.5, {0, 0, 0}));
+    m.AddJoint(MakeRevolute("arm_bearing", kGround, "arm", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), 1e7, 100, 1e5, 10));
+    Drive d;
+    d.name = "arm_drive";
+    d.body = "arm";
+    d.axis = Eigen::Vector3d::UnitZ();
+    d.value = TimeFunction::Constant(3.0);  // the carrier turns at 3 rad/s from t = 0
+    d.stiffness = 1e5;
+    d.damping = 50;
+    m.AddDrive(d);
+  }
+  m.AddBody(disc("a", 0.1, {0.15, 0, 0.05}));
+  m.AddBody(disc("b", 0.2, {0.0, 0, 0.05}));
+  const Eigen::Vector3d pa = spinning_carrier ? Eigen::Vector3d(0.15, 0, 0.05) : Eigen::Vector3d(0.15, 0, 0.05);
+  const Eigen::Vector3d pb(0.0, 0, 0.05);
+  m.AddJoint(MakeRevolute("a_bearing", carrier, "a", pa, Eigen::Vector3d::UnitZ(), 1e7, 100, 1e4, 10));
+  m.AddJoint(MakeRevolute("b_bearing", carrier, "b", pb, Eigen::Vector3d::UnitZ(), 1e7, 100, 1e4, 10));
+  GearMesh gm;
+  gm.name = "mesh";
+  gm.carrier = carrier;
+  gm.body_a = "a";
+  gm.body_b = "b";
+  gm.teeth_a = 20;
+  gm.teeth_b = 40;
+  gm.stiffness = 1e4;
+  gm.damping = 2;
+  m.AddGear(gm);
+  Drive drive;
+  drive.name = "motor";
+  drive.body = "a";
+  drive.reference = carrier;
+  drive.axis = Eigen::Vector3d::UnitZ();
+  drive.value = TimeFunction::Step(10.0);
+  drive.stiffness = 1e3;
+  drive.damping = 5;
+  m.AddDrive(drive);
+  return m;
+}
+
+TEST(GearMeshTest, FixedCarrierSpeedRatioIsTheTeethRatio) {
+  const RecordingObserver rec = Simulated(GearPair(false), 3.0, 1e-3);
+  const double wa = rec.Last("a.omega.z"), wb = rec.Last("b.omega.z");
+  EXPECT_NEAR(wa, 10.0, 1e-6 * 10);
+  EXPECT_NEAR(wb / wa, -20.0 / 40.0, 1e-6);
+  EXPECT_LT(MaxEnergyResidual(rec), 1e-8);
+}
+
+TEST(GearMeshTest, SpinningCarrierKeepsTheRelativeRatioAndBalancesEnergy) {
+  const RecordingObserver rec = Simulated(GearPair(true), 3.0, 1e-3);
+  const double wc = rec.Last("arm.omega.z"), wa = rec.Last("a.omega.z"), wb = rec.Last("b.omega.z");
+  EXPECT_NEAR(wc, 3.0, 1e-6 * 3);
+  EXPECT_NEAR(wa - wc, 10.0, 1e-6 * 10);
+  EXPECT_NEAR((wb - wc) / (wa - wc), -0.5, 1e-6);
+  EXPECT_LT(MaxEnergyResidual(rec), 1e-8);
+  // The carrier carries the mesh reaction: its bearing moment is not zero while the gears spin
+  // up, and the work of both drives balances the stored and dissipated energy.
+  EXPECT_GT(rec.Last("energy.work"), 0.0);
+}
+
+}  // namespace
+}  // namespace multibond::mech
