@@ -65,11 +65,15 @@ int Check(const std::string& path) {
   }
   PrintDiagnostics(c.diagnostics);
   if (c.has_errors()) {
-    std::cout << fmt::format("\nnot integrally causal: {} storage element{} in derivative causality\n", c.derivative.size(),
-                             c.derivative.size() == 1 ? "" : "s");
+    if (!c.derivative.empty())
+      std::cout << fmt::format("\nnot integrally causal: {} storage element{} in derivative causality\n", c.derivative.size(),
+                               c.derivative.size() == 1 ? "" : "s");
+    else
+      std::cout << "\ncausality conflicts: see the errors above\n";
     return kExitModel;
   }
   const auto model = mb::CompiledModel::Compile(lm.graph, lm.compile);  // also finds algebraic loops
+  (void)mb::MakeColumns(*model, false);  // and checks the declared outputs
   std::cout << fmt::format("\nintegrally causal; {} states ({} instructions in the plan):\n", model->num_states(), model->num_instructions());
   for (int i = 0; i < model->num_states(); ++i)
     std::cout << fmt::format("  {} [{}]\n", model->state_names()[i], model->state_units()[i]);
@@ -134,6 +138,7 @@ int Run(const RunArgs& a, const std::vector<std::string>& argv) {
   o.all_variables = a.all_variables;
   o.integrator.project = !a.no_projection;
   o.stop = &g_stop;
+  (void)mb::MakeColumns(*model, o.all_variables);  // a bad output is a model error: before any file is touched
   const bool tty = isatty(fileno(stderr)) && !a.quiet;
   if (tty) o.progress = [&](double f) { std::fprintf(stderr, "\r  t = %-10.4g s  %3.0f%%", o.t_start + f * (o.t_end - o.t_start), 100 * f); };
 

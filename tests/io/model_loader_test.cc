@@ -254,3 +254,55 @@ TEST(DidYouMean, FindsCloseWords) {
 
 }  // namespace
 }  // namespace multibond
+
+namespace multibond {
+namespace {
+
+TEST(ModelLoaderRegression, ConstantModulusKeepsItsRowSelection) {
+  // rows [y, z] of diag(1, 10, 100) applied to (1, 2, 3) must give (20, 300).
+  const LoadedModel lm = LoadModelString(R"(elements:
+  w: {type: Sf, flow: [1, 2, 3]}
+  pick: {type: MTF, modulus: {matrix: [[1, 0, 0], [0, 10, 0], [0, 0, 100]], rows: [y, z]}}
+  out: {type: "1"}
+  r: {type: R, resistance: 1}
+bonds: [w -> pick, pick -> out, out -> r]
+)");
+  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+  Workspace ws = model->MakeWorkspace();
+  Eigen::VectorXd x = model->MakeInitialState(), xdot(x.size());
+  model->CalcDerivatives(0.0, x.data(), xdot.data(), ws);
+  Eigen::Vector2d f;
+  model->Read(*model->FindVariable("r.f"), x.data(), ws, f.data());
+  EXPECT_DOUBLE_EQ(f[0], 20.0);
+  EXPECT_DOUBLE_EQ(f[1], 300.0);
+}
+
+TEST(ModelLoaderRegression, RotationMustNameAnOrientationState) {
+  const auto ds = Errors(R"(elements:
+  s: {type: Se, effort: [0, 0, 1]}
+  w: {type: "1"}
+  J: {type: I, inertia: [1, 2, 3], rotation: pos}
+bonds: [s -> w, w -> J]
+states:
+  pos: {kind: integral, of: w}
+)");
+  ASSERT_GE(ds.size(), 1u);
+  EXPECT_EQ(ds[0].code, "param.range");
+  EXPECT_THAT(ds[0].message, HasSubstr("rotation 'pos' is not an orientation state"));
+}
+
+TEST(ModelLoaderRegression, OtherJunctionVariableIsNotAVariable) {
+  const LoadedModel lm = LoadModelString(kMsd, "m.yaml");
+  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+  EXPECT_TRUE(model->FindVariable("j.f").has_value());
+  EXPECT_FALSE(model->FindVariable("j.e").has_value());  // each bond of a 1-junction has its own effort
+}
+
+TEST(ModelLoaderRegression, Rk4WithoutStepIsAModelError) {
+  const auto ds = Errors(std::string(kMsd) + "simulation: {solver: rk4}\n");
+  ASSERT_GE(ds.size(), 1u);
+  EXPECT_THAT(ds[0].message, HasSubstr("rk4 is a fixed-step method and needs 'step'"));
+}
+
+}  // namespace
+}  // namespace multibond

@@ -230,8 +230,7 @@ class Scap {
     d.details.push_back("path: " + FormatPath(g_, path));
     if (via >= 0 && via + 1 < static_cast<int>(path.size())) {
       d.hint = fmt::format("add a compliant coupling (a C and an R on a 1-junction, joined through a 0-junction) in the bond "
-                           "between {} and {}, or declare the {} dependent (ideal constraint)",
-                           Describe(g_, path[via]), Describe(g_, path[via + 1]), Describe(g_, i));
+                           "between {} and {}", Describe(g_, path[via]), Describe(g_, path[via + 1]));
     } else if (e.kind == ElementKind::kI) {
       d.hint = fmt::format("{} shares its flow with {}: give it its own 1-junction joined to the other through a "
                            "compliant coupling (C and R), or merge the two inertias into one",

@@ -190,6 +190,7 @@ void CompiledModel::Build() {
       AppendRowMajor(coef_, padded);
     }
     if (mod.kind == Modulus::Kind::kConstant) {
+      me.constant_rows = static_cast<int>(mod.constant.rows());
       me.constant = static_cast<int>(coef_.size());
       AppendRowMajor(coef_, mod.constant);
     }
@@ -551,7 +552,14 @@ void CompiledModel::EvalModuli(const double* x, double* out) const {
     using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
     Eigen::Map<RowMajor> m(out + me.out, me.rows, me.cols);
     if (me.kind == Modulus::Kind::kConstant) {
-      m = me.scale * Eigen::Map<const RowMajor>(coef_.data() + me.constant, me.rows, me.cols);
+      // The constant factor has the modulus' columns and as many rows as `left` has columns.
+      if (me.left >= 0) {
+        const int inner = me.constant_rows;
+        m.noalias() = me.scale * Eigen::Map<const RowMajor>(coef_.data() + me.left, me.rows, inner) *
+                      Eigen::Map<const RowMajor>(coef_.data() + me.constant, inner, me.cols);
+      } else {
+        m = me.scale * Eigen::Map<const RowMajor>(coef_.data() + me.constant, me.rows, me.cols);
+      }
     } else {
       if (me.right >= 0) core = core * Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(coef_.data() + me.right);
       if (me.left >= 0)
@@ -713,8 +721,9 @@ std::optional<VariableRef> CompiledModel::FindVariable(const std::string& name) 
     if (var == "e2") cls = effort_class_[b2];
     if (var == "f2") cls = flow_class_[b2];
   } else if (!el.bonds.empty()) {
-    if (var == "e") cls = effort_class_[el.bonds.front()];
-    if (var == "f") cls = flow_class_[el.bonds.front()];
+    // A 0-junction has one effort, a 1-junction one flow; their other variable differs per bond.
+    if (var == "e" && el.kind != ElementKind::kOne) cls = effort_class_[el.bonds.front()];
+    if (var == "f" && el.kind != ElementKind::kZero) cls = flow_class_[el.bonds.front()];
   }
   if (cls < 0) return std::nullopt;
   return VariableRef{VariableRef::In::kSlot, class_offset_[cls], class_size_[cls], class_units_[cls],

@@ -148,6 +148,7 @@ class CompiledModel {
     double scale;
     bool transpose;
     Eigen::Vector3d lever;
+    int constant_rows = 0;  ///< rows of the constant factor (= columns of `left`)
   };
   struct Gather {
     StateBlock::Kind kind;

@@ -199,8 +199,9 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
         if (m ? !IsPositiveDefinite(*m) : !(v > 0))
           bad(m ? "inertia matrix must be symmetric positive definite" : fmt::format("inertia must be > 0 (got {:g})", v),
               "an inertia (mass, moment of inertia, inductance) is positive");
-        if (!e.rotation.empty() && g.FindAux(e.rotation) < 0)
+        if (!e.rotation.empty() && (g.FindAux(e.rotation) < 0 || g.aux_states()[g.FindAux(e.rotation)].kind != AuxState::Kind::kOrientation))
           bad(fmt::format("rotation '{}' is not an orientation state", e.rotation), "declare it under states with kind: orientation");
+        if (!e.rotation.empty() && n != 3) bad("an inertia that turns with an orientation must be 3-dimensional", "give a 3x3 body inertia");
         break;
       case ElementKind::kC:
         if (m ? !IsPositiveDefinite(*m) : !(v > 0))
@@ -221,13 +222,16 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
       }
       case ElementKind::kMTF:
       case ElementKind::kMGY:
-        if (e.modulus.kind != Modulus::Kind::kConstant && g.FindAux(e.modulus.rotation) < 0)
+        if (e.modulus.kind != Modulus::Kind::kConstant &&
+            (g.FindAux(e.modulus.rotation) < 0 || g.aux_states()[g.FindAux(e.modulus.rotation)].kind != AuxState::Kind::kOrientation))
           bad(fmt::format("modulus refers to '{}', which is not an orientation state", e.modulus.rotation),
               "declare it under states with kind: orientation");
         break;
       default:
         break;
     }
+    if (!e.components.empty() && !IsTwoPort(e.kind) && static_cast<int>(e.components.size()) != n)
+      bad(fmt::format("{} component names given for a {}-dimensional bond", e.components.size(), n), "give one name per component");
     if (IsStorage(e.kind) && e.initial.size() > 0 && e.initial.size() != n)
       bad(fmt::format("initial value has {} components, the bond {}", e.initial.size(), n), "give one initial value per component");
   }

@@ -255,10 +255,21 @@ class Loader {
                   "e.g. {rotation: A.R, transpose: true}, {lever: A.R, r: [0.1, 0, 0]} or {matrix: [[...]]}");
       return m;
     }
-    CheckKeys(n, {"rotation", "transpose", "lever", "r", "matrix", "rows", "left", "scale"}, element);
+    CheckKeys(n, {"rotation", "transpose", "lever", "r", "matrix", "rows", "left", "right", "scale"}, element);
+    const int forms = (n["matrix"] ? 1 : 0) + (n["rotation"] ? 1 : 0) + (n["lever"] ? 1 : 0);
+    if (forms > 1) sink_.Error(Loc(n), element, "give exactly one of 'matrix', 'rotation' and 'lever'");
+    if (n["rows"] && n["left"]) sink_.Error(Loc(n), element, "give either 'rows' or 'left', not both");
+    if (n["transpose"] && !n["rotation"]) sink_.Error(Loc(n["transpose"]), element, "'transpose' goes with 'rotation'");
+    if (n["r"] && !n["lever"]) sink_.Error(Loc(n["r"]), element, "'r' goes with 'lever'");
+    if (n["right"] && !n["rotation"]) sink_.Error(Loc(n["right"]), element, "'right' goes with 'rotation'");
     if (n["scale"]) m.scale = Number(n["scale"], element, env);
     if (n["rows"]) m.left = Selection(n["rows"], element);
     if (n["left"]) m.left = Matrix(n["left"], element, env);
+    if (n["right"]) {
+      m.right = Matrix(n["right"], element, env);
+      if (m.right.size() > 0 && (m.right.rows() != 3 || m.right.cols() > 3))
+        sink_.Error(Loc(n["right"]), element, "'right' must be a 3 x n matrix with n <= 3");
+    }
     if (n["matrix"]) {
       m.kind = Modulus::Kind::kConstant;
       m.constant = Matrix(n["matrix"], element, env);
@@ -280,13 +291,15 @@ class Loader {
     }
     if (m.left.size() > 0 && m.kind == Modulus::Kind::kConstant && m.left.cols() != m.constant.rows())
       sink_.Error(Loc(n), element, "left matrix and modulus matrix do not fit together");
+    if (m.left.size() > 0 && m.kind != Modulus::Kind::kConstant && m.left.cols() != 3)
+      sink_.Error(Loc(n), element, fmt::format("'left' must have 3 columns here (got {})", m.left.cols()));
     return m;
   }
 
   bool Bool(const YAML::Node& n, const std::string& element) {
     const std::string s = n.IsScalar() ? n.Scalar() : "";
-    if (s == "true" || s == "yes") return true;
-    if (s == "false" || s == "no") return false;
+    if (s == "true" || s == "True" || s == "TRUE" || s == "yes") return true;
+    if (s == "false" || s == "False" || s == "FALSE" || s == "no") return false;
     sink_.Error(Loc(n), element, "expected true or false");
     return false;
   }
@@ -307,7 +320,7 @@ class Loader {
         sink_.Error(Loc(def), name, "a submodel definition is a mapping with parameters, ports, elements and bonds");
         continue;
       }
-      CheckKeys(def, {"description", "parameters", "ports", "elements", "bonds", "states", "domain"}, name);
+      CheckKeys(def, {"description", "parameters", "ports", "elements", "bonds", "states"}, name);
       if (ParseKind(name)) sink_.Error(Loc(kv.first), name, "a submodel cannot be named like an element kind");
       SubmodelDef sd{def, {}, {}};
       if (def["parameters"]) {
@@ -390,6 +403,7 @@ class Loader {
     e.kind = *kind;
     e.where = where;
     std::vector<std::string> keys = kCommonKeys;
+    if (IsTwoPort(e.kind)) keys = {"type", "description"};  // dimensions come from the ratio; domains may differ per port
     auto require = [&](const char* key, const char* hint) {
       if (spec[key]) return true;
       sink_.Error(where, name, fmt::format("{} needs '{}'", KindName(e.kind), key), hint);
@@ -416,7 +430,9 @@ class Loader {
         if (spec["compliance"]) {
           Param c = ReadParam(spec["compliance"], name, env);
           if (c.is_scalar) {
-            if (!(c.scalar > 0)) sink_.Error(Loc(spec["compliance"]), name, fmt::format("compliance must be > 0 (got {:g})", c.scalar));
+            if (!(c.scalar > 0))
+              sink_.Error("param.range", Loc(spec["compliance"]), name, fmt::format("compliance must be > 0 (got {:g})", c.scalar),
+                          "a compliance stores energy only when positive");
             e.param = Param::Scalar(1.0 / c.scalar);
           } else {
             e.param = Param::Matrix(c.matrix.inverse());
@@ -525,7 +541,13 @@ class Loader {
       from = b["from"].Scalar();
       to = b["to"].Scalar();
       if (b["name"]) name = Qualify(prefix, b["name"].Scalar());
-      if (b["dim"]) dim = static_cast<int>(Number(b["dim"], "bond", env));
+      if (b["dim"]) {
+        const double d = Number(b["dim"], "bond", env);
+        if (d < 1 || d > 64 || d != std::floor(d))
+          sink_.Error("param.range", Loc(b["dim"]), "bond", fmt::format("dim must be a whole number from 1 to 64 (got {:g})", d));
+        else
+          dim = static_cast<int>(d);
+      }
     } else {
       sink_.Error(Loc(b), "bond", "a bond is 'from -> to', [from, to] or {from: ..., to: ...}");
       return;
@@ -644,14 +666,13 @@ class Loader {
     if (n["solver"]) {
       s.solver = n["solver"].Scalar();
       try {
-        ParseMethodName(*s.solver);
+        if (ParseMethod(*s.solver) == Method::kRk4 && !s.step)
+          sink_.Error(Loc(n["solver"]), "simulation", "rk4 is a fixed-step method and needs 'step'", "add step: 1.0e-4 (or use dopri5)");
       } catch (const std::invalid_argument& e) {
         sink_.Error(Loc(n["solver"]), "simulation", e.what());
       }
     }
   }
-
-  static void ParseMethodName(const std::string& s) { (void)ParseMethod(s); }
 
   std::string file_, text_;
   BondGraph graph_;

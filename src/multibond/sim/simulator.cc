@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <optional>
 
 #include <fmt/format.h>
@@ -97,7 +98,6 @@ Layout MakeLayout(const CompiledModel& model, bool all_variables) {
         break;
     }
   }
-  sink.ThrowIfErrors();
   if (all_variables) {
     for (int c = 0; c < model.num_slot_classes(); ++c) {
       const auto v = model.FindVariable(model.slot_class_name(c));
@@ -114,6 +114,17 @@ Layout MakeLayout(const CompiledModel& model, bool all_variables) {
     l.Add("energy.dissipated", "J", {ColumnSource::Kind::kDissipated});
     l.Add("energy.residual", "-", {ColumnSource::Kind::kResidual});
   }
+  std::map<std::string, size_t> seen;
+  for (size_t c = 0; c < l.columns.size(); ++c) {
+    if (seen.emplace(l.columns[c].name, c).second) continue;
+    const OutputDecl* o = nullptr;
+    for (const OutputDecl& d : model.graph().outputs())
+      if (l.columns[c].name.rfind(d.name, 0) == 0) o = &d;
+    sink.Error("output.duplicate", o ? o->where : SourceLocation{}, o ? o->name : "",
+               fmt::format("two output columns would both be called '{}'", l.columns[c].name),
+               "rename the output (a state or variable of that name is already a column)");
+  }
+  sink.ThrowIfErrors();
   return l;
 }
 
