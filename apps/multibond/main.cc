@@ -48,8 +48,14 @@ std::string Stroke(const mb::BondGraph& g, const mb::CausalAssignment& c, int b)
   return fmt::format("effort from {}, flow from {}", mb::Describe(g, effort_from), mb::Describe(g, g.Other(b, effort_from)));
 }
 
+mb::LoadedModel Load(const std::string& path) {
+  mb::LoadedModel lm = mb::LoadModelFile(path);
+  PrintDiagnostics(lm.warnings);
+  return lm;
+}
+
 int Check(const std::string& path) {
-  const mb::LoadedModel lm = mb::LoadModelFile(path);
+  const mb::LoadedModel lm = Load(path);
   const mb::BondGraph& g = lm.graph;
   mb::DiagnosticSink sink;
   const mb::Structure s = mb::AnalyzeStructure(g, lm.compile.default_domain, sink);
@@ -81,14 +87,14 @@ int Check(const std::string& path) {
 }
 
 int Equations(const std::string& path, const std::string& format) {
-  const mb::LoadedModel lm = mb::LoadModelFile(path);
+  const mb::LoadedModel lm = Load(path);
   const auto model = mb::CompiledModel::Compile(lm.graph, lm.compile);
   std::cout << mb::FormatEquations(*model, format == "latex" ? mb::EquationFormat::kLatex : mb::EquationFormat::kText);
   return kExitOk;
 }
 
 int Graph(const std::string& path, const std::string& out) {
-  const mb::LoadedModel lm = mb::LoadModelFile(path);
+  const mb::LoadedModel lm = Load(path);
   mb::DiagnosticSink sink;
   const mb::Structure s = mb::AnalyzeStructure(lm.graph, lm.compile.default_domain, sink);
   sink.ThrowIfErrors();
@@ -118,7 +124,7 @@ struct RunArgs {
 };
 
 int Run(const RunArgs& a, const std::vector<std::string>& argv) {
-  const mb::LoadedModel lm = mb::LoadModelFile(a.model);
+  const mb::LoadedModel lm = Load(a.model);
   const auto model = mb::CompiledModel::Compile(lm.graph, lm.compile);
   const mb::SimulationDefaults& d = lm.simulation;
   mb::RunOptions o;

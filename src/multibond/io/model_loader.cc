@@ -1,11 +1,14 @@
 #include "multibond/io/model_loader.h"
 
 #include "multibond/core/structure.h"
+#include "multibond/mech/mechanism.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
+#include <functional>
+#include <numbers>
 #include <map>
 #include <set>
 #include <sstream>
@@ -19,7 +22,8 @@ namespace {
 
 using Env = std::map<std::string, double>;  // submodel parameters in scope
 
-const std::vector<std::string> kTopKeys = {"model", "description", "domain", "elements", "bonds", "states", "outputs", "simulation", "submodels"};
+const std::vector<std::string> kTopKeys = {"model", "description", "domain", "elements", "bonds", "states", "outputs",
+                                           "simulation", "submodels", "gravity", "bodies", "joints", "gears", "drives", "points"};
 const std::vector<std::string> kCommonKeys = {"type", "dim", "domain", "components", "description"};
 
 class Loader {
@@ -47,8 +51,14 @@ class Loader {
     graph_.set_source_file(file_);
     if (root["domain"]) out.compile.default_domain = Domain(root["domain"], "domain");
     if (root["submodels"]) ReadSubmodelDefs(root["submodels"]);
-    if (!root["elements"]) sink_.Error({file_, 1, 1}, "", "the model has no 'elements' section", "list the elements under 'elements:'");
-    if (!root["bonds"]) sink_.Error({file_, 1, 1}, "", "the model has no 'bonds' section", "list the bonds under 'bonds:', e.g. '- force -> mass'");
+    const bool mechanism = root["bodies"].IsDefined();
+    if (mechanism) ReadMechanism(root);
+    if (!root["elements"] && !mechanism)
+      sink_.Error({file_, 1, 1}, "", "the model has no 'elements' section (nor 'bodies')", "list the elements under 'elements:'");
+    if (!root["bonds"] && !mechanism)
+      sink_.Error({file_, 1, 1}, "", "the model has no 'bonds' section", "list the bonds under 'bonds:', e.g. '- force -> mass'");
+    for (const char* key : {"joints", "gears", "drives", "points", "gravity"})
+      if (root[key] && !mechanism) sink_.Error(Loc(root[key]), key, fmt::format("'{}' needs a 'bodies' section", key), "declare the bodies first");
     ReadScope(root, "", Env{}, 0);
     if (root["outputs"]) ReadOutputs(root["outputs"]);
     if (root["simulation"]) ReadSimulation(root["simulation"], out.simulation);
@@ -61,6 +71,8 @@ class Loader {
         if (d.code == "param.range") sink_.Add(d);
     }
     sink_.ThrowIfErrors();
+    for (const auto& d : sink_.diagnostics())
+      if (d.severity == Diagnostic::Severity::kWarning) out.warnings.push_back(d);
     out.graph = std::move(graph_);
     return out;
   }
@@ -672,6 +684,413 @@ class Loader {
         sink_.Error(Loc(n["solver"]), "simulation", e.what());
       }
     }
+  }
+
+
+  // --- mechanism sections: bodies, joints, gears, drives, points (docs/mechanisms.md) --------
+
+  Eigen::Vector3d Vec3(const YAML::Node& n, const std::string& element) {
+    const Eigen::VectorXd v = Vector(n, element, Env{});
+    if (v.size() != 3) {
+      sink_.Error(Loc(n), element, fmt::format("expected 3 numbers, got {}", v.size()), "write e.g. [0, 0, 1]");
+      return Eigen::Vector3d::Zero();
+    }
+    return v;
+  }
+
+  /// "x", "-z" or a 3-vector (normalised).
+  Eigen::Vector3d Axis(const YAML::Node& n, const std::string& element) {
+    if (n.IsScalar()) {
+      std::string s = n.Scalar();
+      double sign = 1.0;
+      if (!s.empty() && (s[0] == '-' || s[0] == '+')) {
+        sign = s[0] == '-' ? -1.0 : 1.0;
+        s = s.substr(1);
+      }
+      if (s == "x") return sign * Eigen::Vector3d::UnitX();
+      if (s == "y") return sign * Eigen::Vector3d::UnitY();
+      if (s == "z") return sign * Eigen::Vector3d::UnitZ();
+      sink_.Error(Loc(n), element, fmt::format("unknown axis '{}'", n.Scalar()), "write x, y, z, -x, ... or a vector [ax, ay, az]");
+      return Eigen::Vector3d::UnitX();
+    }
+    const Eigen::Vector3d v = Vec3(n, element);
+    if (v.norm() < 1e-12) {
+      sink_.Error(Loc(n), element, "an axis must be a non-zero vector");
+      return Eigen::Vector3d::UnitX();
+    }
+    return v.normalized();
+  }
+
+  /// Rows of unit vectors: "all", a list of axes, or a matrix.
+  Eigen::MatrixXd Directions(const YAML::Node& n, const std::string& element, std::vector<std::string>* names) {
+    if (n.IsScalar() && n.Scalar() == "all") {
+      *names = {"x", "y", "z"};
+      return Eigen::Matrix3d::Identity();
+    }
+    if (!n.IsSequence() || n.size() == 0 || n.size() > 3) {
+      sink_.Error(Loc(n), element, "directions are 'all' or a list of 1 to 3 axes", "write e.g. axes: [y, z]");
+      return Eigen::Matrix3d::Identity();
+    }
+    Eigen::MatrixXd rows(static_cast<Eigen::Index>(n.size()), 3);
+    bool named = true;
+    for (size_t i = 0; i < n.size(); ++i) {
+      rows.row(static_cast<Eigen::Index>(i)) = Axis(n[i], element).transpose();
+      named = named && n[i].IsScalar();
+      if (n[i].IsScalar()) names->push_back(n[i].Scalar()[0] == '-' ? n[i].Scalar().substr(1) : n[i].Scalar());
+    }
+    if (!named) names->clear();
+    return rows;
+  }
+
+  Eigen::Matrix3d Orientation(const YAML::Node& n, const std::string& element) {
+    if (n.IsMap()) {
+      CheckKeys(n, {"axis", "angle", "degrees"}, element);
+      if (!n["axis"] || (!n["angle"] && !n["degrees"])) {
+        sink_.Error(Loc(n), element, "an orientation is a 3x3 matrix or {axis: ..., angle: radians | degrees: ...}");
+        return Eigen::Matrix3d::Identity();
+      }
+      const double angle = n["angle"] ? Number(n["angle"], element, Env{}) : Number(n["degrees"], element, Env{}) * std::numbers::pi / 180.0;
+      return Eigen::AngleAxisd(angle, Axis(n["axis"], element)).toRotationMatrix();
+    }
+    const Eigen::MatrixXd m = Matrix(n, element, Env{});
+    if (m.rows() != 3 || m.cols() != 3) {
+      sink_.Error(Loc(n), element, "an orientation matrix is 3x3");
+      return Eigen::Matrix3d::Identity();
+    }
+    return m;
+  }
+
+  /// K and R of a coupling: scalars (every direction) or one per direction.
+  void Gains(const YAML::Node& n, const std::string& element, int k, Eigen::VectorXd* stiff, Eigen::VectorXd* damp) {
+    auto read = [&](const char* a, const char* b, Eigen::VectorXd* out, bool required) {
+      const YAML::Node v = n[a] ? n[a] : n[b];
+      if (!v) {
+        if (required) sink_.Error(Loc(n), element, fmt::format("coupling needs '{}' (or '{}')", a, b), "e.g. {K: 1.0e6, R: 20}");
+        *out = Eigen::VectorXd::Zero(k);
+        return;
+      }
+      const Eigen::VectorXd x = Vector(v, element, Env{});
+      if (x.size() == 1) *out = Eigen::VectorXd::Constant(k, x[0]);
+      else if (x.size() == k) *out = x;
+      else {
+        sink_.Error(Loc(v), element, fmt::format("give one value or {} (one per direction), got {}", k, x.size()));
+        *out = Eigen::VectorXd::Constant(k, 1.0);
+      }
+    };
+    read("K", "stiffness", stiff, true);
+    read("R", "damping", damp, false);
+  }
+
+  mech::Coupling::Frame Frame(const YAML::Node& n, const std::string& element, mech::Coupling::Frame dflt) {
+    if (!n) return dflt;
+    const std::string f = n.Scalar();
+    if (f == "world") return mech::Coupling::Frame::kWorld;
+    if (f == "parent") return mech::Coupling::Frame::kParent;
+    if (f == "child") return mech::Coupling::Frame::kChild;
+    sink_.Error(Loc(n), element, fmt::format("unknown frame '{}'", f), "use world, parent or child");
+    return dflt;
+  }
+
+  /// A coupling section: {K, R, directions|axes, frame}. `fixed_rows` (named kinds) gives the
+  /// directions; otherwise they are read (default: all three).
+  std::optional<mech::Coupling> ReadCoupling(const YAML::Node& n, const std::string& element, const char* what,
+                                             const Eigen::MatrixXd* fixed_rows, mech::Coupling::Frame frame) {
+    if (!n) return std::nullopt;
+    if (!n.IsMap()) {
+      sink_.Error(Loc(n), element, fmt::format("'{}' is a mapping like {{K: 1.0e6, R: 20}}", what));
+      return std::nullopt;
+    }
+    mech::Coupling c;
+    std::vector<std::string> keys = {"K", "R", "stiffness", "damping"};
+    if (!fixed_rows) keys.insert(keys.end(), {"directions", "axes", "frame"});
+    CheckKeys(n, keys, element);
+    if (fixed_rows) {
+      c.directions = *fixed_rows;
+    } else {
+      const YAML::Node d = n["directions"] ? n["directions"] : n["axes"];
+      c.directions = d ? Directions(d, element, &c.components) : Eigen::MatrixXd(Eigen::Matrix3d::Identity());
+      if (!d) c.components = {"x", "y", "z"};
+      frame = Frame(n["frame"], element, frame);
+    }
+    if (fixed_rows && c.directions.rows() == 3 && c.directions.isApprox(Eigen::MatrixXd::Identity(3, 3))) c.components = {"x", "y", "z"};
+    c.frame = frame;
+    Gains(n, element, static_cast<int>(c.directions.rows()), &c.stiffness, &c.damping);
+    return c;
+  }
+
+  mech::MassProperties Mass(const YAML::Node& b, const std::string& name) {
+    if (b["shape"]) {
+      const YAML::Node sh = b["shape"];
+      if (!b["density"]) sink_.Error(Loc(sh), name, "a shape needs a 'density' [kg/m^3]");
+      const double rho = b["density"] ? Number(b["density"], name, Env{}) : 1.0;
+      if (!(rho > 0)) sink_.Error("param.range", Loc(b["density"]), name, fmt::format("density must be > 0 (got {:g})", rho));
+      if (!sh.IsMap() || sh.size() != 1) {
+        sink_.Error(Loc(sh), name, "shape is one of {disc: ...}, {cylinder: ...}, {box: ...}, {sphere: ...}");
+        return mech::MassProperties::PointMass(1.0);
+      }
+      const std::string kind = sh.begin()->first.Scalar();
+      const YAML::Node p = sh.begin()->second;
+      auto num = [&](const char* key) {
+        if (!p[key]) {
+          sink_.Error(Loc(p), name, fmt::format("{} needs '{}'", kind, key));
+          return 1.0;
+        }
+        const double v = Number(p[key], name, Env{});
+        if (!(v > 0)) sink_.Error("param.range", Loc(p[key]), name, fmt::format("{} must be > 0 (got {:g})", key, v));
+        return v;
+      };
+      auto axis_index = [&]() {
+        if (!p["axis"]) return 2;
+        const Eigen::Vector3d a = Axis(p["axis"], name);
+        int k = 0;
+        for (int i = 1; i < 3; ++i)
+          if (std::abs(a[i]) > std::abs(a[k])) k = i;
+        if (std::abs(std::abs(a[k]) - 1.0) > 1e-12) sink_.Error(Loc(p["axis"]), name, "a shape's axis is x, y or z");
+        return k;
+      };
+      if (kind == "disc" || kind == "cylinder") {
+        CheckKeys(p, {"diameter", "thickness", "length", "axis"}, name);
+        const double len = kind == "disc" ? num("thickness") : num("length");
+        return mech::MassProperties::Cylinder(rho, num("diameter"), len, axis_index());
+      }
+      if (kind == "box") {
+        CheckKeys(p, {"size"}, name);
+        return mech::MassProperties::Box(rho, p["size"] ? Vec3(p["size"], name) : Eigen::Vector3d::Ones());
+      }
+      if (kind == "sphere") {
+        CheckKeys(p, {"diameter"}, name);
+        return mech::MassProperties::Sphere(rho, num("diameter"));
+      }
+      const std::string guess = DidYouMean(kind, {"disc", "cylinder", "box", "sphere"});
+      sink_.Error(Loc(sh.begin()->first), name, fmt::format("unknown shape '{}'", kind),
+                  guess.empty() ? "use disc, cylinder, box or sphere" : fmt::format("did you mean '{}'?", guess));
+      return mech::MassProperties::PointMass(1.0);
+    }
+    if (!b["mass"]) {
+      sink_.Error(Loc(b), name, "a body needs a 'shape' and 'density', or a 'mass' (and 'inertia')");
+      return mech::MassProperties::PointMass(1.0);
+    }
+    const double m = Number(b["mass"], name, Env{});
+    if (!b["inertia"]) return mech::MassProperties::PointMass(m);
+    const Param ip = ReadParam(b["inertia"], name, Env{});
+    Eigen::Matrix3d inertia = Eigen::Matrix3d::Identity();
+    if (ip.is_scalar) inertia *= ip.scalar;
+    else if (ip.matrix.rows() == 3 && ip.matrix.cols() == 3) inertia = ip.matrix;
+    else sink_.Error(Loc(b["inertia"]), name, "inertia is a number, 3 principal moments or a 3x3 matrix");
+    return mech::MassProperties::Given(m, inertia);
+  }
+
+  void ReadMechanism(const YAML::Node& root) {
+    mech::Mechanism m;
+    if (root["gravity"]) m.SetGravity(Vec3(root["gravity"], "gravity"));
+    const YAML::Node bodies = root["bodies"];
+    if (!bodies.IsMap()) {
+      sink_.Error(Loc(bodies), "bodies", "'bodies' is a mapping of names to bodies");
+      return;
+    }
+    // Positions may be given relative to another body: resolve in dependency order.
+    std::map<std::string, YAML::Node> spec;
+    std::vector<std::string> order;
+    for (const auto& kv : bodies) {
+      spec[kv.first.Scalar()] = kv.second;
+      order.push_back(kv.first.Scalar());
+    }
+    std::map<std::string, mech::Body> made;
+    std::set<std::string> in_progress;
+    std::function<const mech::Body*(const std::string&, const YAML::Node&)> make = [&](const std::string& name,
+                                                                                       const YAML::Node& at) -> const mech::Body* {
+      if (made.count(name)) return &made[name];
+      if (!spec.count(name)) {
+        sink_.Error("mech.reference", Loc(at), name, fmt::format("no body called '{}'", name), "define it under 'bodies'");
+        return nullptr;
+      }
+      if (in_progress.count(name)) {
+        sink_.Error("mech.reference", Loc(at), name, "body positions refer to each other in a circle");
+        return nullptr;
+      }
+      in_progress.insert(name);
+      const YAML::Node b = spec[name];
+      mech::Body body;
+      body.name = name;
+      body.where = Loc(b);
+      if (!b.IsMap()) {
+        sink_.Error(Loc(b), name, "a body is a mapping with shape/density or mass/inertia, position, ...");
+        made[name] = body;
+        return &made[name];
+      }
+      CheckKeys(b, {"shape", "density", "mass", "inertia", "position", "orientation", "velocity", "omega", "description"}, name);
+      body.mass = Mass(b, name);
+      if (b["orientation"]) body.orientation = Orientation(b["orientation"], name);
+      if (const YAML::Node p = b["position"]) {
+        if (p.IsMap()) {
+          CheckKeys(p, {"relative_to", "offset"}, name);
+          const mech::Body* ref = p["relative_to"] ? make(p["relative_to"].Scalar(), p["relative_to"]) : nullptr;
+          const Eigen::Vector3d off = p["offset"] ? Vec3(p["offset"], name) : Eigen::Vector3d::Zero();
+          if (ref) body.position = ref->position + ref->orientation * off;
+          else if (!p["relative_to"]) sink_.Error(Loc(p), name, "a relative position needs 'relative_to' (a body) and 'offset' (in its frame)");
+        } else {
+          body.position = Vec3(p, name);
+        }
+      }
+      if (b["velocity"]) body.velocity = Vec3(b["velocity"], name);
+      if (b["omega"]) body.omega = Vec3(b["omega"], name);
+      in_progress.erase(name);
+      made[name] = body;
+      return &made[name];
+    };
+    for (const std::string& name : order) {
+      make(name, spec[name]);
+      m.AddBody(made[name]);
+    }
+    auto body_or_ground = [&](const std::string& n) -> const mech::Body* { return made.count(n) ? &made[n] : nullptr; };
+
+    if (const YAML::Node joints = root["joints"]) {
+      for (const auto& kv : joints) {
+        const std::string name = kv.first.Scalar();
+        const YAML::Node j = kv.second;
+        mech::Joint joint;
+        joint.name = name;
+        joint.where = Loc(kv.first);
+        if (!j.IsMap()) {
+          sink_.Error(joint.where, name, "a joint is a mapping with type, parent, child, ...");
+          continue;
+        }
+        const std::string type = j["type"] ? j["type"].Scalar() : "coupling";
+        const std::vector<std::string> types = {"coupling", "revolute", "fixed", "weld", "spherical", "prismatic", "held"};
+        if (std::find(types.begin(), types.end(), type) == types.end()) {
+          const std::string guess = DidYouMean(type, types);
+          sink_.Error(Loc(j["type"]), name, fmt::format("unknown joint type '{}'", type),
+                      guess.empty() ? "use coupling, revolute, fixed, spherical, prismatic or held" : fmt::format("did you mean '{}'?", guess));
+          continue;
+        }
+        CheckKeys(j, {"type", "parent", "child", "at", "child_at", "axis", "translation", "rotation", "description"}, name);
+        joint.kind = type;
+        joint.parent = j["parent"] ? j["parent"].Scalar() : std::string(mech::kGround);
+        if (type == "held" && joint.parent != mech::kGround) sink_.Error(Loc(j["parent"]), name, "a 'held' joint holds its child to the ground", "remove 'parent'");
+        if (!j["child"]) {
+          sink_.Error(joint.where, name, "a joint needs a 'child' body");
+          continue;
+        }
+        joint.child = j["child"].Scalar();
+        if (j["child_at"]) joint.child_point = Vec3(j["child_at"], name);
+        const mech::Body* parent = body_or_ground(joint.parent);
+        const mech::Body* child = body_or_ground(joint.child);
+        if (j["at"]) {
+          joint.parent_point = Vec3(j["at"], name);
+        } else if (child && (parent || joint.parent == mech::kGround)) {
+          // By default the joint sits where the child's attachment is at t = 0: undeflected.
+          const Eigen::Vector3d p = child->position + child->orientation * joint.child_point;
+          joint.parent_point = parent ? Eigen::Vector3d(parent->orientation.transpose() * (p - parent->position)) : p;
+        }
+        const bool needs_axis = type == "revolute" || type == "prismatic";
+        if (needs_axis && !j["axis"]) sink_.Error(joint.where, name, fmt::format("a {} joint needs an 'axis' (in the parent's frame)", type));
+        const Eigen::Vector3d axis = j["axis"] ? Axis(j["axis"], name) : Eigen::Vector3d::UnitZ();
+        const Eigen::MatrixXd all = Eigen::Matrix3d::Identity();
+        const Eigen::MatrixXd perp = mech::Perpendicular(axis);
+        using F = mech::Coupling::Frame;
+        if (type == "coupling") {
+          joint.translation = ReadCoupling(j["translation"], name, "translation", nullptr, F::kWorld);
+          joint.rotation = ReadCoupling(j["rotation"], name, "rotation", nullptr, F::kParent);
+        } else {
+          const bool trans = type != "prismatic", rot_all = type == "fixed" || type == "weld" || type == "held" || type == "prismatic";
+          if (j["translation"]) joint.translation = ReadCoupling(j["translation"], name, "translation", trans ? &all : &perp, trans ? F::kWorld : F::kParent);
+          else sink_.Error(joint.where, name, fmt::format("a {} joint needs 'translation: {{K: ..., R: ...}}'", type));
+          if (type != "spherical") {
+            if (j["rotation"]) joint.rotation = ReadCoupling(j["rotation"], name, "rotation", rot_all ? &all : &perp, F::kParent);
+            else sink_.Error(joint.where, name, fmt::format("a {} joint needs 'rotation: {{K: ..., R: ...}}'", type));
+          } else if (j["rotation"]) {
+            sink_.Error(Loc(j["rotation"]), name, "a spherical joint leaves every rotation free", "remove 'rotation', or use type: coupling");
+          }
+        }
+        m.AddJoint(joint);
+      }
+    }
+    if (const YAML::Node gears = root["gears"]) {
+      for (const auto& kv : gears) {
+        const std::string name = kv.first.Scalar();
+        const YAML::Node g = kv.second;
+        mech::GearMesh gm;
+        gm.name = name;
+        gm.where = Loc(kv.first);
+        CheckKeys(g, {"carrier", "a", "b", "K", "R", "stiffness", "damping", "description"}, name);
+        gm.carrier = g["carrier"] ? g["carrier"].Scalar() : std::string(mech::kGround);
+        auto side = [&](const char* key, std::string* body, Eigen::Vector3d* axis, double* teeth) {
+          const YAML::Node s = g[key];
+          if (!s || !s.IsMap()) {
+            sink_.Error(gm.where, name, fmt::format("a gear mesh needs '{}: {{body: ..., axis: ..., teeth: ...}}'", key));
+            return;
+          }
+          CheckKeys(s, {"body", "axis", "teeth"}, name);
+          if (s["body"]) *body = s["body"].Scalar();
+          else sink_.Error(Loc(s), name, fmt::format("gear '{}' needs a 'body'", key));
+          if (s["axis"]) *axis = Axis(s["axis"], name);
+          else sink_.Error(Loc(s), name, fmt::format("gear '{}' needs an 'axis' (in the carrier's frame)", key));
+          if (s["teeth"]) *teeth = Number(s["teeth"], name, Env{});
+          else sink_.Error(Loc(s), name, fmt::format("gear '{}' needs 'teeth'", key));
+        };
+        side("a", &gm.body_a, &gm.axis_a, &gm.teeth_a);
+        side("b", &gm.body_b, &gm.axis_b, &gm.teeth_b);
+        Eigen::VectorXd k, r;
+        Gains(g, name, 1, &k, &r);
+        gm.stiffness = k[0];
+        gm.damping = r[0];
+        m.AddGear(gm);
+      }
+    }
+    if (const YAML::Node drives = root["drives"]) {
+      for (const auto& kv : drives) {
+        const std::string name = kv.first.Scalar();
+        const YAML::Node d = kv.second;
+        mech::Drive drive;
+        drive.name = name;
+        drive.where = Loc(kv.first);
+        const std::string type = d["type"] ? d["type"].Scalar() : "";
+        const std::map<std::string, mech::Drive::Kind> kinds = {{"angular_velocity", mech::Drive::Kind::kAngularVelocity},
+                                                                {"velocity", mech::Drive::Kind::kVelocity},
+                                                                {"torque", mech::Drive::Kind::kTorque},
+                                                                {"force", mech::Drive::Kind::kForce}};
+        if (!kinds.count(type)) {
+          sink_.Error(d["type"] ? Loc(d["type"]) : drive.where, name, fmt::format("unknown drive type '{}'", type),
+                      "use angular_velocity, velocity, torque or force");
+          continue;
+        }
+        drive.kind = kinds.at(type);
+        const bool velocity = drive.kind == mech::Drive::Kind::kAngularVelocity || drive.kind == mech::Drive::Kind::kVelocity;
+        std::vector<std::string> keys = {"type", "body", "axis", "value", "description"};
+        if (velocity) keys.insert(keys.end(), {"reference", "K", "R", "stiffness", "damping"});
+        if (drive.kind == mech::Drive::Kind::kForce) keys.push_back("at");
+        CheckKeys(d, keys, name);
+        if (d["body"]) drive.body = d["body"].Scalar();
+        else sink_.Error(drive.where, name, "a drive needs a 'body'");
+        if (d["reference"]) drive.reference = d["reference"].Scalar();
+        if (d["axis"]) drive.axis = Axis(d["axis"], name);
+        else sink_.Error(drive.where, name, "a drive needs an 'axis'");
+        if (d["value"]) drive.value = ReadTimeFunction(d["value"], name, Env{});
+        else sink_.Error(drive.where, name, "a drive needs a 'value' (a number or a time function)");
+        if (d["at"]) drive.point = Vec3(d["at"], name);
+        if (velocity) {
+          Eigen::VectorXd k, r;
+          Gains(d, name, 1, &k, &r);
+          drive.stiffness = k[0];
+          drive.damping = r[0];
+        }
+        m.AddDrive(drive);
+      }
+    }
+    if (const YAML::Node points = root["points"]) {
+      for (const auto& kv : points) {
+        mech::Point p;
+        p.name = kv.first.Scalar();
+        p.where = Loc(kv.first);
+        CheckKeys(kv.second, {"body", "at", "description"}, p.name);
+        if (kv.second["body"]) p.body = kv.second["body"].Scalar();
+        else sink_.Error(p.where, p.name, "a point needs a 'body'");
+        if (kv.second["at"]) p.at = Vec3(kv.second["at"], p.name);
+        m.AddPoint(p);
+      }
+    }
+    if (sink_.has_errors()) return;
+    m.ExpandInto(graph_, sink_);
   }
 
   std::string file_, text_;

@@ -24,6 +24,7 @@ struct LoadedModel {
   SimulationDefaults simulation;
   std::string file;  ///< path as given ("<string>" for text)
   std::string text;  ///< the file's content, for hashing and provenance
+  std::vector<Diagnostic> warnings;  ///< problems that do not stop the model (e.g. a deflected coupling)
 };
 
 LoadedModel LoadModelFile(const std::string& path);
