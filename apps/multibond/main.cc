@@ -121,11 +121,18 @@ struct RunArgs {
   std::optional<double> t_end, dt, rtol, atol, step, max_step;
   std::optional<std::string> solver;
   bool all_variables = false, quiet = false, no_projection = false;
+  std::string jit = "auto";
 };
 
 int Run(const RunArgs& a, const std::vector<std::string>& argv) {
   const mb::LoadedModel lm = Load(a.model);
-  const auto model = mb::CompiledModel::Compile(lm.graph, lm.compile);
+  mb::CompileOptions co = lm.compile;
+  co.generate_code = a.jit != "off";
+  const auto model = mb::CompiledModel::Compile(lm.graph, co);
+  if (a.jit == "on" && !model->uses_generated_code()) {
+    std::cerr << "error: --jit on, but " << model->rhs_engine() << '\n';
+    return kExitIo;
+  }
   const mb::SimulationDefaults& d = lm.simulation;
   mb::RunOptions o;
   o.t_end = a.t_end.value_or(d.t_end.value_or(1.0));
@@ -166,8 +173,10 @@ int Run(const RunArgs& a, const std::vector<std::string>& argv) {
     return kExitUsage;
   }
   if (tty) std::fprintf(stderr, "\n");
-  mb::WriteFileAtomic((fs::path(a.out) / "run.json").string(),
-                      mb::MakeRunRecord(a.model, lm.text, lm.graph.name(), o, summary, argv).dump(2) + "\n");
+  nlohmann::json record = mb::MakeRunRecord(a.model, lm.text, lm.graph.name(), o, summary, argv);
+  record["rhs_engine"] = model->rhs_engine();
+  record["options"]["jit"] = a.jit;
+  mb::WriteFileAtomic((fs::path(a.out) / "run.json").string(), record.dump(2) + "\n");
   if (!a.quiet || summary.status != mb::RunStatus::kOk) {
     std::cout << fmt::format("{}: {} to t = {:g} s with {} ({} steps, {} right-hand sides, {:.3f} s wall)\n",
                              lm.graph.name(), mb::RunStatusName(summary.status), summary.t_reached, solver, summary.stats.steps,
@@ -220,6 +229,10 @@ int main(int argc, char** argv) {
   run->add_option("--step", ra.step, "fixed step [s] for rk4 (or a fixed-step dopri5)")->check(CLI::PositiveNumber);
   run->add_option("--max-step", ra.max_step, "largest step [s] of the adaptive methods")->check(CLI::PositiveNumber);
   run->add_flag("--all-variables", ra.all_variables, "add a column for every effort and flow");
+  run->add_option("--jit", ra.jit,
+                  "right-hand side as generated C++ compiled with the system compiler (auto: when one works; "
+                  "off: the plan interpreter)")
+      ->check(CLI::IsMember({"auto", "on", "off"}));
   run->add_flag("--no-projection", ra.no_projection,
                 "do not re-orthonormalise orientation matrices after each step (shows the raw drift)");
   run->add_flag("-q,--quiet", ra.quiet, "no progress and no summary");

@@ -1,5 +1,7 @@
 #include "multibond/compile/compiled_model.h"
 
+#include "multibond/compile/jit.h"
+
 #include <algorithm>
 #include <numeric>
 #include <queue>
@@ -25,6 +27,13 @@ class UnionFind {
  private:
   std::vector<int> parent_;
 };
+
+bool IsIdentityTransformer(const Element& e) {
+  if (e.kind != ElementKind::kTF) return false;
+  if (e.param.is_scalar) return e.param.scalar == 1.0;
+  const Eigen::MatrixXd& m = e.param.matrix;
+  return m.rows() == m.cols() && m == Eigen::MatrixXd::Identity(m.rows(), m.cols());
+}
 
 void AppendRowMajor(std::vector<double>& pool, const Eigen::MatrixXd& m) {
   for (int r = 0; r < m.rows(); ++r)
@@ -66,9 +75,15 @@ void CompiledModel::Build() {
   UnionFind uf(2 * nb);  // slot 2b = effort of bond b, 2b+1 = flow
   for (int i = 0; i < g.num_elements(); ++i) {
     const Element& e = g.element(i);
-    if (!IsJunction(e.kind)) continue;
-    const int parity = e.kind == ElementKind::kZero ? 0 : 1;
-    for (int b : e.bonds) uf.Merge(2 * e.bonds.front() + parity, 2 * b + parity);
+    if (IsJunction(e.kind)) {
+      const int parity = e.kind == ElementKind::kZero ? 0 : 1;
+      for (int b : e.bonds) uf.Merge(2 * e.bonds.front() + parity, 2 * b + parity);
+    } else if (IsIdentityTransformer(e)) {
+      // An identity TF passes effort and flow unchanged: both sides share their slots.
+      const int in = structure_.port_in[i], out = structure_.port_out[i];
+      uf.Merge(2 * in, 2 * out);
+      uf.Merge(2 * in + 1, 2 * out + 1);
+    }
   }
   std::vector<int> class_of_root(2 * nb, -1);
   effort_class_.resize(nb);
@@ -255,6 +270,7 @@ void CompiledModel::Build() {
     const ModulusEval& me = moduli_[modulus_of[element]];
     in.coef = mode >= 2 ? me.out_inverse : me.out;
     in.count = mode;
+    in.modulus = modulus_of[element];
     emit(in, out_class, {in_class}, {Definition::Kind::kLinear, element, {{in_class, 1.0, symbol}}});
   };
 
@@ -285,10 +301,10 @@ void CompiledModel::Build() {
           in.aux = aux_offset(e.rotation);
           AppendRowMajor(coef_, energy_matrix_[i]);  // Ib^-1
         } else if (e.param.is_scalar) {
-          in.op = Op::kIFlowDiag;
+          in.op = Op::kStateScale;
           coef_.push_back(1.0 / e.param.scalar);
         } else {
-          in.op = Op::kIFlowMatrix;
+          in.op = Op::kStateMatrix;
           AppendRowMajor(coef_, energy_matrix_[i]);
         }
         emit(in, flow_class_[b], {}, {Definition::Kind::kMomentumFlow, i, {}});
@@ -303,10 +319,10 @@ void CompiledModel::Build() {
         in.src = state_offset(element_block_[i]);
         in.coef = static_cast<int>(coef_.size());
         if (e.param.is_scalar) {
-          in.op = Op::kCEffortDiag;
+          in.op = Op::kStateScale;
           coef_.push_back(sigma * e.param.scalar);
         } else {
-          in.op = Op::kCEffortMatrix;
+          in.op = Op::kStateMatrix;
           AppendRowMajor(coef_, sigma * e.param.matrix);
         }
         emit(in, effort_class_[b], {}, {Definition::Kind::kStiffnessEffort, i, {}});
@@ -362,6 +378,7 @@ void CompiledModel::Build() {
       case ElementKind::kGY:
       case ElementKind::kMTF:
       case ElementKind::kMGY: {
+        if (IsIdentityTransformer(e)) break;  // its ports share their slots
         const int b1 = structure_.port_in[i], b2 = structure_.port_out[i];
         const bool gyrator = e.kind == ElementKind::kGY || e.kind == ElementKind::kMGY;
         const bool modulated = e.kind == ElementKind::kMTF || e.kind == ElementKind::kMGY;
@@ -459,8 +476,23 @@ void CompiledModel::Build() {
     throw ModelError(d);
   }
   for (int k : order) plan_.push_back(instrs[k]);
+  Specialize();
+  BuildGathers();
+  if (options_.generate_code) {
+    const JitResult jit = CompileAndLoad(GenerateSource(), "multibond_rhs");
+    if (jit.symbol) {
+      generated_ = reinterpret_cast<GeneratedRhs>(jit.symbol);
+      generated_library_ = jit.library;
+      rhs_engine_ = "generated code (" + jit.description + ")";
+    } else {
+      rhs_engine_ = "interpreter (code generation failed: " + jit.description + ")";
+    }
+  }
+}
 
-  // --- Derivatives. ---
+void CompiledModel::BuildGathers() {
+  const BondGraph& g = graph_;
+  const auto& dim = structure_.bond_dim;
   for (const StateBlock& blk : blocks_) {
     Gather gt{blk.kind, blk.offset, blk.size, -1, -1, -1, 1.0};
     switch (blk.kind) {
@@ -537,7 +569,8 @@ Workspace CompiledModel::MakeWorkspace() const {
 Eigen::VectorXd CompiledModel::MakeInitialState() const { return x0_; }
 
 void CompiledModel::EvalModuli(const double* x, double* out) const {
-  for (const ModulusEval& me : moduli_) {
+  for (int index : needed_moduli_) {
+    const ModulusEval& me = moduli_[index];
     // Core 3x3 (or constant) factor, then the left selection and the scale.
     Eigen::Matrix3d core;
     if (me.kind != Modulus::Kind::kConstant) {
@@ -581,10 +614,179 @@ void CompiledModel::EvalModuli(const double* x, double* out) const {
   }
 }
 
+void CompiledModel::Specialize() {
+  auto is_diagonal = [&](int coef, int n) {
+    for (int r = 0; r < n; ++r)
+      for (int c = 0; c < n; ++c)
+        if (r != c && coef_[coef + r * n + c] != 0.0) return false;
+    return true;
+  };
+  // Appends the diagonal of the n x n matrix at `coef`; returns its offset.
+  auto diagonal = [&](int coef, int n) {
+    const int at = static_cast<int>(coef_.size());
+    for (int r = 0; r < n; ++r) coef_.push_back(coef_[coef + r * n + r]);
+    return at;
+  };
+  for (Instr& in : plan_) {
+    switch (in.op) {
+      case Op::kStateScale:
+        if (in.n == 3) in.op = Op::kStateScale3;
+        break;
+      case Op::kStateMatrix:
+        if (in.n == 3 && is_diagonal(in.coef, 3)) {
+          in.coef = diagonal(in.coef, 3);
+          in.op = Op::kStateDiag3;
+        }
+        break;
+      case Op::kIFlowRotated:
+        if (is_diagonal(in.coef, 3)) {
+          in.coef = diagonal(in.coef, 3);
+          in.op = Op::kIFlowRotatedDiag;
+        }
+        break;
+      case Op::kScale:
+        if (in.n == 1) in.op = Op::kScale1;
+        else if (in.n == 3) in.op = Op::kScale3;
+        break;
+      case Op::kMatrix:
+        if (in.n == in.m && (in.n == 2 || in.n == 3) && is_diagonal(in.coef, in.n)) {
+          in.coef = diagonal(in.coef, in.n);
+          in.op = in.n == 2 ? Op::kDiag2 : Op::kDiag3;
+        } else if (in.m == 3 && in.n == 1) {
+          in.op = Op::kMat13;
+        } else if (in.m == 3 && in.n == 2) {
+          in.op = Op::kMat23;
+        } else if (in.m == 3 && in.n == 3) {
+          in.op = Op::kMat33;
+        } else if (in.n == 3 && in.m == 1) {
+          in.op = Op::kMat31;
+        } else if (in.n == 3 && in.m == 2) {
+          in.op = Op::kMat32;
+        }
+        break;
+      case Op::kModulated: {
+        ModulusEval& me = moduli_[in.modulus];
+        const bool plain = me.right < 0 && in.count <= 1;
+        if (plain && me.kind == Modulus::Kind::kRotation && me.rows <= 3) {
+          // M = s L op(R): forward dst = s L op(R) src; backward dst = s op(R)^T L^T src.
+          const int k = me.rows;
+          in.aux = me.rotation;
+          in.scale = me.scale;
+          in.transpose = me.transpose;
+          in.coef = me.left;  // -1: L is the identity
+          static const Op kFwd[] = {Op::kRotFwd1, Op::kRotFwd2, Op::kRotFwd3};
+          static const Op kBwd[] = {Op::kRotBwd1, Op::kRotBwd2, Op::kRotBwd3};
+          in.op = in.count == 0 ? kFwd[k - 1] : kBwd[k - 1];
+        } else if (plain && me.kind == Modulus::Kind::kLever && me.left < 0) {
+          // M = -s [a x], a = R r: forward dst = s (src x a); backward dst = s (a x src).
+          in.aux = me.rotation;
+          in.scale = me.scale;
+          in.coef = static_cast<int>(coef_.size());
+          coef_.insert(coef_.end(), {me.lever.x(), me.lever.y(), me.lever.z()});
+          in.op = in.count == 0 ? Op::kLeverFwd : Op::kLeverBwd;
+        } else {
+          me.needed = true;
+        }
+        break;
+      }
+      case Op::kSum:
+        if (in.count == 1 && sum_signs_[in.coef] == 1.0 && (in.n == 1 || in.n == 3)) {
+          in.src = sum_terms_[in.coef];
+          in.op = in.n == 1 ? Op::kCopy1 : Op::kCopy3;
+        } else if (in.n == 1) {
+          in.op = Op::kSum1;
+        } else if (in.n == 3) {
+          in.op = Op::kSum3;
+        }
+        break;
+      default:
+        break;
+    }
+  }
+  for (size_t i = 0; i < moduli_.size(); ++i)
+    if (moduli_[i].needed) needed_moduli_.push_back(static_cast<int>(i));
+}
+
+namespace {
+
+using RowMajor3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+
+/// dst(R) = A(R x C, row-major) src(C).
+template <int R, int C>
+inline void MatVec(double* dst, const double* a, const double* src) {
+  for (int r = 0; r < R; ++r) {
+    double s = 0.0;
+    for (int c = 0; c < C; ++c) s += a[r * C + c] * src[c];
+    dst[r] = s;
+  }
+}
+
+/// y = op(R) v for a row-major R (op = transpose when `transpose`).
+inline void RotApply(double* y, const double* r, const double* v, bool transpose) {
+  if (transpose) {
+    for (int i = 0; i < 3; ++i) y[i] = r[i] * v[0] + r[3 + i] * v[1] + r[6 + i] * v[2];
+  } else {
+    for (int i = 0; i < 3; ++i) y[i] = r[3 * i] * v[0] + r[3 * i + 1] * v[1] + r[3 * i + 2] * v[2];
+  }
+}
+
+/// Forward rotation kernel: dst(K) = s L op(R) src, L = K x 3 (identity when null).
+template <int K>
+inline void RotFwd(double* dst, const double* r, const double* l, const double* src, double s, bool transpose) {
+  double y[3];
+  RotApply(y, r, src, transpose);
+  if (l == nullptr) {
+    for (int i = 0; i < 3; ++i) dst[i] = s * y[i];
+    return;
+  }
+  for (int i = 0; i < K; ++i) dst[i] = s * (l[3 * i] * y[0] + l[3 * i + 1] * y[1] + l[3 * i + 2] * y[2]);
+}
+
+/// Backward rotation kernel: dst(3) = s op(R)^T L^T src(K).
+template <int K>
+inline void RotBwd(double* dst, const double* r, const double* l, const double* src, double s, bool transpose) {
+  double z[3];
+  if (l == nullptr) {
+    for (int i = 0; i < 3; ++i) z[i] = src[i];
+  } else {
+    for (int c = 0; c < 3; ++c) {
+      double acc = 0.0;
+      for (int i = 0; i < K; ++i) acc += l[3 * i + c] * src[i];
+      z[c] = acc;
+    }
+  }
+  double y[3];
+  RotApply(y, r, z, !transpose);
+  for (int i = 0; i < 3; ++i) dst[i] = s * y[i];
+}
+
+inline void Cross(double* out, const double* a, const double* b, double s) {
+  out[0] = s * (a[1] * b[2] - a[2] * b[1]);
+  out[1] = s * (a[2] * b[0] - a[0] * b[2]);
+  out[2] = s * (a[0] * b[1] - a[1] * b[0]);
+}
+
+}  // namespace
+
+namespace {
+// The generated code's view of the source functions (see codegen.cc).
+struct MbSources {
+  const void* fns;
+  double (*eval)(const void*, int, double);
+};
+double EvalSource(const void* fns, int i, double t) { return static_cast<const TimeFunction*>(fns)[i](t); }
+}  // namespace
+
 void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Workspace& ws) const {
   double* w = ws.slots.data();
   double* mod = ws.moduli.data();
-  if (!moduli_.empty()) EvalModuli(x, mod);
+  if (!needed_moduli_.empty()) EvalModuli(x, mod);
+  if (generated_) {
+    const MbSources sources{source_fns_.data(), &EvalSource};
+    reinterpret_cast<void (*)(double, const double*, double*, double*, const double*, const MbSources*)>(generated_)(
+        t, x, xdot, w, mod, &sources);
+    return;
+  }
   const double* c = coef_.data();
   for (const Instr& in : plan_) {
     double* dst = w + in.dst;
@@ -592,30 +794,56 @@ void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Wor
       case Op::kSource:
         for (int k = 0; k < in.n; ++k) dst[k] = source_fns_[in.coef + k](t);
         break;
-      case Op::kIFlowDiag:
-      case Op::kCEffortDiag:
+      case Op::kStateScale:
         for (int k = 0; k < in.n; ++k) dst[k] = c[in.coef] * x[in.src + k];
         break;
-      case Op::kIFlowMatrix:
-      case Op::kCEffortMatrix:
+      case Op::kStateScale3:
+        for (int k = 0; k < 3; ++k) dst[k] = c[in.coef] * x[in.src + k];
+        break;
+      case Op::kStateDiag3:
+        for (int k = 0; k < 3; ++k) dst[k] = c[in.coef + k] * x[in.src + k];
+        break;
+      case Op::kStateMatrix:
         for (int r = 0; r < in.n; ++r) {
           double s = 0.0;
           for (int k = 0; k < in.n; ++k) s += c[in.coef + r * in.n + k] * x[in.src + k];
           dst[r] = s;
         }
         break;
-      case Op::kIFlowRotated: {
+      case Op::kIFlowRotated:
+      case Op::kIFlowRotatedDiag: {
         // f = R Ib^-1 R^T h: the inertia tensor turns with the body (no Euler junction structure).
-        const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(x + in.aux);
-        const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> ib_inv(c + in.coef);
-        const Eigen::Map<const Eigen::Vector3d> h(x + in.src);
-        Eigen::Map<Eigen::Vector3d> f(dst);
-        f.noalias() = r * (ib_inv * (r.transpose() * h));
+        const double* r = x + in.aux;
+        double hb[3], wb[3];
+        RotApply(hb, r, x + in.src, true);
+        if (in.op == Op::kIFlowRotatedDiag) {
+          for (int k = 0; k < 3; ++k) wb[k] = c[in.coef + k] * hb[k];
+        } else {
+          MatVec<3, 3>(wb, c + in.coef, hb);
+        }
+        RotApply(dst, r, wb, false);
         break;
       }
       case Op::kScale:
         for (int k = 0; k < in.n; ++k) dst[k] = c[in.coef] * w[in.src + k];
         break;
+      case Op::kScale1:
+        dst[0] = c[in.coef] * w[in.src];
+        break;
+      case Op::kScale3:
+        for (int k = 0; k < 3; ++k) dst[k] = c[in.coef] * w[in.src + k];
+        break;
+      case Op::kDiag2:
+        for (int k = 0; k < 2; ++k) dst[k] = c[in.coef + k] * w[in.src + k];
+        break;
+      case Op::kDiag3:
+        for (int k = 0; k < 3; ++k) dst[k] = c[in.coef + k] * w[in.src + k];
+        break;
+      case Op::kMat13: MatVec<1, 3>(dst, c + in.coef, w + in.src); break;
+      case Op::kMat23: MatVec<2, 3>(dst, c + in.coef, w + in.src); break;
+      case Op::kMat33: MatVec<3, 3>(dst, c + in.coef, w + in.src); break;
+      case Op::kMat31: MatVec<3, 1>(dst, c + in.coef, w + in.src); break;
+      case Op::kMat32: MatVec<3, 2>(dst, c + in.coef, w + in.src); break;
       case Op::kMatrix:
         for (int r = 0; r < in.n; ++r) {
           double s = 0.0;
@@ -623,6 +851,20 @@ void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Wor
           dst[r] = s;
         }
         break;
+      case Op::kRotFwd1: RotFwd<1>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, w + in.src, in.scale, in.transpose); break;
+      case Op::kRotFwd2: RotFwd<2>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, w + in.src, in.scale, in.transpose); break;
+      case Op::kRotFwd3: RotFwd<3>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, w + in.src, in.scale, in.transpose); break;
+      case Op::kRotBwd1: RotBwd<1>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, w + in.src, in.scale, in.transpose); break;
+      case Op::kRotBwd2: RotBwd<2>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, w + in.src, in.scale, in.transpose); break;
+      case Op::kRotBwd3: RotBwd<3>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, w + in.src, in.scale, in.transpose); break;
+      case Op::kLeverFwd:
+      case Op::kLeverBwd: {
+        double a[3];
+        RotApply(a, x + in.aux, c + in.coef, false);  // the lever arm in the inertial frame
+        if (in.op == Op::kLeverFwd) Cross(dst, w + in.src, a, in.scale);
+        else Cross(dst, a, w + in.src, in.scale);
+        break;
+      }
       case Op::kModulated: {
         const double* a = mod + in.coef;
         // Stored row-major as (rows x cols) of M (or of M^-1); modes 1 and 3 read it transposed.
@@ -639,6 +881,35 @@ void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Wor
             dst[r] = s;
           }
         }
+        break;
+      }
+      case Op::kCopy1:
+        dst[0] = w[in.src];
+        break;
+      case Op::kCopy3:
+        for (int k = 0; k < 3; ++k) dst[k] = w[in.src + k];
+        break;
+      case Op::kSum1: {
+        const int* src = sum_terms_.data() + in.coef;
+        const double* sign = sum_signs_.data() + in.coef;
+        double s = 0.0;
+        for (int j = 0; j < in.count; ++j) s += sign[j] * w[src[j]];
+        dst[0] = s;
+        break;
+      }
+      case Op::kSum3: {
+        const int* src = sum_terms_.data() + in.coef;
+        const double* sign = sum_signs_.data() + in.coef;
+        double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+        for (int j = 0; j < in.count; ++j) {
+          const double* v = w + src[j];
+          s0 += sign[j] * v[0];
+          s1 += sign[j] * v[1];
+          s2 += sign[j] * v[2];
+        }
+        dst[0] = s0;
+        dst[1] = s1;
+        dst[2] = s2;
         break;
       }
       case Op::kSum: {

@@ -24,6 +24,10 @@ namespace multibond {
 struct CompileOptions {
   std::string default_domain;  ///< domain of bonds that no element names
   bool energy_account = true;  ///< integrate each source's work and each resistor's dissipation
+  /// Generate C++ for the right-hand side from the plan and compile it with the system's C++
+  /// compiler (cached by the source's hash; see compile/jit.h). Falls back to the plan
+  /// interpreter, with the reason in CompiledModel::rhs_engine(), if no compiler works.
+  bool generate_code = false;
 };
 
 /// Scratch of one evaluation: every effort and flow, and the moduli of the MTF/MGY. Made by
@@ -84,6 +88,13 @@ class CompiledModel {
   Workspace MakeWorkspace() const;
   Eigen::VectorXd MakeInitialState() const;
 
+  /// C++ source of the right-hand side, generated from the plan: one straight-line function
+  /// `multibond_rhs(t, x, xdot, w, moduli, ctx)` with every offset and coefficient a literal.
+  std::string GenerateSource() const;
+  /// How the right-hand side is evaluated: "generated code (<library>)" or "interpreter (<why>)".
+  const std::string& rhs_engine() const { return rhs_engine_; }
+  bool uses_generated_code() const { return generated_ != nullptr; }
+
   const BondGraph& graph() const { return graph_; }
   const Structure& structure() const { return structure_; }
   const CausalAssignment& causality() const { return causality_; }
@@ -120,20 +131,32 @@ class CompiledModel {
   CompiledModel() = default;
   void Build();
 
+  /// Instruction kinds. Emission produces the generic ones (sizes known at run time); the
+  /// specialisation pass (Specialize) rewrites most into kernels whose sizes and structure are
+  /// compile-time constants: diagonal coefficients, 1x3/2x3/3x3 blocks, rotations and lever
+  /// arms applied straight from the orientation state.
   enum class Op : unsigned char {
-    kSource, kIFlowDiag, kIFlowMatrix, kIFlowRotated, kCEffortDiag, kCEffortMatrix,
-    kScale, kMatrix, kModulated, kSum,
+    // generic
+    kSource, kStateScale, kStateMatrix, kIFlowRotated, kScale, kMatrix, kModulated, kSum,
+    // specialised
+    kStateScale3, kStateDiag3, kIFlowRotatedDiag, kScale1, kScale3, kDiag2, kDiag3,
+    kMat13, kMat23, kMat33, kMat31, kMat32,
+    kRotFwd1, kRotFwd2, kRotFwd3, kRotBwd1, kRotBwd2, kRotBwd3, kLeverFwd, kLeverBwd,
+    kSum1, kSum3, kCopy1, kCopy3,
   };
   /// One instruction. Plain data: the loop over the plan dispatches on `op` only.
   struct Instr {
     Op op;
+    bool transpose = false;  ///< rotation kernels: the modulus uses R^T
     int n = 1;       ///< output size
     int m = 1;       ///< input size
     int dst = 0;     ///< workspace offset of the output
     int src = 0;     ///< workspace offset of the input, or state offset (I, C)
-    int coef = 0;    ///< offset in coef_ (scale, matrices, sum terms) or in moduli (modulated)
+    int coef = 0;    ///< offset in coef_ (scale, matrices, sum terms) or in moduli (modulated); -1 = identity
     int count = 0;   ///< kSum: number of terms; kModulated: 0 = M, 1 = M^T, 2 = M^-1, 3 = M^-T
-    int aux = 0;     ///< kIFlowRotated: state offset of R
+    int aux = 0;     ///< state offset of R (rotated inertia, rotation and lever kernels)
+    int modulus = -1;  ///< kModulated: index in moduli_
+    double scale = 1.0;  ///< rotation and lever kernels
     int element = -1;
   };
   struct ModulusEval {
@@ -149,6 +172,7 @@ class CompiledModel {
     bool transpose;
     Eigen::Vector3d lever;
     int constant_rows = 0;  ///< rows of the constant factor (= columns of `left`)
+    bool needed = false;    ///< read by a generic kModulated instruction (others apply it on the fly)
   };
   struct Gather {
     StateBlock::Kind kind;
@@ -157,6 +181,10 @@ class CompiledModel {
   };
 
   void EvalModuli(const double* x, double* moduli) const;
+  /// Rewrites generic instructions into fixed-size kernels (see Op).
+  void Specialize();
+  /// The state-derivative gathers, from the state layout and the slot classes.
+  void BuildGathers();
 
   BondGraph graph_;
   CompileOptions options_;
@@ -175,8 +203,15 @@ class CompiledModel {
   std::vector<int> sum_terms_;      ///< kSum: workspace offsets of the terms
   std::vector<double> sum_signs_;  ///< kSum: their signs (parallel to sum_terms_)
   std::vector<ModulusEval> moduli_;
+  std::vector<int> needed_moduli_;  ///< indices of moduli_ that EvalModuli must compute
   std::vector<Gather> gathers_;
   std::vector<TimeFunction> source_fns_;
+
+  /// The generated right-hand side (null: the interpreter runs the plan).
+  using GeneratedRhs = void (*)();  ///< cast to its real signature at the call (see codegen.cc)
+  GeneratedRhs generated_ = nullptr;
+  std::shared_ptr<void> generated_library_;  ///< keeps the shared object loaded
+  std::string rhs_engine_ = "interpreter";
 
   std::vector<StateBlock> blocks_;
   std::vector<std::string> state_names_, state_units_;

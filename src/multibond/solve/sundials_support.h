@@ -60,8 +60,89 @@ inline ContextPtr MakeContext() {
   return ContextPtr(NonNull(ctx));
 }
 
+/// Tight loops for the vector operations the integrators call every step. Debian's serial
+/// N_Vector spends ~74 instructions per element in a linear combination (measured with callgrind
+/// on the differential: 4 calls per RK4 step cost 5x the four right-hand sides). SUNDIALS lets an
+/// application replace any entry of a vector's operations table; clones inherit the table.
+namespace fast {
+inline sunrealtype* Data(N_Vector v) { return N_VGetArrayPointer(v); }
+inline sunindextype Len(N_Vector v) { return N_VGetLength(v); }
+inline void LinearSum(sunrealtype a, N_Vector x, sunrealtype b, N_Vector y, N_Vector z) {
+  const sunrealtype *xd = Data(x), *yd = Data(y);
+  sunrealtype* zd = Data(z);
+  for (sunindextype i = 0, n = Len(z); i < n; ++i) zd[i] = a * xd[i] + b * yd[i];
+}
+inline void Scale(sunrealtype c, N_Vector x, N_Vector z) {
+  const sunrealtype* xd = Data(x);
+  sunrealtype* zd = Data(z);
+  for (sunindextype i = 0, n = Len(z); i < n; ++i) zd[i] = c * xd[i];
+}
+inline void Const(sunrealtype c, N_Vector z) {
+  sunrealtype* zd = Data(z);
+  for (sunindextype i = 0, n = Len(z); i < n; ++i) zd[i] = c;
+}
+inline int LinearCombination(int nvec, sunrealtype* c, N_Vector* x, N_Vector z) {
+  sunrealtype* zd = Data(z);
+  const sunindextype n = Len(z);
+  // z may be one of the x (z = x[0] is allowed): accumulate from x[0] first.
+  const sunrealtype* x0 = Data(x[0]);
+  for (sunindextype i = 0; i < n; ++i) zd[i] = c[0] * x0[i];
+  for (int j = 1; j < nvec; ++j) {
+    const sunrealtype* xj = Data(x[j]);
+    const sunrealtype cj = c[j];
+    for (sunindextype i = 0; i < n; ++i) zd[i] += cj * xj[i];
+  }
+  return 0;
+}
+inline int ScaleAddMulti(int nvec, sunrealtype* a, N_Vector x, N_Vector* y, N_Vector* z) {
+  const sunrealtype* xd = Data(x);
+  const sunindextype n = Len(x);
+  for (int j = 0; j < nvec; ++j) {
+    const sunrealtype* yd = Data(y[j]);
+    sunrealtype* zd = Data(z[j]);
+    for (sunindextype i = 0; i < n; ++i) zd[i] = a[j] * xd[i] + yd[i];
+  }
+  return 0;
+}
+inline sunrealtype WSqrSumLocal(N_Vector x, N_Vector w) {
+  const sunrealtype *xd = Data(x), *wd = Data(w);
+  sunrealtype s = 0.0;
+  for (sunindextype i = 0, n = Len(x); i < n; ++i) s += (xd[i] * wd[i]) * (xd[i] * wd[i]);
+  return s;
+}
+inline sunrealtype WrmsNorm(N_Vector x, N_Vector w) { return std::sqrt(WSqrSumLocal(x, w) / static_cast<sunrealtype>(Len(x))); }
+inline void Prod(N_Vector x, N_Vector y, N_Vector z) {
+  const sunrealtype *xd = Data(x), *yd = Data(y);
+  sunrealtype* zd = Data(z);
+  for (sunindextype i = 0, n = Len(z); i < n; ++i) zd[i] = xd[i] * yd[i];
+}
+inline void Abs(N_Vector x, N_Vector z) {
+  const sunrealtype* xd = Data(x);
+  sunrealtype* zd = Data(z);
+  for (sunindextype i = 0, n = Len(z); i < n; ++i) zd[i] = std::abs(xd[i]);
+}
+inline void AddConst(N_Vector x, sunrealtype b, N_Vector z) {
+  const sunrealtype* xd = Data(x);
+  sunrealtype* zd = Data(z);
+  for (sunindextype i = 0, n = Len(z); i < n; ++i) zd[i] = xd[i] + b;
+}
+}  // namespace fast
+
 inline VectorPtr MakeVector(sunindextype n, SUNContext ctx) {
-  return VectorPtr(NonNull(N_VNew_Serial(n, ctx)));
+  VectorPtr v(NonNull(N_VNew_Serial(n, ctx)));
+  N_VEnableFusedOps_Serial(v.get(), SUNTRUE);
+  N_Vector_Ops ops = v->ops;
+  ops->nvlinearsum = fast::LinearSum;
+  ops->nvscale = fast::Scale;
+  ops->nvconst = fast::Const;
+  ops->nvlinearcombination = fast::LinearCombination;
+  ops->nvscaleaddmulti = fast::ScaleAddMulti;
+  ops->nvwsqrsumlocal = fast::WSqrSumLocal;
+  ops->nvwrmsnorm = fast::WrmsNorm;
+  ops->nvprod = fast::Prod;
+  ops->nvabs = fast::Abs;
+  ops->nvaddconst = fast::AddConst;
+  return v;
 }
 
 /// The smallest step worth taking from time t on: a few units in the last place of t; below

@@ -1,0 +1,130 @@
+#include "multibond/compile/jit.h"
+
+#include <dlfcn.h>
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include <fmt/format.h>
+
+extern char** environ;
+
+namespace multibond {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+/// FNV-1a: a cache key, not a security measure (a collision only costs a wrong cache hit between
+/// two different 64-bit-identical sources, and the file name also carries the source size).
+std::uint64_t Fnv1a(const std::string& s) {
+  std::uint64_t h = 1469598103934665603ULL;
+  for (unsigned char c : s) {
+    h ^= c;
+    h *= 1099511628211ULL;
+  }
+  return h;
+}
+
+fs::path CacheDir() {
+  if (const char* c = std::getenv("MULTIBOND_CACHE"); c && *c) return c;
+  if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return fs::path(x) / "multibond";
+  if (const char* h = std::getenv("HOME"); h && *h) return fs::path(h) / ".cache" / "multibond";
+  return fs::temp_directory_path() / fmt::format("multibond-cache-{}", getuid());
+}
+
+/// Runs argv (no shell); returns the exit status and what it printed.
+int Run(const std::vector<std::string>& argv, const fs::path& log) {
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  pid_t pid = 0;
+  const int rc = posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (rc != 0) return -1;
+  int status = 0;
+  if (waitpid(pid, &status, 0) < 0) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+}  // namespace
+
+JitResult CompileAndLoad(const std::string& source, const std::string& symbol) {
+  JitResult r;
+  const char* env_cxx = std::getenv("MULTIBOND_CXX");
+  const std::string cxx = env_cxx && *env_cxx ? env_cxx : "c++";
+  // -march=native: the object is cached per machine (the cache key includes the flags).
+  const std::vector<std::string> flags = {"-std=c++20", "-O2", "-march=native", "-fPIC", "-shared", "-fno-math-errno"};
+  std::string key_text = cxx;
+  for (const auto& f : flags) key_text += " " + f;
+  key_text += "\n" + source;
+  const std::string stem = fmt::format("rhs-{:016x}-{}", Fnv1a(key_text), source.size());
+  std::error_code ec;
+  const fs::path dir = CacheDir();
+  fs::create_directories(dir, ec);
+  if (ec) {
+    r.description = fmt::format("cannot create the cache folder {}: {}", dir.string(), ec.message());
+    return r;
+  }
+  const fs::path so = dir / (stem + ".so");
+  if (!fs::exists(so)) {
+    // Unique temporary names: parallel runs of the same model may compile at the same time.
+    const std::string tag = fmt::format("{}.{}", getpid(), reinterpret_cast<std::uintptr_t>(&r));
+    const fs::path cc = dir / (stem + ".cc"), tmp = dir / (stem + "." + tag + ".so.tmp"), log = dir / (stem + "." + tag + ".log");
+    {
+      std::ofstream out(dir / (stem + "." + tag + ".cc"));
+      out << source;
+    }
+    fs::rename(dir / (stem + "." + tag + ".cc"), cc, ec);
+    std::vector<std::string> argv = {cxx};
+    argv.insert(argv.end(), flags.begin(), flags.end());
+    argv.insert(argv.end(), {cc.string(), "-o", tmp.string()});
+    const int status = Run(argv, log);
+    if (status != 0) {
+      std::ifstream in(log);
+      std::stringstream ss;
+      ss << in.rdbuf();
+      std::string text = ss.str();
+      if (text.size() > 400) text = text.substr(0, 400) + "...";
+      r.description = status < 0 ? fmt::format("no C++ compiler '{}' could be run", cxx)
+                                 : fmt::format("'{}' failed on the generated code: {}", cxx, text);
+      fs::remove(tmp, ec);
+      fs::remove(log, ec);
+      return r;
+    }
+    fs::remove(log, ec);
+    fs::rename(tmp, so, ec);
+    if (ec) {
+      r.description = fmt::format("cannot store {}: {}", so.string(), ec.message());
+      return r;
+    }
+  }
+  void* handle = dlopen(so.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (!handle) {
+    r.description = fmt::format("cannot load {}: {}", so.string(), dlerror());
+    return r;
+  }
+  r.library = std::shared_ptr<void>(handle, [](void* h) { dlclose(h); });
+  r.symbol = dlsym(handle, symbol.c_str());
+  if (!r.symbol) {
+    r.description = fmt::format("{} has no symbol {}", so.string(), symbol);
+    r.library.reset();
+    return r;
+  }
+  r.description = so.string();
+  return r;
+}
+
+}  // namespace multibond

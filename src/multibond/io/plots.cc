@@ -1,0 +1,847 @@
+#include "multibond/io/plots.h"
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <limits>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "multibond/causality/causality.h"
+#include "multibond/core/structure.h"
+#include "multibond/io/dot_writer.h"
+#include "multibond/io/model_loader.h"
+#include "multibond/io/results_writer.h"
+
+extern char** environ;
+
+namespace multibond {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// The scenario of shared/spec/differential.md: drive speed and tooth ratios, for the analytic
+// steady values the page compares with.
+constexpr double kDriveSpeed = 50.0;         // rad/s about x, on G
+constexpr double kRatioPinionCrown = 12.0 / 48.0;
+constexpr double kRatioSunPlanet = 24.0 / 12.0;
+
+// Colours of the x, y, z components (and of the columns 1, 2, 3 of an orientation matrix).
+constexpr std::array<const char*, 3> kColors = {"#d62728", "#2ca02c", "#1f77b4"};
+constexpr std::array<const char*, 3> kAxes = {"x", "y", "z"};
+
+// ---------------------------------------------------------------------------------------------
+// results.csv
+
+/// results.csv in memory, column by column.
+class Table {
+ public:
+  static Table Load(const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error(fmt::format("cannot read '{}' (run 'multibond run MODEL -o DIR' first)", path.string()));
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    Table t;
+    size_t pos = 0;
+    auto next_line = [&](std::string_view* line) {
+      if (pos >= text.size()) return false;
+      size_t end = text.find('\n', pos);
+      if (end == std::string::npos) end = text.size();
+      *line = std::string_view(text).substr(pos, end - pos);
+      if (!line->empty() && line->back() == '\r') line->remove_suffix(1);
+      pos = end + 1;
+      return true;
+    };
+    std::string_view line;
+    if (!next_line(&line) || line.empty()) throw std::runtime_error(fmt::format("'{}' has no header line", path.string()));
+    size_t start = 0;
+    while (start <= line.size()) {
+      size_t comma = line.find(',', start);
+      if (comma == std::string_view::npos) comma = line.size();
+      std::string field(line.substr(start, comma - start));
+      std::string unit;
+      const size_t open = field.rfind(" [");
+      if (open != std::string::npos && field.back() == ']') {
+        unit = field.substr(open + 2, field.size() - open - 3);
+        field = field.substr(0, open);
+      }
+      t.index_.emplace(field, static_cast<int>(t.names_.size()));
+      t.names_.push_back(field);
+      t.units_.push_back(unit);
+      start = comma + 1;
+    }
+    t.cols_.resize(t.names_.size());
+    while (next_line(&line)) {
+      if (line.empty()) continue;
+      std::string row(line);
+      const char* p = row.c_str();
+      for (size_t c = 0; c < t.cols_.size(); ++c) {
+        char* end = nullptr;
+        const double v = std::strtod(p, &end);
+        t.cols_[c].push_back(end == p ? kNaN : v);
+        p = end;
+        while (*p && *p != ',') ++p;
+        if (*p == ',') ++p;
+      }
+    }
+    if (t.rows() == 0) throw std::runtime_error(fmt::format("'{}' has no rows", path.string()));
+    return t;
+  }
+
+  size_t rows() const { return cols_.empty() ? 0 : cols_[0].size(); }
+  bool Has(const std::string& name) const { return index_.count(name) > 0; }
+  /// 0-based column index; -1 if absent.
+  int Find(const std::string& name) const {
+    auto it = index_.find(name);
+    return it == index_.end() ? -1 : it->second;
+  }
+  const std::vector<double>& Col(const std::string& name) const { return cols_.at(Find(name)); }
+  std::string Unit(const std::string& name) const { return Has(name) ? units_[Find(name)] : ""; }
+  double First(const std::string& name) const { return Has(name) ? Col(name).front() : kNaN; }
+  double Last(const std::string& name) const { return Has(name) ? Col(name).back() : kNaN; }
+  double Time0() const { return cols_[0].front(); }
+  double Time1() const { return cols_[0].back(); }
+
+  /// Largest |value| over rows with time in [t0, t1].
+  double MaxAbs(const std::string& name, double t0 = -INFINITY, double t1 = INFINITY) const {
+    if (!Has(name)) return kNaN;
+    double m = 0;
+    const auto& c = Col(name);
+    for (size_t r = 0; r < rows(); ++r)
+      if (cols_[0][r] >= t0 && cols_[0][r] <= t1 && std::isfinite(c[r])) m = std::max(m, std::abs(c[r]));
+    return m;
+  }
+  /// The vector (name.x, name.y, name.z) at a row.
+  std::array<double, 3> Vec(const std::string& name, size_t row) const {
+    std::array<double, 3> v{kNaN, kNaN, kNaN};
+    for (int k = 0; k < 3; ++k)
+      if (Has(name + "." + kAxes[k])) v[k] = Col(name + "." + kAxes[k])[row];
+    return v;
+  }
+  std::array<double, 3> LastVec(const std::string& name) const { return Vec(name, rows() - 1); }
+  /// Column j (1-based) of body B's orientation matrix at a row.
+  std::array<double, 3> RColumn(const std::string& body, int j, size_t row) const {
+    std::array<double, 3> v{kNaN, kNaN, kNaN};
+    for (int i = 1; i <= 3; ++i) {
+      const std::string n = fmt::format("{}.R.{}{}", body, i, j);
+      if (Has(n)) v[i - 1] = Col(n)[row];
+    }
+    return v;
+  }
+  /// Largest |r(t) - r(0)| of the vector `name` over the run.
+  double MaxDisplacement(const std::string& name) const {
+    double m = 0;
+    const auto r0 = Vec(name, 0);
+    for (size_t r = 0; r < rows(); ++r) {
+      const auto v = Vec(name, r);
+      m = std::max(m, std::hypot(v[0] - r0[0], v[1] - r0[1], v[2] - r0[2]));
+    }
+    return m;
+  }
+
+ private:
+  std::vector<std::string> names_, units_;
+  std::vector<std::vector<double>> cols_;
+  std::map<std::string, int> index_;
+};
+
+double Dot(const std::array<double, 3>& a, const std::array<double, 3>& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+double Norm(const std::array<double, 3>& a) { return std::sqrt(Dot(a, a)); }
+std::array<double, 3> Sub(const std::array<double, 3>& a, const std::array<double, 3>& b) {
+  return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Text in two markups. Captions and legends are written once, with _{sub} and ^{sup} as in
+// gnuplot's enhanced text, and turned into HTML for the page.
+
+std::string HtmlEscape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+/// "Q_{P1}" -> "Q<sub>P1</sub>", HTML-escaped.
+std::string MarkupToHtml(const std::string& s) {
+  std::string out;
+  for (size_t i = 0; i < s.size(); ++i) {
+    if ((s[i] == '_' || s[i] == '^') && i + 1 < s.size() && s[i + 1] == '{') {
+      const size_t close = s.find('}', i + 2);
+      if (close != std::string::npos) {
+        const char* tag = s[i] == '_' ? "sub" : "sup";
+        out += fmt::format("<{}>{}</{}>", tag, HtmlEscape(s.substr(i + 2, close - i - 2)), tag);
+        i = close;
+        continue;
+      }
+    }
+    out += HtmlEscape(std::string(1, s[i]));
+  }
+  return out;
+}
+
+/// A double-quoted gnuplot string (enhanced text markup kept).
+std::string GpString(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (c == '\n') {
+      out += "\\n";
+      continue;
+    }
+    out += c;
+  }
+  return out + "\"";
+}
+
+/// A number for a script or a page, exactly enough.
+std::string Num(double v) { return std::isfinite(v) ? fmt::format("{:.10g}", v) : "NaN"; }
+
+/// A number for reading: 4 significant digits, no exponent for ordinary magnitudes.
+std::string Show(double v, int digits = 4) {
+  if (!std::isfinite(v)) return "n/a";
+  if (v == 0) return "0";
+  const double a = std::abs(v);
+  if (a >= 1e-3 && a < 1e6) {
+    const int decimals = std::max(0, digits - 1 - static_cast<int>(std::floor(std::log10(a))));
+    std::string s = fmt::format("{:.{}f}", v, decimals);
+    if (s.front() == '-') s = "\u2212" + s.substr(1);
+    return s;
+  }
+  const int e = static_cast<int>(std::floor(std::log10(a)));
+  const double m = v / std::pow(10.0, e);
+  std::string ms = fmt::format("{:.{}f}", m, digits - 1);
+  if (ms.front() == '-') ms = "\u2212" + ms.substr(1);
+  return fmt::format("{}\u00b710<sup>{}</sup>", ms, e < 0 ? "\u2212" + std::to_string(-e) : std::to_string(e));
+}
+
+// ---------------------------------------------------------------------------------------------
+// The figures
+
+/// One plotted series: a column against time, or three columns as a 3D path.
+struct Curve {
+  std::vector<std::string> columns;  ///< 1 (against time) or 3 (x, y, z of a path)
+  std::string title;                 ///< legend (enhanced text)
+  std::string color;
+  bool from_start = false;  ///< plot v - v(t0)
+  double scale = 1.0;       ///< then times this
+};
+
+enum class PanelKind { kTime, kPath, kOrientation };
+
+struct Panel {
+  PanelKind kind = PanelKind::kTime;
+  std::string id;        ///< "a", "b", ... (the ranges file's key)
+  std::string title;     ///< enhanced text
+  std::string quantity;  ///< y label without unit (time panels)
+  std::string unit;      ///< "" = the unit of the first column, from the header
+  std::vector<Curve> curves;
+  bool zoom = false;         ///< add a start-transient companion panel
+  bool coordinates = false;  ///< y range: the data's, +-0.1 (positions of links that hardly move)
+};
+
+struct FigureSpec {
+  int number = 0;
+  std::string link, quantity;
+  std::string caption;  ///< the paper's caption (markup)
+  std::vector<Panel> panels;
+  std::string Name() const { return fmt::format("fig{:02}-{}-{}", number, link, quantity); }
+  std::vector<std::string> Columns() const {
+    std::vector<std::string> out;
+    for (const Panel& p : panels)
+      for (const Curve& c : p.curves)
+        for (const std::string& col : c.columns)
+          if (std::find(out.begin(), out.end(), col) == out.end()) out.push_back(col);
+    return out;
+  }
+};
+
+/// x, y, z components of a vector output; legends "symbol_x" ... (just "x" ... without a symbol).
+std::vector<Curve> Components(const std::string& prefix, const std::string& symbol, bool from_start = false, double scale = 1.0) {
+  std::vector<Curve> out;
+  for (int k = 0; k < 3; ++k)
+    out.push_back({{prefix + "." + kAxes[k]}, symbol.empty() ? std::string(kAxes[k]) : fmt::format("{}_{{{}}}", symbol, kAxes[k]),
+                   kColors[k], from_start, scale});
+  return out;
+}
+
+Panel TimePanel(std::string id, std::string title, std::string quantity, std::vector<Curve> curves, bool zoom) {
+  Panel p;
+  p.id = std::move(id);
+  p.title = std::move(title);
+  p.quantity = std::move(quantity);
+  p.curves = std::move(curves);
+  p.zoom = zoom;
+  return p;
+}
+
+Panel PathPanel(std::string id, std::string title, const std::string& prefix, const std::string& legend) {
+  Panel p;
+  p.kind = PanelKind::kPath;
+  p.id = std::move(id);
+  p.title = std::move(title);
+  p.curves.push_back({{prefix + ".x", prefix + ".y", prefix + ".z"}, legend, kColors[2]});
+  return p;
+}
+
+FigureSpec Orientation(int n, const std::string& b) {
+  FigureSpec f{n, b, "orientation", fmt::format("Orientation matrix of link {}", b), {}};
+  Panel p;
+  p.kind = PanelKind::kOrientation;
+  p.id = "a";
+  p.title = fmt::format("columns of ^{{0}}_{{{}}}R: paths of the tips of {}'s unit vectors in frame 0", b, b);
+  for (int j = 1; j <= 3; ++j)
+    p.curves.push_back({{fmt::format("{}.R.1{}", b, j), fmt::format("{}.R.2{}", b, j), fmt::format("{}.R.3{}", b, j)},
+                        fmt::format("column {}: tip of {}_{{{}}}", j, kAxes[j - 1], b), kColors[j - 1]});
+  f.panels.push_back(p);
+  return f;
+}
+
+FigureSpec CentreOfMass(int n, const std::string& b) {
+  FigureSpec f{n, b, "com", fmt::format("Variation of coordinates of center of mass of link {} with time", b), {}};
+  Panel a = TimePanel("a", fmt::format("(a) coordinates of the centre of mass C_{{{}}}", b), fmt::format("position of C_{{{}}}", b),
+                      Components(b + ".r", ""), false);
+  a.coordinates = true;
+  Panel d = TimePanel("b", "(b) the same, minus the initial position: the deflection of the supports",
+                      fmt::format("r - r(0) of C_{{{}}}", b), Components(b + ".r", "{/Symbol D}r", true, 1e6), false);
+  d.unit = "\u00b5m";
+  f.panels = {a, d};
+  return f;
+}
+
+FigureSpec CentreOfMassPath(int n, const std::string& b) {
+  FigureSpec f{n, b, "com", fmt::format("Variation of coordinates of center of mass of link {} with time", b), {}};
+  Panel a = TimePanel("a", fmt::format("(a) coordinates of C_{{{}}}", b), fmt::format("position of C_{{{}}}", b),
+                      Components(b + ".r", ""), false);
+  a.coordinates = true;
+  f.panels = {a, PathPanel("b", fmt::format("(b) path of C_{{{}}}", b), b + ".r", fmt::format("C_{{{}}}", b))};
+  return f;
+}
+
+FigureSpec Momentum(int n, const std::string& b, bool translational) {
+  FigureSpec f{n, b, "momentum", fmt::format("Variation of components of momentum of link {} with time", b), {}};
+  if (translational) {
+    f.panels.push_back(TimePanel("a", "(a) translational momentum p", "translational momentum p", Components(b + ".p", "p"), true));
+    f.panels.push_back(TimePanel("b", "(b) angular momentum h (about C, in frame 0)", "angular momentum h", Components(b + ".h", "h"), true));
+  } else {
+    f.panels.push_back(TimePanel("a", "angular momentum h (about C, in frame 0)", "angular momentum h", Components(b + ".h", "h"), true));
+  }
+  return f;
+}
+
+FigureSpec Reaction(int n, const std::string& b, bool moment, const std::string& caption) {
+  FigureSpec f{n, b, "reaction", caption, {}};
+  const std::string pa = moment ? "(a) " : "";
+  f.panels.push_back(TimePanel("a", fmt::format("{}reaction force on link {}", pa, b), "reaction force F", Components(b + ".F", "F"), true));
+  if (moment)
+    f.panels.push_back(TimePanel("b", fmt::format("(b) reaction moment on link {} (about C, in frame 0)", b), "reaction moment M",
+                                 Components(b + ".M", "M"), true));
+  return f;
+}
+
+FigureSpec RimPoint(int n, const std::string& point, const std::string& link) {
+  const std::string q = fmt::format("Q_{{{}}}", link);
+  FigureSpec f{n, link, "rim-point", fmt::format("Variation of coordinates of point {} on link {} with time", q, link), {}};
+  f.panels.push_back(TimePanel("a", fmt::format("(a) coordinates of {}", q), fmt::format("position of {}", q),
+                               Components(point, ""), false));
+  f.panels.push_back(PathPanel("b", fmt::format("(b) path of {}", q), point, q));
+  return f;
+}
+
+std::vector<FigureSpec> PaperFigures() {
+  std::vector<FigureSpec> f;
+  // A. Link G
+  f.push_back(Orientation(3, "G"));
+  f.push_back(CentreOfMass(4, "G"));
+  f.push_back(Momentum(5, "G", false));
+  {
+    FigureSpec t{6, "G", "torque", "Variation of torque with time", {}};
+    t.panels.push_back(TimePanel("a", "torque of the drive coupling on G", "drive torque {/Symbol t}",
+                                 {{{"drive.torque"}, "{/Symbol t}_{drive}", kColors[0]}}, true));
+    f.push_back(t);
+  }
+  f.push_back(Reaction(7, "G", false, "Variation of reaction force with time"));
+  // B. Link A
+  f.push_back(Orientation(8, "A"));
+  f.push_back(CentreOfMass(9, "A"));
+  f.push_back(Momentum(10, "A", false));
+  f.push_back(Reaction(11, "A", true, "Variation of components of reaction force and moment of link A with time"));
+  // C. Link S1
+  f.push_back(Orientation(12, "S1"));
+  f.push_back(CentreOfMass(13, "S1"));
+  f.push_back(Momentum(14, "S1", false));
+  f.push_back(Reaction(15, "S1", false, "Variation of components of reaction force of link S1 with time"));
+  // D. Link S2
+  f.push_back(Orientation(16, "S2"));
+  f.push_back(CentreOfMass(17, "S2"));
+  f.push_back(Momentum(18, "S2", false));
+  f.push_back(Reaction(19, "S2", false, "Variation of components of reaction force of link S2 with time"));
+  // E. Link P1, F. Link P2
+  for (const auto& [base, p] : {std::pair{20, std::string("P1")}, std::pair{24, std::string("P2")}}) {
+    f.push_back(Orientation(base, p));
+    f.push_back(CentreOfMassPath(base + 1, p));
+    f.push_back(Momentum(base + 2, p, true));
+    f.push_back(Reaction(base + 3, p, true, fmt::format("Variation of reaction force and moment of link {} with time", p)));
+  }
+  f.push_back(RimPoint(28, "Q_P1", "P1"));
+  f.push_back(RimPoint(29, "Q_P2", "P2"));
+  // G. Link H
+  f.push_back(Orientation(30, "H"));
+  f.push_back(CentreOfMass(31, "H"));
+  f.push_back(Momentum(32, "H", false));
+  f.push_back(Reaction(33, "H", true, "Variation of reaction force and moment of link H with time"));
+  return f;
+}
+
+constexpr const char* kBondGraphName = "fig02-bond-graph";
+constexpr const char* kBondGraphCaption = "Multibond graph model of Differential gear train mechanism";
+
+// ---------------------------------------------------------------------------------------------
+// gnuplot scripts
+
+/// Where each results.csv column lands in the figure's datablock (column 1 is time).
+using BlockColumns = std::map<std::string, int>;
+
+struct Window {
+  double t0, t1;
+};
+
+/// min/max of a curve set over a time window (NaNs skipped); {inf, -inf} if empty.
+std::pair<double, double> DataRange(const Table& t, const std::vector<Curve>& curves, Window w, size_t coord = 0) {
+  double lo = INFINITY, hi = -INFINITY;
+  const auto& time = t.Col("time");
+  for (const Curve& c : curves) {
+    if (coord >= c.columns.size()) continue;
+    const auto& col = t.Col(c.columns[coord]);
+    const double v0 = col.front();
+    for (size_t r = 0; r < t.rows(); ++r) {
+      if (time[r] < w.t0 || time[r] > w.t1 || !std::isfinite(col[r])) continue;
+      const double v = (col[r] - (c.from_start ? v0 : 0.0)) * c.scale;
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+  }
+  return {lo, hi};
+}
+
+class ScriptWriter {
+ public:
+  ScriptWriter(const Table& t, const FigureSpec& f, const PlotOptions& o) : t_(t), f_(f), o_(o) {
+    full_ = {t.Time0(), t.Time1()};
+    const double span = full_.t1 - full_.t0;
+    zoom_ = {full_.t0, full_.t0 + std::min(o.zoom_length, 0.25 * span)};
+  }
+
+  std::string Run() {
+    const std::string name = f_.Name();
+    std::ostringstream s;
+    s << fmt::format("# Fig. {} of the paper: {}.\n", f_.number, f_.caption);
+    s << "# Written by multibond from results.csv. Run it again from the results folder:\n";
+    s << fmt::format("#   gnuplot plots/{}.gp\n", name);
+    s << "# It writes figures/" << name << ".png and .svg, and plots/" << name
+      << ".ranges (each panel's data extent: panel, xmin, xmax, ymin, ymax[, zmin, zmax]).\n";
+    s << "set encoding utf8\n";
+    s << "set datafile separator \",\"\n";
+    s << "set datafile columnheaders\n";
+    s << "# results.csv columns used (1-based), read once into the datablock $d (as text: no digit lost):\n";
+    std::string using_spec = "(strcol(1))";
+    s << "#   $d column 1 = results.csv column 1: time [" << t_.Unit("time") << "]\n";
+    int next = 2;
+    for (const std::string& col : f_.Columns()) {
+      block_[col] = next;
+      using_spec += fmt::format(":(strcol({}))", t_.Find(col) + 1);
+      s << fmt::format("#   $d column {} = results.csv column {}: {} [{}]\n", next, t_.Find(col) + 1, col, t_.Unit(col));
+      ++next;
+    }
+    s << "set table $d separator comma\n";
+    s << "plot \"results.csv\" using " << using_spec << " with table\n";
+    s << "unset table\n";
+    s << "set datafile nocolumnheaders\n";
+    s << fmt::format("set print \"plots/{}.ranges\"\n", name);
+    s << "set style data lines\n";
+    s << "set grid lc rgb \"#dddddd\"\n";
+    s << "set border lc rgb \"#444444\"\n";
+    s << "set key outside right top Left reverse samplen 2 spacing 1.2\n";
+
+    const bool has_path = std::any_of(f_.panels.begin(), f_.panels.end(), [](const Panel& p) { return p.kind != PanelKind::kTime; });
+    const bool has_zoom = std::any_of(f_.panels.begin(), f_.panels.end(), [](const Panel& p) { return p.zoom; });
+    // Time panels go on a grid (with their start-transient companion on the right); a figure with
+    // a 3D panel places its panels by hand, giving the 3D one a square.
+    int rows = 1, cols = 1, width = 1000, height = 750;
+    std::vector<std::string> placement(f_.panels.size());
+    if (has_path) {
+      width = f_.panels.size() == 1 ? 1000 : 1700, height = f_.panels.size() == 1 ? 900 : 760;
+      if (f_.panels.size() == 1) {
+        placement[0] = "  set origin 0, 0\n  set size 1, 0.95\n";
+      } else {
+        placement[0] = "  set origin 0, 0.02\n  set size 0.5, 0.9\n";
+        placement[1] = "  set origin 0.5, 0\n  set size 0.5, 0.95\n";
+      }
+    } else if (has_zoom) {
+      rows = static_cast<int>(f_.panels.size()), cols = 2, width = 1500, height = 80 + 430 * rows;
+    } else {
+      rows = static_cast<int>(f_.panels.size()), cols = 1, width = 1100, height = 80 + 400 * rows;
+    }
+
+    s << "do for [format in \"png svg\"] {\n";
+    s << "  if (format eq \"png\") {\n";
+    s << fmt::format("    set terminal pngcairo size {},{} enhanced font \"DejaVu Sans,11\" background \"white\"\n", width, height);
+    s << "  } else {\n";
+    s << fmt::format("    set terminal svg size {},{} dynamic enhanced font \"DejaVu Sans,11\" background \"white\"\n", width, height);
+    s << "  }\n";
+    s << fmt::format("  set output \"figures/{}.\".format\n", name);
+    const std::string title = GpString(fmt::format("Fig. {}. {}", f_.number, f_.caption));
+    if (has_path)
+      s << fmt::format("  set multiplot title {} font \",15\"\n", title);
+    else
+      s << fmt::format("  set multiplot layout {},{} title {} font \",15\"\n", rows, cols, title);
+    for (size_t i = 0; i < f_.panels.size(); ++i) {
+      const Panel& p = f_.panels[i];
+      s << placement[i];
+      if (p.kind == PanelKind::kTime) {
+        TimePanelScript(s, p, full_, p.id, "");
+        if (p.zoom)
+          TimePanelScript(s, p, zoom_, p.id + "-zoom", fmt::format(", start transient ({}\u2013{} s)", Num(zoom_.t0), Num(zoom_.t1)));
+      } else {
+        PathPanelScript(s, p);
+      }
+    }
+    s << "  unset multiplot\n";
+    s << "  unset output\n";
+    s << "}\n";
+    return s.str();
+  }
+
+ private:
+  std::string Unit(const Panel& p) const { return p.unit.empty() ? t_.Unit(p.curves.front().columns.front()) : p.unit; }
+
+  /// Prints the panel's data extent (first pass only).
+  static void PrintRanges(std::ostringstream& s, const std::string& id, bool z) {
+    s << "  if (format eq \"png\") {\n";
+    if (z)
+      s << fmt::format(
+          "    print sprintf(\"{}\\t%.17g\\t%.17g\\t%.17g\\t%.17g\\t%.17g\\t%.17g\", GPVAL_DATA_X_MIN, GPVAL_DATA_X_MAX, "
+          "GPVAL_DATA_Y_MIN, GPVAL_DATA_Y_MAX, GPVAL_DATA_Z_MIN, GPVAL_DATA_Z_MAX)\n",
+          id);
+    else
+      s << fmt::format(
+          "    print sprintf(\"{}\\t%.17g\\t%.17g\\t%.17g\\t%.17g\", GPVAL_DATA_X_MIN, GPVAL_DATA_X_MAX, GPVAL_DATA_Y_MIN, "
+          "GPVAL_DATA_Y_MAX)\n",
+          id);
+    s << "  }\n";
+  }
+
+  void TimePanelScript(std::ostringstream& s, const Panel& p, Window w, const std::string& id, const std::string& title_suffix) {
+    s << "  # panel " << id << "\n";
+    s << "  unset arrow\n  unset label\n";
+    s << "  set key outside right top Left reverse samplen 2 spacing 1.2\n";
+    s << "  set lmargin 12\n  set rmargin 13\n";
+    s << fmt::format("  set title {}\n", GpString(p.title + title_suffix));
+    s << fmt::format("  set xrange [{}:{}]\n", Num(w.t0), Num(w.t1));
+    s << fmt::format("  set xlabel {}\n", GpString(fmt::format("time t [{}]", t_.Unit("time"))));
+    s << fmt::format("  set ylabel {}\n", GpString(fmt::format("{} [{}]", p.quantity, Unit(p))));
+    s << "  set xtics autofreq\n  set ytics autofreq\n  set format y \"%g\"\n";
+    const auto [lo, hi] = DataRange(t_, p.curves, w);
+    if (p.coordinates && std::isfinite(lo)) {
+      s << fmt::format("  set yrange [{}:{}]\n", Num(std::floor((lo - 0.1) * 10) / 10), Num(std::ceil((hi + 0.1) * 10) / 10));
+    } else if (std::isfinite(lo) && hi - lo <= 1e-12 * std::max(1.0, std::abs(lo))) {
+      const double pad = std::max(1e-12, 0.1 * std::abs(lo)) + (lo == 0 ? 1.0 : 0.0);
+      s << fmt::format("  set yrange [{}:{}]\n", Num(lo - pad), Num(hi + pad));  // a constant: no autoscale warning
+    } else {
+      s << "  set autoscale y\n";
+    }
+    s << "  plot ";
+    for (size_t k = 0; k < p.curves.size(); ++k) {
+      const Curve& c = p.curves[k];
+      const int col = block_.at(c.columns.front());
+      std::string expr = fmt::format("{}", col);
+      if (c.from_start || c.scale != 1.0) {
+        expr = fmt::format("(${}", col);
+        if (c.from_start) expr += fmt::format(" - ({})", Num(t_.First(c.columns.front())));
+        expr += ")";
+        if (c.scale != 1.0) expr = fmt::format("({}*{})", expr, Num(c.scale));
+      }
+      s << fmt::format("{}$d using 1:{} lw 1.5 lc rgb \"{}\" title {}", k ? ", \\\n       " : "", expr, c.color, GpString(c.title));
+    }
+    s << "\n";
+    PrintRanges(s, id, false);
+  }
+
+  void PathPanelScript(std::ostringstream& s, const Panel& p) {
+    s << "  # panel " << p.id << "\n";
+    s << "  unset arrow\n  unset label\n";
+    s << fmt::format("  set title {}\n", GpString(p.title));
+    s << "  unset lmargin\n  unset rmargin\n";
+    s << "  set key inside left top Left reverse samplen 2 spacing 1.2\n";
+    s << "  set view 62, 30, 1.12, 1\n  set view equal xyz\n  set xyplane relative 0\n";
+    s << "  set xtics autofreq\n  set ytics autofreq\n  set ztics autofreq\n  set format y \"%g\"\n";
+    std::array<double, 3> lo{}, hi{};
+    if (p.kind == PanelKind::kOrientation) {
+      lo = {-1.05, -1.05, -1.05};
+      hi = {1.05, 1.05, 1.05};
+      s << "  set xtics 0.5\n  set ytics 0.5\n  set ztics 0.5\n";
+      // The unit vectors at the end of the run, from the origin: the tips end where the arrows point.
+      for (size_t k = 0; k < p.curves.size(); ++k) {
+        std::array<double, 3> v{};
+        for (int i = 0; i < 3; ++i) v[i] = t_.Last(p.curves[k].columns[i]);
+        s << fmt::format("  set arrow {} from 0,0,0 to {},{},{} lw 1.2 lc rgb \"{}\" dt 2 filled head size screen 0.015,20\n", k + 1,
+                         Num(v[0]), Num(v[1]), Num(v[2]), p.curves[k].color);
+      }
+      s << fmt::format("  set label 1 {} at screen 0.98, screen 0.03 right font \",10\"\n",
+                       GpString(fmt::format("arrows and dots: the unit vectors at the end, t = {} s", Num(t_.Time1()))));
+    } else {
+      // A cube around the path: equal scales on the three axes.
+      double half = 0;
+      std::array<double, 3> mid{};
+      for (size_t i = 0; i < 3; ++i) {
+        const auto [a, b] = DataRange(t_, p.curves, full_, i);
+        mid[i] = 0.5 * (a + b);
+        half = std::max(half, 0.5 * (b - a));
+      }
+      half = half * 1.1 + 1e-9;
+      for (int i = 0; i < 3; ++i) lo[i] = mid[i] - half, hi[i] = mid[i] + half;
+    }
+    const std::string unit = p.kind == PanelKind::kOrientation ? "-" : t_.Unit(p.curves.front().columns.front());
+    s << fmt::format("  set xrange [{}:{}]\n  set yrange [{}:{}]\n  set zrange [{}:{}]\n", Num(lo[0]), Num(hi[0]), Num(lo[1]), Num(hi[1]),
+                     Num(lo[2]), Num(hi[2]));
+    s << fmt::format("  set xlabel {}\n  set ylabel {}\n  set zlabel {} rotate parallel\n", GpString(fmt::format("x [{}]", unit)),
+                     GpString(fmt::format("y [{}]", unit)), GpString(fmt::format("z [{}]", unit)));
+    // Tips that trace the same circle (y and z of a link spinning about x) must both show:
+    // column 2 wide and solid, column 3 dashed on top of it.
+    constexpr std::array<const char*, 3> kStyle = {"lw 1.5", "lw 4", "lw 1.5 dt (10,8)"};
+    const size_t last = t_.rows() - 1;
+    s << "  splot ";
+    for (size_t k = 0; k < p.curves.size(); ++k) {
+      const Curve& c = p.curves[k];
+      const std::string using_spec = fmt::format("{}:{}:{}", block_.at(c.columns[0]), block_.at(c.columns[1]), block_.at(c.columns[2]));
+      s << fmt::format("{}$d every {} using {} {} lc rgb \"{}\" title {}", k ? ", \\\n        " : "", std::max(1, o_.path_stride),
+                       using_spec, p.kind == PanelKind::kOrientation ? kStyle[k % 3] : "lw 1.5", c.color, GpString(c.title));
+      // Where it is at the end of the run (a link that does not turn traces a point).
+      s << fmt::format(", \\\n        $d every ::{}::{} using {} with points pt 7 ps 1.6 lc rgb \"{}\" notitle", last, last,
+                       using_spec, c.color);
+    }
+    s << "\n";
+    PrintRanges(s, p.id, true);
+    s << "  unset arrow\n  unset label\n  set view 60, 30, 1, 1\n  set autoscale\n";
+  }
+
+  const Table& t_;
+  const FigureSpec& f_;
+  const PlotOptions& o_;
+  Window full_{}, zoom_{};
+  BlockColumns block_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Running gnuplot
+
+struct Job {
+  pid_t pid = -1;
+  std::string name, log;
+};
+
+/// Starts `argv` in `cwd` with stdin/stdout from/to /dev/null and stderr to `log` (no shell).
+/// Returns the pid, or -1 with the reason in `error`.
+pid_t Start(const std::vector<std::string>& args, const std::string& cwd, const std::string& log, std::string* error) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addchdir_np(&actions, cwd.c_str());
+  std::vector<std::string> copy = args;
+  std::vector<char*> argv;
+  for (std::string& a : copy) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  const int rc = posix_spawnp(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (rc != 0) {
+    *error = rc == ENOENT ? fmt::format("cannot run '{}': it is not installed (or not on PATH)", args[0])
+                          : fmt::format("cannot run '{}': {}", args[0], std::strerror(rc));
+    return -1;
+  }
+  return pid;
+}
+
+/// Waits for `pid`; returns "" on success, else what went wrong.
+std::string Finish(pid_t pid, const std::string& program) {
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) return fmt::format("waiting for '{}' failed: {}", program, std::strerror(errno));
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 127) return fmt::format("cannot run '{}': it is not installed (or not on PATH)", program);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    return WIFEXITED(status) ? fmt::format("'{}' failed (exit status {})", program, WEXITSTATUS(status))
+                             : fmt::format("'{}' failed (signal {})", program, WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  return "";
+}
+
+std::string ReadFile(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+std::string Trim(std::string s) {
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
+  return s;
+}
+
+/// The model file for Fig. 2: the option, else run.json's, if readable.
+std::string ModelFor(const fs::path& dir, const PlotOptions& o) {
+  if (!o.model_path.empty()) return o.model_path;
+  try {
+    const auto j = nlohmann::json::parse(ReadFile(dir / "run.json"));
+    const std::string file = j.at("model").at("file").get<std::string>();
+    if (fs::exists(file)) return file;
+  } catch (const std::exception&) {
+  }
+  return "";
+}
+
+/// Fig. 2: the model's multibond graph with causal strokes. Returns the files written.
+std::vector<std::string> DrawBondGraph(const fs::path& dir, const std::string& model, std::vector<std::string>& warnings) {
+  const LoadedModel lm = LoadModelFile(model);
+  DiagnosticSink sink;
+  const Structure s = AnalyzeStructure(lm.graph, lm.compile.default_domain, sink);
+  if (sink.has_errors()) {
+    warnings.push_back(fmt::format("Fig. 2 left out: the model '{}' has structural errors (see 'multibond check')", model));
+    return {};
+  }
+  const CausalAssignment c = AssignCausality(lm.graph, s);
+  const fs::path dot = dir / "plots" / (std::string(kBondGraphName) + ".dot");
+  WriteFileAtomic(dot.string(), MakeDot(lm.graph, &s, &c));
+  std::vector<std::string> files;
+  for (const char* format : {"png", "svg"}) {
+    const fs::path out = dir / "figures" / (std::string(kBondGraphName) + "." + format);
+    std::string error;
+    if (RenderWithGraphviz(dot.string(), out.string(), format, &error))
+      files.push_back(out.string());
+    else
+      warnings.push_back(fmt::format("Fig. 2 ({}) left out: {}", format, error));
+  }
+  return files;
+}
+
+}  // namespace
+
+std::vector<std::string> PaperFigureNames() {
+  std::vector<std::string> out = {kBondGraphName};
+  for (const FigureSpec& f : PaperFigures()) out.push_back(f.Name());
+  return out;
+}
+
+PlotReport MakePaperFigures(const std::string& results_dir, const PlotOptions& options) {
+  const fs::path dir(results_dir);
+  const Table table = Table::Load(dir / "results.csv");
+  if (!table.Has("time")) throw std::runtime_error(fmt::format("'{}' has no 'time' column", (dir / "results.csv").string()));
+  fs::create_directories(dir / "figures");
+  fs::create_directories(dir / "plots");
+  PlotReport report;
+
+  if (options.bond_graph) {
+    const std::string model = ModelFor(dir, options);
+    if (model.empty()) {
+      report.warnings.push_back("Fig. 2 left out: no model file (give one with --model; run.json's is not readable from here)");
+    } else {
+      try {
+        for (std::string& f : DrawBondGraph(dir, model, report.warnings)) report.files.push_back(std::move(f));
+      } catch (const ModelError& e) {
+        report.warnings.push_back(fmt::format("Fig. 2 left out: the model '{}' does not load: {}", model,
+                                              e.diagnostics().empty() ? e.what() : e.diagnostics().front().ToString()));
+      }
+    }
+  }
+
+  // Write every script, then run gnuplot on them, a few at a time.
+  std::vector<FigureSpec> figures;
+  for (const FigureSpec& f : PaperFigures()) {
+    std::vector<std::string> missing;
+    for (const std::string& c : f.Columns())
+      if (!table.Has(c)) missing.push_back(c);
+    if (!missing.empty()) {
+      std::string list;
+      for (const auto& m : missing) list += (list.empty() ? "" : ", ") + m;
+      report.warnings.push_back(fmt::format("Fig. {} ({}) left out: results.csv has no column {}", f.number, f.Name(), list));
+      continue;
+    }
+    WriteFileAtomic((dir / "plots" / (f.Name() + ".gp")).string(), ScriptWriter(table, f, options).Run());
+    figures.push_back(f);
+  }
+
+  const int jobs = options.jobs > 0 ? options.jobs : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  std::vector<Job> running;
+  std::map<std::string, std::string> failures;  // figure name -> reason
+  auto reap = [&](const Job& j) {
+    std::string why = Finish(j.pid, options.gnuplot);
+    const std::string log = Trim(ReadFile(j.log));
+    if (!why.empty()) failures[j.name] = why + (log.empty() ? "" : ": " + log);
+    std::error_code ec;
+    if (log.empty()) fs::remove(j.log, ec);
+  };
+  for (const FigureSpec& f : figures) {
+    if (static_cast<int>(running.size()) >= jobs) {
+      reap(running.front());
+      running.erase(running.begin());
+    }
+    Job j{-1, f.Name(), (dir / "plots" / (f.Name() + ".log")).string()};
+    std::string error;
+    j.pid = Start({options.gnuplot, "plots/" + f.Name() + ".gp"}, dir.string(), j.log, &error);
+    if (j.pid < 0) {
+      for (const Job& r : running) reap(r);
+      throw std::runtime_error(error + " (install gnuplot, e.g. the Debian package gnuplot-nox; the scripts are in " +
+                               (dir / "plots").string() + ")");
+    }
+    running.push_back(j);
+  }
+  for (const Job& r : running) reap(r);
+
+  for (const FigureSpec& f : figures) {
+    if (failures.count(f.Name())) {
+      report.warnings.push_back(fmt::format("Fig. {} ({}) failed: {}", f.number, f.Name(), failures[f.Name()]));
+      continue;
+    }
+    for (const char* ext : {".png", ".svg"}) {
+      const fs::path p = dir / "figures" / (f.Name() + ext);
+      std::error_code ec;
+      if (fs::exists(p, ec) && fs::file_size(p, ec) > 0)
+        report.files.push_back(p.string());
+      else
+        report.warnings.push_back(fmt::format("Fig. {}: gnuplot wrote no {}", f.number, p.string()));
+    }
+  }
+  return report;
+}
+
+}  // namespace multibond
+
+namespace multibond {
+void WriteResultsPage(const std::string&, const PlotReport&) {}
+}  // namespace multibond

@@ -1,0 +1,65 @@
+#pragma once
+/// \file
+/// The paper's figures from a results folder, and a page that shows them.
+///
+/// MakePaperFigures reads DIR/results.csv (and DIR/run.json) of a run of the paper's differential
+/// (examples/differential.yaml) and draws Figs. 3 to 33 of "Modeling and Simulation of Dynamics
+/// of Differential Gear Train Mechanism using Bond Graph" with gnuplot, plus the multibond graph
+/// (Fig. 2) with Graphviz when the model file is at hand:
+///
+///     DIR/figures/figNN-<link>-<quantity>.png and .svg   the pictures (figNN-...: see PaperFigureNames)
+///     DIR/plots/figNN-<link>-<quantity>.gp               the gnuplot script of each; run it again from
+///                                                          DIR with `gnuplot plots/figNN-....gp`
+///     DIR/plots/figNN-<link>-<quantity>.ranges           what each panel plotted: its data extent as
+///                                                          gnuplot saw it (panel, x, y, z min/max)
+///
+/// Scripts read results.csv directly, by column number (found from the header, "name [unit]").
+/// WriteResultsPage then writes DIR/index.html: every figure with the paper's caption, a short
+/// text on the physics it shows, and the run's summary (steady values against the analytic ones,
+/// the energy account).
+
+#include <string>
+#include <vector>
+
+namespace multibond {
+
+/// Options of MakePaperFigures.
+struct PlotOptions {
+  /// Model file for the bond graph drawing (Fig. 2). "" = the model named in DIR/run.json, if it
+  /// can be read from the current folder; without a model, Fig. 2 is left out (with a warning).
+  std::string model_path;
+  /// Draw Fig. 2 (needs Graphviz's `dot`).
+  bool bond_graph = true;
+  /// The gnuplot program (looked up on PATH).
+  std::string gnuplot = "gnuplot";
+  /// Length of the start-transient panels [s], from the first time of the run (capped at a
+  /// quarter of the run).
+  double zoom_length = 0.5;
+  /// 3D paths plot every n-th row (keeps the SVGs small).
+  int path_stride = 5;
+  /// gnuplot processes at a time; 0 = the number of hardware threads.
+  int jobs = 0;
+};
+
+/// What MakePaperFigures did.
+struct PlotReport {
+  std::vector<std::string> files;     ///< every picture written (PNG and SVG), in figure order
+  std::vector<std::string> warnings;  ///< figures left out and why (missing columns, gnuplot errors)
+};
+
+/// The base names of the paper's figures, in order: "fig02-bond-graph", "fig03-G-orientation", ...,
+/// "fig33-H-reaction" (figure number, link, quantity). Each is drawn as .png and .svg.
+std::vector<std::string> PaperFigureNames();
+
+/// Draws the paper's figures from `results_dir` (see the file comment). Throws std::runtime_error
+/// when results.csv cannot be read or gnuplot cannot be run at all; a figure whose columns are
+/// missing, or whose gnuplot run fails, is left out with a warning.
+PlotReport MakePaperFigures(const std::string& results_dir, const PlotOptions& options = {});
+
+/// Writes `results_dir`/index.html: every figure found in `results_dir`/figures with the paper's
+/// caption and what it shows, and the run's summary from results.csv and run.json (steady values
+/// against the analytic ones, energy account, solver). `report`'s warnings are listed on the page.
+/// Throws std::runtime_error when results.csv cannot be read or the page cannot be written.
+void WriteResultsPage(const std::string& results_dir, const PlotReport& report = {});
+
+}  // namespace multibond

@@ -1,0 +1,98 @@
+// Regression tests for what fuzzing found (scripts/fuzz, fuzz/model_loader_fuzzer.cc).
+//
+// Every file in tests/models/fuzz/ is a minimised input that once crashed, hung or tripped a
+// sanitizer. Each goes through what the fuzzer does (load, compile, lay out the outputs, one
+// right-hand side at the initial state) and must end in a ModelError or in success: never in
+// another exception, a crash or a hang.
+//
+// A file whose header has a line
+//   # status: open
+// reproduces a bug that is not fixed yet (the header says where it is). Those files run in the
+// DISABLED_ instantiation below, so that the suite stays green and `--gtest_also_run_disabled_tests`
+// shows them; when the bug is fixed, change the line to `# status: fixed`.
+
+#include <algorithm>
+#include <cctype>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <typeinfo>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "multibond/io/model_loader.h"
+#include "multibond/sim/simulator.h"
+
+namespace multibond {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kDir = MULTIBOND_SOURCE_DIR "/tests/models/fuzz";
+
+bool IsOpen(const fs::path& file) {
+  std::ifstream in(file);
+  std::string line;
+  while (std::getline(in, line) && line.rfind('#', 0) == 0)
+    if (line.find("status:") != std::string::npos) return line.find("open") != std::string::npos;
+  return false;
+}
+
+std::vector<fs::path> Files(bool open) {
+  std::vector<fs::path> files;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(kDir, ec))
+    if (entry.is_regular_file() && entry.path().extension() == ".yaml" && IsOpen(entry.path()) == open)
+      files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+std::string ReadFile(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+class FuzzRegression : public ::testing::TestWithParam<fs::path> {};
+
+TEST_P(FuzzRegression, ThrowsModelErrorOrSucceeds) {
+  const std::string text = ReadFile(GetParam());
+  try {
+    const LoadedModel lm = LoadModelString(text, GetParam().filename().string());
+    const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+    (void)MakeColumns(*model, false);
+    if (model->num_states() < 2000) {
+      Workspace ws = model->MakeWorkspace();
+      const Eigen::VectorXd x = model->MakeInitialState();
+      Eigen::VectorXd xdot(x.size());
+      model->CalcDerivatives(0.0, x.data(), xdot.data(), ws);
+    }
+  } catch (const ModelError&) {
+    SUCCEED();  // a diagnosed bad model
+  } catch (const std::exception& e) {
+    FAIL() << "escaped as " << typeid(e).name() << ", not as a ModelError: " << e.what();
+  }
+}
+
+std::string TestName(const ::testing::TestParamInfo<fs::path>& info) {
+  std::string name = info.param.stem().string();
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  return name;
+}
+
+INSTANTIATE_TEST_SUITE_P(Fixed, FuzzRegression, ::testing::ValuesIn(Files(false)), TestName);
+// Known, not yet fixed bugs (see each file's header): disabled until fixed.
+INSTANTIATE_TEST_SUITE_P(DISABLED_Open, FuzzRegression, ::testing::ValuesIn(Files(true)), TestName);
+GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(FuzzRegression);
+
+TEST(FuzzRegression, ReproducersAreThere) {
+  std::error_code ec;
+  EXPECT_TRUE(fs::is_directory(kDir, ec)) << kDir;
+}
+
+}  // namespace
+}  // namespace multibond
