@@ -190,6 +190,13 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
     const Eigen::MatrixXd* m = e.param.is_scalar ? nullptr : &e.param.matrix;
     const double v = e.param.scalar;
     auto bad = [&](const std::string& what, const std::string& hint) { sink.Error("param.range", e.where, e.name, what, hint); };
+    // An empty list or matrix (`inertia: []`, `ratio: [[]]`) reached the range checks below and
+    // the compiler as a 0x0 matrix: Eigen asserts on it (minCoeff of no eigenvalues), LLT calls
+    // it positive definite, and the plan read its missing entries (found by fuzzing).
+    if (m && m->size() == 0) {
+      bad("parameter is an empty list", "give a number, a list of numbers (diagonal) or a matrix (list of rows)");
+      continue;
+    }
     if ((m && !AllFinite(*m)) || (!m && !std::isfinite(v))) {
       bad("parameter is not a finite number", "give a finite value");
       continue;

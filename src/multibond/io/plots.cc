@@ -750,6 +750,410 @@ std::vector<std::string> DrawBondGraph(const fs::path& dir, const std::string& m
   return files;
 }
 
+
+// ---------------------------------------------------------------------------------------------
+// The page
+
+/// Numbers read off a run for the page's texts and summary.
+class Facts {
+ public:
+  explicit Facts(const Table& t) : t_(t) {}
+
+  bool Has(const std::string& n) const { return t_.Has(n); }
+  bool HasVec(const std::string& n) const { return t_.Has(n + ".x") && t_.Has(n + ".y") && t_.Has(n + ".z"); }
+  double Last(const std::string& n) const { return t_.Last(n); }
+  double First(const std::string& n) const { return t_.First(n); }
+  double MaxAbs(const std::string& n) const { return t_.MaxAbs(n); }
+  /// min and max of a column over the run.
+  std::pair<double, double> Range(const std::string& n) const {
+    if (!t_.Has(n)) return {kNaN, kNaN};
+    const auto& c = t_.Col(n);
+    return {*std::min_element(c.begin(), c.end()), *std::max_element(c.begin(), c.end())};
+  }
+  double LastNorm(const std::string& n) const { return HasVec(n) ? Norm(t_.LastVec(n)) : kNaN; }
+  std::array<double, 3> FirstVec(const std::string& n) const { return t_.Vec(n, 0); }
+  /// Largest |component| of a vector output over [t0, t1].
+  double MaxAbsVec(const std::string& n, double t0 = -INFINITY, double t1 = INFINITY) const {
+    if (!HasVec(n)) return kNaN;
+    double m = 0;
+    for (const char* a : kAxes) m = std::max(m, t_.MaxAbs(n + "." + a, t0, t1));
+    return m;
+  }
+  /// Largest |r(t) - r(0)| of a vector output.
+  double MaxDisplacement(const std::string& n) const { return HasVec(n) ? t_.MaxDisplacement(n) : kNaN; }
+  /// Spin of a planet relative to the carrier A, about the planet's body x axis, at the end.
+  double Spin(const std::string& p) const {
+    if (!HasVec(p + ".omega") || !HasVec("A.omega") || !t_.Has(p + ".R.11")) return kNaN;
+    const auto e = t_.RColumn(p, 1, t_.rows() - 1);
+    return Dot(Sub(t_.LastVec(p + ".omega"), t_.LastVec("A.omega")), e);
+  }
+  /// Mass of a link: |p| / |v| at the end.
+  double Mass(const std::string& b) const { return LastNorm(b + ".p") / LastNorm(b + ".v"); }
+  /// Distance of a link's centre of mass from A's axis (through A's centre along A's z column).
+  double RadiusFromA(const std::string& b) const {
+    if (!HasVec(b + ".r") || !HasVec("A.r") || !t_.Has("A.R.13")) return kNaN;
+    const size_t r = t_.rows() - 1;
+    const auto d = Sub(t_.Vec(b + ".r", r), t_.Vec("A.r", r));
+    const auto a = t_.RColumn("A", 3, r);
+    const double along = Dot(d, a);
+    return std::sqrt(std::max(0.0, Dot(d, d) - along * along));
+  }
+  /// Moment of inertia of a link about its body x axis: (h . e1) / (w . e1) at the end.
+  double AxialInertia(const std::string& b) const {
+    if (!HasVec(b + ".h") || !HasVec(b + ".omega") || !t_.Has(b + ".R.11")) return kNaN;
+    const auto e = t_.RColumn(b, 1, t_.rows() - 1);
+    return Dot(t_.LastVec(b + ".h"), e) / Dot(t_.LastVec(b + ".omega"), e);
+  }
+  /// The time after which `n` stays within +-band (relative) of its final value.
+  double SettlingTime(const std::string& n, double band = 0.02) const {
+    if (!t_.Has(n)) return kNaN;
+    const auto& c = t_.Col(n);
+    const auto& time = t_.Col("time");
+    const double final = c.back(), tol = band * std::max(std::abs(final), 1e-12);
+    for (size_t r = t_.rows(); r-- > 0;)
+      if (!(std::abs(c[r] - final) <= tol)) return r + 1 < t_.rows() ? time[r + 1] : time[r];
+    return time.front();
+  }
+  double T0() const { return t_.Time0(); }
+  double T1() const { return t_.Time1(); }
+
+ private:
+  const Table& t_;
+};
+
+std::string Triple(const std::array<double, 3>& v) {
+  return fmt::format("({}, {}, {})", Show(v[0], 3), Show(v[1], 3), Show(v[2], 3));
+}
+
+/// What a figure shows, for the page: the physics, with this run's numbers.
+std::string WhatItShows(int n, const Facts& f) {
+  const std::string t_end = Show(f.T1(), 3);
+  const std::string w_a = Show(f.Last("A.omega.z"));
+  const double early = f.T0() + std::min(0.5, 0.25 * (f.T1() - f.T0()));
+  auto um = [](double metres) { return Show(1e6 * metres, 3); };
+  auto com = [&](const std::string& b, const std::string& holder) {
+    return fmt::format(
+        "The centre of mass of {} does not move: it stays at {} m, held by {}. Panel (b) magnifies what is left: the "
+        "supports' springs (10<sup>6</sup> N/m) give by at most {} &micro;m while the train starts, and the deflection "
+        "dies out with the start transient.",
+        b, Triple(f.FirstVec(b + ".r")), holder, um(f.MaxDisplacement(b + ".r")));
+  };
+  auto fixed_orientation = [&](const std::string& b, const std::string& why) {
+    return fmt::format(
+        "{} The three columns of R stay at the unit vectors of frame 0: each tip is a point (the dots). Its largest angular "
+        "velocity, during the start, is {} rad/s.",
+        why, Show(f.MaxAbsVec(b + ".omega")));
+  };
+  auto planet_orientation = [&](const std::string& p) {
+    return fmt::format(
+        "{} is carried round z by A ({} rad/s) and spins about its own radial axis (body x) at {} rad/s relative to A. "
+        "Column 1, the spin axis, points outwards and sweeps the horizontal circle with the carrier; columns 2 and 3 combine "
+        "both rotations and wind over the sphere. The curves close after each turn of the carrier, because the planet turns "
+        "|s|/|&omega;<sub>A</sub>| = 24/12 = 2 times relative to A per turn (S1 is held). (The paper's frames follow the "
+        "D&ndash;H convention, in which the spin axis is z; here it is x, so the roles of the columns are swapped.)",
+        p, w_a, Show(f.Spin(p)));
+  };
+  auto planet_com = [&](const std::string& p) {
+    return fmt::format(
+        "(a) x and y of the centre of {} oscillate with amplitude {} m (its distance from A's axis) at the carrier's "
+        "rate, {} rad/s (a period of {} s); z stays at {} m. (b) The path is a circle round A's axis.",
+        p, Show(f.RadiusFromA(p), 3), w_a, Show(2 * M_PI / std::abs(f.Last("A.omega.z")), 3), Show(f.Last(p + ".r.z"), 3));
+  };
+  auto planet_momentum = [&](const std::string& p) {
+    return fmt::format(
+        "(a) p = m<sub>P</sub> v turns with the carrier: |p| = m<sub>P</sub> |&omega;<sub>A</sub>| &rho; = {} N s, with "
+        "p<sub>z</sub> = 0. (b) h = I<sub>axial</sub> s e<sub>x</sub> + I<sub>diametral</sub> &omega;<sub>A</sub> e<sub>z</sub>: "
+        "the spin part lies along the planet's radial spin axis, which turns with A, hence x and y components of amplitude {} "
+        "N m s; h<sub>z</sub> = {} N m s comes from the carrier's rotation. (The x and y components are there because the "
+        "spin axis turns, not because the centre of mass moves: h is taken about the centre of mass.) The start transient "
+        "dies out within about half a second.",
+        Show(f.LastNorm(p + ".p")), Show(std::hypot(f.Last(p + ".h.x"), f.Last(p + ".h.y"))), Show(f.Last(p + ".h.z")));
+  };
+  auto planet_reaction = [&](const std::string& p) {
+    return fmt::format(
+        "(a) The bearing pulls {} towards A's axis with the centripetal force m<sub>P</sub> &omega;<sub>A</sub><sup>2</sup> "
+        "&rho;: |F| = {} N at t = {} s, a vector that turns with the carrier (x and y oscillate at its rate, F<sub>z</sub> "
+        "&asymp; 0). (b) The moment turns the spinning planet's axis with the carrier: the gyroscopic moment "
+        "I<sub>axial</sub> s &omega;<sub>A</sub>, |M| = {} N m, horizontal and turning with A. The large start transients "
+        "(meshes and bearings taking up the sudden drive) decay through the couplings' damping.",
+        p, Show(f.LastNorm(p + ".F")), t_end, Show(f.LastNorm(p + ".M")));
+  };
+  auto rim = [&](const std::string& q, const std::string& column, const std::string& p) {
+    const auto [z_lo, z_hi] = f.Range(column + ".z");
+    return fmt::format(
+        "{} is a point on {}'s rim, 0.05 m from its centre along the body y axis. (a) Its coordinates combine the carrier's "
+        "rotation ({} rad/s) with the planet's spin ({} rad/s relative to A): z oscillates with the spin, between {} and {} m. "
+        "(b) Its path in space closes after each turn of the carrier, since the planet turns exactly twice relative to A "
+        "meanwhile (24 teeth on the suns, 12 on the planets, S1 held).",
+        q, p, w_a, Show(f.Spin(p)), Show(z_lo, 3), Show(z_hi, 3));
+  };
+  switch (n) {
+    case 2:
+      return "The model that multibond simulates, drawn from the model file by <code>multibond graph</code>: every link is a "
+             "1-junction of velocity with its mass (I) and a 1-junction of angular velocity with its inertia in the inertial "
+             "frame (no Euler junction structure); the couplings (C and R in parallel, behind transformers that express "
+             "them in the parent's frame) and the gear meshes (transformers between spins relative to the carrier) join "
+             "them. The causal strokes show integral causality throughout; elements are grouped by the name before the "
+             "first dot (a link, a joint or a gear mesh). The SVG is zoomable; hover an element or a bond for its details.";
+    case 3:
+      return fmt::format(
+          "G spins about x at &omega;<sub>G,x</sub> = {} rad/s, the speed the drive imposes through its compliant coupling. "
+          "Columns 2 and 3 of R, the tips of G's y and z axes, run round the unit circle in the y&ndash;z plane (both on the "
+          "same circle: column 2 is the wide line, column 3 the dashed one); column 1, the spin axis, stays at (1, 0, 0): a point.",
+          Show(f.Last("G.omega.x")));
+    case 4: return com("G", "its bearing to the housing");
+    case 5:
+      return fmt::format(
+          "Only h<sub>x</sub> matters: it jumps when the drive's step reaches G, overshoots while the rest of the train "
+          "is brought up to speed, and settles at I<sub>G,x</sub> &middot; 50 rad/s = {} N m s. h<sub>y</sub> and "
+          "h<sub>z</sub> stay below {} N m s (the bearing's tilt springs).",
+          Show(f.Last("G.h.x")), Show(std::max(f.MaxAbs("G.h.y"), f.MaxAbs("G.h.z")), 2));
+    case 6:
+      return fmt::format(
+          "The torque of the drive coupling (K = 1000 N m/rad, R = 5 N m s/rad) on G. At t = 0 the 50 rad/s step meets "
+          "the damper: &tau; = 5 &middot; 50 = {} N m, the maximum. It then rings down (the coupling against the train's "
+          "inertia) while the links spin up, and settles at {} N m by t = {} s: at steady speed nothing loads the train "
+          "(S2 turns freely), and only the planets' translational dampers draw a trickle of power (about 10<sup>&minus;8</sup> "
+          "N m, see the spec).",
+          Show(f.First("drive.torque"), 3), Show(f.Last("drive.torque"), 2), t_end);
+    case 7:
+      return fmt::format(
+          "The sum of the forces of G's couplings on its centre of mass (in the paper's caption, the link is G). The start "
+          "shakes the housing on its mounts, and G's bearing drags G along: a y component of up to {} N that rings at the "
+          "bearing's frequency and decays as the train settles ({} N at t = {} s). The x and z components stay small.",
+          Show(f.MaxAbs("G.F.y"), 3), Show(f.LastNorm("G.F"), 2), t_end);
+    case 8:
+      return fmt::format(
+          "A, the crown wheel and carrier of the planets, turns about z at &omega;<sub>A,z</sub> = {} rad/s = &minus;(12/48) "
+          "&middot; 50: the 12:48 mesh turns it the other way round from G. Columns 1 and 2 of R run round the unit circle "
+          "in the x&ndash;y plane; column 3 stays at (0, 0, 1), a point.",
+          w_a);
+    case 9: return com("A", "its bearing to the housing");
+    case 10:
+      return fmt::format(
+          "h<sub>z</sub> = I<sub>A,z</sub> &omega;<sub>A,z</sub> settles at {} N m s, negative because A turns against G. "
+          "The start transient (the mesh spring between G and A overshooting) dies out: &omega;<sub>A</sub> stays within 2 % "
+          "of its final value after t = {} s.",
+          Show(f.Last("A.h.z")), Show(f.SettlingTime("A.omega.z"), 2));
+    case 11:
+      return fmt::format(
+          "(a) The net force on A: the two planets' bearings pull A in opposite directions and nearly cancel, being on "
+          "opposite sides; what remains, with the housing's shaking through A's bearing, is up to {} N and decays to {} N "
+          "at t = {} s. (b) The moment: the mesh with G accelerates A (M<sub>z</sub> up to {} N m) against the planets' "
+          "reactions; it rings down with the drive coupling and is {} N m at the end.",
+          Show(f.MaxAbsVec("A.F"), 3), Show(f.LastNorm("A.F"), 2), t_end, Show(f.MaxAbs("A.M.z"), 3), Show(f.LastNorm("A.M"), 2));
+    case 12:
+      return fixed_orientation("S1", "S1 is held by a stiff rotational coupling to the ground (10<sup>5</sup> N m/rad).");
+    case 13: return com("S1", "its radial bearing to the housing");
+    case 14:
+      return fmt::format(
+          "S1 is held, so its angular momentum is zero but for the start: the planets push on S1 as they begin to roll on "
+          "it and the holding coupling stops it. h<sub>z</sub> peaks at {} N m s and decays to {} N m s.",
+          Show(f.MaxAbs("S1.h.z"), 3), Show(f.Last("S1.h.z"), 2));
+    case 15:
+      return fmt::format(
+          "The forces of S1's couplings on its centre: the radial bearing follows the housing's start-up shaking (up to {} "
+          "N, mostly along y) and the force dies away ({} N at t = {} s), S1 being held.",
+          Show(f.MaxAbsVec("S1.F"), 3), Show(f.LastNorm("S1.F"), 2), t_end);
+    case 16:
+      return fmt::format(
+          "S2 turns at &omega;<sub>S2,z</sub> = {} rad/s, twice the carrier's {} rad/s, because S1 is held (the Willis "
+          "relation &omega;<sub>S1</sub> + &omega;<sub>S2</sub> = 2 &omega;<sub>A</sub>: the differential sends all the "
+          "motion to the free side). Columns 1 and 2 of R run round the circle in the x&ndash;y plane; column 3 is a point.",
+          Show(f.Last("S2.omega.z")), w_a);
+    case 17: return com("S2", "its radial bearing to the housing");
+    case 18:
+      return fmt::format(
+          "h<sub>z</sub> = I<sub>S2,z</sub> &omega;<sub>S2,z</sub> = {} N m s once the start transient is gone: constant, "
+          "and negative like A's, S2 turning the same way at twice the rate.",
+          Show(f.Last("S2.h.z")));
+    case 19:
+      return fmt::format(
+          "The forces of S2's couplings on its centre: a start transient (up to {} N, mostly along y, from the housing's "
+          "shaking through the radial bearing) that decays to {} N at t = {} s; the turning S2 is balanced and needs no "
+          "steady force.",
+          Show(f.MaxAbsVec("S2.F"), 3), Show(f.LastNorm("S2.F"), 2), t_end);
+    case 20: return planet_orientation("P1");
+    case 21: return planet_com("P1");
+    case 22: return planet_momentum("P1");
+    case 23: return planet_reaction("P1");
+    case 24: return planet_orientation("P2") + " P2's body frame starts turned by &pi; about z, so that its x axis too points outwards.";
+    case 25: return planet_com("P2") + " P2 is on the opposite side of the axis from P1: half a period apart.";
+    case 26: return planet_momentum("P2");
+    case 27: return planet_reaction("P2") + " Its force is opposite to P1's: on A, the two cancel.";
+    case 28: return rim("Q<sub>P1</sub>", "Q_P1", "P1");
+    case 29: return rim("Q<sub>P2</sub>", "Q_P2", "P2");
+    case 30:
+      return fixed_orientation("H", "The housing sits on stiff mounts (10<sup>6</sup> N m/rad), the paper's zero-velocity source through a coupling.");
+    case 31: return com("H", "its mounts");
+    case 32:
+      return fmt::format(
+          "The housing takes the reaction of the start: the torques that bring the train up to speed shake it on its "
+          "mounts, with angular momentum up to {} N m s in the first tenths of a second (a fast ringing: H's rotation on "
+          "its stiff mounts, &radic;(K/I) &asymp; 1400 rad/s). It decays to {} N m s: H is, in effect, fixed.",
+          Show(f.MaxAbsVec("H.h"), 3), Show(f.LastNorm("H.h"), 2));
+    case 33:
+      return fmt::format(
+          "(a) The mounts' force on H, (b) their moment: start transients of up to {} N and {} N m that the mounts' "
+          "dampers take out. A lightly damped translational mode of the whole assembly on the mounts (about 194 rad/s, "
+          "damping ratio 0.2 %) lasts the run: {} N at t = {} s (from {} N after the first {} s).",
+          Show(f.MaxAbsVec("H.F"), 3), Show(f.MaxAbsVec("H.M"), 3), Show(f.LastNorm("H.F"), 2), t_end,
+          Show(f.MaxAbsVec("H.F", early, f.T1()), 2), Show(early - f.T0(), 2));
+    default: return "";
+  }
+}
+
+/// The paper's sections of figures.
+struct Section {
+  int first, last;
+  const char* title;
+};
+constexpr std::array<Section, 8> kSections = {{
+    {2, 2, "The multibond graph (Fig. 2)"},
+    {3, 7, "A. Link G (gear on the propeller shaft)"},
+    {8, 11, "B. Link A (crown wheel or arm)"},
+    {12, 15, "C. Link S1 (sun gear 1)"},
+    {16, 19, "D. Link S2 (sun gear 2)"},
+    {20, 23, "E. Link P1 (planet gear 1)"},
+    {24, 29, "F. Link P2 (planet gear 2), and points on the planets' rims"},
+    {30, 33, "G. Link H (housing)"},
+}};
+
+/// A value of run.json as text ("" if absent).
+std::string JsonText(const nlohmann::json& j, std::initializer_list<const char*> path) {
+  const nlohmann::json* p = &j;
+  for (const char* k : path) {
+    if (!p->is_object() || !p->contains(k)) return "";
+    p = &(*p)[k];
+  }
+  if (p->is_string()) return HtmlEscape(p->get<std::string>());
+  if (p->is_number_integer()) return std::to_string(p->get<long long>());
+  if (p->is_number()) return Show(p->get<double>(), 6);
+  if (p->is_boolean()) return p->get<bool>() ? "yes" : "no";
+  return HtmlEscape(p->dump());
+}
+
+double JsonNumber(const nlohmann::json& j, std::initializer_list<const char*> path) {
+  const nlohmann::json* p = &j;
+  for (const char* k : path) {
+    if (!p->is_object() || !p->contains(k)) return kNaN;
+    p = &(*p)[k];
+  }
+  return p->is_number() ? p->get<double>() : kNaN;
+}
+
+/// Simulated against analytic: the steady state at the end of the run.
+std::string SteadyTable(const Facts& f) {
+  struct Row {
+    std::string quantity;
+    double simulated, analytic;
+    std::string unit, relation;
+  };
+  const double w_a = -kRatioPinionCrown * kDriveSpeed;  // -12.5 rad/s
+  const double spin = kRatioSunPlanet * std::abs(w_a);  // 25 rad/s
+  std::vector<Row> rows;
+  auto add = [&](bool have, Row r) {
+    if (have) rows.push_back(std::move(r));
+  };
+  add(f.Has("G.omega.x"), {"&omega;<sub>G,x</sub>", f.Last("G.omega.x"), kDriveSpeed, "rad/s", "the drive's set speed"});
+  add(f.Has("A.omega.z"), {"&omega;<sub>A,z</sub>", f.Last("A.omega.z"), w_a, "rad/s", "&minus;(12/48) &middot; 50: pinion&ndash;crown mesh"});
+  add(f.HasVec("S1.omega"), {"|&omega;<sub>S1</sub>|", f.LastNorm("S1.omega"), 0.0, "rad/s", "S1 is held"});
+  add(f.Has("S2.omega.z"), {"&omega;<sub>S2,z</sub>", f.Last("S2.omega.z"), 2 * w_a, "rad/s",
+                            "Willis: &omega;<sub>S2</sub> = 2 &omega;<sub>A</sub> &minus; &omega;<sub>S1</sub>"});
+  add(f.Has("S1.omega.z") && f.Has("S2.omega.z") && f.Has("A.omega.z"),
+      {"&omega;<sub>S1,z</sub> + &omega;<sub>S2,z</sub> &minus; 2 &omega;<sub>A,z</sub>",
+       f.Last("S1.omega.z") + f.Last("S2.omega.z") - 2 * f.Last("A.omega.z"), 0.0, "rad/s", "the Willis relation"});
+  for (const char* p : {"P1", "P2"}) {
+    const std::string ps = p;
+    const double m = f.Mass(ps), rho = f.RadiusFromA(ps), inertia = f.AxialInertia(ps);
+    add(std::isfinite(f.Spin(ps)), {fmt::format("|s<sub>{}</sub>|, spin relative to A", ps), std::abs(f.Spin(ps)), spin, "rad/s",
+                                     "(24/12) |&omega;<sub>A</sub>|, S1 held"});
+    add(f.HasVec(ps + ".F") && std::isfinite(m * rho),
+        {fmt::format("|F<sub>{}</sub>|, bearing force", ps), f.LastNorm(ps + ".F"), m * w_a * w_a * rho, "N",
+         fmt::format("centripetal m<sub>P</sub> &omega;<sub>A</sub><sup>2</sup> &rho;, m<sub>P</sub> = {} kg (|p|/|v|), &rho; = {} m",
+                     Show(m), Show(rho))});
+    add(f.HasVec(ps + ".M") && std::isfinite(inertia),
+        {fmt::format("|M<sub>{}</sub>|, bearing moment", ps), f.LastNorm(ps + ".M"), inertia * spin * std::abs(w_a), "N m",
+         fmt::format("gyroscopic I<sub>axial</sub> s &omega;<sub>A</sub>, I<sub>axial</sub> = {} kg m<sup>2</sup> (h&middot;e<sub>x</sub> / "
+                     "&omega;&middot;e<sub>x</sub>)",
+                     Show(inertia))});
+  }
+  add(f.Has("drive.torque"), {"drive torque &tau;", f.Last("drive.torque"), 0.0, "N m",
+                              "no load at steady speed (the spec expects about 10<sup>&minus;8</sup> N m)"});
+  std::ostringstream s;
+  s << fmt::format("<table class=\"numbers\">\n<caption>At the end of the run, t = {} s, against the analytic steady values</caption>\n",
+                   Show(f.T1(), 3));
+  s << "<tr><th>quantity</th><th>simulated</th><th>analytic</th><th>difference</th><th>unit</th><th>from</th></tr>\n";
+  for (const Row& r : rows) {
+    const double diff = r.simulated - r.analytic;
+    const std::string d = r.analytic != 0 ? fmt::format("{} %", Show(100 * diff / std::abs(r.analytic), 2)) : Show(diff, 2);
+    s << fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n", r.quantity, Show(r.simulated, 6),
+                     Show(r.analytic, 6), d, r.unit, r.relation);
+  }
+  if (f.Has("A.omega.z"))
+    s << fmt::format("<tr><td>start transient</td><td colspan=\"5\">&omega;<sub>A</sub> stays within 2 % of its final value after t = {} s</td></tr>\n",
+                     Show(f.SettlingTime("A.omega.z"), 3));
+  s << "</table>\n";
+  return s.str();
+}
+
+/// The energy account: run.json's and the last row of results.csv.
+std::string EnergyTable(const Facts& f, const nlohmann::json& run) {
+  std::ostringstream s;
+  s << "<table class=\"numbers\">\n<caption>Energy account: work in = kinetic + potential + dissipated</caption>\n";
+  s << "<tr><th>source</th><th>work in [J]</th><th>stored [J]</th><th>dissipated [J]</th><th>balance</th></tr>\n";
+  if (run.contains("energy")) {
+    s << fmt::format(
+        "<tr><td>run.json</td><td>{}</td><td>{}</td><td>{}</td><td>residual {} (largest over the run: {}), relative to the "
+        "largest energy handled</td></tr>\n",
+        JsonText(run, {"energy", "work"}), JsonText(run, {"energy", "stored"}), JsonText(run, {"energy", "dissipated"}),
+        JsonText(run, {"energy", "residual"}), JsonText(run, {"energy", "max_abs_residual"}));
+  }
+  if (f.Has("energy.work")) {
+    const double w = f.Last("energy.work"), k = f.Last("energy.kinetic"), v = f.Last("energy.potential"),
+                 d = f.Last("energy.dissipated");
+    const double balance = w - (k + v + d);
+    s << fmt::format(
+        "<tr><td>results.csv, last row</td><td>{}</td><td>{} (kinetic {}, potential {})</td><td>{}</td><td>work &minus; "
+        "(kinetic + potential + dissipated) = {} J, {} of the work; residual column {}</td></tr>\n",
+        Show(w, 9), Show(k + v, 9), Show(k, 6), Show(v, 6), Show(d, 9), Show(balance, 3), Show(w != 0 ? balance / w : kNaN, 3),
+        Show(f.Last("energy.residual"), 3));
+  }
+  s << "</table>\n";
+  return s.str();
+}
+
+std::string RunTable(const nlohmann::json& run, const Facts& f) {
+  std::ostringstream s;
+  s << "<table class=\"numbers\">\n<caption>The run (run.json)</caption>\n";
+  auto row = [&](const char* what, const std::string& value) {
+    if (!value.empty()) s << fmt::format("<tr><th>{}</th><td>{}</td></tr>\n", what, value);
+  };
+  row("model", JsonText(run, {"model", "name"}) + (JsonText(run, {"model", "file"}).empty() ? "" : " (" + JsonText(run, {"model", "file"}) + ")"));
+  row("model SHA-256", "<code>" + JsonText(run, {"model", "sha256"}) + "</code>");
+  row("status", JsonText(run, {"status"}));
+  row("time", fmt::format("{} to {} s, {} rows in results.csv", Show(f.T0(), 3), Show(f.T1(), 3), JsonText(run, {"samples"})));
+  row("solver", fmt::format("{}, rtol {}, atol {}, output every {} s, projection {}", JsonText(run, {"options", "solver"}),
+                            JsonText(run, {"options", "rtol"}), JsonText(run, {"options", "atol"}), JsonText(run, {"options", "dt"}),
+                            JsonText(run, {"options", "projection"})));
+  row("work done", fmt::format("{} steps, {} right-hand sides, {} Jacobians, {} s wall", JsonText(run, {"solver_stats", "steps"}),
+                               JsonText(run, {"solver_stats", "rhs_evals"}), JsonText(run, {"solver_stats", "jac_evals"}),
+                               JsonText(run, {"wall_seconds"})));
+  row("multibond", JsonText(run, {"multibond_version"}));
+  s << "</table>\n";
+  return s.str();
+}
+
+constexpr const char* kCss = R"(body { font-family: "DejaVu Sans", Helvetica, Arial, sans-serif; max-width: 1280px; margin: 1em auto; padding: 0 1em; color: #222; line-height: 1.45; }
+h1 { font-size: 1.6em; margin-bottom: 0.2em; } h2 { margin-top: 2em; border-bottom: 1px solid #ccc; }
+nav a { margin-right: 0.6em; white-space: nowrap; }
+figure { margin: 1.5em 0 2.5em 0; } figure img { width: 100%; height: auto; border: 1px solid #ddd; }
+figcaption { margin-top: 0.5em; } figcaption .caption { font-weight: bold; } figcaption .files { font-size: 0.85em; color: #555; }
+table.numbers { border-collapse: collapse; margin: 1em 0; font-size: 0.92em; }
+table.numbers caption { text-align: left; font-weight: bold; padding-bottom: 0.3em; }
+table.numbers td, table.numbers th { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }
+.warn { color: #a40; } code { font-size: 0.9em; })";
+
 }  // namespace
 
 std::vector<std::string> PaperFigureNames() {
@@ -840,8 +1244,81 @@ PlotReport MakePaperFigures(const std::string& results_dir, const PlotOptions& o
   return report;
 }
 
-}  // namespace multibond
+void WriteResultsPage(const std::string& results_dir, const PlotReport& report) {
+  const fs::path dir(results_dir);
+  const Table table = Table::Load(dir / "results.csv");
+  const Facts facts(table);
+  nlohmann::json run = nlohmann::json::object();
+  try {
+    if (fs::exists(dir / "run.json")) run = nlohmann::json::parse(ReadFile(dir / "run.json"));
+  } catch (const std::exception&) {
+    run = nlohmann::json::object();
+  }
 
-namespace multibond {
-void WriteResultsPage(const std::string&, const PlotReport&) {}
+  // Every figure that is there, in the paper's order.
+  struct Entry {
+    int number;
+    std::string name, caption;
+  };
+  std::vector<Entry> entries = {{2, kBondGraphName, kBondGraphCaption}};
+  for (const FigureSpec& f : PaperFigures()) entries.push_back({f.number, f.Name(), f.caption});
+  auto present = [&](const std::string& name, const char* ext) {
+    std::error_code ec;
+    const fs::path p = dir / "figures" / (name + ext);
+    return fs::exists(p, ec) && fs::file_size(p, ec) > 0;
+  };
+
+  std::ostringstream h;
+  const std::string model = JsonText(run, {"model", "name"}).empty() ? "differential" : JsonText(run, {"model", "name"});
+  h << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
+  h << "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
+  h << fmt::format("<title>multibond: {}, the paper's figures</title>\n", model);
+  h << "<style>\n" << kCss << "\n</style>\n</head>\n<body>\n";
+  h << fmt::format("<h1>The differential gear train: the paper's figures, from this run ({})</h1>\n", model);
+  h << "<p>Figures 2 to 33 of <em>Modeling and Simulation of Dynamics of Differential Gear Train Mechanism using Bond "
+       "Graph</em> (section III), reproduced by multibond from <code>results.csv</code> and <code>run.json</code> in this "
+       "folder. The scenario is fixed by <code>shared/spec/differential.md</code>: a 50 rad/s drive on the pinion G, sun "
+       "gear S1 held, S2 free, every joint a stiff spring and damper (Table II). Click a figure for its SVG; each one's "
+       "gnuplot script is in <code>plots/</code> (run it again from this folder: <code>gnuplot plots/figNN-&hellip;.gp</code>).</p>\n";
+  h << "<nav><strong>Figures:</strong> <a href=\"#summary\">summary</a>";
+  for (const Entry& e : entries)
+    if (present(e.name, ".png")) h << fmt::format(" <a href=\"#fig{:02}\">{}</a>", e.number, e.number);
+  h << "</nav>\n";
+
+  h << "<h2 id=\"summary\">Summary of the run</h2>\n";
+  h << "<p>After the start transient the train turns as the gear ratios say: the pinion at the drive's 50 rad/s, the "
+       "crown wheel A at &minus;12.5 rad/s, the held sun S1 at rest and the free sun S2 at &minus;25 rad/s (Willis: "
+       "&omega;<sub>S1</sub> + &omega;<sub>S2</sub> = 2 &omega;<sub>A</sub>); the planets spin at 25 rad/s relative to A, "
+       "their bearings carrying the centripetal force and the gyroscopic moment; the work of the drive is accounted for "
+       "by the energy stored and dissipated.</p>\n";
+  h << SteadyTable(facts) << EnergyTable(facts, run) << RunTable(run, facts);
+  if (!report.warnings.empty()) {
+    h << "<p class=\"warn\"><strong>Left out when the figures were drawn:</strong></p>\n<ul class=\"warn\">\n";
+    for (const std::string& w : report.warnings) h << "<li>" << HtmlEscape(w) << "</li>\n";
+    h << "</ul>\n";
+  }
+
+  for (const Section& sec : kSections) {
+    bool any = false;
+    for (const Entry& e : entries) any = any || (e.number >= sec.first && e.number <= sec.last && present(e.name, ".png"));
+    if (!any) continue;
+    h << fmt::format("<h2>{}</h2>\n", sec.title);
+    for (const Entry& e : entries) {
+      if (e.number < sec.first || e.number > sec.last || !present(e.name, ".png")) continue;
+      const std::string caption = fmt::format("Fig. {}. {}", e.number, MarkupToHtml(e.caption));
+      const std::string target = present(e.name, ".svg") ? "figures/" + e.name + ".svg" : "figures/" + e.name + ".png";
+      h << fmt::format("<figure id=\"fig{:02}\">\n", e.number);
+      h << fmt::format("<a href=\"{}\"><img src=\"figures/{}.png\" alt=\"{}\"></a>\n", target, e.name,
+                       HtmlEscape(fmt::format("Fig. {}. {}", e.number, e.caption)));
+      h << fmt::format("<figcaption><span class=\"caption\">{}</span> {}<br><span class=\"files\">figures/{}.png, "
+                       "<a href=\"{}\">{}</a>{}</span></figcaption>\n",
+                       caption, WhatItShows(e.number, facts), e.name, target, target,
+                       e.number == 2 ? "" : fmt::format(", script <a href=\"plots/{0}.gp\">plots/{0}.gp</a>", e.name));
+      h << "</figure>\n";
+    }
+  }
+  h << "</body>\n</html>\n";
+  WriteFileAtomic((dir / "index.html").string(), h.str());
+}
+
 }  // namespace multibond

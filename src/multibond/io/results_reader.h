@@ -1,0 +1,25 @@
+#pragma once
+/// \file
+/// Reading a results.csv back (header "name [unit]", one row per output time).
+
+#include <string>
+#include <vector>
+
+namespace multibond {
+
+struct ResultsTable {
+  std::vector<std::string> names, units;
+  std::vector<std::vector<double>> rows;
+
+  /// Column index of `name`; throws std::out_of_range naming the column if absent.
+  int Index(const std::string& name) const;
+  bool Has(const std::string& name) const;
+  double At(size_t row, const std::string& name) const { return rows.at(row).at(Index(name)); }
+  double Last(const std::string& name) const { return rows.back().at(Index(name)); }
+  std::vector<double> Column(const std::string& name) const;
+};
+
+/// Reads `path`; throws std::runtime_error with the file, line and what is wrong.
+ResultsTable ReadResults(const std::string& path);
+
+}  // namespace multibond
