@@ -1028,18 +1028,18 @@ std::string JsonText(const nlohmann::json& j, std::initializer_list<const char*>
   }
   if (p->is_string()) return HtmlEscape(p->get<std::string>());
   if (p->is_number_integer()) return std::to_string(p->get<long long>());
-  if (p->is_number()) return Show(p->get<double>(), 6);
+  if (p->is_number()) {
+    // As written, without padding: 1e-08 -> 1·10^-8.
+    std::string g = fmt::format("{:.6g}", p->get<double>());
+    const size_t e = g.find('e');
+    if (e == std::string::npos) return g;
+    const int exponent = std::stoi(g.substr(e + 1));
+    const std::string mantissa = g.substr(0, e);
+    return fmt::format("{}10<sup>{}</sup>", mantissa == "1" ? "" : mantissa + "\u00b7",
+                       exponent < 0 ? "\u2212" + std::to_string(-exponent) : std::to_string(exponent));
+  }
   if (p->is_boolean()) return p->get<bool>() ? "yes" : "no";
   return HtmlEscape(p->dump());
-}
-
-double JsonNumber(const nlohmann::json& j, std::initializer_list<const char*> path) {
-  const nlohmann::json* p = &j;
-  for (const char* k : path) {
-    if (!p->is_object() || !p->contains(k)) return kNaN;
-    p = &(*p)[k];
-  }
-  return p->is_number() ? p->get<double>() : kNaN;
 }
 
 /// Simulated against analytic: the steady state at the end of the run.
