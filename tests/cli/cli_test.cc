@@ -157,3 +157,26 @@ TEST_F(CliTest, Version) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST_F(CliTest, InterruptStopsCleanlyAndKeepsWhatWasComputed) {
+  // A long run of the differential, interrupted after a moment with SIGINT.
+  const std::string cmd = std::string(MULTIBOND_CLI) + " run " + Example("differential.yaml") + " -o " + dir_.string() +
+                          " --t-end 1000 -q --jit off > /dev/null 2>&1 & pid=$!; sleep 1.5; kill -INT $pid; wait $pid; echo $?";
+  FILE* p = popen(cmd.c_str(), "r");
+  char buf[64] = {0};
+  const size_t n = fread(buf, 1, sizeof buf - 1, p);
+  pclose(p);
+  EXPECT_EQ(std::atoi(std::string(buf, n).c_str()), 130);
+  const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  EXPECT_EQ(run["status"], "interrupted");
+  EXPECT_GT(run["t_reached"].get<double>(), 0.0);
+  EXPECT_LT(run["t_reached"].get<double>(), 1000.0);
+  EXPECT_TRUE(fs::exists(dir_ / "results.csv"));
+  EXPECT_FALSE(fs::exists(dir_ / "results.csv.partial"));
+  const std::string csv = Read(dir_ / "results.csv");
+  EXPECT_GT(std::count(csv.begin(), csv.end(), '\n'), 10);
+}
+
+}  // namespace
