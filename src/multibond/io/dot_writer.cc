@@ -137,6 +137,14 @@ class DotWriter {
         p = parent;
       }
     }
+    // Nesting asked for by the caller, between clusters that exist, without cycles.
+    for (const auto& [inner, outer] : o_.nest) {
+      if (inner == outer || !parent_.count(inner) || !parent_.count(outer)) continue;
+      bool cycle = false;
+      for (std::string p = outer; !p.empty(); p = parent_[p])
+        if (p == inner) cycle = true;
+      if (!cycle) parent_[inner] = outer;
+    }
   }
 
   /// The nodes and sub-clusters directly in `cluster` ("" = the graph), in element order.
@@ -188,7 +196,7 @@ class DotWriter {
     const std::string& to = g_.element(bond.to).name;
     std::vector<std::string> label;
     // Default names ("a->b") say nothing the drawing does not.
-    if (!bond.name.empty() && bond.name != from + "->" + to) label.push_back(bond.name);
+    if (o_.bond_names && !bond.name.empty() && bond.name != from + "->" + to) label.push_back(bond.name);
     int dim = 0;
     if (s_ && b < static_cast<int>(s_->bond_dim.size())) dim = s_->bond_dim[b];
     if (dim > 1) label.push_back(std::to_string(dim));

@@ -6,6 +6,7 @@
 /// bonds are edges with a half-arrow at the head and, when causality is known, the causal
 /// stroke as a `tee` at the end where it sits. Storage elements in derivative causality are red.
 
+#include <map>
 #include <string>
 
 #include "multibond/causality/causality.h"
@@ -19,6 +20,13 @@ struct DotOptions {
   /// Put elements whose names share a dotted prefix ("A.w", "A.J") in a cluster ("A"); nested
   /// prefixes ("A.B.x") give nested clusters.
   bool group_by_prefix = true;
+  /// Draw cluster `key` inside cluster `value`, e.g. a joint's elements inside its child link's
+  /// ({"G_bearing", "G"}), so that a mechanism is drawn grouped by link. An entry is ignored
+  /// unless both are clusters and the nesting makes no cycle.
+  std::map<std::string, std::string> nest;
+  /// Label bonds with their names (besides their dimension). The tooltip has the name either
+  /// way; large graphs read better without.
+  bool bond_names = true;
 };
 
 /// Graphviz DOT of a bond graph. `causality` may be null (no strokes) — a graph with causality

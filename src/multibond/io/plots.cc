@@ -25,6 +25,7 @@
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <yaml-cpp/yaml.h>
 
 #include "multibond/causality/causality.h"
 #include "multibond/core/structure.h"
@@ -726,6 +727,20 @@ std::string ModelFor(const fs::path& dir, const PlotOptions& o) {
   return "";
 }
 
+/// `key` -> `value` of every "name: {field: value}" entry of a mechanism section (e.g. each joint's
+/// child); `sub` reads value from a nested map ("a: {body: P1}").
+void NestFromSection(const YAML::Node& root, const char* section, const char* field, const char* sub,
+                     std::map<std::string, std::string>& nest) {
+  const YAML::Node s = root[section];
+  if (!s || !s.IsMap()) return;
+  for (const auto& entry : s) {
+    const YAML::Node v = entry.second;
+    if (!v.IsMap() || !v[field]) continue;
+    const YAML::Node target = sub ? v[field][sub] : v[field];
+    if (target && target.IsScalar()) nest[entry.first.as<std::string>()] = target.as<std::string>();
+  }
+}
+
 /// Fig. 2: the model's multibond graph with causal strokes. Returns the files written.
 std::vector<std::string> DrawBondGraph(const fs::path& dir, const std::string& model, std::vector<std::string>& warnings) {
   const LoadedModel lm = LoadModelFile(model);
@@ -737,7 +752,7 @@ std::vector<std::string> DrawBondGraph(const fs::path& dir, const std::string& m
   }
   const CausalAssignment c = AssignCausality(lm.graph, s);
   const fs::path dot = dir / "plots" / (std::string(kBondGraphName) + ".dot");
-  WriteFileAtomic(dot.string(), MakeDot(lm.graph, &s, &c));
+  WriteFileAtomic(dot.string(), MakeDot(lm.graph, &s, &c, LinkGrouping(lm)));
   std::vector<std::string> files;
   for (const char* format : {"png", "svg"}) {
     const fs::path out = dir / "figures" / (std::string(kBondGraphName) + "." + format);
@@ -1155,6 +1170,27 @@ table.numbers td, table.numbers th { border: 1px solid #ccc; padding: 0.25em 0.6
 .warn { color: #a40; } code { font-size: 0.9em; })";
 
 }  // namespace
+
+DotOptions LinkGrouping(const LoadedModel& model) {
+  DotOptions o;
+  try {
+    const YAML::Node root = YAML::Load(model.text);
+    if (!root.IsMap() || !root["bodies"]) return o;
+    NestFromSection(root, "joints", "child", nullptr, o.nest);
+    NestFromSection(root, "drives", "body", nullptr, o.nest);
+    NestFromSection(root, "gears", "a", "body", o.nest);
+  } catch (const std::exception&) {
+    return o;
+  }
+  // Relative velocities "child~parent" (and anything else named "X~Y") go with X.
+  for (const Element& e : model.graph.elements()) {
+    const std::string prefix = e.name.substr(0, e.name.find('.'));
+    const size_t tilde = prefix.find('~');
+    if (tilde != std::string::npos && tilde > 0) o.nest[prefix] = prefix.substr(0, tilde);
+  }
+  o.bond_names = false;
+  return o;
+}
 
 std::vector<std::string> PaperFigureNames() {
   std::vector<std::string> out = {kBondGraphName};

@@ -21,6 +21,9 @@
 #include <string>
 #include <vector>
 
+#include "multibond/io/dot_writer.h"
+#include "multibond/io/model_loader.h"
+
 namespace multibond {
 
 /// Options of MakePaperFigures.
@@ -46,6 +49,13 @@ struct PlotReport {
   std::vector<std::string> files;     ///< every picture written (PNG and SVG), in figure order
   std::vector<std::string> warnings;  ///< figures left out and why (missing columns, gnuplot errors)
 };
+
+/// Drawing options for a mechanism's bond graph, grouped by link (the paper's Fig. 2): each
+/// joint's and drive's elements inside its child link's cluster, each gear mesh inside its gear
+/// `a`'s, each relative velocity "X~Y" inside X's; bonds labelled by dimension only. The links come
+/// from the model file's mechanism sections (bodies, joints, gears, drives); a model without them
+/// gets the plain grouping by name prefix.
+DotOptions LinkGrouping(const LoadedModel& model);
 
 /// The base names of the paper's figures, in order: "fig02-bond-graph", "fig03-G-orientation", ...,
 /// "fig33-H-reaction" (figure number, link, quantity). Each is drawn as .png and .svg.
