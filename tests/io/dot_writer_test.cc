@@ -228,6 +228,45 @@ TEST(DotWriterTest, ClustersByDottedPrefix) {
   EXPECT_NE(RenderSvg(dot, dir).find("<svg"), std::string::npos);
 }
 
+TEST(DotWriterTest, NestsClustersOnRequest) {
+  BondGraph g("joint between links");
+  g.AddSe("drive", Value(1.0));
+  g.AddJunction("A.w", ElementKind::kOne);
+  g.AddI("A.J", Param::Scalar(1.0));
+  g.AddJunction("B.w", ElementKind::kOne);
+  g.AddI("B.J", Param::Scalar(1.0));
+  g.AddJunction("AB.rel", ElementKind::kZero);
+  g.AddC("AB.k", Param::Scalar(1.0));
+  g.Connect("drive", "A.w");
+  g.Connect("A.w", "A.J");
+  g.Connect("A.w", "AB.rel", 0, "AB.in");
+  g.Connect("AB.rel", "B.w");
+  g.Connect("AB.rel", "AB.k");
+  g.Connect("B.w", "B.J");
+  const Analysed a = Analyse(g);
+  DotOptions o;
+  o.nest = {{"AB", "B"}, {"B", "AB"}, {"nothing", "A"}, {"A", "A"}};  // the cycle and the unknowns are ignored
+  const std::string dot = MakeDot(g, &a.structure, &a.causality, o);
+  const size_t b_open = dot.find("subgraph cluster_B {"), ab_open = dot.find("subgraph cluster_AB {");
+  ASSERT_NE(b_open, std::string::npos) << dot;
+  ASSERT_NE(ab_open, std::string::npos) << dot;
+  EXPECT_LT(b_open, ab_open) << dot;  // AB inside B
+  EXPECT_EQ(dot.find("cluster_nothing"), std::string::npos);
+  EXPECT_NE(dot.find("subgraph cluster_A {"), std::string::npos);
+  // B closes after AB: AB's nodes are indented one level deeper than B's.
+  EXPECT_NE(dot.find("\n      e6 [label=\"C: AB.k\""), std::string::npos) << dot;
+  EXPECT_NE(dot.find("label=\"AB.in\""), std::string::npos) << dot;
+  EXPECT_EQ(static_cast<int>(Edges(dot).size()), g.num_bonds());
+
+  o.bond_names = false;  // names go, the tooltip keeps them
+  const std::string plain = MakeDot(g, &a.structure, &a.causality, o);
+  EXPECT_EQ(plain.find("label=\"AB.in\""), std::string::npos) << plain;
+  EXPECT_NE(plain.find("tooltip=\"bond 'AB.in'"), std::string::npos) << plain;
+
+  TempDir dir;
+  EXPECT_NE(RenderSvg(dot, dir).find("<svg"), std::string::npos);
+}
+
 TEST(DotWriterTest, LabelsShowDimensionAndGivenNames) {
   BondGraph g("spatial");
   g.AddSe("torque", Value(1.0), 3);

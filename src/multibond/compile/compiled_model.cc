@@ -2,6 +2,8 @@
 
 #include "multibond/compile/jit.h"
 
+#include <dlfcn.h>
+
 #include <algorithm>
 #include <numeric>
 #include <queue>
@@ -480,8 +482,10 @@ void CompiledModel::Build() {
   BuildGathers();
   if (options_.generate_code) {
     const JitResult jit = CompileAndLoad(GenerateSource(), "multibond_rhs");
-    if (jit.symbol) {
+    void* fast = jit.symbol ? dlsym(jit.library.get(), "multibond_rhs_fast") : nullptr;
+    if (jit.symbol && fast) {
       generated_ = reinterpret_cast<GeneratedRhs>(jit.symbol);
+      generated_fast_ = reinterpret_cast<GeneratedRhs>(fast);
       generated_library_ = jit.library;
       rhs_engine_ = "generated code (" + jit.description + ")";
     } else {
@@ -776,6 +780,18 @@ struct MbSources {
 };
 double EvalSource(const void* fns, int i, double t) { return static_cast<const TimeFunction*>(fns)[i](t); }
 }  // namespace
+
+void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot, Workspace& ws) const {
+  if (!generated_fast_) {
+    CalcDerivatives(t, x, xdot, ws);
+    return;
+  }
+  if (!needed_moduli_.empty()) EvalModuli(x, ws.moduli.data());
+  const MbSources sources{source_fns_.data(), &EvalSource};
+  reinterpret_cast<void (*)(double, const double*, double*, const double*, const MbSources*)>(generated_fast_)(
+      t, x, xdot, ws.moduli.data(), &sources);
+}
+
 
 void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Workspace& ws) const {
   double* w = ws.slots.data();

@@ -78,6 +78,9 @@ class CompiledModel {
   int num_states() const { return static_cast<int>(state_names_.size()); }
   /// The right-hand side: fills `ws` with every effort and flow and writes dx/dt. No allocation.
   void CalcDerivatives(double t, const double* x, double* xdot, Workspace& ws) const;
+  /// The same, for integrators: writes dx/dt and may leave `ws` unfilled (generated code then
+  /// keeps the efforts and flows in registers). No allocation.
+  void CalcStateDerivatives(double t, const double* x, double* xdot, Workspace& ws) const;
 
   /// True if the state holds orientation matrices (which Project keeps orthonormal).
   bool has_invariants() const;
@@ -91,6 +94,7 @@ class CompiledModel {
   /// C++ source of the right-hand side, generated from the plan: one straight-line function
   /// `multibond_rhs(t, x, xdot, w, moduli, ctx)` with every offset and coefficient a literal.
   std::string GenerateSource() const;
+  std::string GenerateBody() const;
   /// How the right-hand side is evaluated: "generated code (<library>)" or "interpreter (<why>)".
   const std::string& rhs_engine() const { return rhs_engine_; }
   bool uses_generated_code() const { return generated_ != nullptr; }
@@ -210,6 +214,7 @@ class CompiledModel {
   /// The generated right-hand side (null: the interpreter runs the plan).
   using GeneratedRhs = void (*)();  ///< cast to its real signature at the call (see codegen.cc)
   GeneratedRhs generated_ = nullptr;
+  GeneratedRhs generated_fast_ = nullptr;
   std::shared_ptr<void> generated_library_;  ///< keeps the shared object loaded
   std::string rhs_engine_ = "interpreter";
 

@@ -257,6 +257,11 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
     const int n = s.dim_of(g, of);
     if (a.kind == AuxState::Kind::kOrientation && n != 3)
       sink.Error(a.where, a.name, fmt::format("an orientation integrates a 3-dimensional angular velocity; '{}' is {}-dimensional", a.of, n));
+    // An integral's `initial` needs one entry per component; the compiler silently replaced a
+    // list of another length by zeros (as the storage elements' check above does for p0/q0).
+    if (a.kind == AuxState::Kind::kIntegral && a.initial.size() > 0 && a.initial.size() != n)
+      sink.Error("param.range", a.where, a.name, fmt::format("initial value has {} components, the flow of '{}' {}", a.initial.size(), a.of, n),
+                 "give one initial value per component");
   }
   return s;
 }

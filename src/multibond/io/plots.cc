@@ -569,7 +569,7 @@ class ScriptWriter {
     s << fmt::format("  set xrange [{}:{}]\n", Num(w.t0), Num(w.t1));
     s << fmt::format("  set xlabel {}\n", GpString(fmt::format("time t [{}]", t_.Unit("time"))));
     s << fmt::format("  set ylabel {}\n", GpString(fmt::format("{} [{}]", p.quantity, Unit(p))));
-    s << "  set xtics autofreq\n  set ytics autofreq\n  set format y \"%g\"\n";
+    s << "  set xtics autofreq\n  set ytics autofreq\n  set format y \"%h\"\n";
     const auto [lo, hi] = DataRange(t_, p.curves, w);
     if (p.coordinates && std::isfinite(lo)) {
       s << fmt::format("  set yrange [{}:{}]\n", Num(std::floor((lo - 0.1) * 10) / 10), Num(std::ceil((hi + 0.1) * 10) / 10));
@@ -586,7 +586,7 @@ class ScriptWriter {
       std::string expr = fmt::format("{}", col);
       if (c.from_start || c.scale != 1.0) {
         expr = fmt::format("(${}", col);
-        if (c.from_start) expr += fmt::format(" - ({})", Num(t_.First(c.columns.front())));
+        if (c.from_start) expr += fmt::format(" - ({:.17g})", t_.First(c.columns.front()));
         expr += ")";
         if (c.scale != 1.0) expr = fmt::format("({}*{})", expr, Num(c.scale));
       }
@@ -603,7 +603,7 @@ class ScriptWriter {
     s << "  unset lmargin\n  unset rmargin\n";
     s << "  set key inside left top Left reverse samplen 2 spacing 1.2\n";
     s << "  set view 62, 30, 1.12, 1\n  set view equal xyz\n  set xyplane relative 0\n";
-    s << "  set xtics autofreq\n  set ytics autofreq\n  set ztics autofreq\n  set format y \"%g\"\n";
+    s << "  set xtics autofreq\n  set ytics autofreq\n  set ztics autofreq\n  set format y \"%h\"\n";
     std::array<double, 3> lo{}, hi{};
     if (p.kind == PanelKind::kOrientation) {
       lo = {-1.05, -1.05, -1.05};

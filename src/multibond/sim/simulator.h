@@ -21,7 +21,7 @@ class ModelSystem : public OdeSystem {
  public:
   explicit ModelSystem(const CompiledModel& model) : model_(model), ws_(model.MakeWorkspace()) {}
   int num_states() const override { return model_.num_states(); }
-  void CalcDerivatives(double t, const double* x, double* xdot) override { model_.CalcDerivatives(t, x, xdot, ws_); }
+  void CalcDerivatives(double t, const double* x, double* xdot) override { model_.CalcStateDerivatives(t, x, xdot, ws_); }
   bool has_invariants() const override { return model_.has_invariants(); }
   void Project(double* x) override { model_.Project(x); }
   Workspace& workspace() { return ws_; }

@@ -1,0 +1,408 @@
+// MakePaperFigures and WriteResultsPage on a small synthetic results folder (a run of the
+// differential takes too long for this suite): every figure of the paper is written as PNG and
+// SVG under its contract name, each panel plots the columns it should (its data extent, as gnuplot
+// saw it, against the CSV), and the page shows every figure and renders in a headless Chromium.
+#include "multibond/io/plots.h"
+
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+namespace multibond {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// The names the issue fixes (figure number, link, quantity).
+const std::vector<std::string> kContractNames = {
+    "fig03-G-orientation", "fig04-G-com",        "fig05-G-momentum",     "fig06-G-torque",       "fig07-G-reaction",
+    "fig08-A-orientation", "fig09-A-com",        "fig10-A-momentum",     "fig11-A-reaction",     "fig12-S1-orientation",
+    "fig13-S1-com",        "fig14-S1-momentum",  "fig15-S1-reaction",    "fig16-S2-orientation", "fig17-S2-com",
+    "fig18-S2-momentum",   "fig19-S2-reaction",  "fig20-P1-orientation", "fig21-P1-com",         "fig22-P1-momentum",
+    "fig23-P1-reaction",   "fig24-P2-orientation", "fig25-P2-com",       "fig26-P2-momentum",    "fig27-P2-reaction",
+    "fig28-P1-rim-point",  "fig29-P2-rim-point", "fig30-H-orientation",  "fig31-H-com",          "fig32-H-momentum",
+    "fig33-H-reaction"};
+
+class TempDir {
+ public:
+  TempDir() {
+    std::string templ = (fs::temp_directory_path() / "multibond-plots-test-XXXXXX").string();
+    path_ = mkdtemp(templ.data());
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path_, ec);
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+std::string ReadFile(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// A synthetic run: the columns the figures and the page use, with values that tell the columns
+/// apart (each column's range is its own), kept in memory for the checks.
+class SyntheticRun {
+ public:
+  static constexpr int kRows = 401;  // 0 to 2 s every 5 ms
+  static constexpr double kDt = 0.005;
+
+  SyntheticRun() {
+    Add("time", "s", [](double t) { return t; });
+    const std::vector<std::string> bodies = {"H", "G", "A", "P1", "P2", "S1", "S2"};
+    const std::map<std::string, std::array<double, 2>> rates = {  // about z, then about x [rad/s]
+        {"H", {0, 0}}, {"G", {0, 5}}, {"A", {-1.25, 0}}, {"P1", {-1.25, 2.5}}, {"P2", {-1.25, 2.5}}, {"S1", {0, 0}}, {"S2", {-2.5, 0}}};
+    for (const std::string& b : bodies) {
+      const auto [wz, wx] = rates.at(b);
+      // R = Rz(wz t) Rx(wx t), row-major.
+      for (int i = 1; i <= 3; ++i)
+        for (int j = 1; j <= 3; ++j)
+          Add(fmt::format("{}.R.{}{}", b, i, j), "-", [=](double t) { return Rotation(wz * t, wx * t)[3 * (i - 1) + (j - 1)]; });
+      const bool planet = b == "P1" || b == "P2";
+      const double phase = b == "P2" ? M_PI : 0.0;
+      Add(b + ".r.x", "m", [=](double t) { return planet ? 0.5 + 0.1 * std::cos(-1.25 * t + phase) : 0.3 + 1e-6 * std::sin(40 * t); });
+      Add(b + ".r.y", "m", [=](double t) { return planet ? 0.5 + 0.1 * std::sin(-1.25 * t + phase) : 0.5 - 2e-6 * std::sin(30 * t); });
+      Add(b + ".r.z", "m", [=](double t) { return planet ? 0.5 : 0.45 + 3e-6 * std::sin(20 * t); });
+      for (const char* q : {"p", "h", "F", "M", "v", "omega"})
+        for (const char* a : {"x", "y", "z"}) AddDistinct(fmt::format("{}.{}.{}", b, q, a), Unit(q));
+    }
+    Add("drive.torque", "N m", [](double t) { return 250 * std::exp(-t / 0.05) * std::cos(100 * t); });
+    for (const char* q : {"Q_P1", "Q_P2"})
+      for (const char* a : {"x", "y", "z"}) AddDistinct(fmt::format("{}.{}", q, a), "m");
+    for (const char* e : {"energy.work", "energy.kinetic", "energy.potential", "energy.dissipated"}) AddDistinct(e, "J");
+    Add("energy.residual", "-", [](double t) { return 1e-9 * std::sin(t); });
+  }
+
+  /// Writes results.csv and run.json into `dir`; `skip` leaves a column out.
+  void Write(const fs::path& dir, const std::string& skip = "") const {
+    std::ofstream csv(dir / "results.csv");
+    std::string header;
+    for (size_t c = 0; c < names_.size(); ++c)
+      if (names_[c] != skip) {
+        if (!header.empty()) header += ',';
+        header += fmt::format("{} [{}]", names_[c], units_[c]);
+      }
+    csv << header << "\n";
+    for (int r = 0; r < kRows; ++r) {
+      std::string line;
+      for (size_t c = 0; c < names_.size(); ++c)
+        if (names_[c] != skip) {
+          if (!line.empty()) line += ',';
+          line += fmt::format("{:.17g}", cols_[c][r]);
+        }
+      csv << line << "\n";
+    }
+    std::ofstream(dir / "run.json") << R"({"model": {"name": "synthetic", "file": "none.yaml", "sha256": "00"},
+      "status": "ok", "samples": 401, "options": {"solver": "bdf", "rtol": 1e-8, "atol": 1e-10, "dt": 0.005},
+      "energy": {"work": 1.0, "stored": 0.5, "dissipated": 0.5, "residual": 1e-9, "max_abs_residual": 2e-9},
+      "solver_stats": {"steps": 10, "rhs_evals": 20, "jac_evals": 1}, "wall_seconds": 0.1, "multibond_version": "test"})";
+  }
+
+  const std::vector<double>& Col(const std::string& name) const {
+    for (size_t c = 0; c < names_.size(); ++c)
+      if (names_[c] == name) return cols_[c];
+    ADD_FAILURE() << "no column " << name;
+    static const std::vector<double> empty;
+    return empty;
+  }
+
+  /// min/max of `f(column value, first value)` over rows kept by `keep(row, time)`, union over the columns.
+  std::pair<double, double> Range(const std::vector<std::string>& columns, const std::function<bool(int, double)>& keep,
+                                  const std::function<double(double, double)>& f = [](double v, double) { return v; }) const {
+    double lo = INFINITY, hi = -INFINITY;
+    const auto& time = Col("time");
+    for (const std::string& c : columns) {
+      const auto& v = Col(c);
+      for (int r = 0; r < kRows; ++r)
+        if (keep(r, time[r])) {
+          lo = std::min(lo, f(v[r], v[0]));
+          hi = std::max(hi, f(v[r], v[0]));
+        }
+    }
+    return {lo, hi};
+  }
+
+ private:
+  static std::array<double, 9> Rotation(double z, double x) {
+    const double cz = std::cos(z), sz = std::sin(z), cx = std::cos(x), sx = std::sin(x);
+    // Rz * Rx
+    return {cz, -sz * cx, sz * sx, sz, cz * cx, -cz * sx, 0, sx, cx};
+  }
+  static std::string Unit(const std::string& q) {
+    if (q == "p") return "N s";
+    if (q == "h") return "N m s";
+    if (q == "F") return "N";
+    if (q == "M") return "N m";
+    if (q == "v") return "m/s";
+    return "rad/s";
+  }
+  void Add(const std::string& name, const std::string& unit, const std::function<double(double)>& f) {
+    names_.push_back(name);
+    units_.push_back(unit);
+    std::vector<double> v(kRows);
+    for (int r = 0; r < kRows; ++r) v[r] = f(r * kDt);
+    cols_.push_back(std::move(v));
+  }
+  /// A column whose values lie in a band of their own: [0.1 k - 0.05, 0.1 k + 0.05] for the k-th such column.
+  void AddDistinct(const std::string& name, const std::string& unit) {
+    const double k = ++distinct_;
+    Add(name, unit, [k](double t) { return 0.1 * k + 0.05 * std::sin((1 + 0.07 * k) * t + k) * std::exp(-0.3 * t); });
+  }
+
+  std::vector<std::string> names_, units_;
+  std::vector<std::vector<double>> cols_;
+  int distinct_ = 0;
+};
+
+/// plots/<name>.ranges: panel id -> {xmin, xmax, ymin, ymax[, zmin, zmax]}.
+std::map<std::string, std::vector<double>> ReadRanges(const fs::path& dir, const std::string& name) {
+  std::map<std::string, std::vector<double>> out;
+  std::istringstream in(ReadFile(dir / "plots" / (name + ".ranges")));
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream f(line);
+    std::string id;
+    f >> id;
+    std::vector<double> v;
+    for (double x; f >> x;) v.push_back(x);
+    out[id] = v;
+  }
+  return out;
+}
+
+void ExpectRange(const std::vector<double>& got, size_t at, std::pair<double, double> want, const std::string& what) {
+  ASSERT_GE(got.size(), at + 2) << what;
+  const double tol = 1e-9 * std::max({1.0, std::abs(want.first), std::abs(want.second)});
+  EXPECT_NEAR(got[at], want.first, tol) << what << " (min)";
+  EXPECT_NEAR(got[at + 1], want.second, tol) << what << " (max)";
+}
+
+std::vector<std::string> Xyz(const std::string& prefix) { return {prefix + ".x", prefix + ".y", prefix + ".z"}; }
+
+bool Exists(const fs::path& p) {
+  std::error_code ec;
+  return fs::exists(p, ec) && fs::file_size(p, ec) > 0;
+}
+
+PlotOptions Options() {
+  PlotOptions o;
+  o.model_path = std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml";
+  return o;
+}
+
+TEST(PlotsTest, NamesAreTheContract) {
+  std::vector<std::string> want = {"fig02-bond-graph"};
+  want.insert(want.end(), kContractNames.begin(), kContractNames.end());
+  EXPECT_EQ(PaperFigureNames(), want);
+}
+
+TEST(PlotsTest, EveryFigureFromTheRightColumns) {
+  TempDir dir;
+  const SyntheticRun run;
+  run.Write(dir.path());
+  const PlotReport report = MakePaperFigures(dir.path().string(), Options());
+  for (const std::string& w : report.warnings) ADD_FAILURE() << "warning: " << w;
+
+  // Every figure, PNG and SVG, non-empty, and reported.
+  std::set<std::string> reported(report.files.begin(), report.files.end());
+  for (const std::string& name : PaperFigureNames())
+    for (const char* ext : {".png", ".svg"}) {
+      const fs::path p = dir.path() / "figures" / (name + ext);
+      EXPECT_TRUE(Exists(p)) << p;
+      EXPECT_TRUE(reported.count(p.string())) << p;
+      EXPECT_LT(fs::file_size(p), 2u << 20) << p;
+    }
+  EXPECT_EQ(report.files.size(), 2 * PaperFigureNames().size());
+  EXPECT_EQ(ReadFile(dir.path() / "figures" / "fig05-G-momentum.png").substr(1, 3), "PNG");
+  EXPECT_NE(ReadFile(dir.path() / "figures" / "fig05-G-momentum.svg").find("<svg"), std::string::npos);
+  // The scripts are kept, read results.csv directly and say which columns they use.
+  const std::string gp = ReadFile(dir.path() / "plots" / "fig05-G-momentum.gp");
+  EXPECT_NE(gp.find("plot \"results.csv\" using"), std::string::npos) << gp;
+  EXPECT_NE(gp.find("G.h.x [N m s]"), std::string::npos) << gp;
+  EXPECT_NE(gp.find("Fig. 5. Variation of components of momentum of link G with time"), std::string::npos) << gp;
+  EXPECT_NE(ReadFile(dir.path() / "plots" / "fig02-bond-graph.dot").find("cluster_G_bearing"), std::string::npos);
+
+  // What gnuplot plotted, panel by panel, against the CSV.
+  const double t1 = (SyntheticRun::kRows - 1) * SyntheticRun::kDt, zoom = 0.5;
+  auto all = [](int, double) { return true; };
+  auto early = [&](int, double t) { return t <= zoom + 1e-12; };
+  const int last = SyntheticRun::kRows - 1;
+  auto path_rows = [&](int r, double) { return r % 5 == 0 || r == last; };  // every 5th row, and the end point
+
+  auto r = ReadRanges(dir.path(), "fig05-G-momentum");
+  ExpectRange(r["a"], 0, {0.0, t1}, "fig05 a: time axis covers the run");
+  ExpectRange(r["a"], 2, run.Range(Xyz("G.h"), all), "fig05 a: G.h");
+  ExpectRange(r["a-zoom"], 0, {0.0, zoom}, "fig05 a-zoom: time axis");
+  ExpectRange(r["a-zoom"], 2, run.Range(Xyz("G.h"), early), "fig05 a-zoom: G.h over the start");
+
+  r = ReadRanges(dir.path(), "fig06-G-torque");
+  ExpectRange(r["a"], 2, run.Range({"drive.torque"}, all), "fig06: drive.torque");
+  ExpectRange(r["a-zoom"], 2, run.Range({"drive.torque"}, early), "fig06 zoom: drive.torque");
+
+  r = ReadRanges(dir.path(), "fig22-P1-momentum");
+  ExpectRange(r["a"], 2, run.Range(Xyz("P1.p"), all), "fig22 a: P1.p");
+  ExpectRange(r["b"], 2, run.Range(Xyz("P1.h"), all), "fig22 b: P1.h");
+  ExpectRange(r["b-zoom"], 2, run.Range(Xyz("P1.h"), early), "fig22 b-zoom: P1.h");
+
+  r = ReadRanges(dir.path(), "fig27-P2-reaction");
+  ExpectRange(r["a"], 2, run.Range(Xyz("P2.F"), all), "fig27 a: P2.F");
+  ExpectRange(r["b"], 2, run.Range(Xyz("P2.M"), all), "fig27 b: P2.M");
+
+  r = ReadRanges(dir.path(), "fig07-G-reaction");
+  ExpectRange(r["a"], 2, run.Range(Xyz("G.F"), all), "fig07: G.F");
+  EXPECT_EQ(r.count("b"), 0u) << "the paper's Fig. 7 has no moment panel";
+
+  r = ReadRanges(dir.path(), "fig31-H-com");
+  ExpectRange(r["a"], 2, run.Range(Xyz("H.r"), all), "fig31 a: H.r");
+  ExpectRange(r["b"], 2, run.Range(Xyz("H.r"), all, [](double v, double v0) { return (v - v0) * 1e6; }), "fig31 b: H.r - r(0) in um");
+
+  r = ReadRanges(dir.path(), "fig21-P1-com");
+  ExpectRange(r["a"], 2, run.Range(Xyz("P1.r"), all), "fig21 a: P1.r");
+  ExpectRange(r["b"], 0, run.Range({"P1.r.x"}, path_rows), "fig21 b: path x");
+  ExpectRange(r["b"], 2, run.Range({"P1.r.y"}, path_rows), "fig21 b: path y");
+  ExpectRange(r["b"], 4, run.Range({"P1.r.z"}, path_rows), "fig21 b: path z");
+
+  r = ReadRanges(dir.path(), "fig29-P2-rim-point");
+  ExpectRange(r["a"], 2, run.Range(Xyz("Q_P2"), all), "fig29 a: Q_P2");
+  ExpectRange(r["b"], 4, run.Range({"Q_P2.z"}, path_rows), "fig29 b: path z");
+
+  // Orientation: the tips of the columns of R: x of every tip is row 1 of R, and so on.
+  r = ReadRanges(dir.path(), "fig20-P1-orientation");
+  ExpectRange(r["a"], 0, run.Range({"P1.R.11", "P1.R.12", "P1.R.13"}, path_rows), "fig20: x of the tips = row 1 of R");
+  ExpectRange(r["a"], 2, run.Range({"P1.R.21", "P1.R.22", "P1.R.23"}, path_rows), "fig20: y of the tips = row 2 of R");
+  ExpectRange(r["a"], 4, run.Range({"P1.R.31", "P1.R.32", "P1.R.33"}, path_rows), "fig20: z of the tips = row 3 of R");
+
+  // Every figure's panels all report, with the run's time axis.
+  for (const std::string& name : kContractNames) {
+    const auto ranges = ReadRanges(dir.path(), name);
+    EXPECT_FALSE(ranges.empty()) << name;
+    for (const auto& [id, v] : ranges)
+      if (v.size() == 4 && id.find("zoom") == std::string::npos) ExpectRange(v, 0, {0.0, t1}, name + " " + id + ": time axis");
+  }
+}
+
+TEST(PlotsTest, MissingColumnsLeaveTheFigureOutWithAWarning) {
+  TempDir dir;
+  SyntheticRun().Write(dir.path(), "S2.F.y");
+  PlotOptions o;
+  o.bond_graph = false;
+  const PlotReport report = MakePaperFigures(dir.path().string(), o);
+  ASSERT_EQ(report.warnings.size(), 1u);
+  EXPECT_NE(report.warnings[0].find("Fig. 19"), std::string::npos) << report.warnings[0];
+  EXPECT_NE(report.warnings[0].find("S2.F.y"), std::string::npos) << report.warnings[0];
+  EXPECT_FALSE(Exists(dir.path() / "figures" / "fig19-S2-reaction.png"));
+  EXPECT_TRUE(Exists(dir.path() / "figures" / "fig18-S2-momentum.png"));
+  EXPECT_FALSE(Exists(dir.path() / "figures" / "fig02-bond-graph.svg"));
+  EXPECT_EQ(report.files.size(), 2 * (kContractNames.size() - 1));
+}
+
+TEST(PlotsTest, Errors) {
+  TempDir dir;
+  EXPECT_THROW(MakePaperFigures((dir.path() / "nothing").string()), std::runtime_error);
+  EXPECT_THROW(WriteResultsPage((dir.path() / "nothing").string()), std::runtime_error);
+  SyntheticRun().Write(dir.path());
+  PlotOptions o;
+  o.bond_graph = false;
+  o.gnuplot = (dir.path() / "no-such-gnuplot").string();
+  try {
+    MakePaperFigures(dir.path().string(), o);
+    ADD_FAILURE() << "no exception without gnuplot";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("not installed"), std::string::npos) << e.what();
+  }
+  // The scripts are written all the same.
+  EXPECT_TRUE(Exists(dir.path() / "plots" / "fig03-G-orientation.gp"));
+}
+
+TEST(PlotsTest, BondGraphGroupedByLink) {
+  const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml");
+  const DotOptions o = LinkGrouping(lm);
+  EXPECT_EQ(o.nest.at("G_bearing"), "G");
+  EXPECT_EQ(o.nest.at("S1_held"), "S1");
+  EXPECT_EQ(o.nest.at("drive"), "G");
+  EXPECT_EQ(o.nest.at("mesh_P2S1"), "P2");
+  EXPECT_EQ(o.nest.at("G~H"), "G");
+  EXPECT_FALSE(o.bond_names);
+  const std::string dot = MakeDot(lm.graph, nullptr, nullptr, o);
+  // The bearing's cluster opens inside G's, before G's closes.
+  const size_t g = dot.find("subgraph cluster_G {"), bearing = dot.find("subgraph cluster_G_bearing {");
+  const size_t h = dot.find("subgraph cluster_H {");
+  ASSERT_NE(g, std::string::npos);
+  ASSERT_NE(bearing, std::string::npos);
+  EXPECT_LT(g, bearing);
+  EXPECT_TRUE(h < g || h > bearing);
+  // A model without mechanism sections: the plain grouping.
+  const DotOptions plain = LinkGrouping(LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/mass_spring_damper.yaml"));
+  EXPECT_TRUE(plain.nest.empty());
+  EXPECT_TRUE(plain.bond_names);
+}
+
+TEST(PlotsTest, PageShowsEveryFigureAndRendersInChromium) {
+  TempDir dir;
+  SyntheticRun().Write(dir.path());
+  const PlotReport report = MakePaperFigures(dir.path().string(), Options());
+  WriteResultsPage(dir.path().string(), report);
+  const std::string html = ReadFile(dir.path() / "index.html");
+  ASSERT_FALSE(html.empty());
+  EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u);
+  // Every figure file there is on the page, with the paper's caption.
+  int figures = 0;
+  for (const auto& entry : fs::directory_iterator(dir.path() / "figures")) {
+    const std::string file = "figures/" + entry.path().filename().string();
+    EXPECT_NE(html.find("\"" + file + "\""), std::string::npos) << file;
+    ++figures;
+  }
+  EXPECT_EQ(figures, static_cast<int>(2 * PaperFigureNames().size()));
+  EXPECT_NE(html.find("Fig. 16. Orientation matrix of link S2"), std::string::npos);
+  EXPECT_NE(html.find("Fig. 28. Variation of coordinates of point Q<sub>P1</sub> on link P1 with time"), std::string::npos);
+  EXPECT_NE(html.find("Fig. 2. Multibond graph model of Differential gear train mechanism"), std::string::npos);
+  EXPECT_NE(html.find("twice the carrier"), std::string::npos);
+  EXPECT_NE(html.find("Energy account"), std::string::npos);
+  EXPECT_NE(html.find("synthetic"), std::string::npos);  // run.json read
+
+  if (!fs::exists("/usr/bin/chromium")) GTEST_SKIP() << "/usr/bin/chromium is absent (Debian package chromium): page not rendered";
+  const fs::path shot = dir.path() / "page.png", profile = dir.path() / "chromium-profile";
+  fs::create_directories(profile);
+  const std::string cmd = fmt::format(
+      "timeout 120 /usr/bin/chromium --headless --no-sandbox --disable-gpu --disable-quic --no-first-run "
+      "--disable-background-networking --disable-component-update --disable-sync --user-data-dir='{}' --screenshot='{}' "
+      "--window-size=1280,2000 'file://{}' >'{}' 2>&1",
+      profile.string(), shot.string(), (dir.path() / "index.html").string(), (dir.path() / "chromium.log").string());
+  const int rc = std::system(cmd.c_str());
+  EXPECT_EQ(rc, 0) << ReadFile(dir.path() / "chromium.log");
+  ASSERT_TRUE(Exists(shot)) << ReadFile(dir.path() / "chromium.log");
+  const std::string png = ReadFile(shot);
+  EXPECT_EQ(png.substr(1, 3), "PNG");
+  EXPECT_GT(png.size(), 50000u) << "a blank page compresses to a few kB";
+  // The screenshot has the window's size (IHDR: width and height, big-endian, at bytes 16 to 23).
+  ASSERT_GE(png.size(), 24u);
+  auto be32 = [&](size_t at) {
+    return (static_cast<unsigned>(static_cast<unsigned char>(png[at])) << 24) | (static_cast<unsigned char>(png[at + 1]) << 16) |
+           (static_cast<unsigned char>(png[at + 2]) << 8) | static_cast<unsigned char>(png[at + 3]);
+  };
+  EXPECT_EQ(be32(16), 1280u);
+  EXPECT_EQ(be32(20), 2000u);
+}
+
+}  // namespace
+}  // namespace multibond
