@@ -60,7 +60,8 @@ int Check(const std::string& path) {
   mb::DiagnosticSink sink;
   const mb::Structure s = mb::AnalyzeStructure(g, lm.compile.default_domain, sink);
   sink.ThrowIfErrors();
-  const mb::CausalAssignment c = mb::AssignCausality(g, s);
+  mb::CausalAssignment c = mb::AssignCausality(g, s);
+  if (lm.mechanism) mb::ExplainInMechanismTerms(*lm.mechanism, c.diagnostics);
   std::cout << fmt::format("model '{}' ({}): {} elements, {} bonds\n\n", g.name(), path, g.num_elements(), g.num_bonds());
   std::cout << "causality (the causal stroke is at the element that receives the effort):\n";
   for (int b = 0; b < g.num_bonds(); ++b) {

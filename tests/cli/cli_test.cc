@@ -180,3 +180,26 @@ TEST_F(CliTest, InterruptStopsCleanlyAndKeepsWhatWasComputed) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST_F(CliTest, CheckExplainsDerivativeCausalityInMechanismTerms) {
+  // A flow source bolted straight onto a body's angular velocity: no compliance in between.
+  const fs::path model = dir_.string() + "_rigid_drive.yaml";
+  std::ofstream(model) << "bodies:\n"
+                          "  G: {shape: {disc: {diameter: 0.1, thickness: 0.01, axis: x}}, density: 2700}\n"
+                          "joints:\n"
+                          "  G_bearing: {child: G, translation: {K: 1.0e6, R: 20}, rotation: {axes: [y, z], K: 1.0e4, R: 10}}\n"
+                          "elements:\n"
+                          "  motor: {type: Sf, flow: [50, 0, 0]}\n"
+                          "bonds:\n"
+                          "  - motor -> G.omega\n";
+  const Result r = Cli("check " + model.string());
+  fs::remove(model);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.out, HasSubstr("derivative causality at I 'G.inertia'"));
+  EXPECT_THAT(r.out, HasSubstr("in mechanism terms: 'motor' (not a mechanism part) -> body 'G'"));
+  EXPECT_THAT(r.out, HasSubstr("connect them through a joint, gear mesh or velocity drive"));
+}
+
+}  // namespace

@@ -74,6 +74,7 @@ class Loader {
     for (const auto& d : sink_.diagnostics())
       if (d.severity == Diagnostic::Severity::kWarning) out.warnings.push_back(d);
     out.graph = std::move(graph_);
+    out.mechanism = mechanism_;
     return out;
   }
 
@@ -1091,9 +1092,11 @@ class Loader {
     }
     if (sink_.has_errors()) return;
     m.ExpandInto(graph_, sink_);
+    mechanism_ = std::make_shared<mech::Mechanism>(std::move(m));
   }
 
   std::string file_, text_;
+  std::shared_ptr<const mech::Mechanism> mechanism_;
   BondGraph graph_;
   DiagnosticSink sink_;
   std::map<std::string, SubmodelDef> submodels_;
@@ -1129,6 +1132,32 @@ std::string DidYouMean(const std::string& word, const std::vector<std::string>& 
     for (const auto& c : candidates)
       if (word.size() >= 3 && c.rfind(word, 0) == 0) return c;
   return best_d <= std::max<int>(1, static_cast<int>(word.size()) / 3) || best_d <= 2 ? best : "";
+}
+
+void ExplainInMechanismTerms(const mech::Mechanism& m, std::vector<Diagnostic>& diagnostics) {
+  for (Diagnostic& d : diagnostics) {
+    if (d.code.rfind("causality.", 0) != 0 || d.details.empty()) continue;
+    // The element names on the path are the quoted words of its first detail line.
+    std::vector<std::string> parts;
+    const std::string& path = d.details.front();
+    for (size_t open = path.find('\''); open != std::string::npos;) {
+      const size_t close = path.find('\'', open + 1);
+      if (close == std::string::npos) break;
+      std::string part = m.DescribePart(path.substr(open + 1, close - open - 1));
+      if (part.empty()) part = "'" + path.substr(open + 1, close - open - 1) + "' (not a mechanism part)";
+      if (parts.empty() || parts.back() != part) parts.push_back(part);
+      open = path.find('\'', close + 1);
+    }
+    bool any = false;
+    for (const auto& p : parts) any = any || p.find("(not a mechanism part)") == std::string::npos;
+    if (!any) continue;
+    std::string line = "in mechanism terms: ";
+    for (size_t i = 0; i < parts.size(); ++i) line += (i ? " -> " : "") + parts[i];
+    d.details.push_back(line);
+    if (d.code == "causality.derivative")
+      d.details.push_back("the last part cannot move independently of the first: the connection between them has no "
+                          "compliance; connect them through a joint, gear mesh or velocity drive (they carry K and R)");
+  }
 }
 
 LoadedModel LoadModelString(const std::string& yaml, const std::string& file) { return Loader(file, yaml).Load(); }

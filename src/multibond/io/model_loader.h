@@ -7,7 +7,10 @@
 #include <optional>
 #include <string>
 
+#include <memory>
+
 #include "multibond/compile/compiled_model.h"
+#include "multibond/mech/mechanism.h"
 #include "multibond/solve/integrator.h"
 
 namespace multibond {
@@ -25,7 +28,13 @@ struct LoadedModel {
   std::string file;  ///< path as given ("<string>" for text)
   std::string text;  ///< the file's content, for hashing and provenance
   std::vector<Diagnostic> warnings;  ///< problems that do not stop the model (e.g. a deflected coupling)
+  std::shared_ptr<const mech::Mechanism> mechanism;  ///< the mechanism sections, if any
 };
+
+/// Adds to each causality diagnostic about a mechanism's elements a line that names the parts on
+/// its causal path ("in mechanism terms: drive 'motor' -> body 'G' ..."), so that a user who
+/// wrote bodies and joints reads the problem in those terms.
+void ExplainInMechanismTerms(const mech::Mechanism& m, std::vector<Diagnostic>& diagnostics);
 
 LoadedModel LoadModelFile(const std::string& path);
 LoadedModel LoadModelString(const std::string& yaml, const std::string& file = "<string>");

@@ -635,9 +635,9 @@ class ScriptWriter {
                      Num(lo[2]), Num(hi[2]));
     s << fmt::format("  set xlabel {}\n  set ylabel {}\n  set zlabel {} rotate parallel\n", GpString(fmt::format("x [{}]", unit)),
                      GpString(fmt::format("y [{}]", unit)), GpString(fmt::format("z [{}]", unit)));
-    // Tips that trace the same circle (y and z of a link spinning about x) must both show:
-    // column 2 wide and solid, column 3 dashed on top of it.
-    constexpr std::array<const char*, 3> kStyle = {"lw 1.5", "lw 4", "lw 1.5 dt (10,8)"};
+    // Tips that trace the same circle (x and y of a link spinning about z, y and z of one spinning
+    // about x) must both show: each column is drawn narrower than the one before, on top of it.
+    constexpr std::array<const char*, 3> kStyle = {"lw 6", "lw 3", "lw 1.5 dt (10,8)"};
     const size_t last = t_.rows() - 1;
     s << "  splot ";
     for (size_t k = 0; k < p.curves.size(); ++k) {
@@ -832,6 +832,23 @@ class Facts {
   double T0() const { return t_.Time0(); }
   double T1() const { return t_.Time1(); }
 
+  /// Slowest and fastest speed of a point over the second half of the run (central differences),
+  /// each with the point's z there: {v_min, z, v_max, z}.
+  std::array<double, 4> SpeedExtremes(const std::string& n) const {
+    std::array<double, 4> out{INFINITY, kNaN, -INFINITY, kNaN};
+    if (!HasVec(n) || t_.rows() < 3) return {kNaN, kNaN, kNaN, kNaN};
+    const auto& time = t_.Col("time");
+    const double half = 0.5 * (T0() + T1());
+    for (size_t r = 1; r + 1 < t_.rows(); ++r) {
+      if (time[r] < half) continue;
+      const double v = Norm(Sub(t_.Vec(n, r + 1), t_.Vec(n, r - 1))) / (time[r + 1] - time[r - 1]);
+      const double z = t_.Vec(n, r)[2];
+      if (v < out[0]) out[0] = v, out[1] = z;
+      if (v > out[2]) out[2] = v, out[3] = z;
+    }
+    return out;
+  }
+
  private:
   const Table& t_;
 };
@@ -895,12 +912,15 @@ std::string WhatItShows(int n, const Facts& f) {
   };
   auto rim = [&](const std::string& q, const std::string& column, const std::string& p) {
     const auto [z_lo, z_hi] = f.Range(column + ".z");
+    const auto v = f.SpeedExtremes(column);
     return fmt::format(
         "{} is a point on {}'s rim, 0.05 m from its centre along the body y axis. (a) Its coordinates combine the carrier's "
         "rotation ({} rad/s) with the planet's spin ({} rad/s relative to A): z oscillates with the spin, between {} and {} m. "
         "(b) Its path in space closes after each turn of the carrier, since the planet turns exactly twice relative to A "
-        "meanwhile (24 teeth on the suns, 12 on the planets, S1 held).",
-        q, p, w_a, Show(f.Spin(p)), Show(z_lo, 3), Show(z_hi, 3));
+        "meanwhile (24 teeth on the suns, 12 on the planets, S1 held). The path has two cusps per turn: there the point "
+        "touches the held S1 (z = {} m) and, the planet rolling on S1, stands still (slowest sampled speed {} m/s); where it meets "
+        "S2 (z = {} m) it moves with S2's pitch circle, |&omega;<sub>S2</sub>| &middot; 0.1 m: {} m/s.",
+        q, p, w_a, Show(f.Spin(p)), Show(z_lo, 3), Show(z_hi, 3), Show(v[1], 3), Show(v[0], 2), Show(v[3], 3), Show(v[2], 3));
   };
   switch (n) {
     case 2:
@@ -908,13 +928,15 @@ std::string WhatItShows(int n, const Facts& f) {
              "1-junction of velocity with its mass (I) and a 1-junction of angular velocity with its inertia in the inertial "
              "frame (no Euler junction structure); the couplings (C and R in parallel, behind transformers that express "
              "them in the parent's frame) and the gear meshes (transformers between spins relative to the carrier) join "
-             "them. The causal strokes show integral causality throughout; elements are grouped by the name before the "
-             "first dot (a link, a joint or a gear mesh). The SVG is zoomable; hover an element or a bond for its details.";
+             "them. The causal strokes show integral causality throughout. Elements are grouped by link: a link's box holds its "
+             "I elements, the joint or drive that ties it to its parent, its velocity relative to the parent (X~Y) and the "
+             "gear meshes in which it is the first gear, each in a nested box; bonds are labelled with their dimension. The "
+             "SVG is zoomable; hover an element or a bond for its name and causality.";
     case 3:
       return fmt::format(
           "G spins about x at &omega;<sub>G,x</sub> = {} rad/s, the speed the drive imposes through its compliant coupling. "
           "Columns 2 and 3 of R, the tips of G's y and z axes, run round the unit circle in the y&ndash;z plane (both on the "
-          "same circle: column 2 is the wide line, column 3 the dashed one); column 1, the spin axis, stays at (1, 0, 0): a point.",
+          "same circle: column 2 is the solid line, column 3 the dashed one on it); column 1, the spin axis, stays at (1, 0, 0): a point.",
           Show(f.Last("G.omega.x")));
     case 4: return com("G", "its bearing to the housing");
     case 5:
@@ -941,7 +963,7 @@ std::string WhatItShows(int n, const Facts& f) {
       return fmt::format(
           "A, the crown wheel and carrier of the planets, turns about z at &omega;<sub>A,z</sub> = {} rad/s = &minus;(12/48) "
           "&middot; 50: the 12:48 mesh turns it the other way round from G. Columns 1 and 2 of R run round the unit circle "
-          "in the x&ndash;y plane; column 3 stays at (0, 0, 1), a point.",
+          "in the x&ndash;y plane (column 1 the wide line under column 2); column 3 stays at (0, 0, 1), a point.",
           w_a);
     case 9: return com("A", "its bearing to the housing");
     case 10:
@@ -974,7 +996,8 @@ std::string WhatItShows(int n, const Facts& f) {
       return fmt::format(
           "S2 turns at &omega;<sub>S2,z</sub> = {} rad/s, twice the carrier's {} rad/s, because S1 is held (the Willis "
           "relation &omega;<sub>S1</sub> + &omega;<sub>S2</sub> = 2 &omega;<sub>A</sub>: the differential sends all the "
-          "motion to the free side). Columns 1 and 2 of R run round the circle in the x&ndash;y plane; column 3 is a point.",
+          "motion to the free side). Columns 1 and 2 of R run round the circle in the x&ndash;y plane (column 1 the wide line under column 2); "
+          "column 3 is a point.",
           Show(f.Last("S2.omega.z")), w_a);
     case 17: return com("S2", "its radial bearing to the housing");
     case 18:

@@ -581,6 +581,21 @@ Joint MakePrismatic(std::string name, std::string parent, std::string child, con
   return j;
 }
 
+std::string Mechanism::DescribePart(const std::string& element) const {
+  const std::string head = element.substr(0, element.find('.'));
+  if (const auto tilde = head.find('~'); tilde != std::string::npos)
+    return fmt::format("the relative rotation of '{}' and '{}'", head.substr(0, tilde), head.substr(tilde + 1));
+  for (const Body& b : bodies_)
+    if (b.name == head) return fmt::format("body '{}'", head);
+  for (const Joint& j : joints_)
+    if (j.name == head) return fmt::format("joint '{}' ({} of '{}' on '{}')", head, j.kind, j.child, j.parent);
+  for (const GearMesh& gm : gears_)
+    if (gm.name == head) return fmt::format("gear mesh '{}'", head);
+  for (const Drive& d : drives_)
+    if (d.name == head) return fmt::format("drive '{}'", head);
+  return {};
+}
+
 void Mechanism::ExpandInto(BondGraph& g, DiagnosticSink& sink) const {
   Expander e(*this, g, sink);
   e.gravity_ = gravity_;

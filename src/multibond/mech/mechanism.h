@@ -133,6 +133,10 @@ class Mechanism {
   const std::vector<Point>& points() const { return points_; }
   bool empty() const { return bodies_.empty(); }
 
+  /// The part an expanded element belongs to, e.g. "body 'G'" for "G.inertia", "joint 'G_bearing'"
+  /// for "G_bearing.r.K", "the relative rotation of 'P1' and 'A'" for "P1~A.w"; "" if none.
+  std::string DescribePart(const std::string& element) const;
+
   /// Checks the mechanism (unknown bodies, bad parameters, couplings deflected at t = 0) into
   /// `sink`, then adds its expansion to `g`. Nothing is added if there are errors.
   void ExpandInto(BondGraph& g, DiagnosticSink& sink) const;
