@@ -253,10 +253,17 @@ class EquationWriter {
     return e;
   }
 
+  /// The state's name as in the results ("B.h" for a body's inertia with state_name "B.h").
+  std::string StateOf(const Element& el) const {
+    if (!el.state_name.empty()) return el.state_name;
+    return el.name + (el.kind == ElementKind::kI ? ".p" : ".q");
+  }
+
   Expr Leaf(int c) const {
     const Definition& d = Def(c);
     const Element& el = g_.element(d.element);
     const std::string& n = el.name;
+    const std::string state = StateOf(el);
     switch (d.kind) {
       case Definition::Kind::kSource:
         return MakeLeaf(n + "(t)", Rm(n) + "(t)");
@@ -264,17 +271,17 @@ class EquationWriter {
         if (!el.rotation.empty()) {
           // f = R Ib^-1 R^T h: the body-frame inertia turned into the inertial frame.
           const std::string& r = el.rotation;
-          return MakeLeaf(fmt::format("{0} inv({1}.Ib) {0}^T {1}.p", r, n),
+          return MakeLeaf(fmt::format("{0} inv({1}.Ib) {0}^T {2}", r, n, state),
                           fmt::format("{0} \\, \\left(I^{{b}}_{{{1}}}\\right)^{{-1}} \\, {0}^{{\\top}} \\, {2}", Rm(r),
                                       Rm(n), Sub("p", n)));
         }
         if (el.param.is_scalar)
-          return MakeLeaf(n + ".p/" + n + ".I", Sub("I", n) + "^{-1} \\, " + Sub("p", n));
-        return MakeLeaf("inv(" + n + ".I) " + n + ".p", Sub("I", n) + "^{-1} \\, " + Sub("p", n));
+          return MakeLeaf(state + "/" + n + ".I", Sub("I", n) + "^{-1} \\, " + Sub("p", n));
+        return MakeLeaf("inv(" + n + ".I) " + state, Sub("I", n) + "^{-1} \\, " + Sub("p", n));
       case Definition::Kind::kStiffnessEffort: {
         // sigma e = K q: the effort is -K q when the bond points out of the C.
         const double sigma = g_.PowerSign(el.bonds.front(), d.element);
-        return Signed(sigma, "", "", MakeLeaf(n + ".K " + n + ".q", Sub("K", n) + " \\, " + Sub("q", n)));
+        return Signed(sigma, "", "", MakeLeaf(n + ".K " + state, Sub("K", n) + " \\, " + Sub("q", n)));
       }
       default:
         break;
@@ -485,7 +492,7 @@ class EquationWriter {
       consumer = blk.owner;
       cls = m_.derivative_source(blk);
       sign = m_.derivative_sign(blk);
-      state = Name(blk.owner) + (momentum ? ".p" : ".q");
+      state = StateOf(g_.element(blk.owner));
       lhs_latex = "\\dot{" + std::string(momentum ? "p" : "q") + "}_{" + Rm(Name(blk.owner)) + "}";
     } else {
       // Auxiliary states integrate the flow of `of` (owner is an aux index, not an element).

@@ -637,7 +637,7 @@ class ScriptWriter {
                      GpString(fmt::format("y [{}]", unit)), GpString(fmt::format("z [{}]", unit)));
     // Tips that trace the same circle (x and y of a link spinning about z, y and z of one spinning
     // about x) must both show: each column is drawn narrower than the one before, on top of it.
-    constexpr std::array<const char*, 3> kStyle = {"lw 6", "lw 3", "lw 1.5 dt (10,8)"};
+    constexpr std::array<const char*, 3> kStyle = {"lw 7", "lw 3.5", "lw 1.2"};
     const size_t last = t_.rows() - 1;
     s << "  splot ";
     for (size_t k = 0; k < p.curves.size(); ++k) {
@@ -936,7 +936,7 @@ std::string WhatItShows(int n, const Facts& f) {
       return fmt::format(
           "G spins about x at &omega;<sub>G,x</sub> = {} rad/s, the speed the drive imposes through its compliant coupling. "
           "Columns 2 and 3 of R, the tips of G's y and z axes, run round the unit circle in the y&ndash;z plane (both on the "
-          "same circle: column 2 is the solid line, column 3 the dashed one on it); column 1, the spin axis, stays at (1, 0, 0): a point.",
+          "same circle: column 3 is the thin line on the wider column 2); column 1, the spin axis, stays at (1, 0, 0): a point.",
           Show(f.Last("G.omega.x")));
     case 4: return com("G", "its bearing to the housing");
     case 5:
