@@ -813,7 +813,8 @@ class Loader {
       if (!d) c.components = {"x", "y", "z"};
       frame = Frame(n["frame"], element, frame);
     }
-    if (fixed_rows && c.directions.rows() == 3 && c.directions.isApprox(Eigen::MatrixXd::Identity(3, 3))) c.components = {"x", "y", "z"};
+    if (fixed_rows && c.directions.rows() == 3 && c.directions.cols() == 3 && c.directions == Eigen::MatrixXd::Identity(3, 3))
+      c.components = {"x", "y", "z"};
     c.frame = frame;
     Gains(n, element, static_cast<int>(c.directions.rows()), &c.stiffness, &c.damping);
     return c;

@@ -255,7 +255,9 @@ class Expander {
     m.kind = Modulus::Kind::kRotation;
     m.rotation = body + ".R";
     m.transpose = true;
-    if (!rows.isApprox(Eigen::MatrixXd::Identity(3, 3), 0.0)) m.left = rows;
+    // (sizes first: comparing matrices of different sizes is undefined in Eigen's release builds)
+    const bool identity = rows.rows() == 3 && rows.cols() == 3 && rows == Eigen::MatrixXd::Identity(3, 3);
+    if (!identity) m.left = rows;
     Element mtf = Make(name, ElementKind::kMTF, 0, "", where);
     mtf.modulus = m;
     g_.Add(mtf);
