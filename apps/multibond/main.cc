@@ -17,6 +17,7 @@
 #include "multibond/compile/equations.h"
 #include "multibond/io/dot_writer.h"
 #include "multibond/io/model_loader.h"
+#include "multibond/io/plots.h"
 #include "multibond/io/results_writer.h"
 #include "multibond/version.h"
 
@@ -100,7 +101,7 @@ int Graph(const std::string& path, const std::string& out) {
   const mb::Structure s = mb::AnalyzeStructure(lm.graph, lm.compile.default_domain, sink);
   sink.ThrowIfErrors();
   const mb::CausalAssignment c = mb::AssignCausality(lm.graph, s);
-  const std::string dot = mb::MakeDot(lm.graph, &s, &c);
+  const std::string dot = mb::MakeDot(lm.graph, &s, &c, mb::LinkGrouping(lm));
   const fs::path outp(out);
   const std::string ext = outp.extension().string();
   const fs::path dot_path = ext == ".dot" || ext == ".gv" ? outp : fs::path(outp).replace_extension(".dot");
@@ -238,6 +239,11 @@ int main(int argc, char** argv) {
                 "do not re-orthonormalise orientation matrices after each step (shows the raw drift)");
   run->add_flag("-q,--quiet", ra.quiet, "no progress and no summary");
 
+  std::string plot_dir, plot_model;
+  auto* plot = app.add_subcommand("plot", "Draw the paper's figures (Figs. 2-33) from a results folder and write DIR/index.html");
+  plot->add_option("DIR", plot_dir, "results folder of 'multibond run'")->required();
+  plot->add_option("--model", plot_model, "model file, for the bond graph (default: the one named in DIR/run.json)");
+
   app.add_subcommand("version", "Print the version");
 
   try {
@@ -256,6 +262,15 @@ int main(int argc, char** argv) {
     if (*eq) return Equations(model, format);
     if (*graph) return Graph(model, out);
     if (*run) return Run(ra, args);
+    if (*plot) {
+      mb::PlotOptions po;
+      po.model_path = plot_model;
+      const mb::PlotReport report = mb::MakePaperFigures(plot_dir, po);
+      for (const auto& w : report.warnings) std::cerr << "warning: " << w << '\n';
+      mb::WriteResultsPage(plot_dir, report);
+      std::cout << fmt::format("wrote {} figure files in {}/figures and {}/index.html\n", report.files.size(), plot_dir, plot_dir);
+      return report.files.empty() ? kExitIo : kExitOk;
+    }
   } catch (const mb::ModelError& e) {
     return ModelFailure(e, *run || *graph);
   } catch (const mb::SolverError& e) {

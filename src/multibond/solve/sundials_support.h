@@ -81,18 +81,38 @@ inline void Const(sunrealtype c, N_Vector z) {
   sunrealtype* zd = Data(z);
   for (sunindextype i = 0, n = Len(z); i < n; ++i) zd[i] = c;
 }
+/// z = sum_j c_j x_j in one pass over the elements (z written once, each x_j read once), with
+/// the number of vectors a compile-time constant so the inner sum unrolls and the loop vectorises.
+template <int N>
+inline void Combine(const sunrealtype* c, N_Vector* x, sunrealtype* z, sunindextype n) {
+  const sunrealtype* xs[N];
+  for (int j = 0; j < N; ++j) xs[j] = Data(x[j]);
+  for (sunindextype i = 0; i < n; ++i) {
+    sunrealtype s = c[0] * xs[0][i];
+    for (int j = 1; j < N; ++j) s += c[j] * xs[j][i];
+    z[i] = s;  // z may be x[0] (SUNDIALS allows it): x[0][i] has been read already
+  }
+}
 inline int LinearCombination(int nvec, sunrealtype* c, N_Vector* x, N_Vector z) {
   sunrealtype* zd = Data(z);
   const sunindextype n = Len(z);
-  // SUNDIALS allows z to be x[0] and no other x[j]: scale in place first, then accumulate with
-  // restrict-qualified pointers so that the loops vectorise.
+  switch (nvec) {
+    case 1: Combine<1>(c, x, zd, n); return 0;
+    case 2: Combine<2>(c, x, zd, n); return 0;
+    case 3: Combine<3>(c, x, zd, n); return 0;
+    case 4: Combine<4>(c, x, zd, n); return 0;
+    case 5: Combine<5>(c, x, zd, n); return 0;
+    case 6: Combine<6>(c, x, zd, n); return 0;
+    case 7: Combine<7>(c, x, zd, n); return 0;
+    case 8: Combine<8>(c, x, zd, n); return 0;
+    default: break;
+  }
+  // More vectors (high-order tables): accumulate in passes.
   const sunrealtype* x0 = Data(x[0]);
   for (sunindextype i = 0; i < n; ++i) zd[i] = c[0] * x0[i];
-  sunrealtype* __restrict zr = zd;
   for (int j = 1; j < nvec; ++j) {
-    const sunrealtype* __restrict xj = Data(x[j]);
-    const sunrealtype cj = c[j];
-    for (sunindextype i = 0; i < n; ++i) zr[i] += cj * xj[i];
+    const sunrealtype* xj = Data(x[j]);
+    for (sunindextype i = 0; i < n; ++i) zd[i] += c[j] * xj[i];
   }
   return 0;
 }
