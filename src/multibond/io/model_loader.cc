@@ -104,6 +104,23 @@ class Loader {
     }
   }
 
+  /// A list of words (component names, ports); anything else is reported.
+  std::vector<std::string> Words(const YAML::Node& n, const std::string& element, const char* what) {
+    std::vector<std::string> out;
+    if (!n.IsSequence()) {
+      sink_.Error(Loc(n), element, fmt::format("'{}' must be a list", what), fmt::format("write e.g. {}: [x, y]", what));
+      return out;
+    }
+    for (const auto& w : n) {
+      if (!w.IsScalar()) {
+        sink_.Error(Loc(w), element, fmt::format("each entry of '{}' is a single word", what));
+        continue;
+      }
+      out.push_back(w.Scalar());
+    }
+    return out;
+  }
+
   std::string Str(const YAML::Node& n, const std::string& element) {
     if (!n.IsScalar()) {
       sink_.Error(Loc(n), element, "expected a text value", "write a single word or a quoted string");
@@ -337,11 +354,13 @@ class Loader {
       if (ParseKind(name)) sink_.Error(Loc(kv.first), name, "a submodel cannot be named like an element kind");
       SubmodelDef sd{def, {}, {}};
       if (def["parameters"]) {
-        for (const auto& p : def["parameters"]) sd.defaults[p.first.Scalar()] = Number(p.second, name, Env{});
+        if (!def["parameters"].IsMap())
+          sink_.Error(Loc(def["parameters"]), name, "'parameters' maps each name to its default value", "write e.g. parameters: {m: 1.0}");
+        else
+          for (const auto& p : def["parameters"]) sd.defaults[p.first.Scalar()] = Number(p.second, name, Env{});
       }
-      if (def["ports"]) {
-        for (const auto& p : def["ports"]) sd.ports.insert(p.Scalar());
-      }
+      if (def["ports"])
+        for (const auto& p : Words(def["ports"], name, "ports")) sd.ports.insert(p);
       submodels_[name] = sd;
     }
   }
@@ -484,7 +503,7 @@ class Loader {
     }
     if (spec["domain"]) e.domain = Domain(spec["domain"], name);
     if (spec["components"])
-      for (const auto& c : spec["components"]) e.components.push_back(c.Scalar());
+      e.components = Words(spec["components"], name, "components");
     if (graph_.Find(name) >= 0 || graph_.FindAux(name) >= 0) {
       sink_.Error(where, name, "duplicate name", "give every element and state a unique name");
       return;
@@ -494,6 +513,21 @@ class Loader {
 
   void Instantiate(const std::string& name, const std::string& type, const YAML::Node& spec, const SourceLocation& where,
                    const Env& outer, int depth) {
+    // A submodel that contains itself (directly or through others) would expand without end.
+    if (std::find(instantiating_.begin(), instantiating_.end(), type) != instantiating_.end()) {
+      std::string chain;
+      for (const auto& t : instantiating_) chain += t + " -> ";
+      sink_.Error("submodel.recursive", where, name, fmt::format("submodel '{}' contains itself: {}{}", type, chain, type),
+                  "a submodel may use other submodels, but not itself");
+      return;
+    }
+    instantiating_.push_back(type);
+    InstantiateBody(name, type, spec, where, outer, depth);
+    instantiating_.pop_back();
+  }
+
+  void InstantiateBody(const std::string& name, const std::string& type, const YAML::Node& spec, const SourceLocation& where,
+                       const Env& outer, int depth) {
     const SubmodelDef& def = submodels_.at(type);
     Env env = def.defaults;
     std::vector<std::string> keys = {"type", "description"};
@@ -625,7 +659,7 @@ class Loader {
         }
       }
       if (s["components"])
-        for (const auto& c : s["components"]) a.components.push_back(c.Scalar());
+        a.components = Words(s["components"], name, "components");
       if (s["unit"]) a.unit = s["unit"].Scalar();
       if (graph_.Find(name) >= 0 || graph_.FindAux(name) >= 0) {
         sink_.Error(a.where, name, "duplicate name", "give every element and state a unique name");
@@ -662,6 +696,10 @@ class Loader {
   }
 
   void ReadSimulation(const YAML::Node& n, SimulationDefaults& s) {
+    if (!n.IsMap()) {
+      sink_.Error(Loc(n), "simulation", "'simulation' is a mapping of settings", "write e.g. simulation: {t_end: 5, dt: 0.001}");
+      return;
+    }
     CheckKeys(n, {"t_end", "dt", "solver", "rtol", "atol", "step", "max_step"}, "simulation");
     const Env none;
     auto positive = [&](const char* key, std::optional<double>& out) {
@@ -832,6 +870,11 @@ class Loader {
       }
       const std::string kind = sh.begin()->first.Scalar();
       const YAML::Node p = sh.begin()->second;
+      if (!p.IsMap()) {
+        sink_.Error(Loc(p), name, fmt::format("the {} needs its dimensions as a mapping", kind),
+                    "write e.g. shape: {disc: {diameter: 0.1, thickness: 0.01, axis: z}}");
+        return mech::MassProperties::PointMass(1.0);
+      }
       auto num = [&](const char* key) {
         if (!p[key]) {
           sink_.Error(Loc(p), name, fmt::format("{} needs '{}'", kind, key));
@@ -1103,6 +1146,7 @@ class Loader {
   std::map<std::string, SubmodelDef> submodels_;
   std::map<std::string, std::set<std::string>> instance_ports_;
   std::map<std::string, SourceLocation> instance_where_;
+  std::vector<std::string> instantiating_;  ///< the submodel types being expanded, outermost first
 };
 
 int EditDistance(const std::string& a, const std::string& b) {
@@ -1161,7 +1205,20 @@ void ExplainInMechanismTerms(const mech::Mechanism& m, std::vector<Diagnostic>& 
   }
 }
 
-LoadedModel LoadModelString(const std::string& yaml, const std::string& file) { return Loader(file, yaml).Load(); }
+LoadedModel LoadModelString(const std::string& yaml, const std::string& file) {
+  try {
+    return Loader(file, yaml).Load();
+  } catch (const YAML::Exception& e) {
+    // A node of a shape the loader did not expect somewhere it did not check: still a model
+    // error, with the place yaml-cpp knows.
+    Diagnostic d;
+    d.where = {file, e.mark.line >= 0 ? e.mark.line + 1 : 0, e.mark.line >= 0 ? e.mark.column + 1 : 0};
+    d.code = "yaml.structure";
+    d.message = "unexpected structure in the model file (" + e.msg + ")";
+    d.hint = "compare this part of the file with docs/model-format.md";
+    throw ModelError(d);
+  }
+}
 
 LoadedModel LoadModelFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
