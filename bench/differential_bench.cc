@@ -40,13 +40,6 @@ void BM_DifferentialRhs(benchmark::State& state) {
 }
 BENCHMARK(BM_DifferentialRhs)->Args({0, 0})->Args({1, 0})->Args({1, 1});
 
-class NullObserver : public mb::Observer {
- public:
-  void OnStart(const std::vector<mb::Column>&) override {}
-  void OnSample(const std::vector<double>&) override {}
-  void OnFinish(const mb::RunSummary&) override {}
-};
-
 void BM_DifferentialRun(benchmark::State& state) {
   const auto model = Differential(true);
   mb::RunOptions o;
@@ -57,7 +50,7 @@ void BM_DifferentialRun(benchmark::State& state) {
   o.integrator.atol = 1e-10;
   mb::RunSummary s;
   for (auto _ : state) {
-    NullObserver obs;
+    mb::NullObserver obs;
     s = mb::Simulate(*model, o, obs);
   }
   state.counters["steps"] = static_cast<double>(s.stats.steps);

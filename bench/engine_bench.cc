@@ -69,13 +69,6 @@ void BM_ChainCompile(benchmark::State& state) {
 }
 BENCHMARK(BM_ChainCompile)->Arg(10)->Arg(100)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond)->Complexity();
 
-class NullObserver : public mb::Observer {
- public:
-  void OnStart(const std::vector<mb::Column>&) override {}
-  void OnSample(const std::vector<double>&) override {}
-  void OnFinish(const mb::RunSummary&) override {}
-};
-
 void BM_ChainSimulate(benchmark::State& state) {
   const auto model = mb::CompiledModel::Compile(MakeChain(static_cast<int>(state.range(0))));
   mb::RunOptions o;
@@ -86,7 +79,7 @@ void BM_ChainSimulate(benchmark::State& state) {
   o.integrator.atol = 1e-9;
   long rhs = 0;
   for (auto _ : state) {
-    NullObserver obs;
+    mb::NullObserver obs;
     rhs = mb::Simulate(*model, o, obs).stats.rhs_evals;
   }
   state.counters["rhs_evals"] = static_cast<double>(rhs);

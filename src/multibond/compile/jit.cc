@@ -1,9 +1,8 @@
 #include "multibond/compile/jit.h"
 
+#include "multibond/core/process.h"
+
 #include <dlfcn.h>
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdint>
@@ -14,8 +13,6 @@
 #include <vector>
 
 #include <fmt/format.h>
-
-extern char** environ;
 
 namespace multibond {
 
@@ -39,24 +36,6 @@ fs::path CacheDir() {
   if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return fs::path(x) / "multibond";
   if (const char* h = std::getenv("HOME"); h && *h) return fs::path(h) / ".cache" / "multibond";
   return fs::temp_directory_path() / fmt::format("multibond-cache-{}", getuid());
-}
-
-/// Runs argv (no shell); returns the exit status and what it printed.
-int Run(const std::vector<std::string>& argv, const fs::path& log) {
-  std::vector<char*> args;
-  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
-  pid_t pid = 0;
-  const int rc = posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (rc != 0) return -1;
-  int status = 0;
-  if (waitpid(pid, &status, 0) < 0) return -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 }  // namespace
@@ -91,15 +70,9 @@ JitResult CompileAndLoad(const std::string& source, const std::string& symbol) {
     std::vector<std::string> argv = {cxx};
     argv.insert(argv.end(), flags.begin(), flags.end());
     argv.insert(argv.end(), {cc.string(), "-o", tmp.string()});
-    const int status = Run(argv, log);
-    if (status != 0) {
-      std::ifstream in(log);
-      std::stringstream ss;
-      ss << in.rdbuf();
-      std::string text = ss.str();
-      if (text.size() > 400) text = text.substr(0, 400) + "...";
-      r.description = status < 0 ? fmt::format("no C++ compiler '{}' could be run", cxx)
-                                 : fmt::format("'{}' failed on the generated code: {}", cxx, text);
+    const std::string failure = RunProcess(argv, "", log.string(), /*merge_stdout=*/true, 400);
+    if (!failure.empty()) {
+      r.description = "compiling the generated code: " + failure;
       fs::remove(tmp, ec);
       fs::remove(log, ec);
       return r;

@@ -1,8 +1,8 @@
 #include "multibond/io/dot_writer.h"
 
+#include "multibond/core/process.h"
+
 #include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -20,7 +20,6 @@
 
 #include <fmt/format.h>
 
-extern char** environ;
 
 namespace multibond {
 
@@ -254,60 +253,14 @@ bool RenderWithGraphviz(const std::string& dot_path, const std::string& out_path
   });
   if (!format_ok) return fail(fmt::format("invalid Graphviz output format '{}' (expected e.g. svg or png)", format));
 
-  // dot's messages go to a temporary file, to be quoted on failure.
-  std::string log_path = (std::filesystem::temp_directory_path() / "multibond-dot-XXXXXX").string();
-  std::vector<char> log_template(log_path.begin(), log_path.end());
-  log_template.push_back('\0');
-  const int log_fd = mkstemp(log_template.data());
-  log_path = log_fd >= 0 ? std::string(log_template.data()) : std::string();
-
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
-  if (log_fd >= 0) {
-    posix_spawn_file_actions_adddup2(&actions, log_fd, STDERR_FILENO);
-    posix_spawn_file_actions_addclose(&actions, log_fd);
-  }
-
-  // An argv array, no shell: paths with spaces or quotes are passed as they are.
-  std::string arg_format = "-T" + format, arg_out = SafeArg(out_path), arg_in = SafeArg(dot_path);
-  std::string arg_dot = "dot", arg_o = "-o";
-  char* argv[] = {arg_dot.data(), arg_format.data(), arg_o.data(), arg_out.data(), arg_in.data(), nullptr};
-  pid_t pid = 0;
-  const int rc = posix_spawnp(&pid, "dot", &actions, nullptr, argv, environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (log_fd >= 0) close(log_fd);
-
-  auto read_log = [&]() {
-    std::string text;
-    if (log_path.empty()) return text;
-    std::ifstream in(log_path);
-    std::getline(in, text, '\0');
-    std::remove(log_path.c_str());
-    while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.pop_back();
-    return text;
-  };
-
-  if (rc != 0) {
-    read_log();
-    if (rc == ENOENT) return fail("cannot run 'dot': Graphviz is not installed (or not on PATH)");
-    return fail(fmt::format("cannot run 'dot': {}", std::strerror(rc)));
-  }
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) {
-      read_log();
-      return fail(fmt::format("waiting for 'dot' failed: {}", std::strerror(errno)));
-    }
-  }
-  const std::string log = read_log();
-  if (WIFEXITED(status) && WEXITSTATUS(status) == 127)
-    return fail("cannot run 'dot': Graphviz is not installed (or not on PATH)");
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-    const std::string how = WIFEXITED(status) ? fmt::format("exit status {}", WEXITSTATUS(status))
-                                              : fmt::format("signal {}", WIFSIGNALED(status) ? WTERMSIG(status) : 0);
-    return fail(fmt::format("'dot -T{}' failed on '{}' ({}){}{}", format, dot_path, how, log.empty() ? "" : ": ", log));
+  // dot's messages go to a temporary file, quoted on failure.
+  const std::string log = (std::filesystem::temp_directory_path() / fmt::format("multibond-dot-{}.log", getpid())).string();
+  const std::string failure = RunProcess({"dot", "-T" + format, "-o", SafeArg(out_path), SafeArg(dot_path)}, "", log);
+  std::remove(log.c_str());
+  if (!failure.empty()) {
+    if (failure.find("not installed") != std::string::npos)
+      return fail("cannot run 'dot': Graphviz is not installed (or not on PATH)");
+    return fail(fmt::format("'dot -T{}' failed on '{}': {}", format, dot_path, failure));
   }
   return true;
 }

@@ -1,8 +1,8 @@
 #include "multibond/io/plots.h"
 
+#include "multibond/core/process.h"
+
 #include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -33,7 +33,6 @@
 #include "multibond/io/model_loader.h"
 #include "multibond/io/results_writer.h"
 
-extern char** environ;
 
 namespace multibond {
 
@@ -669,41 +668,11 @@ struct Job {
   std::string name, log;
 };
 
-/// Starts `argv` in `cwd` with stdin/stdout from/to /dev/null and stderr to `log` (no shell).
-/// Returns the pid, or -1 with the reason in `error`.
 pid_t Start(const std::vector<std::string>& args, const std::string& cwd, const std::string& log, std::string* error) {
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, "/dev/null", O_WRONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_addchdir_np(&actions, cwd.c_str());
-  std::vector<std::string> copy = args;
-  std::vector<char*> argv;
-  for (std::string& a : copy) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = -1;
-  const int rc = posix_spawnp(&pid, argv[0], &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (rc != 0) {
-    *error = rc == ENOENT ? fmt::format("cannot run '{}': it is not installed (or not on PATH)", args[0])
-                          : fmt::format("cannot run '{}': {}", args[0], std::strerror(rc));
-    return -1;
-  }
-  return pid;
+  return StartProcess(args, cwd, log, error);
 }
 
-/// Waits for `pid`; returns "" on success, else what went wrong.
-std::string Finish(pid_t pid, const std::string& program) {
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) return fmt::format("waiting for '{}' failed: {}", program, std::strerror(errno));
-  if (WIFEXITED(status) && WEXITSTATUS(status) == 127) return fmt::format("cannot run '{}': it is not installed (or not on PATH)", program);
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
-    return WIFEXITED(status) ? fmt::format("'{}' failed (exit status {})", program, WEXITSTATUS(status))
-                             : fmt::format("'{}' failed (signal {})", program, WIFSIGNALED(status) ? WTERMSIG(status) : 0);
-  return "";
-}
+std::string Finish(pid_t pid, const std::string& program) { return WaitProcess(pid, program); }
 
 std::string ReadFile(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);

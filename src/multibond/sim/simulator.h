@@ -72,6 +72,14 @@ class Observer {
   virtual void OnFinish(const RunSummary& summary) = 0;
 };
 
+/// Discards every sample (benchmarks; runs whose summary is all that matters).
+class NullObserver : public Observer {
+ public:
+  void OnStart(const std::vector<Column>&) override {}
+  void OnSample(const std::vector<double>&) override {}
+  void OnFinish(const RunSummary&) override {}
+};
+
 /// Keeps every sample in memory (tests, small runs, plots).
 class RecordingObserver : public Observer {
  public:

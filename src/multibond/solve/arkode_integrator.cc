@@ -100,23 +100,12 @@ int CheckStateFinite(sunrealtype t, N_Vector y, void* user_data) noexcept {
   return 0;
 }
 
-class ArkodeIntegrator final : public Integrator {
+class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> {
  public:
-  ArkodeIntegrator(OdeSystem& system, const IntegratorOptions& options)
-      : options_(options),
-        n_(system.num_states()),
-        callbacks_(system, options.project),
-        ctx_(sun::MakeContext()),
-        y_(sun::MakeVector(n_, ctx_.get())) {}
-
-  // The solver holds a pointer to callbacks_: pin the object.
-  ArkodeIntegrator(const ArkodeIntegrator&) = delete;
-  ArkodeIntegrator& operator=(const ArkodeIntegrator&) = delete;
+  ArkodeIntegrator(OdeSystem& system, const IntegratorOptions& options) : SundialsIntegrator(system, options) {}
 
   void Reset(double t0, const double* x0) override {
-    std::copy_n(x0, n_, N_VGetArrayPointer(y_.get()));
-    callbacks_.ClearMessages();
-    callbacks_.pending = nullptr;
+    LoadInitialState(x0);
     callbacks_.nonfinite = false;
     if (mem_) {
       Check(ERKStepReInit(mem_.get(), sun::Rhs, t0, y_.get()), t0);  // keeps options and table
@@ -160,8 +149,6 @@ class ArkodeIntegrator final : public Integrator {
     std::copy_n(N_VGetArrayPointer(y_.get()), n_, x);
   }
 
-  double time() const override { return time_; }
-  const IntegratorOptions& options() const override { return options_; }
 
   IntegratorStats stats() const override {
     IntegratorStats s;
@@ -221,15 +208,8 @@ class ArkodeIntegrator final : public Integrator {
     throw SolverError(t, name ? name.get() : fmt::format("ARKODE flag {}", flag), std::move(text));
   }
 
-  IntegratorOptions options_;
-  sunindextype n_;
-  ErkCallbackState callbacks_;
-  // Declaration order is destruction order reversed: the solver memory goes first, the
-  // context (which every other object refers to) last.
-  sun::ContextPtr ctx_;
-  sun::VectorPtr y_;  ///< initial condition, then the solution at time_
+  // Destroyed before the base's context and vectors, which the solver memory refers to.
   ErkMemPtr mem_;
-  double time_ = 0.0;
 };
 
 }  // namespace

@@ -56,23 +56,12 @@ std::string Explain(int flag, const IntegratorOptions& options) {
   }
 }
 
-class CvodeIntegrator final : public Integrator {
+class CvodeIntegrator final : public sun::SundialsIntegrator<sun::CallbackState> {
  public:
-  CvodeIntegrator(OdeSystem& system, const IntegratorOptions& options)
-      : options_(options),
-        n_(system.num_states()),
-        callbacks_(system, options.project),
-        ctx_(sun::MakeContext()),
-        y_(sun::MakeVector(n_, ctx_.get())) {}
-
-  // The solver holds a pointer to callbacks_: pin the object.
-  CvodeIntegrator(const CvodeIntegrator&) = delete;
-  CvodeIntegrator& operator=(const CvodeIntegrator&) = delete;
+  CvodeIntegrator(OdeSystem& system, const IntegratorOptions& options) : SundialsIntegrator(system, options) {}
 
   void Reset(double t0, const double* x0) override {
-    std::copy_n(x0, n_, N_VGetArrayPointer(y_.get()));
-    callbacks_.ClearMessages();
-    callbacks_.pending = nullptr;
+    LoadInitialState(x0);
     if (mem_) {
       Check(CVodeReInit(mem_.get(), t0, y_.get()), t0);  // keeps every option, zeroes counters
     } else {
@@ -99,8 +88,6 @@ class CvodeIntegrator final : public Integrator {
     std::copy_n(N_VGetArrayPointer(y_.get()), n_, x);
   }
 
-  double time() const override { return time_; }
-  const IntegratorOptions& options() const override { return options_; }
 
   IntegratorStats stats() const override {
     IntegratorStats s;
@@ -169,17 +156,10 @@ class CvodeIntegrator final : public Integrator {
     throw SolverError(t, name ? name.get() : fmt::format("CVODE flag {}", flag), std::move(text));
   }
 
-  IntegratorOptions options_;
-  sunindextype n_;
-  sun::CallbackState callbacks_;
-  // Declaration order is destruction order reversed: the solver memory goes first, the
-  // context (which every other object refers to) last.
-  sun::ContextPtr ctx_;
-  sun::VectorPtr y_;  ///< initial condition, then the solution at time_
+  // Destroyed before the base's context and vectors, which the solver memory refers to.
   sun::MatrixPtr jacobian_;
   sun::LinearSolverPtr linear_solver_;
   CvodeMemPtr mem_;
-  double time_ = 0.0;
 };
 
 }  // namespace

@@ -243,6 +243,41 @@ inline void RecordMessage(int error_code, const char* /*module*/, const char* /*
   }
 }
 
+/// What every SUNDIALS-backed integrator holds: the options, the callbacks' shared state, the
+/// context and the state vector. Derived classes add their solver memory, which (as a member of
+/// the derived class) is destroyed before these, the context last.
+template <typename Callbacks>
+class SundialsIntegrator : public Integrator {
+ public:
+  // The solver holds a pointer to callbacks_: pin the object.
+  SundialsIntegrator(const SundialsIntegrator&) = delete;
+  SundialsIntegrator& operator=(const SundialsIntegrator&) = delete;
+  double time() const override { return time_; }
+  const IntegratorOptions& options() const override { return options_; }
+
+ protected:
+  SundialsIntegrator(OdeSystem& system, const IntegratorOptions& options)
+      : options_(options),
+        n_(system.num_states()),
+        callbacks_(system, options.project),
+        ctx_(MakeContext()),
+        y_(MakeVector(n_, ctx_.get())) {}
+
+  /// Copies x0 into the state vector and forgets what an earlier run left in the callbacks.
+  void LoadInitialState(const double* x0) {
+    std::copy_n(x0, n_, N_VGetArrayPointer(y_.get()));
+    callbacks_.ClearMessages();
+    callbacks_.pending = nullptr;
+  }
+
+  IntegratorOptions options_;
+  sunindextype n_;
+  Callbacks callbacks_;
+  ContextPtr ctx_;
+  VectorPtr y_;  ///< initial condition, then the solution at time_
+  double time_ = 0.0;
+};
+
 /// Rethrows an exception parked by Rhs, if any.
 inline void RethrowPending(CallbackState& state) {
   if (state.pending) {
