@@ -125,6 +125,7 @@ TEST_F(CliTest, DivergingRunExitsTwoKeepsResultsAndMarksThemFailed) {
                        " --solver rk4 --step 0.5 --dt 0.5 --t-end 500");
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_THAT(r.out, HasSubstr("at t = "));
+  EXPECT_THAT(r.out, HasSubstr("the states that failed first: "));
   const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "failed");
   EXPECT_LT(run["t_reached"].get<double>(), 500.0);

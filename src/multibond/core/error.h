@@ -69,11 +69,16 @@ class SolverError : public std::runtime_error {
   double t() const { return t_; }
   const std::string& flag() const { return flag_; }
   const std::string& text() const { return text_; }
+  /// Indices of the states that caused the failure, worst first (largest weighted local error
+  /// estimate, or the entries that became non-finite); empty if the solver could not tell.
+  const std::vector<int>& states() const { return states_; }
+  void set_states(std::vector<int> s) { states_ = std::move(s); }
 
  private:
   double t_;
   std::string flag_;
   std::string text_;
+  std::vector<int> states_;
 };
 
 [[noreturn]] void AssertionFailed(const char* condition, const char* function, const char* file,

@@ -247,6 +247,12 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
     } catch (const SolverError& e) {
       summary.status = RunStatus::kFailed;
       summary.message = e.what();
+      if (!e.states().empty()) {
+        std::string names;
+        for (int i : e.states())
+          if (i >= 0 && i < model.num_states()) names += (names.empty() ? "" : ", ") + model.state_names()[i];
+        summary.message += "; the states that failed first: " + names;
+      }
       break;
     } catch (const std::exception& e) {
       summary.status = RunStatus::kFailed;

@@ -1,5 +1,7 @@
 #include "multibond/solve/arkode_integrator.h"
 
+#include <array>
+
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -73,6 +75,8 @@ struct ErkCallbackState : sun::CallbackState {
   using CallbackState::CallbackState;
   bool nonfinite = false;
   double nonfinite_t = 0.0;
+  std::array<int, 5> nonfinite_states{};  ///< the first entries found non-finite
+  int num_nonfinite = 0;
 };
 
 /// Post-step hook of fixed-step runs; returning nonzero stops ERKStepEvolve. A fixed step has
@@ -95,6 +99,9 @@ int CheckStateFinite(sunrealtype t, N_Vector y, void* user_data) noexcept {
     auto* state = static_cast<ErkCallbackState*>(static_cast<sun::CallbackState*>(user_data));
     state->nonfinite = true;
     state->nonfinite_t = t;
+    state->num_nonfinite = 0;
+    for (sunindextype j = 0; j < n && state->num_nonfinite < 5; ++j)
+      if (!std::isfinite(v[j])) state->nonfinite_states[state->num_nonfinite++] = static_cast<int>(j);
     return -1;
   }
   return 0;
@@ -135,9 +142,11 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
       const int flag = ERKStepEvolve(mem_.get(), tout, y_.get(), &reached, ARK_NORMAL);
       sun::RethrowPending(callbacks_);
       if (callbacks_.nonfinite) {
-        throw SolverError(callbacks_.nonfinite_t, kNonFiniteFlag,
+        SolverError error(callbacks_.nonfinite_t, kNonFiniteFlag,
                           "the state became infinite or NaN (step too large for the model, or "
                           "the solution blows up)");
+        error.set_states({callbacks_.nonfinite_states.begin(), callbacks_.nonfinite_states.begin() + callbacks_.num_nonfinite});
+        throw error;
       }
       if (flag < 0) {
         // ERKStepEvolve leaves *tret untouched on failure; ask where it stopped.
@@ -205,7 +214,13 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
     const sun::CString name(ERKStepGetReturnFlagName(flag));
     std::string text = Explain(flag, options_);
     if (!callbacks_.message().empty()) text += "; ARKODE: " + callbacks_.message();
-    throw SolverError(t, name ? name.get() : fmt::format("ARKODE flag {}", flag), std::move(text));
+    SolverError error(t, name ? name.get() : fmt::format("ARKODE flag {}", flag), std::move(text));
+    if (mem_) {
+      sun::VectorPtr ele = sun::MakeVector(n_, ctx_.get()), ewt = sun::MakeVector(n_, ctx_.get());
+      if (ERKStepGetEstLocalErrors(mem_.get(), ele.get()) == ARK_SUCCESS && ERKStepGetErrWeights(mem_.get(), ewt.get()) == ARK_SUCCESS)
+        error.set_states(sun::WorstComponents(ele.get(), ewt.get()));
+    }
+    throw error;
   }
 
   // Destroyed before the base's context and vectors, which the solver memory refers to.

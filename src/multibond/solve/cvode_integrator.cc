@@ -153,7 +153,14 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<sun::CallbackState>
     const sun::CString name(CVodeGetReturnFlagName(flag));
     std::string text = Explain(flag, options_);
     if (!callbacks_.message().empty()) text += "; CVODE: " + callbacks_.message();
-    throw SolverError(t, name ? name.get() : fmt::format("CVODE flag {}", flag), std::move(text));
+    SolverError error(t, name ? name.get() : fmt::format("CVODE flag {}", flag), std::move(text));
+    if (mem_) {
+      // Which states failed the error test: the weighted local error estimates of the last step.
+      sun::VectorPtr ele = sun::MakeVector(n_, ctx_.get()), ewt = sun::MakeVector(n_, ctx_.get());
+      if (CVodeGetEstLocalErrors(mem_.get(), ele.get()) == CV_SUCCESS && CVodeGetErrWeights(mem_.get(), ewt.get()) == CV_SUCCESS)
+        error.set_states(sun::WorstComponents(ele.get(), ewt.get()));
+    }
+    throw error;
   }
 
   // Destroyed before the base's context and vectors, which the solver memory refers to.

@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <vector>
 #include <cstdlib>
 #include <exception>
 #include <limits>
@@ -241,6 +243,23 @@ inline void RecordMessage(int error_code, const char* /*module*/, const char* /*
   } catch (...) {
     // Out of memory while copying a diagnostic: dropping the text is the only safe option.
   }
+}
+
+/// The indices of the `count` largest |ele_i * ewt_i|: the components of the last step's local
+/// error estimate that weigh most in the error test (those that made the solver fail).
+inline std::vector<int> WorstComponents(N_Vector ele, N_Vector ewt, int count = 5) {
+  const sunindextype n = N_VGetLength(ele);
+  const sunrealtype *e = N_VGetArrayPointer(ele), *w = N_VGetArrayPointer(ewt);
+  std::vector<std::pair<double, int>> weighted;
+  for (sunindextype i = 0; i < n; ++i) {
+    const double v = std::abs(e[i] * w[i]);
+    weighted.push_back({std::isfinite(v) ? v : std::numeric_limits<double>::infinity(), static_cast<int>(i)});
+  }
+  const int k = std::min<int>(count, static_cast<int>(weighted.size()));
+  std::partial_sort(weighted.begin(), weighted.begin() + k, weighted.end(), std::greater<>());
+  std::vector<int> out;
+  for (int i = 0; i < k && weighted[i].first > 0.0; ++i) out.push_back(weighted[i].second);
+  return out;
 }
 
 /// What every SUNDIALS-backed integrator holds: the options, the callbacks' shared state, the
