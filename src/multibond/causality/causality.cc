@@ -231,6 +231,15 @@ class Scap {
     if (via >= 0 && via + 1 < static_cast<int>(path.size())) {
       d.hint = fmt::format("add a compliant coupling (a C and an R on a 1-junction, joined through a 0-junction) in the bond "
                            "between {} and {}", Describe(g_, path[via]), Describe(g_, path[via + 1]));
+    } else if (IsSource(g_.element(origin).kind)) {
+      // A source, not a second storage element, fixes the variable: the hints below ("merge the
+      // two inertias/compliances into one") made no sense here (tests/models/bad/causality_source_*).
+      d.hint = e.kind == ElementKind::kI
+                   ? fmt::format("{} imposes the flow of {}: drive it with an effort source (Se) instead, or put a compliant "
+                                 "coupling (C and R on a 1-junction, joined through a 0-junction) between them",
+                                 Describe(g_, origin), Describe(g_, i))
+                   : fmt::format("{} imposes the effort on {}: drive it with a flow source (Sf) instead, or put a resistor "
+                                 "or inertia between them", Describe(g_, origin), Describe(g_, i));
     } else if (e.kind == ElementKind::kI) {
       d.hint = fmt::format("{} shares its flow with {}: give it its own 1-junction joined to the other through a "
                            "compliant coupling (C and R), or merge the two inertias into one",

@@ -84,8 +84,9 @@ class CompiledModel {
 
   /// True if the state holds orientation matrices (which Project keeps orthonormal).
   bool has_invariants() const;
-  /// Replaces every orientation matrix in x by the nearest rotation (two Bjorck iterations,
-  /// R <- R (3 I - R^T R) / 2, quadratically convergent near SO(3)). No allocation.
+  /// Replaces every orientation matrix in x by the nearest rotation (Bjorck iterations,
+  /// R <- R (3 I - R^T R) / 2, quadratically convergent near SO(3): one when the deviation is
+  /// below 1e-6, two otherwise). No allocation.
   void Project(double* x) const;
 
   Workspace MakeWorkspace() const;

@@ -67,8 +67,10 @@ inline ContextPtr MakeContext() {
 /// on the differential: 4 calls per RK4 step cost 5x the four right-hand sides). SUNDIALS lets an
 /// application replace any entry of a vector's operations table; clones inherit the table.
 namespace fast {
-inline sunrealtype* Data(N_Vector v) { return N_VGetArrayPointer(v); }
-inline sunindextype Len(N_Vector v) { return N_VGetLength(v); }
+// Every vector here is serial (MakeVector and its clones): read its content directly rather than
+// through the operations table.
+inline sunrealtype* Data(N_Vector v) { return NV_DATA_S(v); }
+inline sunindextype Len(N_Vector v) { return NV_LENGTH_S(v); }
 inline void LinearSum(sunrealtype a, N_Vector x, sunrealtype b, N_Vector y, N_Vector z) {
   const sunrealtype *xd = Data(x), *yd = Data(y);
   sunrealtype* zd = Data(z);
