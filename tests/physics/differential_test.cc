@@ -2,6 +2,8 @@
 // default settings, the energy balance falling with the tolerance, generated code against the
 // interpreter, and bit-identical reruns.
 
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -38,7 +40,8 @@ RunSummary RunInto(const fs::path& dir, double rtol = 0, double atol = 0, bool g
 }
 
 fs::path TempDir(const std::string& tag) {
-  const fs::path d = fs::temp_directory_path() / ("multibond_differential_" + tag);
+  // The process id keeps two suites running at once (optimised and sanitized) apart.
+  const fs::path d = fs::temp_directory_path() / ("multibond_differential_" + tag + "_" + std::to_string(getpid()));
   fs::remove_all(d);
   return d;
 }
