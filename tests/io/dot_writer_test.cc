@@ -1,5 +1,6 @@
 // MakeDot and RenderWithGraphviz: bonds as half-arrows with causal strokes, clusters, derivative
 // causality in red, escaping, and that Graphviz accepts what we write.
+#include "support/temp_dir.h"
 #include "multibond/io/dot_writer.h"
 
 #include <gtest/gtest.h>
@@ -90,29 +91,11 @@ std::string NodeLine(const std::string& dot, int index) {
   return "";
 }
 
-/// A fresh directory under the temporary directory, removed at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    std::string templ = (fs::temp_directory_path() / "multibond-dot-test-XXXXXX").string();
-    path_ = mkdtemp(templ.data());
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
+/// Shared helpers (tests/support/temp_dir.h); the folder keeps this file's prefix.
+struct TempDir : multibond::testing::TempDir {
+  TempDir() : multibond::testing::TempDir("multibond-dot-test") {}
 };
-
-std::string ReadFile(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using multibond::testing::ReadFile;
 
 /// Writes `dot` and renders it to SVG; returns the SVG text ("" on failure, with a test failure).
 std::string RenderSvg(const std::string& dot, const TempDir& dir, const std::string& stem = "graph") {

@@ -2,6 +2,7 @@
 // differential takes too long for this suite): every figure of the paper is written as PNG and
 // SVG under its contract name, each panel plots the columns it should (its data extent, as gnuplot
 // saw it, against the CSV), and the page shows every figure and renders in a headless Chromium.
+#include "support/temp_dir.h"
 #include "multibond/io/plots.h"
 
 #include <gtest/gtest.h>
@@ -38,28 +39,11 @@ const std::vector<std::string> kContractNames = {
     "fig28-P1-rim-point",  "fig29-P2-rim-point", "fig30-H-orientation",  "fig31-H-com",          "fig32-H-momentum",
     "fig33-H-reaction"};
 
-class TempDir {
- public:
-  TempDir() {
-    std::string templ = (fs::temp_directory_path() / "multibond-plots-test-XXXXXX").string();
-    path_ = mkdtemp(templ.data());
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
+/// Shared helpers (tests/support/temp_dir.h); the folder keeps this file's prefix.
+struct TempDir : multibond::testing::TempDir {
+  TempDir() : multibond::testing::TempDir("multibond-plots-test") {}
 };
-
-std::string ReadFile(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using multibond::testing::ReadFile;
 
 /// A synthetic run: the columns the figures and the page use, with values that tell the columns
 /// apart (each column's range is its own), kept in memory for the checks.
