@@ -62,12 +62,8 @@ std::shared_ptr<const CompiledModel> CompiledModel::Compile(BondGraph graph, con
 }
 
 void CompiledModel::Build() {
+  PrepareConstraintGraph();  // structure, causality; ideal constraints become effort sources
   const BondGraph& g = graph_;
-  DiagnosticSink sink;
-  structure_ = AnalyzeStructure(g, options_.default_domain, sink);
-  sink.ThrowIfErrors();
-  causality_ = AssignCausality(g, structure_);
-  if (causality_.has_errors()) throw ModelError(causality_.diagnostics);
 
   const int nb = g.num_bonds();
   const auto& dim = structure_.bond_dim;
@@ -126,6 +122,13 @@ void CompiledModel::Build() {
   for (int b = 0; b < nb; ++b) {
     name_class(effort_class_[b], g.bond(b).name + ".e");
     name_class(flow_class_[b], g.bond(b).name + ".f");
+  }
+
+  // --- Ideal constraints: one multiplier per dimension of each. ---
+  for (ConstraintGroup& cg : constraints_) {
+    cg.size = dim[cg.members.front().flow];  // still the member's bond (BuildConstraints maps it)
+    cg.lambda = num_lambda_;
+    num_lambda_ += cg.size;
   }
 
   // --- State layout. ---
@@ -282,6 +285,18 @@ void CompiledModel::Build() {
       case ElementKind::kSe:
       case ElementKind::kSf: {
         const int b = e.bonds.front(), n = dim[b];
+        if (e.constraint) {
+          // Its effort is the multiplier of its constraint, set by the constraint solve.
+          Instr in{};
+          in.op = Op::kMultiplier;
+          in.element = i;
+          in.n = n;
+          for (const ConstraintGroup& cg : constraints_)
+            for (const auto& m : cg.members)
+              if (m.flow == b) in.coef = cg.lambda;
+          emit(in, effort_class_[b], {}, {Definition::Kind::kSource, i, {}});
+          break;
+        }
         Instr in{};
         in.op = Op::kSource;
         in.element = i;
@@ -480,7 +495,20 @@ void CompiledModel::Build() {
   for (int k : order) plan_.push_back(instrs[k]);
   Specialize();
   BuildGathers();
-  if (options_.generate_code) {
+  {
+    std::vector<int> out_class(ni, -1);
+    for (int cls = 0; cls < nclasses; ++cls) out_class[writer[cls]] = cls;
+    std::vector<std::vector<int>> plan_reads;
+    std::vector<int> plan_writes;
+    for (int k : order) {
+      plan_reads.push_back(reads[k]);
+      plan_writes.push_back(out_class[k]);
+    }
+    BuildConstraints(plan_reads, plan_writes);
+  }
+  if (options_.generate_code && !constraints_.empty()) {
+    rhs_engine_ = "interpreter (ideal constraints are solved around the plan)";
+  } else if (options_.generate_code) {
     const JitResult jit = CompileAndLoad(GenerateSource(), "multibond_rhs");
     void* fast = jit.symbol ? dlsym(jit.library.get(), "multibond_rhs_fast") : nullptr;
     if (jit.symbol && fast) {
@@ -545,6 +573,7 @@ double CompiledModel::derivative_sign(const StateBlock& b) const {
 }
 
 bool CompiledModel::has_invariants() const {
+  if (!constraints_.empty()) return true;
   for (const StateBlock& b : blocks_)
     if (b.kind == StateBlock::Kind::kOrientation) return true;
   return false;
@@ -571,14 +600,32 @@ Workspace CompiledModel::MakeWorkspace() const {
   Workspace ws;
   ws.slots.assign(num_slots_, 0.0);
   ws.moduli.assign(num_moduli_, 0.0);
+  if (!constraints_.empty()) {
+    const int m = num_lambda_;
+    ws.lambda.assign(m, 0.0);
+    ws.con.dslots.assign(num_slots_, 0.0);
+    ws.con.dmoduli.assign(num_moduli_, 0.0);
+    ws.con.lin.assign(num_slots_, 0.0);
+    ws.con.xdot.assign(num_states(), 0.0);
+    ws.con.b.assign(b_rows_.size(), 0.0);
+    ws.con.v.assign(b_rows_.size(), 0.0);
+    ws.con.w.assign(static_cast<size_t>(m) * m, 0.0);
+    ws.con.rhs.assign(m, 0.0);
+    ws.con.scale.assign(m, 0.0);
+    ws.con.perm.assign(m, 0);
+  }
   return ws;
 }
 
 Eigen::VectorXd CompiledModel::MakeInitialState() const { return x0_; }
 
-void CompiledModel::EvalModuli(const double* x, double* out) const {
+void CompiledModel::EvalModuli(const double* x, double* out, bool derivative) const {
   for (int index : needed_moduli_) {
     const ModulusEval& me = moduli_[index];
+    if (derivative && me.kind == Modulus::Kind::kConstant) {
+      std::fill(out + me.out, out + me.out + me.rows * me.cols, 0.0);
+      continue;
+    }
     // Core 3x3 (or constant) factor, then the left selection and the scale.
     Eigen::Matrix3d core;
     if (me.kind != Modulus::Kind::kConstant) {
@@ -609,7 +656,7 @@ void CompiledModel::EvalModuli(const double* x, double* out) const {
       else
         m = me.scale * core.leftCols(me.cols);
     }
-    if (me.out_inverse >= 0) {
+    if (me.out_inverse >= 0 && !derivative) {
       Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> inv(out + me.out_inverse, me.rows, me.cols);
       if (me.kind == Modulus::Kind::kRotation && me.left < 0 && me.right < 0)
         inv = m.transpose() / (me.scale * me.scale);  // a scaled rotation: inverse by transpose
@@ -798,6 +845,156 @@ void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot
 
 
 void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Workspace& ws) const {
+  if (!constraints_.empty()) {
+    CalcConstrained(t, x, xdot, ws);
+    return;
+  }
+  EvalPlan(t, x, xdot, ws);
+}
+
+void CompiledModel::Exec(const Instr& in, double t, const double* x, const double* win, double* wout, const double* mod,
+                         const double* lambda, const double* c, const int* sum_terms, const double* sum_signs,
+                         const TimeFunction* fns) {
+  double* dst = wout + in.dst;
+  switch (in.op) {
+    case Op::kSource:
+      for (int k = 0; k < in.n; ++k) dst[k] = fns[in.coef + k](t);
+      break;
+    case Op::kStateScale:
+      for (int k = 0; k < in.n; ++k) dst[k] = c[in.coef] * x[in.src + k];
+      break;
+    case Op::kStateScale3:
+      for (int k = 0; k < 3; ++k) dst[k] = c[in.coef] * x[in.src + k];
+      break;
+    case Op::kStateDiag3:
+      for (int k = 0; k < 3; ++k) dst[k] = c[in.coef + k] * x[in.src + k];
+      break;
+    case Op::kStateMatrix:
+      for (int r = 0; r < in.n; ++r) {
+        double s = 0.0;
+        for (int k = 0; k < in.n; ++k) s += c[in.coef + r * in.n + k] * x[in.src + k];
+        dst[r] = s;
+      }
+      break;
+    case Op::kIFlowRotated:
+    case Op::kIFlowRotatedDiag: {
+      // f = R Ib^-1 R^T h: the inertia tensor turns with the body (no Euler junction structure).
+      const double* r = x + in.aux;
+      double hb[3], wb[3];
+      RotApply(hb, r, x + in.src, true);
+      if (in.op == Op::kIFlowRotatedDiag) {
+        for (int k = 0; k < 3; ++k) wb[k] = c[in.coef + k] * hb[k];
+      } else {
+        MatVec<3, 3>(wb, c + in.coef, hb);
+      }
+      RotApply(dst, r, wb, false);
+      break;
+    }
+    case Op::kScale:
+      for (int k = 0; k < in.n; ++k) dst[k] = c[in.coef] * win[in.src + k];
+      break;
+    case Op::kScale1:
+      dst[0] = c[in.coef] * win[in.src];
+      break;
+    case Op::kScale3:
+      for (int k = 0; k < 3; ++k) dst[k] = c[in.coef] * win[in.src + k];
+      break;
+    case Op::kDiag2:
+      for (int k = 0; k < 2; ++k) dst[k] = c[in.coef + k] * win[in.src + k];
+      break;
+    case Op::kDiag3:
+      for (int k = 0; k < 3; ++k) dst[k] = c[in.coef + k] * win[in.src + k];
+      break;
+    case Op::kMat13: MatVec<1, 3>(dst, c + in.coef, win + in.src); break;
+    case Op::kMat23: MatVec<2, 3>(dst, c + in.coef, win + in.src); break;
+    case Op::kMat33: MatVec<3, 3>(dst, c + in.coef, win + in.src); break;
+    case Op::kMat31: MatVec<3, 1>(dst, c + in.coef, win + in.src); break;
+    case Op::kMat32: MatVec<3, 2>(dst, c + in.coef, win + in.src); break;
+    case Op::kMatrix:
+      for (int r = 0; r < in.n; ++r) {
+        double s = 0.0;
+        for (int k = 0; k < in.m; ++k) s += c[in.coef + r * in.m + k] * win[in.src + k];
+        dst[r] = s;
+      }
+      break;
+    case Op::kRotFwd1: RotFwd<1>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, win + in.src, in.scale, in.transpose); break;
+    case Op::kRotFwd2: RotFwd<2>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, win + in.src, in.scale, in.transpose); break;
+    case Op::kRotFwd3: RotFwd<3>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, win + in.src, in.scale, in.transpose); break;
+    case Op::kRotBwd1: RotBwd<1>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, win + in.src, in.scale, in.transpose); break;
+    case Op::kRotBwd2: RotBwd<2>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, win + in.src, in.scale, in.transpose); break;
+    case Op::kRotBwd3: RotBwd<3>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, win + in.src, in.scale, in.transpose); break;
+    case Op::kLeverFwd:
+    case Op::kLeverBwd: {
+      double a[3];
+      RotApply(a, x + in.aux, c + in.coef, false);  // the lever arm in the inertial frame
+      if (in.op == Op::kLeverFwd) Cross(dst, win + in.src, a, in.scale);
+      else Cross(dst, a, win + in.src, in.scale);
+      break;
+    }
+    case Op::kModulated: {
+      const double* a = mod + in.coef;
+      // Stored row-major as (rows x cols) of M (or of M^-1); modes 1 and 3 read it transposed.
+      if (in.count == 0 || in.count == 2) {
+        for (int r = 0; r < in.n; ++r) {
+          double s = 0.0;
+          for (int k = 0; k < in.m; ++k) s += a[r * in.m + k] * win[in.src + k];
+          dst[r] = s;
+        }
+      } else {
+        for (int r = 0; r < in.n; ++r) {
+          double s = 0.0;
+          for (int k = 0; k < in.m; ++k) s += a[k * in.n + r] * win[in.src + k];
+          dst[r] = s;
+        }
+      }
+      break;
+    }
+    case Op::kCopy1:
+      dst[0] = win[in.src];
+      break;
+    case Op::kCopy3:
+      for (int k = 0; k < 3; ++k) dst[k] = win[in.src + k];
+      break;
+    case Op::kSum1: {
+      const int* src = sum_terms + in.coef;
+      const double* sign = sum_signs + in.coef;
+      double s = 0.0;
+      for (int j = 0; j < in.count; ++j) s += sign[j] * win[src[j]];
+      dst[0] = s;
+      break;
+    }
+    case Op::kSum3: {
+      const int* src = sum_terms + in.coef;
+      const double* sign = sum_signs + in.coef;
+      double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+      for (int j = 0; j < in.count; ++j) {
+        const double* v = win + src[j];
+        s0 += sign[j] * v[0];
+        s1 += sign[j] * v[1];
+        s2 += sign[j] * v[2];
+      }
+      dst[0] = s0;
+      dst[1] = s1;
+      dst[2] = s2;
+      break;
+    }
+    case Op::kMultiplier:
+    for (int k = 0; k < in.n; ++k) dst[k] = lambda[in.coef + k];
+    break;
+  case Op::kSum: {
+      const int* src = sum_terms + in.coef;
+      const double* sign = sum_signs + in.coef;
+      for (int k = 0; k < in.n; ++k) {
+        double s = 0.0;
+        for (int j = 0; j < in.count; ++j) s += sign[j] * win[src[j] + k];
+        dst[k] = s;
+      }
+      break;
+    }
+  }
+}
+
+void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace& ws) const {
   double* w = ws.slots.data();
   double* mod = ws.moduli.data();
   if (!needed_moduli_.empty()) EvalModuli(x, mod);
@@ -808,142 +1005,9 @@ void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Wor
     return;
   }
   const double* c = coef_.data();
-  for (const Instr& in : plan_) {
-    double* dst = w + in.dst;
-    switch (in.op) {
-      case Op::kSource:
-        for (int k = 0; k < in.n; ++k) dst[k] = source_fns_[in.coef + k](t);
-        break;
-      case Op::kStateScale:
-        for (int k = 0; k < in.n; ++k) dst[k] = c[in.coef] * x[in.src + k];
-        break;
-      case Op::kStateScale3:
-        for (int k = 0; k < 3; ++k) dst[k] = c[in.coef] * x[in.src + k];
-        break;
-      case Op::kStateDiag3:
-        for (int k = 0; k < 3; ++k) dst[k] = c[in.coef + k] * x[in.src + k];
-        break;
-      case Op::kStateMatrix:
-        for (int r = 0; r < in.n; ++r) {
-          double s = 0.0;
-          for (int k = 0; k < in.n; ++k) s += c[in.coef + r * in.n + k] * x[in.src + k];
-          dst[r] = s;
-        }
-        break;
-      case Op::kIFlowRotated:
-      case Op::kIFlowRotatedDiag: {
-        // f = R Ib^-1 R^T h: the inertia tensor turns with the body (no Euler junction structure).
-        const double* r = x + in.aux;
-        double hb[3], wb[3];
-        RotApply(hb, r, x + in.src, true);
-        if (in.op == Op::kIFlowRotatedDiag) {
-          for (int k = 0; k < 3; ++k) wb[k] = c[in.coef + k] * hb[k];
-        } else {
-          MatVec<3, 3>(wb, c + in.coef, hb);
-        }
-        RotApply(dst, r, wb, false);
-        break;
-      }
-      case Op::kScale:
-        for (int k = 0; k < in.n; ++k) dst[k] = c[in.coef] * w[in.src + k];
-        break;
-      case Op::kScale1:
-        dst[0] = c[in.coef] * w[in.src];
-        break;
-      case Op::kScale3:
-        for (int k = 0; k < 3; ++k) dst[k] = c[in.coef] * w[in.src + k];
-        break;
-      case Op::kDiag2:
-        for (int k = 0; k < 2; ++k) dst[k] = c[in.coef + k] * w[in.src + k];
-        break;
-      case Op::kDiag3:
-        for (int k = 0; k < 3; ++k) dst[k] = c[in.coef + k] * w[in.src + k];
-        break;
-      case Op::kMat13: MatVec<1, 3>(dst, c + in.coef, w + in.src); break;
-      case Op::kMat23: MatVec<2, 3>(dst, c + in.coef, w + in.src); break;
-      case Op::kMat33: MatVec<3, 3>(dst, c + in.coef, w + in.src); break;
-      case Op::kMat31: MatVec<3, 1>(dst, c + in.coef, w + in.src); break;
-      case Op::kMat32: MatVec<3, 2>(dst, c + in.coef, w + in.src); break;
-      case Op::kMatrix:
-        for (int r = 0; r < in.n; ++r) {
-          double s = 0.0;
-          for (int k = 0; k < in.m; ++k) s += c[in.coef + r * in.m + k] * w[in.src + k];
-          dst[r] = s;
-        }
-        break;
-      case Op::kRotFwd1: RotFwd<1>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, w + in.src, in.scale, in.transpose); break;
-      case Op::kRotFwd2: RotFwd<2>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, w + in.src, in.scale, in.transpose); break;
-      case Op::kRotFwd3: RotFwd<3>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, w + in.src, in.scale, in.transpose); break;
-      case Op::kRotBwd1: RotBwd<1>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, w + in.src, in.scale, in.transpose); break;
-      case Op::kRotBwd2: RotBwd<2>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, w + in.src, in.scale, in.transpose); break;
-      case Op::kRotBwd3: RotBwd<3>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, w + in.src, in.scale, in.transpose); break;
-      case Op::kLeverFwd:
-      case Op::kLeverBwd: {
-        double a[3];
-        RotApply(a, x + in.aux, c + in.coef, false);  // the lever arm in the inertial frame
-        if (in.op == Op::kLeverFwd) Cross(dst, w + in.src, a, in.scale);
-        else Cross(dst, a, w + in.src, in.scale);
-        break;
-      }
-      case Op::kModulated: {
-        const double* a = mod + in.coef;
-        // Stored row-major as (rows x cols) of M (or of M^-1); modes 1 and 3 read it transposed.
-        if (in.count == 0 || in.count == 2) {
-          for (int r = 0; r < in.n; ++r) {
-            double s = 0.0;
-            for (int k = 0; k < in.m; ++k) s += a[r * in.m + k] * w[in.src + k];
-            dst[r] = s;
-          }
-        } else {
-          for (int r = 0; r < in.n; ++r) {
-            double s = 0.0;
-            for (int k = 0; k < in.m; ++k) s += a[k * in.n + r] * w[in.src + k];
-            dst[r] = s;
-          }
-        }
-        break;
-      }
-      case Op::kCopy1:
-        dst[0] = w[in.src];
-        break;
-      case Op::kCopy3:
-        for (int k = 0; k < 3; ++k) dst[k] = w[in.src + k];
-        break;
-      case Op::kSum1: {
-        const int* src = sum_terms_.data() + in.coef;
-        const double* sign = sum_signs_.data() + in.coef;
-        double s = 0.0;
-        for (int j = 0; j < in.count; ++j) s += sign[j] * w[src[j]];
-        dst[0] = s;
-        break;
-      }
-      case Op::kSum3: {
-        const int* src = sum_terms_.data() + in.coef;
-        const double* sign = sum_signs_.data() + in.coef;
-        double s0 = 0.0, s1 = 0.0, s2 = 0.0;
-        for (int j = 0; j < in.count; ++j) {
-          const double* v = w + src[j];
-          s0 += sign[j] * v[0];
-          s1 += sign[j] * v[1];
-          s2 += sign[j] * v[2];
-        }
-        dst[0] = s0;
-        dst[1] = s1;
-        dst[2] = s2;
-        break;
-      }
-      case Op::kSum: {
-        const int* src = sum_terms_.data() + in.coef;
-        const double* sign = sum_signs_.data() + in.coef;
-        for (int k = 0; k < in.n; ++k) {
-          double s = 0.0;
-          for (int j = 0; j < in.count; ++j) s += sign[j] * w[src[j] + k];
-          dst[k] = s;
-        }
-        break;
-      }
-    }
-  }
+  const double* lambda = ws.lambda.data();
+  for (const Instr& in : plan_)
+    Exec(in, t, x, w, w, mod, lambda, c, sum_terms_.data(), sum_signs_.data(), source_fns_.data());
   for (const Gather& gt : gathers_) {
     double* out = xdot + gt.state;
     switch (gt.kind) {

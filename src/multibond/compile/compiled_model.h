@@ -28,6 +28,7 @@ struct CompileOptions {
   /// compiler (cached by the source's hash; see compile/jit.h). Falls back to the plan
   /// interpreter, with the reason in CompiledModel::rhs_engine(), if no compiler works.
   bool generate_code = false;
+  bool ideal_constraints = false;  ///< accept derivative causality: dependent storage handled exactly by constraint efforts (see docs/design.md)
 };
 
 /// Scratch of one evaluation: every effort and flow, and the moduli of the MTF/MGY. Made by
@@ -35,6 +36,18 @@ struct CompileOptions {
 struct Workspace {
   std::vector<double> slots;
   std::vector<double> moduli;
+  /// Ideal constraints only (empty otherwise): the constraint efforts (multipliers) of the last
+  /// evaluation, and the scratch that solving for them needs.
+  std::vector<double> lambda;
+  struct ConstraintScratch {
+    std::vector<double> dslots, dmoduli;  ///< time derivatives of slots and moduli (tangent pass)
+    std::vector<double> lin;              ///< response of the slots to one unit multiplier
+    std::vector<double> xdot;             ///< dx/dt with the multipliers at zero
+    std::vector<double> b;                ///< per multiplier: its momentum-rate response (compressed)
+    std::vector<double> v;                ///< per multiplier: the flow response M^-1 b (compressed)
+    std::vector<double> w, rhs, scale;    ///< the m x m system W lambda = rhs, and its scaling
+    std::vector<int> perm;
+  } con;
 };
 
 /// A named, contiguous group of states (I momenta, C displacements, auxiliary states, energy).
@@ -88,6 +101,17 @@ class CompiledModel {
   /// R <- R (3 I - R^T R) / 2, quadratically convergent near SO(3): one when the deviation is
   /// below 1e-6, two otherwise). No allocation.
   void Project(double* x) const;
+  /// The same, then (ideal constraints) the momenta onto the constraints' velocity manifold by
+  /// the kinetic-energy metric: p += B mu with W mu = -g(x). No allocation.
+  void Project(double t, double* x, Workspace& ws) const;
+
+  // --- ideal constraints (docs/design.md): constraint efforts solved at every evaluation ---
+  bool has_constraints() const { return !constraints_.empty(); }
+  int num_multipliers() const { return num_lambda_; }
+  /// Velocity-level residual of every constraint at (t, x), |g - target| (max norm); fills ws.
+  double ConstraintResidual(double t, const double* x, Workspace& ws) const;
+  /// Names of the constraints ("S1_held.rigid", "J2.cut"), one per constraint group.
+  std::vector<std::string> constraint_names() const;
 
   Workspace MakeWorkspace() const;
   Eigen::VectorXd MakeInitialState() const;
@@ -148,6 +172,8 @@ class CompiledModel {
     kMat13, kMat23, kMat33, kMat31, kMat32,
     kRotFwd1, kRotFwd2, kRotFwd3, kRotBwd1, kRotBwd2, kRotBwd3, kLeverFwd, kLeverBwd,
     kSum1, kSum3, kCopy1, kCopy3,
+    // ideal constraints: dst = the multipliers of one constraint (Workspace::lambda + coef)
+    kMultiplier,
   };
   /// One instruction. Plain data: the loop over the plan dispatches on `op` only.
   struct Instr {
@@ -185,7 +211,29 @@ class CompiledModel {
     double sign;
   };
 
-  void EvalModuli(const double* x, double* moduli) const;
+  /// The moduli at x; with `derivative`, their time derivatives dM/dt given x = dx/dt (every
+  /// modulus is linear in its orientation state; constants give zero; no inverses).
+  void EvalModuli(const double* x, double* moduli, bool derivative = false) const;
+  /// The plain evaluation of the plan (interpreter or generated code) and the gathers.
+  void EvalPlan(double t, const double* x, double* xdot, Workspace& ws) const;
+  /// One instruction of the plan, on slots `w` (interpreter and constraint passes share it).
+  /// Reads slots from `win`, writes its output slot in `wout` (the same array in the plain pass).
+  static void Exec(const Instr& in, double t, const double* x, const double* win, double* wout, const double* mod,
+                   const double* lambda, const double* c, const int* sum_terms, const double* sum_signs,
+                   const TimeFunction* fns);
+  /// Ideal constraints: the graph rewriting before the plan, and the plan's constraint tables.
+  void PrepareConstraintGraph();
+  void BuildConstraints(const std::vector<std::vector<int>>& plan_reads, const std::vector<int>& plan_writes);
+  void CalcConstrained(double t, const double* x, double* xdot, Workspace& ws) const;
+  /// d/dt of every slot along (xdot, d/dt sources), into ws.con.dslots.
+  void Tangent(double t, const double* x, const double* xdot, Workspace& ws) const;
+  /// B (momentum-rate response to each unit multiplier), V = M^-1 B and W = B^T V at x.
+  void AssembleConstraintMatrix(double t, const double* x, Workspace& ws) const;
+  /// Solves W y = rhs in place (rhs in ws.con.rhs) by a scaled, pivoted LDL^T; pivots below a
+  /// relative 1e-11 are redundant constraints and get a zero multiplier.
+  void SolveConstraintSystem(Workspace& ws) const;
+  /// g(x) - target(t) of every multiplier component, from filled slots, into `out`.
+  void ConstraintValues(double t, const double* w, double* out) const;
   /// Rewrites generic instructions into fixed-size kernels (see Op).
   void Specialize();
   /// The state-derivative gathers, from the state layout and the slot classes.
@@ -218,6 +266,29 @@ class CompiledModel {
   GeneratedRhs generated_fast_ = nullptr;
   std::shared_ptr<void> generated_library_;  ///< keeps the shared object loaded
   std::string rhs_engine_ = "interpreter";
+
+  /// An ideal constraint: an Sf marked `constraint` (now an effort source of unknown effort), or
+  /// a pair of such sources that cut the bond of a storage element in derivative causality.
+  /// Its velocity-level equation: g = sum over members of s_k (f_k - v_k(t)) = 0, with s_k = +1
+  /// if the member's bond points away from it (lambda g is the power it delivers).
+  struct ConstraintGroup {
+    std::string name;
+    int element = -1;  ///< the constraint source (or, for a cut, the storage element)
+    int size = 0;
+    int lambda = 0;    ///< offset in Workspace::lambda
+    struct Member { int flow; double sign; int source_fn; };  ///< source_fn: -1 = no target
+    std::vector<Member> members;
+    std::vector<int> starts;    ///< plan indices of its multiplier instructions (two for a cut)
+    std::vector<int> closure;   ///< plan indices reached by its multiplier (effort side)
+    std::vector<int> momenta;   ///< momentum gathers (indices in gathers_) it reaches
+  };
+  std::vector<ConstraintGroup> constraints_;
+  int num_lambda_ = 0;
+  int num_momenta_ = 0;                 ///< momentum states (B's rows)
+  std::vector<int> momentum_row_;       ///< per state: row in B, or -1
+  std::vector<int> b_offset_;           ///< per multiplier: offset of its compressed column
+  std::vector<int> b_rows_;             ///< compressed columns' momentum state offsets
+  std::vector<int> flow_instr_of_block_;  ///< per momentum gather: its I-flow instruction in plan_
 
   std::vector<StateBlock> blocks_;
   std::vector<std::string> state_names_, state_units_;

@@ -91,6 +91,11 @@ struct Element {
   std::string rotation;
   Modulus modulus;            ///< MTF, MGY
   SourceValue source;         ///< Se, Sf
+  /// Sf only: an ideal constraint. Its flow is imposed exactly by an unknown effort (the
+  /// reaction), solved at every evaluation instead of being propagated causally, so it may act
+  /// through transformers that cannot invert (a 2 x 3 selection) and on storage elements that
+  /// would otherwise be in derivative causality (see docs/design.md, "Ideal constraints").
+  bool constraint = false;
   Eigen::VectorXd initial;    ///< I: p(0); C: q(0) (empty = zero)
   /// I, C: the name of the state (default "<name>.p" for I, "<name>.q" for C). The rigid-body
   /// library names a body's momenta "B.p" and "B.h" this way.
@@ -167,6 +172,12 @@ class BondGraph {
   /// Connects `from` -> `to` (half-arrow at `to`). Throws ModelError for unknown names.
   int Connect(const std::string& from, const std::string& to, int dim = 0, std::string bond_name = {},
               SourceLocation where = {});
+  /// Appends a bond as given, without adding it to its elements' lists of bonds (for rewiring
+  /// passes that place it themselves, e.g. the cut of an ideal constraint). Returns its index.
+  int AppendBond(Bond b) {
+    bonds_.push_back(std::move(b));
+    return static_cast<int>(bonds_.size()) - 1;
+  }
   int AddAux(AuxState a);
   void AddOutput(OutputDecl o) { outputs_.push_back(std::move(o)); }
 

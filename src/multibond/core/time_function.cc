@@ -73,6 +73,25 @@ double TimeFunction::operator()(double t) const {
   return 0.0;
 }
 
+double TimeFunction::Derivative(double t) const {
+  switch (kind) {
+    case Kind::kConstant:
+    case Kind::kStep:  // zero away from the step itself (an impulse there is not representable)
+      return 0.0;
+    case Kind::kRamp:
+      return t <= start ? 0.0 : slope;
+    case Kind::kSine:
+      return amplitude * 2.0 * std::numbers::pi * frequency * std::cos(2.0 * std::numbers::pi * frequency * t + phase);
+    case Kind::kTable: {
+      if (t < table_t.front() || t >= table_t.back()) return 0.0;
+      const auto it = std::upper_bound(table_t.begin(), table_t.end(), t);
+      const size_t i = static_cast<size_t>(it - table_t.begin());
+      return (table_v[i] - table_v[i - 1]) / (table_t[i] - table_t[i - 1]);
+    }
+  }
+  return 0.0;
+}
+
 TimeFunction TimeFunction::Scaled(double factor) const {
   TimeFunction f = *this;
   f.value *= factor;

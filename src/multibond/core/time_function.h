@@ -27,6 +27,9 @@ struct TimeFunction {
   static TimeFunction Table(std::vector<double> t, std::vector<double> v);
 
   double operator()(double t) const;
+  /// d/dt at t (the right derivative at a ramp's or table's corners; 0 for a step, whose jump
+  /// has no derivative). Ideal constraints on prescribed flows need it (their acceleration).
+  double Derivative(double t) const;
   /// The same function multiplied by `factor`.
   TimeFunction Scaled(double factor) const;
   bool is_constant() const { return kind == Kind::kConstant; }

@@ -23,7 +23,8 @@ namespace {
 using Env = std::map<std::string, double>;  // submodel parameters in scope
 
 const std::vector<std::string> kTopKeys = {"model", "description", "domain", "elements", "bonds", "states", "outputs",
-                                           "simulation", "submodels", "gravity", "bodies", "joints", "gears", "drives", "points"};
+                                           "simulation", "submodels", "gravity", "bodies", "joints", "gears", "drives", "points",
+                                           "constraints", "rigid"};
 const std::vector<std::string> kCommonKeys = {"type", "dim", "domain", "components", "description"};
 
 class Loader {
@@ -50,6 +51,13 @@ class Loader {
     graph_ = BondGraph(name);
     graph_.set_source_file(file_);
     if (root["domain"]) out.compile.default_domain = Domain(root["domain"], "domain");
+    if (root["constraints"]) {
+      const std::string c = root["constraints"].IsScalar() ? root["constraints"].Scalar() : "";
+      if (c == "ideal") out.compile.ideal_constraints = true;
+      else if (c != "compliant")
+        sink_.Error(Loc(root["constraints"]), "constraints", fmt::format("unknown constraints '{}'", c),
+                    "write 'constraints: ideal' (derivative causality solved exactly) or 'constraints: compliant' (the default)");
+    }
     if (root["submodels"]) ReadSubmodelDefs(root["submodels"]);
     const bool mechanism = root["bodies"].IsDefined();
     if (mechanism) ReadMechanism(root);
@@ -446,6 +454,10 @@ class Loader {
       case ElementKind::kSf: {
         const char* key = e.kind == ElementKind::kSe ? "effort" : "flow";
         keys.push_back(key);
+        if (e.kind == ElementKind::kSf) {
+          keys.push_back("constraint");
+          if (spec["constraint"]) e.constraint = Bool(spec["constraint"], name);
+        }
         if (require(key, e.kind == ElementKind::kSe ? "e.g. effort: 1.0 or effort: {step: 1.0}" : "e.g. flow: 0 or flow: {sine: {amplitude: 1, frequency: 2}}"))
           e.source = ReadSource(spec[key], name, env);
         break;
@@ -840,7 +852,7 @@ class Loader {
       return std::nullopt;
     }
     mech::Coupling c;
-    std::vector<std::string> keys = {"K", "R", "stiffness", "damping"};
+    std::vector<std::string> keys = {"K", "R", "stiffness", "damping", "rigid"};
     if (!fixed_rows) keys.insert(keys.end(), {"directions", "axes", "frame"});
     CheckKeys(n, keys, element);
     if (fixed_rows) {
@@ -854,7 +866,13 @@ class Loader {
     if (fixed_rows && c.directions.rows() == 3 && c.directions.cols() == 3 && c.directions == Eigen::MatrixXd::Identity(3, 3))
       c.components = {"x", "y", "z"};
     c.frame = frame;
-    Gains(n, element, static_cast<int>(c.directions.rows()), &c.stiffness, &c.damping);
+    c.rigid = (n["rigid"] && Bool(n["rigid"], element)) || rigid_joint_;
+    if (c.rigid) {
+      // K and R, if given, are the compliant variant's: kept in the file, unused while rigid.
+      c.stiffness = c.damping = Eigen::VectorXd::Zero(c.directions.rows());
+    } else {
+      Gains(n, element, static_cast<int>(c.directions.rows()), &c.stiffness, &c.damping);
+    }
     return c;
   }
 
@@ -925,7 +943,23 @@ class Loader {
     return mech::MassProperties::Given(m, inertia);
   }
 
+  /// The model's 'rigid' key: 'all' (every joint and gear mesh) or a list of their names.
+  bool RigidByModel(const std::string& name) const {
+    if (rigid_all_) return true;
+    return std::find(rigid_names_.begin(), rigid_names_.end(), name) != rigid_names_.end();
+  }
+
   void ReadMechanism(const YAML::Node& root) {
+    if (const YAML::Node r = root["rigid"]) {
+      if (r.IsScalar() && (r.Scalar() == "all" || r.Scalar() == "true")) {
+        rigid_all_ = true;
+      } else if (r.IsSequence()) {
+        for (const auto& n : r) rigid_names_.push_back(n.Scalar());
+      } else {
+        sink_.Error(Loc(r), "rigid", "'rigid' is 'all' or a list of joint and gear mesh names",
+                    "write e.g. 'rigid: all' or 'rigid: [G_bearing, mesh_GA]'");
+      }
+    }
     mech::Mechanism m;
     if (root["gravity"]) m.SetGravity(Vec3(root["gravity"], "gravity"));
     const YAML::Node bodies = root["bodies"];
@@ -1008,7 +1042,11 @@ class Loader {
                       guess.empty() ? "use coupling, revolute, fixed, spherical, prismatic or held" : fmt::format("did you mean '{}'?", guess));
           continue;
         }
-        CheckKeys(j, {"type", "parent", "child", "at", "child_at", "axis", "translation", "rotation", "description"}, name);
+        CheckKeys(j, {"type", "parent", "child", "at", "child_at", "axis", "translation", "rotation", "rigid", "description"}, name);
+        // 'rigid: true' on the joint (or the model's 'rigid: all' / list) makes each of its
+        // couplings an ideal constraint; the named kinds then need no coupling sections.
+        rigid_joint_ = (j["rigid"] && Bool(j["rigid"], name)) || RigidByModel(name);
+        const YAML::Node rigid_section = YAML::Load("{rigid: true}");
         joint.kind = type;
         joint.parent = j["parent"] ? j["parent"].Scalar() : std::string(mech::kGround);
         if (type == "held" && joint.parent != mech::kGround) sink_.Error(Loc(j["parent"]), name, "a 'held' joint holds its child to the ground", "remove 'parent'");
@@ -1038,15 +1076,19 @@ class Loader {
           joint.rotation = ReadCoupling(j["rotation"], name, "rotation", nullptr, F::kParent);
         } else {
           const bool trans = type != "prismatic", rot_all = type == "fixed" || type == "weld" || type == "held" || type == "prismatic";
-          if (j["translation"]) joint.translation = ReadCoupling(j["translation"], name, "translation", trans ? &all : &perp, trans ? F::kWorld : F::kParent);
-          else sink_.Error(joint.where, name, fmt::format("a {} joint needs 'translation: {{K: ..., R: ...}}'", type));
+          if (j["translation"] || rigid_joint_)
+            joint.translation = ReadCoupling(j["translation"] ? j["translation"] : rigid_section, name, "translation",
+                                             trans ? &all : &perp, trans ? F::kWorld : F::kParent);
+          else sink_.Error(joint.where, name, fmt::format("a {} joint needs 'translation: {{K: ..., R: ...}}' (or 'rigid: true')", type));
           if (type != "spherical") {
-            if (j["rotation"]) joint.rotation = ReadCoupling(j["rotation"], name, "rotation", rot_all ? &all : &perp, F::kParent);
-            else sink_.Error(joint.where, name, fmt::format("a {} joint needs 'rotation: {{K: ..., R: ...}}'", type));
+            if (j["rotation"] || rigid_joint_)
+              joint.rotation = ReadCoupling(j["rotation"] ? j["rotation"] : rigid_section, name, "rotation", rot_all ? &all : &perp, F::kParent);
+            else sink_.Error(joint.where, name, fmt::format("a {} joint needs 'rotation: {{K: ..., R: ...}}' (or 'rigid: true')", type));
           } else if (j["rotation"]) {
             sink_.Error(Loc(j["rotation"]), name, "a spherical joint leaves every rotation free", "remove 'rotation', or use type: coupling");
           }
         }
+        rigid_joint_ = false;
         m.AddJoint(joint);
       }
     }
@@ -1057,7 +1099,8 @@ class Loader {
         mech::GearMesh gm;
         gm.name = name;
         gm.where = Loc(kv.first);
-        CheckKeys(g, {"carrier", "a", "b", "K", "R", "stiffness", "damping", "description"}, name);
+        CheckKeys(g, {"carrier", "a", "b", "K", "R", "stiffness", "damping", "rigid", "description"}, name);
+        gm.rigid = (g["rigid"] && Bool(g["rigid"], name)) || RigidByModel(name);
         gm.carrier = g["carrier"] ? g["carrier"].Scalar() : std::string(mech::kGround);
         auto side = [&](const char* key, std::string* body, Eigen::Vector3d* axis, double* teeth) {
           const YAML::Node s = g[key];
@@ -1075,10 +1118,12 @@ class Loader {
         };
         side("a", &gm.body_a, &gm.axis_a, &gm.teeth_a);
         side("b", &gm.body_b, &gm.axis_b, &gm.teeth_b);
-        Eigen::VectorXd k, r;
-        Gains(g, name, 1, &k, &r);
-        gm.stiffness = k[0];
-        gm.damping = r[0];
+        if (!gm.rigid) {  // a rigid mesh ignores K and R (kept for the compliant variant)
+          Eigen::VectorXd k, r;
+          Gains(g, name, 1, &k, &r);
+          gm.stiffness = k[0];
+          gm.damping = r[0];
+        }
         m.AddGear(gm);
       }
     }
@@ -1143,6 +1188,9 @@ class Loader {
   std::shared_ptr<const mech::Mechanism> mechanism_;
   BondGraph graph_;
   DiagnosticSink sink_;
+  bool rigid_joint_ = false;  ///< the joint being read is rigid (its couplings default to rigid)
+  bool rigid_all_ = false;    ///< the model's 'rigid: all'
+  std::vector<std::string> rigid_names_;  ///< the model's 'rigid: [names]' 
   std::map<std::string, SubmodelDef> submodels_;
   std::map<std::string, std::set<std::string>> instance_ports_;
   std::map<std::string, SourceLocation> instance_where_;

@@ -81,6 +81,13 @@ class Expander {
     auto coupling = [&](const std::optional<Coupling>& c, const SourceLocation& w, const std::string& owner, const char* what) {
       if (!c) return;
       const int k = static_cast<int>(c->directions.rows());
+      if (c->rigid) {
+        if (k < 1 || k > 3 || c->directions.cols() != 3)
+          sink_.Error("mech.coupling", w, owner, fmt::format("{} coupling needs 1 to 3 directions", what));
+        else if (Eigen::FullPivLU<Eigen::MatrixXd>(c->directions).rank() < k)
+          sink_.Error("mech.coupling", w, owner, fmt::format("{} directions are not independent", what));
+        return;
+      }
       if (k < 1 || k > 3 || c->directions.cols() != 3 || c->stiffness.size() != k || c->damping.size() != k) {
         sink_.Error("mech.coupling", w, owner, fmt::format("{} coupling needs 1 to 3 directions with one stiffness and damping each", what));
         return;
@@ -111,8 +118,10 @@ class Expander {
       body_ref(gm.body_a, gm.where, gm.name, false, true);
       body_ref(gm.body_b, gm.where, gm.name, false, true);
       if (!(gm.teeth_a > 0) || !(gm.teeth_b > 0)) sink_.Error("param.range", gm.where, gm.name, "teeth counts must be > 0");
-      if (!(gm.stiffness > 0)) sink_.Error("param.range", gm.where, gm.name, fmt::format("mesh stiffness must be > 0 (got {:g})", gm.stiffness), "a rigid mesh needs an ideal constraint; give the mesh a stiffness");
-      if (!(gm.damping >= 0)) sink_.Error("param.range", gm.where, gm.name, "mesh damping must be >= 0");
+      if (!gm.rigid && !(gm.stiffness > 0))
+        sink_.Error("param.range", gm.where, gm.name, fmt::format("mesh stiffness must be > 0 (got {:g})", gm.stiffness),
+                    "give the mesh a stiffness, or make it an ideal constraint with 'rigid: true'");
+      if (!gm.rigid && !(gm.damping >= 0)) sink_.Error("param.range", gm.where, gm.name, "mesh damping must be >= 0");
       if (gm.axis_a.norm() < 1e-12 || gm.axis_b.norm() < 1e-12) sink_.Error("param.range", gm.where, gm.name, "gear axes must be non-zero vectors");
     }
     for (const Drive& d : m_.drives()) {
@@ -263,13 +272,25 @@ class Expander {
     g_.Add(mtf);
   }
 
-  /// A 1-junction `name` of dimension k with a C (K) and an R on it, fed by `from`.
+  /// A 1-junction `name` of dimension k with a C (K) and an R on it, fed by `from`; or, when
+  /// `rigid`, with an ideal constraint `name.rigid` (an Sf of zero flow held by its reaction).
   void AddCompliance(const std::string& from, const std::string& name, const Eigen::VectorXd& k, const Eigen::VectorXd& r,
-                     const std::string& domain, const std::vector<std::string>& comps, const SourceLocation& where) {
+                     const std::string& domain, const std::vector<std::string>& comps, const SourceLocation& where,
+                     bool rigid = false) {
     const int n = static_cast<int>(k.size());
     Element j = Make(name, ElementKind::kOne, n, domain, where);
     j.components = comps;
     g_.Add(j);
+    if (rigid) {
+      Element c = Make(name + ".rigid", ElementKind::kSf, n, domain, where);
+      c.source.components = {TimeFunction::Constant(0.0)};
+      c.constraint = true;
+      c.components = comps;
+      g_.Add(c);
+      Bond(from, name, name + ".in");
+      Bond(name + ".rigid", name, name + ".rigid");
+      return;
+    }
     Element c = Make(name + ".K", ElementKind::kC, n, domain, where);
     c.param = n == 1 ? Param::Scalar(k[0]) : Param::Matrix(k.asDiagonal());
     c.components = comps;
@@ -326,7 +347,8 @@ class Expander {
       }
       AddFrameElement(j.name + ".t_frame", c.frame, j.parent, j.child, c.directions, j.where);
       Bond(sum, j.name + ".t_frame", j.name + ".t_frame");
-      AddCompliance(j.name + ".t_frame", j.name + ".t", c.stiffness, c.damping, "translation", DirectionNames(c), j.where);
+      AddCompliance(j.name + ".t_frame", j.name + ".t", c.stiffness, c.damping, "translation", DirectionNames(c), j.where,
+                    c.rigid);
       AddOutput(SumOutput(j.name + ".F", {{j.name + ".t_child.e", -1.0}}, "N", j.where));
     }
     if (j.rotation) {
@@ -335,7 +357,8 @@ class Expander {
       AddFrameElement(j.name + ".r_frame", c.frame, j.parent, j.child, c.directions, j.where);
       Bond(rel, j.name + ".r_frame", j.name + ".r_in");
       if (IsGround(j.parent)) info_[j.child].moment_terms.push_back({j.name + ".r_in.e", -1.0});
-      AddCompliance(j.name + ".r_frame", j.name + ".r", c.stiffness, c.damping, "rotation", DirectionNames(c), j.where);
+      AddCompliance(j.name + ".r_frame", j.name + ".r", c.stiffness, c.damping, "rotation", DirectionNames(c), j.where,
+                    c.rigid);
       AddOutput(SumOutput(j.name + ".M", {{j.name + ".r_in.e", -1.0}}, "N m", j.where));
     }
   }
@@ -392,7 +415,7 @@ class Expander {
       if (IsGround(gm.carrier)) info_[body].moment_terms.push_back({spin + ".in.e", -1.0});
     }
     AddCompliance(sum, gm.name + ".mesh", Eigen::VectorXd::Constant(1, gm.stiffness), Eigen::VectorXd::Constant(1, gm.damping),
-                  "rotation", {}, gm.where);
+                  "rotation", {}, gm.where, gm.rigid);
     OutputDecl torque;
     torque.name = gm.name + ".torque";
     torque.variable = sum + ".e";

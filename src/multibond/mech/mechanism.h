@@ -13,7 +13,9 @@
 ///   outputs B.v, B.omega, B.F, B.M (sum of the couplings' forces and moments on B, inertial
 ///   frame, moments about the CoM), B.orthonormality (|R^T R - I|);
 ///   J.F, J.M (force and moment of the joint on its child, inertial frame), J.t.K, J.t.R, J.r.K,
-///   J.r.R (the couplings' C and R); G.torque, G.deflection; D.torque (or D.force); points P.x,y,z.
+///   J.r.R (the couplings' C and R; a rigid coupling has J.t.rigid / J.r.rigid instead, an ideal
+///   constraint whose effort is the reaction); G.torque, G.deflection (G.mesh.rigid when rigid);
+///   D.torque (or D.force); points P.x,y,z.
 
 #include <optional>
 #include <string>
@@ -49,6 +51,9 @@ struct Coupling {
   Eigen::VectorXd damping;    ///< per direction (N s/m or N m s/rad)
   Frame frame = Frame::kWorld;
   std::vector<std::string> components;  ///< names of the directions ("x", "y", ...)
+  /// An ideal constraint instead of the C and R: zero relative velocity in `directions`, held
+  /// exactly by a reaction (stiffness and damping are ignored). See docs/design.md.
+  bool rigid = false;
 };
 
 /// A joint: compliant couplings between a point of the parent (or of the ground) and a point of
@@ -91,6 +96,7 @@ struct GearMesh {
   Eigen::Vector3d axis_a = Eigen::Vector3d::UnitZ(), axis_b = Eigen::Vector3d::UnitZ();  ///< carrier frame
   double teeth_a = 1.0, teeth_b = 1.0;
   double stiffness = 0.0, damping = 0.0;  ///< N m/rad, N m s/rad (referred to gear a)
+  bool rigid = false;  ///< an ideal mesh: zero deflection rate, held by the mesh torque
   SourceLocation where;
 };
 

@@ -188,6 +188,8 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   Workspace& ws = system.workspace();
   Eigen::VectorXd x = model.MakeInitialState();
   Eigen::VectorXd xdot(x.size());
+  // Ideal constraints start satisfied: initial momenta are projected onto them.
+  if (model.has_constraints()) model.Project(options.t_start, x.data(), ws);
   auto integrator = MakeIntegrator(system, options.integrator);
   integrator->Reset(options.t_start, x.data());
   EnergyBalance balance(model.KineticEnergy(x.data()) + model.PotentialEnergy(x.data()));
@@ -198,7 +200,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   auto sample = [&](double t) {
     // Between steps the integrator reports an interpolant; with projection on, the reported
     // orientations are its nearest rotations, like the integrated state itself.
-    if (project) model.Project(x.data());
+    if (project) model.Project(t, x.data(), ws);
     model.CalcDerivatives(t, x.data(), xdot.data(), ws);  // fills every effort and flow at (t, x)
     const double work = model.Work(x.data()), kin = model.KineticEnergy(x.data());
     const double pot = model.PotentialEnergy(x.data()), diss = model.Dissipated(x.data());

@@ -1,0 +1,480 @@
+// Ideal constraints (docs/design.md, "Ideal constraints"): the part of CompiledModel that solves
+// for constraint efforts.
+//
+// A constraint is an effort source of unknown effort lambda (a multiplier). It comes either from
+// an Sf marked `constraint` (a rigid joint: zero relative velocity in chosen directions), or from
+// cutting the bond of a storage element that the causality analysis put in derivative causality
+// (two such sources, one on each side of the cut, sharing lambda). With every multiplier an
+// effort source, the graph is integrally causal and the plan is the ordinary one; the constraint
+// equations are that each constraint's flows take their prescribed values:
+//     g(t, x) = sum_k s_k (f_k - v_k(t)) = 0,
+// s_k = +1 if member k's bond points away from it, so that lambda . g is the power the constraint
+// delivers. The junction structure conserves power, so g depends on the momenta as B^T M^-1 p,
+// where B (momentum rate per unit multiplier) is read off the plan. At every evaluation:
+//   1. the plan at lambda = 0 gives dx/dt;
+//   2. a tangent pass (the time derivative of every slot along dx/dt, with dR/dt for the moduli)
+//      gives dg/dt at lambda = 0;
+//   3. W = B^T M^-1 B, and W lambda = dv/dt - dg/dt|lambda=0 makes dg/dt = 0 (index reduction to
+//      the acceleration level, exactly: no finite differences);
+//   4. the plan again with lambda: dx/dt and every effort, reactions included.
+// Drift of g (the velocity-level constraint) is removed after every step by Project(t, x, ws).
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "multibond/compile/compiled_model.h"
+
+namespace multibond {
+
+void CompiledModel::PrepareConstraintGraph() {
+  BondGraph& g = graph_;
+  struct Pending {
+    std::string name;
+    int element;
+    std::vector<int> members;
+    bool target;
+  };
+  std::vector<Pending> pending;
+  // Rigid joints and other explicit constraints: the Sf becomes the multiplier's effort source.
+  for (int i = 0; i < g.num_elements(); ++i) {
+    Element& e = g.element(i);
+    if (e.kind != ElementKind::kSf || !e.constraint) continue;
+    e.kind = ElementKind::kSe;
+    pending.push_back({e.name, i, {i}, true});
+  }
+  for (;;) {
+    DiagnosticSink sink;
+    structure_ = AnalyzeStructure(g, options_.default_domain, sink);
+    sink.ThrowIfErrors();
+    causality_ = AssignCausality(g, structure_);
+    if (!options_.ideal_constraints || causality_.derivative.empty()) break;
+    // Cut the bond of the first inertia in derivative causality, then analyse again: one cut can
+    // free others (a chain of rigidly joined inertias needs one cut per joint, not per inertia).
+    int d = -1;
+    for (int el : causality_.derivative)
+      if (g.element(el).kind == ElementKind::kI && g.element(el).bonds.size() == 1) {
+        d = el;
+        break;
+      }
+    if (d < 0) break;  // a C in derivative causality: reported below
+    const int b = g.element(d).bonds.front();
+    const int other = g.Other(b, d);
+    const bool into_storage = g.bond(b).to == d;
+    const std::string base = g.element(d).name + ".cut";
+    Element a;
+    a.name = base;
+    a.kind = ElementKind::kSe;
+    a.constraint = true;
+    a.where = g.element(d).where;
+    a.domain = g.element(d).domain;
+    a.source.components = {TimeFunction::Constant(0.0)};  // no prescribed flow: the two sides agree
+    Element r = a;
+    r.name = base + ".rest";
+    const int ia = g.Add(a), ir = g.Add(r);
+    // The storage element keeps bond b (now to or from `a`); `other` gets a new bond to `r` in the
+    // same direction as before, at the same place in its list of bonds (ports keep their order).
+    Bond nb = g.bond(b);
+    if (into_storage) {
+      g.bond(b).from = ia;
+      nb.to = ir;
+      nb.name = fmt::format("{}->{}", g.element(other).name, r.name);
+    } else {
+      g.bond(b).to = ia;
+      nb.from = ir;
+      nb.name = fmt::format("{}->{}", r.name, g.element(other).name);
+    }
+    g.element(ia).bonds = {b};
+    const int nbi = g.AppendBond(nb);
+    g.element(ir).bonds = {nbi};
+    std::replace(g.element(other).bonds.begin(), g.element(other).bonds.end(), b, nbi);
+    pending.push_back({base, d, {ia, ir}, false});
+  }
+  if (causality_.has_errors()) {
+    if (!causality_.derivative.empty() && !options_.ideal_constraints)
+      for (Diagnostic& dg : causality_.diagnostics)
+        if (dg.code == "causality.derivative")
+          dg.details.push_back("or keep the ideal mechanism: run with --constraints ideal (or 'constraints: ideal' in the "
+                               "model's options) and the dependent storage is handled exactly by constraint efforts");
+    throw ModelError(causality_.diagnostics);
+  }
+  for (const Pending& p : pending) {
+    ConstraintGroup cg;
+    cg.name = p.name;
+    cg.element = p.element;
+    for (int m : p.members) {
+      const int b = g.element(m).bonds.front();
+      cg.members.push_back({b, g.bond(b).from == m ? 1.0 : -1.0, p.target ? 0 : -1});
+    }
+    constraints_.push_back(std::move(cg));
+  }
+}
+
+void CompiledModel::BuildConstraints(const std::vector<std::vector<int>>& plan_reads, const std::vector<int>& plan_writes) {
+  if (constraints_.empty()) return;
+  const BondGraph& g = graph_;
+  const int np = static_cast<int>(plan_.size());
+  // Members: bond -> flow slot; targets -> source functions.
+  for (ConstraintGroup& cg : constraints_) {
+    for (auto& m : cg.members) {
+      const int bond = m.flow;
+      m.flow = class_offset_[flow_class_[bond]];
+      if (m.source_fn == 0) {
+        const Element& e = g.element(cg.element);
+        m.source_fn = static_cast<int>(source_fns_.size());
+        for (int k = 0; k < cg.size; ++k)
+          source_fns_.push_back(e.source.components.empty() ? TimeFunction::Constant(0.0)
+                                : e.source.components.size() == 1 ? e.source.components[0] : e.source.components[k]);
+      }
+    }
+  }
+  // The momentum gathers and the instruction that computes each inertia's flow.
+  std::vector<int> flow_instr_of_element(g.num_elements(), -1);
+  for (int k = 0; k < np; ++k) {
+    const Op op = plan_[k].op;
+    if (op == Op::kStateScale || op == Op::kStateScale3 || op == Op::kStateDiag3 || op == Op::kStateMatrix ||
+        op == Op::kIFlowRotated || op == Op::kIFlowRotatedDiag)
+      if (g.element(plan_[k].element).kind == ElementKind::kI) flow_instr_of_element[plan_[k].element] = k;
+  }
+  flow_instr_of_block_.assign(gathers_.size(), -1);
+  for (size_t gi = 0; gi < gathers_.size(); ++gi)
+    if (gathers_[gi].kind == StateBlock::Kind::kMomentum) flow_instr_of_block_[gi] = flow_instr_of_element[blocks_[gi].owner];
+
+  std::vector<char> member_flow(num_slots_, 0), other_rate(num_slots_, 0);
+  for (const ConstraintGroup& cg : constraints_)
+    for (const auto& m : cg.members)
+      for (int k = 0; k < cg.size; ++k) member_flow[m.flow + k] = 1;
+  for (const Gather& gt : gathers_) {
+    if (gt.kind == StateBlock::Kind::kOrientation || gt.kind == StateBlock::Kind::kIntegral)
+      for (int k = 0; k < (gt.kind == StateBlock::Kind::kOrientation ? 3 : gt.size); ++k) other_rate[gt.flow + k] = 1;
+    if (gt.kind == StateBlock::Kind::kDisplacement)
+      for (int k = 0; k < gt.size; ++k) other_rate[gt.effort + k] = 1;
+  }
+
+  b_offset_.clear();
+  b_rows_.clear();
+  for (ConstraintGroup& cg : constraints_) {
+    // The multiplier's instructions (two for a cut), then every instruction reading what they reach.
+    std::vector<char> reached(num_slot_classes(), 0);
+    cg.starts.clear();
+    for (int k = 0; k < np; ++k)
+      if (plan_[k].op == Op::kMultiplier && plan_[k].coef == cg.lambda) {
+        cg.starts.push_back(k);
+        reached[plan_writes[k]] = 1;
+      }
+    MB_ASSERT(!cg.starts.empty(), "constraint without its multiplier instruction");
+    cg.closure.clear();
+    for (int k = 0; k < np; ++k)
+      for (int c : plan_reads[k])
+        if (reached[c]) {
+          reached[plan_writes[k]] = 1;
+          cg.closure.push_back(k);
+          break;
+        }
+    for (int c = 0; c < num_slot_classes(); ++c) {
+      if (!reached[c]) continue;
+      bool bad = false;
+      for (int k = 0; k < class_size_[c]; ++k) bad |= member_flow[class_offset_[c] + k] || other_rate[class_offset_[c] + k];
+      if (bad) {
+        const Element& e = g.element(cg.element);
+        throw ModelError(Diagnostic{
+            Diagnostic::Severity::kError, e.where, e.name,
+            fmt::format("the ideal constraint '{}' changes the flow '{}' through a resistor or gyrator: a constraint whose "
+                        "flows depend on its own effort is not supported", cg.name, class_names_[c]),
+            "make this coupling compliant (a C and an R instead of the constraint)", {}, "constraint.unsupported"});
+      }
+    }
+    for (size_t gi = 0; gi < gathers_.size(); ++gi)
+      if (gathers_[gi].kind == StateBlock::Kind::kMomentum)
+        for (int c = 0; c < num_slot_classes(); ++c)
+          if (reached[c] && class_offset_[c] == gathers_[gi].effort) cg.momenta.push_back(static_cast<int>(gi));
+    for (int k = 0; k < cg.size; ++k) {
+      b_offset_.push_back(static_cast<int>(b_rows_.size()));
+      for (int gi : cg.momenta)
+        for (int r = 0; r < gathers_[gi].size; ++r) b_rows_.push_back(gathers_[gi].state + r);
+    }
+  }
+  b_offset_.push_back(static_cast<int>(b_rows_.size()));
+}
+
+std::vector<std::string> CompiledModel::constraint_names() const {
+  std::vector<std::string> out;
+  for (const ConstraintGroup& cg : constraints_) out.push_back(cg.name);
+  return out;
+}
+
+void CompiledModel::ConstraintValues(double t, const double* w, double* out) const {
+  for (const ConstraintGroup& cg : constraints_)
+    for (int k = 0; k < cg.size; ++k) {
+      double v = 0.0;
+      for (const auto& m : cg.members) v += m.sign * (w[m.flow + k] - (m.source_fn >= 0 ? source_fns_[m.source_fn + k](t) : 0.0));
+      out[cg.lambda + k] = v;
+    }
+}
+
+void CompiledModel::Tangent(double t, const double* x, const double* xdot, Workspace& ws) const {
+  const double* w = ws.slots.data();
+  double* d = ws.con.dslots.data();
+  double* tmp = ws.con.lin.data();  // scratch for second terms; restored to zero below
+  const double* mod = ws.moduli.data();
+  double* dmod = ws.con.dmoduli.data();
+  if (!needed_moduli_.empty()) EvalModuli(xdot, dmod, true);
+  const double* c = coef_.data();
+  const double* lam = ws.lambda.data();
+  auto exec = [&](const Instr& in, const double* xs, const double* win, double* wout, const double* m) {
+    Exec(in, t, xs, win, wout, m, lam, c, sum_terms_.data(), sum_signs_.data(), source_fns_.data());
+  };
+  auto add_tmp = [&](const Instr& in) {
+    for (int k = 0; k < in.n; ++k) {
+      d[in.dst + k] += tmp[in.dst + k];
+      tmp[in.dst + k] = 0.0;
+    }
+  };
+  using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+  for (const Instr& in : plan_) {
+    switch (in.op) {
+      case Op::kSource:
+        for (int k = 0; k < in.n; ++k) d[in.dst + k] = source_fns_[in.coef + k].Derivative(t);
+        break;
+      case Op::kMultiplier:
+        for (int k = 0; k < in.n; ++k) d[in.dst + k] = 0.0;  // efforts only: never reaches a constraint's flow
+        break;
+      case Op::kStateScale:
+      case Op::kStateScale3:
+      case Op::kStateDiag3:
+      case Op::kStateMatrix:
+        exec(in, xdot, d, d, mod);
+        break;
+      case Op::kIFlowRotated:
+      case Op::kIFlowRotatedDiag: {
+        // f = R Ib^-1 R^T h  ->  df = dR a + R Ib^-1 (dR^T h + R^T dh),  a = Ib^-1 R^T h
+        const Eigen::Map<const Rm3> r(x + in.aux), rd(xdot + in.aux);
+        const Eigen::Map<const Eigen::Vector3d> h(x + in.src), hd(xdot + in.src);
+        Eigen::Matrix3d ibinv = Eigen::Matrix3d::Zero();
+        if (in.op == Op::kIFlowRotatedDiag) ibinv.diagonal() << c[in.coef], c[in.coef + 1], c[in.coef + 2];
+        else ibinv = Eigen::Map<const Rm3>(c + in.coef);
+        const Eigen::Vector3d a = ibinv * (r.transpose() * h);
+        const Eigen::Vector3d da = ibinv * (rd.transpose() * h + r.transpose() * hd);
+        Eigen::Map<Eigen::Vector3d>(d + in.dst) = rd * a + r * da;
+        break;
+      }
+      case Op::kRotFwd1: case Op::kRotFwd2: case Op::kRotFwd3:
+      case Op::kRotBwd1: case Op::kRotBwd2: case Op::kRotBwd3:
+      case Op::kLeverFwd: case Op::kLeverBwd:
+        // Bilinear in R and the input: d(K(R) u) = K(R) du + K(dR) u.
+        exec(in, x, d, d, mod);
+        exec(in, xdot, w, tmp, mod);
+        add_tmp(in);
+        break;
+      case Op::kModulated: {
+        if (in.count <= 1) {
+          exec(in, x, d, d, mod);
+          exec(in, x, w, tmp, dmod);
+          add_tmp(in);
+        } else {
+          // y = M^-1 u (mode 2) or M^-T u (mode 3): dy = M^-1 (du - dM y) (or transposed).
+          const ModulusEval& me = moduli_[in.modulus];
+          const double* dm = dmod + me.out;
+          const double* y = w + in.dst;
+          double z[16];
+          MB_ASSERT(in.m <= 16, "modulated inverse larger than 16");
+          for (int r = 0; r < in.m; ++r) {
+            double s = d[in.src + r];
+            for (int k = 0; k < in.n; ++k) s -= (in.count == 2 ? dm[r * in.n + k] : dm[k * in.m + r]) * y[k];
+            z[r] = s;
+          }
+          const double* a = mod + in.coef;
+          for (int r = 0; r < in.n; ++r) {
+            double s = 0.0;
+            for (int k = 0; k < in.m; ++k) s += (in.count == 2 ? a[r * in.m + k] : a[k * in.n + r]) * z[k];
+            d[in.dst + r] = s;
+          }
+        }
+        break;
+      }
+      default:  // constant linear maps of slots: the same map of their derivatives
+        exec(in, x, d, d, mod);
+        break;
+    }
+  }
+}
+
+namespace {
+
+/// out = M^-1 p for the inertia whose flow instruction is `op` (scalar, diagonal, matrix, or
+/// rotated R Ib^-1 R^T), with p given apart from the state.
+template <typename Instr, typename Op>
+void InverseInertia(const Instr& in, const double* x, const double* c, const double* p, double* out, int n) {
+  using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+  switch (in.op) {
+    case Op::kStateScale:
+    case Op::kStateScale3:
+      for (int k = 0; k < n; ++k) out[k] = c[in.coef] * p[k];
+      break;
+    case Op::kStateDiag3:
+      for (int k = 0; k < 3; ++k) out[k] = c[in.coef + k] * p[k];
+      break;
+    case Op::kStateMatrix:
+      for (int r = 0; r < n; ++r) {
+        double s = 0.0;
+        for (int k = 0; k < n; ++k) s += c[in.coef + r * n + k] * p[k];
+        out[r] = s;
+      }
+      break;
+    default: {  // rotated
+      const Eigen::Map<const Rm3> r(x + in.aux);
+      Eigen::Vector3d hb = r.transpose() * Eigen::Map<const Eigen::Vector3d>(p);
+      if (in.op == Op::kIFlowRotatedDiag) hb = hb.cwiseProduct(Eigen::Vector3d(c[in.coef], c[in.coef + 1], c[in.coef + 2]));
+      else hb = Eigen::Map<const Rm3>(c + in.coef) * hb;
+      Eigen::Map<Eigen::Vector3d> o(out);
+      o = r * hb;
+      break;
+    }
+  }
+}
+
+}  // namespace
+
+void CompiledModel::AssembleConstraintMatrix(double t, const double* x, Workspace& ws) const {
+  double* lin = ws.con.lin.data();
+  double* b = ws.con.b.data();
+  double* v = ws.con.v.data();
+  const double* mod = ws.moduli.data();
+  const double* c = coef_.data();
+  const double* lam = ws.lambda.data();
+  const int m = num_lambda_;
+  // B, column by column: a unit multiplier through its closure (everything else is zero in lin).
+  for (const ConstraintGroup& cg : constraints_) {
+    for (int k = 0; k < cg.size; ++k) {
+      const int col = cg.lambda + k;
+      for (int st : cg.starts)
+        for (int j = 0; j < cg.size; ++j) lin[plan_[st].dst + j] = j == k ? 1.0 : 0.0;
+      for (int q : cg.closure)
+        Exec(plan_[q], t, x, lin, lin, mod, lam, c, sum_terms_.data(), sum_signs_.data(), source_fns_.data());
+      double* bc = b + b_offset_[col];
+      double* vc = v + b_offset_[col];
+      for (int gi : cg.momenta) {
+        const Gather& gt = gathers_[gi];
+        for (int r = 0; r < gt.size; ++r) bc[r] = gt.sign * lin[gt.effort + r];
+        InverseInertia<Instr, Op>(plan_[flow_instr_of_block_[gi]], x, c, bc, vc, gt.size);
+        bc += gt.size;
+        vc += gt.size;
+      }
+      for (int q : cg.closure) std::fill(lin + plan_[q].dst, lin + plan_[q].dst + plan_[q].n, 0.0);
+      for (int st : cg.starts) std::fill(lin + plan_[st].dst, lin + plan_[st].dst + cg.size, 0.0);
+    }
+  }
+  // W = B^T M^-1 B over the rows the two columns share (compressed rows are sorted).
+  double* wm = ws.con.w.data();
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j <= i; ++j) {
+      int p = b_offset_[i], q = b_offset_[j];
+      const int pe = b_offset_[i + 1], qe = b_offset_[j + 1];
+      double s = 0.0;
+      while (p < pe && q < qe) {
+        if (b_rows_[p] < b_rows_[q]) ++p;
+        else if (b_rows_[p] > b_rows_[q]) ++q;
+        else s += b[p++] * v[q++];
+      }
+      wm[i * m + j] = wm[j * m + i] = s;
+    }
+}
+
+void CompiledModel::SolveConstraintSystem(Workspace& ws) const {
+  const int m = num_lambda_;
+  double* a = ws.con.w.data();
+  double* y = ws.con.rhs.data();
+  double* s = ws.con.scale.data();
+  int* perm = ws.con.perm.data();
+  // Jacobi scaling: unit diagonal, so that force and moment constraints compare.
+  for (int i = 0; i < m; ++i) s[i] = a[i * m + i] > 0.0 ? 1.0 / std::sqrt(a[i * m + i]) : 0.0;
+  for (int i = 0; i < m; ++i) {
+    for (int j = 0; j < m; ++j) a[i * m + j] *= s[i] * s[j];
+    y[i] *= s[i];
+    perm[i] = i;
+  }
+  // LDL^T with diagonal pivoting (W is symmetric positive semi-definite). Pivots below 1e-11 of
+  // the unit diagonal belong to redundant constraints: their multipliers are set to zero.
+  constexpr double kTol = 1e-11;
+  int rank = 0;
+  for (int k = 0; k < m; ++k) {
+    int p = k;
+    for (int i = k + 1; i < m; ++i)
+      if (a[i * m + i] > a[p * m + p]) p = i;
+    if (!(a[p * m + p] > kTol)) break;
+    if (p != k) {
+      for (int j = 0; j < m; ++j) std::swap(a[k * m + j], a[p * m + j]);
+      for (int i = 0; i < m; ++i) std::swap(a[i * m + k], a[i * m + p]);
+      std::swap(perm[k], perm[p]);
+      std::swap(y[k], y[p]);
+    }
+    const double dk = a[k * m + k];
+    // The trailing block is kept whole (both triangles) so that later symmetric swaps stay exact.
+    for (int i = k + 1; i < m; ++i) {
+      const double lik = a[i * m + k] / dk;
+      if (lik == 0.0) continue;
+      for (int j = k + 1; j < m; ++j) a[i * m + j] -= lik * a[k * m + j];
+    }
+    for (int i = k + 1; i < m; ++i) a[i * m + k] /= dk;
+    ++rank;
+  }
+  // Solve L D L^T z = y on the first `rank` (pivoted) unknowns; the rest are zero.
+  for (int i = 0; i < rank; ++i)
+    for (int j = 0; j < i; ++j) y[i] -= a[i * m + j] * y[j];
+  for (int i = 0; i < rank; ++i) y[i] /= a[i * m + i];
+  for (int i = rank - 1; i >= 0; --i)
+    for (int j = i + 1; j < rank; ++j) y[i] -= a[j * m + i] * y[j];
+  for (int i = rank; i < m; ++i) y[i] = 0.0;
+  // Undo the permutation and the scaling (lambda written to ws.lambda).
+  for (int i = 0; i < m; ++i) ws.lambda[perm[i]] = y[i] * s[perm[i]];
+}
+
+void CompiledModel::CalcConstrained(double t, const double* x, double* xdot, Workspace& ws) const {
+  std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
+  EvalPlan(t, x, xdot, ws);
+  Tangent(t, x, xdot, ws);
+  double* rhs = ws.con.rhs.data();
+  const double* d = ws.con.dslots.data();
+  for (const ConstraintGroup& cg : constraints_)
+    for (int k = 0; k < cg.size; ++k) {
+      double r = 0.0;
+      for (const auto& mb : cg.members)
+        r -= mb.sign * (d[mb.flow + k] - (mb.source_fn >= 0 ? source_fns_[mb.source_fn + k].Derivative(t) : 0.0));
+      rhs[cg.lambda + k] = r;
+    }
+  AssembleConstraintMatrix(t, x, ws);
+  SolveConstraintSystem(ws);
+  EvalPlan(t, x, xdot, ws);
+}
+
+double CompiledModel::ConstraintResidual(double t, const double* x, Workspace& ws) const {
+  if (constraints_.empty()) return 0.0;
+  std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
+  EvalPlan(t, x, ws.con.xdot.data(), ws);
+  ConstraintValues(t, ws.slots.data(), ws.con.rhs.data());
+  double worst = 0.0;
+  for (int i = 0; i < num_lambda_; ++i) worst = std::max(worst, std::abs(ws.con.rhs[i]));
+  return worst;
+}
+
+void CompiledModel::Project(double t, double* x, Workspace& ws) const {
+  Project(x);
+  if (constraints_.empty()) return;
+  // g is affine in p with dg/dp = B^T M^-1: p += B mu with W mu = -g restores g = 0 exactly,
+  // changing the kinetic energy least.
+  std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
+  EvalPlan(t, x, ws.con.xdot.data(), ws);
+  ConstraintValues(t, ws.slots.data(), ws.con.rhs.data());
+  for (int i = 0; i < num_lambda_; ++i) ws.con.rhs[i] = -ws.con.rhs[i];
+  AssembleConstraintMatrix(t, x, ws);
+  SolveConstraintSystem(ws);
+  for (int col = 0; col < num_lambda_; ++col) {
+    const double mu = ws.lambda[col];
+    if (mu == 0.0) continue;
+    for (int q = b_offset_[col]; q < b_offset_[col + 1]; ++q) x[b_rows_[q]] += ws.con.b[q] * mu;
+  }
+  std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
+}
+
+}  // namespace multibond
