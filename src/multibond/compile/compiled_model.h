@@ -289,6 +289,9 @@ class CompiledModel {
   std::vector<int> b_offset_;           ///< per multiplier: offset of its compressed column
   std::vector<int> b_rows_;             ///< compressed columns' momentum state offsets
   std::vector<int> flow_instr_of_block_;  ///< per momentum gather: its I-flow instruction in plan_
+  struct WPair { int i, j, begin, end; };  ///< a nonzero of W and its range in w_terms_
+  std::vector<WPair> w_pairs_;
+  std::vector<std::pair<int, int>> w_terms_;  ///< (position in column i, position in column j)
 
   std::vector<StateBlock> blocks_;
   std::vector<std::string> state_names_, state_units_;

@@ -196,6 +196,21 @@ void CompiledModel::BuildConstraints(const std::vector<std::vector<int>>& plan_r
     }
   }
   b_offset_.push_back(static_cast<int>(b_rows_.size()));
+  // The nonzeros of W = B^T M^-1 B: the pairs of columns that share momentum rows, with the
+  // positions of the shared rows in their compressed columns (rows are sorted within a column).
+  w_pairs_.clear();
+  w_terms_.clear();
+  for (int i = 0; i < num_lambda_; ++i)
+    for (int j = 0; j <= i; ++j) {
+      const int first = static_cast<int>(w_terms_.size());
+      int p = b_offset_[i], q = b_offset_[j];
+      while (p < b_offset_[i + 1] && q < b_offset_[j + 1]) {
+        if (b_rows_[p] < b_rows_[q]) ++p;
+        else if (b_rows_[p] > b_rows_[q]) ++q;
+        else w_terms_.push_back({p++, q++});
+      }
+      if (static_cast<int>(w_terms_.size()) > first) w_pairs_.push_back({i, j, first, static_cast<int>(w_terms_.size())});
+    }
 }
 
 std::vector<std::string> CompiledModel::constraint_names() const {
@@ -365,20 +380,14 @@ void CompiledModel::AssembleConstraintMatrix(double t, const double* x, Workspac
       for (int st : cg.starts) std::fill(lin + plan_[st].dst, lin + plan_[st].dst + cg.size, 0.0);
     }
   }
-  // W = B^T M^-1 B over the rows the two columns share (compressed rows are sorted).
+  // W = B^T M^-1 B over the rows the two columns share (precomputed pairs).
   double* wm = ws.con.w.data();
-  for (int i = 0; i < m; ++i)
-    for (int j = 0; j <= i; ++j) {
-      int p = b_offset_[i], q = b_offset_[j];
-      const int pe = b_offset_[i + 1], qe = b_offset_[j + 1];
-      double s = 0.0;
-      while (p < pe && q < qe) {
-        if (b_rows_[p] < b_rows_[q]) ++p;
-        else if (b_rows_[p] > b_rows_[q]) ++q;
-        else s += b[p++] * v[q++];
-      }
-      wm[i * m + j] = wm[j * m + i] = s;
-    }
+  std::fill(ws.con.w.begin(), ws.con.w.end(), 0.0);
+  for (const WPair& pr : w_pairs_) {
+    double sum = 0.0;
+    for (int k = pr.begin; k < pr.end; ++k) sum += b[w_terms_[k].first] * v[w_terms_[k].second];
+    wm[pr.i * m + pr.j] = wm[pr.j * m + pr.i] = sum;
+  }
 }
 
 void CompiledModel::SolveConstraintSystem(Workspace& ws) const {

@@ -1,0 +1,113 @@
+// examples/differential_ideal.yaml (issue 7): the paper's differential with every joint and mesh
+// rigid and the housing fixed, against the closed-form solution of the rigid mechanism: one
+// equivalent inertia J on the drive coupling (docs/differential.md, "The ideal mechanism").
+
+#include <cmath>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "support/example_runner.h"
+
+namespace multibond {
+namespace {
+
+using testing::MaxEnergyResidual;
+using testing::RunExample;
+
+struct Disc {
+  double m, axial, diametral;
+};
+Disc MakeDisc(double d) {
+  const double rho = 2700.0, t = 0.01, r = d / 2;
+  const double m = rho * std::numbers::pi * r * r * t;
+  return {m, m * r * r / 2, m * (3 * r * r + t * t) / 12};
+}
+
+/// The rigid mechanism: theta_G driven through K, R from 50 t (a step in speed at t = 0). The
+/// deflection e = 50 t - theta obeys J e'' + R e' + K e = 0, e(0) = 0, e'(0) = 50.
+struct ClosedForm {
+  double j, k = 1000.0, r = 5.0, s1, s2;
+  ClosedForm() {
+    const Disc g = MakeDisc(0.1), a = MakeDisc(0.4), p = MakeDisc(0.1), s = MakeDisc(0.2);
+    const double rho = 0.1;  // planet centres from A's axis
+    // Referred to G: A turns at w/4, the planets orbit at w/4 and spin at w/2, S2 at w/2.
+    j = g.axial + a.axial / 16 + 2 * (p.diametral + p.m * rho * rho) / 16 + 2 * p.axial / 4 + s.axial / 4;
+    const double disc = std::sqrt(r * r - 4 * j * k);  // overdamped: R^2 > 4 J K
+    s1 = (-r + disc) / (2 * j);
+    s2 = (-r - disc) / (2 * j);
+  }
+  double e(double t) const { return 50 * (std::exp(s1 * t) - std::exp(s2 * t)) / (s1 - s2); }
+  double de(double t) const { return 50 * (s1 * std::exp(s1 * t) - s2 * std::exp(s2 * t)) / (s1 - s2); }
+  double omega_g(double t) const { return 50 - de(t); }
+  double torque(double t) const { return k * e(t) + r * de(t); }
+};
+
+class IdealDifferential : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { rec_ = new RecordingObserver(RunExample("differential_ideal.yaml", 0, 0, Method::kDormandPrince)); }
+  static void TearDownTestSuite() { delete rec_; }
+  static RecordingObserver* rec_;
+};
+RecordingObserver* IdealDifferential::rec_ = nullptr;
+
+TEST_F(IdealDifferential, RunsToTheEnd) {
+  ASSERT_EQ(rec_->summary().status, RunStatus::kOk);
+  EXPECT_DOUBLE_EQ(rec_->rows().back()[0], 5.0);
+}
+
+TEST_F(IdealDifferential, SteadySpeedsAreExact) {
+  const RecordingObserver& r = *rec_;
+  EXPECT_NEAR(r.Last("G.omega.x"), 50.0, 50.0 * 1e-9);
+  EXPECT_NEAR(r.Last("A.omega.z"), -12.5, 12.5 * 1e-9);
+  EXPECT_NEAR(r.Last("S1.omega.z"), 0.0, 1e-9);
+  EXPECT_NEAR(r.Last("S2.omega.z"), -25.0, 25.0 * 1e-9);
+  EXPECT_NEAR(r.Last("S1.omega.z") + r.Last("S2.omega.z"), 2 * r.Last("A.omega.z"), 1e-9);
+  // The kinematic identities hold at every sample, not only in the steady state.
+  for (const auto& row : r.rows()) {
+    const double wg = row[r.Index("G.omega.x")], wa = row[r.Index("A.omega.z")], ws2 = row[r.Index("S2.omega.z")];
+    ASSERT_NEAR(wa, -wg / 4, 1e-9 * (1 + std::abs(wg))) << row[0];
+    ASSERT_NEAR(ws2, 2 * wa, 1e-9 * (1 + std::abs(wg))) << row[0];
+  }
+}
+
+TEST_F(IdealDifferential, PlanetBearingsCarryTheCentripetalForceAndGyroscopicMoment) {
+  const RecordingObserver& r = *rec_;
+  const Disc p = MakeDisc(0.1);
+  const double wa = 12.5, s = 25.0, rho = 0.1;
+  for (const char* b : {"P1_bearing", "P2_bearing"}) {
+    const std::string n = b;
+    const double f = std::hypot(r.Last(n + ".F.x"), r.Last(n + ".F.y"), r.Last(n + ".F.z"));
+    const double m = std::hypot(r.Last(n + ".M.x"), r.Last(n + ".M.y"), r.Last(n + ".M.z"));
+    EXPECT_NEAR(f, p.m * wa * wa * rho, 1e-6 * p.m * wa * wa * rho) << b;
+    EXPECT_NEAR(m, p.axial * s * wa, 1e-6 * p.axial * s * wa) << b;
+  }
+}
+
+TEST_F(IdealDifferential, TransientMatchesTheEquivalentInertia) {
+  const RecordingObserver& r = *rec_;
+  const ClosedForm cf;
+  double worst_w = 0.0, worst_tau = 0.0;
+  for (const auto& row : r.rows()) {
+    const double t = row[0];
+    worst_w = std::max(worst_w, std::abs(row[r.Index("A.omega.z")] - (-cf.omega_g(t) / 4)));
+    worst_tau = std::max(worst_tau, std::abs(row[r.Index("drive.torque")] - cf.torque(t)));
+  }
+  // Relative to the scales of the run: w_A 12.5 rad/s, the drive torque's 250 N m at the start.
+  EXPECT_LT(worst_w / 12.5, 1e-5);
+  EXPECT_LT(worst_tau / 250.0, 1e-5);
+}
+
+TEST_F(IdealDifferential, EnergyIsConservedAndOrientationsStayRotations) {
+  const RecordingObserver& r = *rec_;
+  EXPECT_LT(MaxEnergyResidual(*rec_), 1e-6);
+  for (const char* b : {"G", "A", "P1", "P2", "S1", "S2", "H"}) {
+    const int c = r.Index(std::string(b) + ".orthonormality");
+    double worst = 0.0;
+    for (const auto& row : r.rows()) worst = std::max(worst, row[c]);
+    EXPECT_LT(worst, 1e-9) << b;
+  }
+}
+
+}  // namespace
+}  // namespace multibond
