@@ -7,6 +7,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "multibond/compile/equations.h"
 #include "multibond/io/model_loader.h"
 #include "support/example_runner.h"
 
@@ -65,6 +66,15 @@ TEST(IdealConstraints, RigidGearPairFollowsTheEquivalentInertia) {
     EXPECT_NEAR(rec.At("reaction", t), j2 * n * t_torque / jeq, 1e-9) << t;
   }
   EXPECT_LT(MaxEnergyResidual(rec), 1e-9);
+}
+
+TEST(IdealConstraints, EquationsShowTheMultiplier) {
+  const LoadedModel lm = LoadModelString(kRigidGears, "<test>");
+  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+  EXPECT_EQ(model->num_multipliers(), 1);
+  const std::string text = FormatEquations(*model, EquationFormat::kText);
+  EXPECT_THAT(text, ::testing::HasSubstr("d(J2.p)/dt = lambda[J2.cut]"));
+  EXPECT_THAT(text, ::testing::HasSubstr("ideal constraints"));
 }
 
 TEST(IdealConstraints, WithoutTheOptionDerivativeCausalityIsAnErrorThatNamesTheOption) {

@@ -168,6 +168,15 @@ class EquationWriter {
       }
       for (const std::string& c : rows_[r].notes) out += c + "\n";
     }
+    if (m_.has_constraints()) {
+      std::string names;
+      for (const std::string& n : m_.constraint_names()) names += (names.empty() ? "" : ", ") + n;
+      const std::string line = fmt::format(
+          "ideal constraints: the efforts lambda[...] ({} multipliers: {}) are solved at every evaluation so that each "
+          "constraint's flows keep their prescribed values exactly (docs/design.md, \"Ideal constraints\")",
+          m_.num_multipliers(), names);
+      out += latex_ ? "% " + OneLine(line) + "\n" : "\n" + line + "\n";
+    }
     if (!energy.empty()) {
       std::string names;
       for (const std::string& n : energy) names += (names.empty() ? "" : ", ") + n;
@@ -266,6 +275,12 @@ class EquationWriter {
     const std::string state = StateOf(el);
     switch (d.kind) {
       case Definition::Kind::kSource:
+        if (el.constraint) {
+          // An ideal constraint's effort: the multiplier (both sides of a cut share it).
+          std::string group = n;
+          if (group.size() > 5 && group.compare(group.size() - 5, 5, ".rest") == 0) group.resize(group.size() - 5);
+          return MakeLeaf("lambda[" + group + "]", "\\lambda_{" + Rm(group) + "}");
+        }
         return MakeLeaf(n + "(t)", Rm(n) + "(t)");
       case Definition::Kind::kMomentumFlow:
         if (!el.rotation.empty()) {
