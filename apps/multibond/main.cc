@@ -4,21 +4,28 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <optional>
+#include <tuple>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
 
 #include "multibond/compile/equations.h"
+#include "multibond/causality/repair.h"
 #include "multibond/io/dot_writer.h"
 #include "multibond/io/model_loader.h"
+#include "multibond/io/model_repair.h"
 #include "multibond/io/plots.h"
 #include "multibond/io/results_writer.h"
+#include "multibond/sim/compare.h"
 #include "multibond/version.h"
 
 namespace mb = multibond;
@@ -27,6 +34,12 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr int kExitOk = 0, kExitModel = 1, kExitSolver = 2, kExitUsage = 64, kExitIo = 74, kExitInterrupted = 130;
+
+/// Leaves a command with an exit code and a message (printed as "error: <message>").
+struct CliExit {
+  int code;
+  std::string message;
+};
 
 std::atomic<bool> g_stop{false};
 extern "C" void OnSignal(int) { g_stop.store(true); }
@@ -49,19 +62,170 @@ std::string Stroke(const mb::BondGraph& g, const mb::CausalAssignment& c, int b)
   return fmt::format("effort from {}, flow from {}", mb::Describe(g, effort_from), mb::Describe(g, g.Other(b, effort_from)));
 }
 
-mb::LoadedModel Load(const std::string& path) {
+/// Loads a model; `constraints` ("ideal" or "compliant", from --constraints) overrides the file's
+/// `constraints:` setting.
+mb::LoadedModel Load(const std::string& path, const std::optional<std::string>& constraints = std::nullopt) {
   mb::LoadedModel lm = mb::LoadModelFile(path);
   PrintDiagnostics(lm.warnings);
+  if (constraints) lm.compile.ideal_constraints = *constraints == "ideal";
   return lm;
 }
 
-int Check(const std::string& path) {
-  const mb::LoadedModel lm = Load(path);
+void AddConstraintsOption(CLI::App* cmd, std::optional<std::string>& constraints) {
+  cmd->add_option("--constraints", constraints,
+                  "ideal: accept derivative causality and solve the dependent storage exactly (constraint efforts); "
+                  "compliant: require integral causality (default: the model file's 'constraints:', else compliant)")
+      ->check(CLI::IsMember({"ideal", "compliant"}));
+}
+
+// ---------------------------------------------------------------------------------------------
+// check [--suggest]
+
+struct CheckArgs {
+  std::string model;
+  std::optional<std::string> constraints;
+  bool suggest = false;
+  double frequency = 100.0;     ///< --frequency [Hz]
+  double damping_ratio = 0.7;   ///< --damping-ratio
+  std::optional<std::string> write;
+};
+
+/// " kg m^2" or "" for a domain without units.
+std::string Unit(const std::string& u) { return u == "-" ? "" : " " + u; }
+
+std::string Show(const Eigen::MatrixXd& m) {
+  const mb::Param p = mb::ParamOf(m);
+  if (p.is_scalar) return fmt::format("{:.6g}", p.scalar);
+  std::string s = "[";
+  const bool diagonal = m.isDiagonal(0.0);
+  for (int i = 0; i < m.rows(); ++i) {
+    if (i) s += ", ";
+    if (diagonal) {
+      s += fmt::format("{:.6g}", m(i, i));
+      continue;
+    }
+    s += "[";
+    for (int j = 0; j < m.cols(); ++j) s += fmt::format("{}{:.6g}", j ? ", " : "", m(i, j));
+    s += "]";
+  }
+  return s + "]";
+}
+
+/// `check --suggest` on a model with ideal constraints (rigid joints and meshes, Sf marked
+/// `constraint`): they are solved exactly, not derivative causality; a compliant model gives each
+/// of them K and R. Prints them, by mechanism part when there is one.
+void PrintRigidParts(const mb::LoadedModel& lm) {
+  std::vector<std::string> parts;
+  for (const mb::Element& e : lm.graph.elements()) {
+    if (e.kind != mb::ElementKind::kSf || !e.constraint) continue;
+    std::string part = lm.mechanism ? lm.mechanism->DescribePart(e.name) : "";
+    if (part.empty()) part = mb::Describe(lm.graph, lm.graph.Find(e.name));
+    if (std::find(parts.begin(), parts.end(), part) == parts.end()) parts.push_back(part);
+  }
+  if (parts.empty()) return;
+  std::cout << fmt::format("\nrigid (ideal constraints, solved exactly by their reactions): {} part{}\n", parts.size(),
+                           parts.size() == 1 ? "" : "s");
+  for (const auto& p : parts) std::cout << "  - " << p << '\n';
+  std::cout << (lm.mechanism ? "  for a compliant model, give these joints and gear meshes K and R instead of 'rigid'\n"
+                             : "  for a compliant model, replace each constraint by a C and an R on its junction\n");
+}
+
+/// `check --suggest`: the compliant couplings that remove all derivative causality (see
+/// causality/repair.h for the method), and with --write the repaired model file. Returns the
+/// exit code: 1 (the model as given is not integrally causal) unless the repaired file cannot be
+/// written (74).
+int Suggest(const mb::LoadedModel& lm, const CheckArgs& a) {
+  const mb::CouplingTarget target{a.frequency, a.damping_ratio};
+  const mb::RepairResult r = mb::SuggestCouplings(lm.graph, lm.compile.default_domain, target);
+  std::cout << fmt::format("\nrepair (--suggest): compliant couplings tuned to f = {:g} Hz{} and zeta = {:g}{}\n", a.frequency,
+                           a.frequency == 100.0 ? " (default)" : "", a.damping_ratio, a.damping_ratio == 0.7 ? " (default)" : "");
+  std::cout << "  each is a C (K) and an R in parallel on the deflection rate, joined to the bond through a 0-junction;\n"
+               "  K = m_eff (2 pi f)^2, R = 2 zeta sqrt(K m_eff), m_eff = I_dep I_ref / (I_dep + I_ref), the reduced inertia\n";
+  PrintRigidParts(lm);
+  if (lm.mechanism) {
+    // A mechanism's bonds are generated: it is repaired in its own terms.
+    std::cout << "\nthis is a mechanism file: its bond graph is generated from bodies, joints, gear meshes and drives, so the\n"
+                 "coupling belongs in the mechanism, not in the generated graph. Joints, gear meshes and velocity drives are\n"
+                 "compliant couplings: connect each part below to what fixes its motion through one of them (with K and R),\n"
+                 "or run with --constraints ideal. Stiffness and damping that give the target frequency:\n";
+    for (const auto& c : r.couplings) {
+      std::string part = lm.mechanism->DescribePart(c.storage);
+      if (part.empty()) part = "'" + c.storage + "' (not a mechanism part)";
+      const mb::CouplingUnits u = mb::CouplingUnitsOf(c.domain);
+      std::cout << fmt::format("  - {} (I '{}'), path {}\n    K = {}{}, R = {}{}; m_eff = {}{} = {}\n", part, c.storage, c.path,
+                               Show(c.stiffness), Unit(u.stiffness), Show(c.damping), Unit(u.resistance), Show(c.m_eff),
+                               Unit(u.inertia), c.m_eff_note);
+    }
+    for (const auto& n : r.not_repaired) std::cout << "  - " << n << '\n';
+    if (a.write) std::cerr << "error: --write edits plain bond-graph files only; nothing was written\n";
+    return kExitModel;
+  }
+  std::cout << fmt::format("\n{} coupling{}:\n", r.couplings.size(), r.couplings.size() == 1 ? "" : "s");
+  int k = 0;
+  for (const auto& c : r.couplings) {
+    const mb::CouplingUnits u = mb::CouplingUnitsOf(c.domain);
+    std::cout << fmt::format("  {}. I '{}' (dependent: {}), on bond '{}' ({} -> {}{}):\n", ++k, c.storage, c.path, c.bond, c.tail, c.head,
+                             c.where.known() ? ", " + c.where.ToString() : "");
+    std::cout << fmt::format("     {} -> {} -> {}, with 0 '{}' -> 1 '{}' (deflection rate {}.f - {}.f) carrying\n", c.tail, c.zero,
+                             c.head, c.zero, c.one, c.tail, c.head);
+    std::cout << fmt::format("     C '{}' K = {}{} and R '{}' R = {}{}\n", c.spring, Show(c.stiffness), Unit(u.stiffness), c.damper,
+                             Show(c.damping), Unit(u.resistance));
+    std::cout << fmt::format("     m_eff = {}{} = {}\n", Show(c.m_eff), Unit(u.inertia), c.m_eff_note);
+  }
+  for (const auto& n : r.not_repaired) std::cout << "  not repaired: " << n << '\n';
+  bool ok = r.integral && !r.couplings.empty();
+  if (r.integral) {
+    std::cout << "the repaired graph is integrally causal; each coupling removes at least one derivative causality (greedy:\n"
+                 "one coupling, then causality again), so none of them is redundant\n";
+    try {
+      mb::CompileOptions co = lm.compile;
+      co.generate_code = false;
+      const auto model = mb::CompiledModel::Compile(r.repaired, co);
+      std::cout << fmt::format("it compiles: {} states\n", model->num_states());
+    } catch (const mb::ModelError& e) {
+      ok = false;
+      std::cout << "but it does not compile:\n";
+      PrintDiagnostics(e.diagnostics());
+    }
+  } else {
+    std::cout << "the repaired graph is still not integrally causal (see above)\n";
+  }
+  if (!a.write) return kExitModel;
+  if (!ok) {
+    std::cerr << "error: no repair that makes the model integrally causal; nothing was written\n";
+    return kExitModel;
+  }
+  mb::RepairedText text;
+  try {
+    text = mb::RepairModelText(lm.text, lm.file, r, target);
+  } catch (const std::runtime_error& e) {
+    std::cerr << "error: cannot write the repaired model: " << e.what() << "\n  nothing was written\n";
+    return kExitIo;
+  }
+  const fs::path out(*a.write);
+  std::error_code ec;
+  if (fs::equivalent(out, lm.file, ec)) {
+    std::cerr << fmt::format("error: --write {} would overwrite the model file; give another name\n", out.string());
+    return kExitUsage;
+  }
+  if (out.has_parent_path() && !fs::is_directory(out.parent_path())) {
+    std::cerr << fmt::format("error: cannot write '{}': no folder '{}'\n", out.string(), out.parent_path().string());
+    return kExitIo;
+  }
+  mb::WriteFileAtomic(out.string(), text.text);
+  std::cout << fmt::format("wrote {} ({} states; 'multibond check {}' accepts it)\n", out.string(), text.states, out.string());
+  return kExitModel;
+}
+
+int Check(const CheckArgs& a) {
+  const mb::LoadedModel lm = Load(a.model, a.constraints);
+  const std::string& path = a.model;
   const mb::BondGraph& g = lm.graph;
   mb::DiagnosticSink sink;
-  const mb::Structure s = mb::AnalyzeStructure(g, lm.compile.default_domain, sink);
+  const mb::BondGraph view = mb::CausalView(g);
+  const mb::Structure s = mb::AnalyzeStructure(view, lm.compile.default_domain, sink);
   sink.ThrowIfErrors();
-  mb::CausalAssignment c = mb::AssignCausality(g, s);
+  mb::CausalAssignment c = mb::AssignCausality(view, s);
   if (lm.mechanism) mb::ExplainInMechanismTerms(*lm.mechanism, c.diagnostics);
   std::cout << fmt::format("model '{}' ({}): {} elements, {} bonds\n\n", g.name(), path, g.num_elements(), g.num_bonds());
   std::cout << "causality (the causal stroke is at the element that receives the effort):\n";
@@ -71,18 +235,47 @@ int Check(const std::string& path) {
                                                   : fmt::format("{} |--> {}", g.element(bond.from).name, g.element(bond.to).name);
     std::cout << fmt::format("  {:<40} [{}]  {}\n", arrow, s.bond_dim[b], Stroke(g, c, b));
   }
-  PrintDiagnostics(c.diagnostics);
-  if (c.has_errors()) {
+  // With ideal constraints, derivative causality is accepted: the compiler solves the dependent
+  // storage exactly. Any other causality problem is still an error.
+  bool only_derivative = !c.derivative.empty();
+  for (const auto& d : c.diagnostics)
+    if (d.severity == mb::Diagnostic::Severity::kError && d.code != "causality.derivative") only_derivative = false;
+  const bool accepted = lm.compile.ideal_constraints && only_derivative;
+  if (accepted) {
+    std::vector<mb::Diagnostic> rest;
+    for (const auto& d : c.diagnostics)
+      if (d.code != "causality.derivative") rest.push_back(d);
+    PrintDiagnostics(rest);
+    std::string names;
+    for (int e : c.derivative) names += (names.empty() ? "" : ", ") + mb::Describe(g, e);
+    std::cout << fmt::format("\nideal constraints: {} storage element{} in derivative causality, solved exactly: {}\n",
+                             c.derivative.size(), c.derivative.size() == 1 ? "" : "s", names);
+  } else {
+    PrintDiagnostics(c.diagnostics);
+  }
+  if (c.has_errors() && !accepted) {
     if (!c.derivative.empty())
       std::cout << fmt::format("\nnot integrally causal: {} storage element{} in derivative causality\n", c.derivative.size(),
                                c.derivative.size() == 1 ? "" : "s");
     else
       std::cout << "\ncausality conflicts: see the errors above\n";
+    if (a.suggest && !c.derivative.empty()) return Suggest(lm, a);
+    if (a.suggest) std::cout << "--suggest repairs derivative causality only; nothing to propose for these conflicts\n";
     return kExitModel;
+  }
+  if (a.suggest && accepted) {
+    // The model runs with ideal constraints; the couplings are the compliant alternative.
+    if (const int code = Suggest(lm, a); code == kExitIo) return code;
+  } else if (a.suggest) {
+    std::cout << "\n--suggest: nothing to repair, the model is integrally causal" << (a.write ? "; nothing was written" : "") << '\n';
+    PrintRigidParts(lm);
   }
   const auto model = mb::CompiledModel::Compile(lm.graph, lm.compile);  // also finds algebraic loops
   (void)mb::MakeColumns(*model, false);  // and checks the declared outputs
-  std::cout << fmt::format("\nintegrally causal; {} states ({} instructions in the plan):\n", model->num_states(), model->num_instructions());
+  const std::string causal = model->has_constraints()
+                                 ? fmt::format("causal with ideal constraints ({} constraint effort{})", model->num_multipliers(), model->num_multipliers() == 1 ? "" : "s")
+                                 : "integrally causal";
+  std::cout << fmt::format("\n{}; {} states ({} instructions in the plan):\n", causal, model->num_states(), model->num_instructions());
   for (int i = 0; i < model->num_states(); ++i)
     std::cout << fmt::format("  {} [{}]\n", model->state_names()[i], model->state_units()[i]);
   return kExitOk;
@@ -98,9 +291,10 @@ int Equations(const std::string& path, const std::string& format) {
 int Graph(const std::string& path, const std::string& out) {
   const mb::LoadedModel lm = Load(path);
   mb::DiagnosticSink sink;
-  const mb::Structure s = mb::AnalyzeStructure(lm.graph, lm.compile.default_domain, sink);
+  const mb::BondGraph view = mb::CausalView(lm.graph);
+  const mb::Structure s = mb::AnalyzeStructure(view, lm.compile.default_domain, sink);
   sink.ThrowIfErrors();
-  const mb::CausalAssignment c = mb::AssignCausality(lm.graph, s);
+  const mb::CausalAssignment c = mb::AssignCausality(view, s);
   const std::string dot = mb::MakeDot(lm.graph, &s, &c, mb::LinkGrouping(lm));
   const fs::path outp(out);
   const std::string ext = outp.extension().string();
@@ -118,33 +312,60 @@ int Graph(const std::string& path, const std::string& out) {
   return kExitOk;
 }
 
+// ---------------------------------------------------------------------------------------------
+// The run options shared by `run` and `compare`.
+
 struct RunArgs {
-  std::string model, out;
   std::optional<double> t_end, dt, rtol, atol, step, max_step;
-  std::optional<std::string> solver;
-  bool all_variables = false, quiet = false, no_projection = false;
+  std::optional<std::string> solver, constraints;
+  bool all_variables = false, no_projection = false;
   std::string jit = "auto";
 };
 
-int Run(const RunArgs& a, const std::vector<std::string>& argv) {
-  const mb::LoadedModel lm = Load(a.model);
-  mb::CompileOptions co = lm.compile;
+void AddRunOptions(CLI::App* cmd, RunArgs& a) {
+  cmd->add_option("--t-end", a.t_end, "end time [s] (default: the model's, else 1)")->check(CLI::PositiveNumber);
+  cmd->add_option("--dt", a.dt, "output interval [s] (default: the model's, else 1e-3)")->check(CLI::PositiveNumber);
+  cmd->add_option("--solver", a.solver, "bdf, adams, dopri5 or rk4 (default: the model's, else bdf)");
+  cmd->add_option("--rtol", a.rtol, "relative tolerance (default: the model's, else 1e-8)")->check(CLI::PositiveNumber);
+  cmd->add_option("--atol", a.atol, "absolute tolerance (default: the model's, else 1e-10)")->check(CLI::PositiveNumber);
+  cmd->add_option("--step", a.step, "fixed step [s] for rk4 (or a fixed-step dopri5)")->check(CLI::PositiveNumber);
+  cmd->add_option("--max-step", a.max_step, "largest step [s] of the adaptive methods")->check(CLI::PositiveNumber);
+  cmd->add_flag("--all-variables", a.all_variables, "add a column for every effort and flow");
+  cmd->add_option("--jit", a.jit,
+                  "right-hand side as generated C++ compiled with the system compiler (auto: when one works; "
+                  "off: the plan interpreter)")
+      ->check(CLI::IsMember({"auto", "on", "off"}));
+  cmd->add_flag("--no-projection", a.no_projection,
+                "do not re-orthonormalise orientation matrices after each step (shows the raw drift)");
+  AddConstraintsOption(cmd, a.constraints);
+}
+
+/// A model loaded and compiled, with its run options resolved: the command line over the model
+/// file's `simulation:` section over the built-in defaults.
+struct PreparedRun {
+  mb::LoadedModel lm;
+  std::shared_ptr<const mb::CompiledModel> model;
+  mb::RunOptions options;
+  std::string solver;
+};
+
+/// Throws ModelError (bad model, bad output), CliExit 64 (unknown solver) or 74 (--jit on
+/// without a working compiler).
+PreparedRun PrepareRun(const std::string& path, const RunArgs& a) {
+  PreparedRun p{Load(path, a.constraints), nullptr, {}, {}};
+  mb::CompileOptions co = p.lm.compile;
   co.generate_code = a.jit != "off";
-  const auto model = mb::CompiledModel::Compile(lm.graph, co);
-  if (a.jit == "on" && !model->uses_generated_code()) {
-    std::cerr << "error: --jit on, but " << model->rhs_engine() << '\n';
-    return kExitIo;
-  }
-  const mb::SimulationDefaults& d = lm.simulation;
-  mb::RunOptions o;
+  p.model = mb::CompiledModel::Compile(p.lm.graph, co);
+  if (a.jit == "on" && !p.model->uses_generated_code()) throw CliExit{kExitIo, "--jit on, but " + p.model->rhs_engine()};
+  const mb::SimulationDefaults& d = p.lm.simulation;
+  mb::RunOptions& o = p.options;
   o.t_end = a.t_end.value_or(d.t_end.value_or(1.0));
   o.dt = a.dt.value_or(d.dt.value_or(1e-3));
-  const std::string solver = a.solver.value_or(d.solver.value_or("bdf"));
+  p.solver = a.solver.value_or(d.solver.value_or("bdf"));
   try {
-    o.integrator.method = mb::ParseMethod(solver);
+    o.integrator.method = mb::ParseMethod(p.solver);
   } catch (const std::invalid_argument& e) {
-    std::cerr << "error: " << e.what() << '\n';
-    return kExitUsage;
+    throw CliExit{kExitUsage, e.what()};
   }
   o.integrator.rtol = a.rtol.value_or(d.rtol.value_or(1e-8));
   o.integrator.atol = a.atol.value_or(d.atol.value_or(1e-10));
@@ -153,7 +374,21 @@ int Run(const RunArgs& a, const std::vector<std::string>& argv) {
   o.all_variables = a.all_variables;
   o.integrator.project = !a.no_projection;
   o.stop = &g_stop;
-  (void)mb::MakeColumns(*model, o.all_variables);  // a bad output is a model error: before any file is touched
+  (void)mb::MakeColumns(*p.model, o.all_variables);  // a bad output is a model error: before any file is touched
+  return p;
+}
+
+struct RunCommand {
+  RunArgs run;
+  std::string model, out;
+  bool quiet = false;
+};
+
+int Run(const RunCommand& a, const std::vector<std::string>& argv) {
+  PreparedRun p = PrepareRun(a.model, a.run);
+  const mb::LoadedModel& lm = p.lm;
+  const auto& model = p.model;
+  mb::RunOptions& o = p.options;
   const bool tty = isatty(fileno(stderr)) && !a.quiet;
   if (tty) o.progress = [&](double f) { std::fprintf(stderr, "\r  t = %-10.4g s  %3.0f%%", o.t_start + f * (o.t_end - o.t_start), 100 * f); };
 
@@ -177,11 +412,12 @@ int Run(const RunArgs& a, const std::vector<std::string>& argv) {
   if (tty) std::fprintf(stderr, "\n");
   nlohmann::json record = mb::MakeRunRecord(a.model, lm.text, lm.graph.name(), o, summary, argv);
   record["rhs_engine"] = model->rhs_engine();
-  record["options"]["jit"] = a.jit;
+  record["options"]["jit"] = a.run.jit;
+  record["options"]["ideal_constraints"] = lm.compile.ideal_constraints;
   mb::WriteFileAtomic((fs::path(a.out) / "run.json").string(), record.dump(2) + "\n");
   if (!a.quiet || summary.status != mb::RunStatus::kOk) {
     std::cout << fmt::format("{}: {} to t = {:g} s with {} ({} steps, {} right-hand sides, {:.3f} s wall)\n",
-                             lm.graph.name(), mb::RunStatusName(summary.status), summary.t_reached, solver, summary.stats.steps,
+                             lm.graph.name(), mb::RunStatusName(summary.status), summary.t_reached, p.solver, summary.stats.steps,
                              summary.stats.rhs_evals, summary.wall_seconds);
     if (model->has_energy_account())
       std::cout << fmt::format("energy: work {:.9g} J, stored {:.9g} J, dissipated {:.9g} J, residual {:.3g}\n", summary.energy_work,
@@ -200,6 +436,126 @@ int Run(const RunArgs& a, const std::vector<std::string>& argv) {
   return kExitOk;
 }
 
+// ---------------------------------------------------------------------------------------------
+// compare A B
+
+struct CompareCommand {
+  RunArgs run;
+  std::string a, b, out;
+  std::string sort = "diff";
+  std::optional<int> top;
+};
+
+/// A CSV cell: quoted when it holds a comma, a quote or a line break.
+std::string CsvCell(const std::string& s) {
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char ch : s) q += ch == '"' ? std::string("\"\"") : std::string(1, ch);
+  return q + "\"";
+}
+
+std::string RunSettings(const PreparedRun& p) {
+  const mb::IntegratorOptions& i = p.options.integrator;
+  std::string s = fmt::format("solver {}, rtol {:g}, atol {:g}", p.solver, i.rtol, i.atol);
+  if (i.fixed_step > 0) s += fmt::format(", step {:g}", i.fixed_step);
+  if (i.max_step > 0) s += fmt::format(", max_step {:g}", i.max_step);
+  if (p.lm.compile.ideal_constraints) s += ", ideal constraints";
+  return s;
+}
+
+int Compare(const CompareCommand& c) {
+  // Both models are loaded and compiled, and the report's folder checked, before anything runs.
+  PreparedRun pa = PrepareRun(c.a, c.run);
+  PreparedRun pb = PrepareRun(c.b, c.run);
+  if (pa.options.t_end != pb.options.t_end || pa.options.dt != pb.options.dt)
+    throw CliExit{kExitUsage, fmt::format("the models' output grids differ (A: t_end {:g} s, dt {:g} s; B: t_end {:g} s, dt {:g} s): "
+                                          "give --t-end and --dt",
+                                          pa.options.t_end, pa.options.dt, pb.options.t_end, pb.options.dt)};
+  if (!c.out.empty()) {
+    const fs::path out(c.out);
+    if (out.has_parent_path() && !fs::is_directory(out.parent_path()))
+      throw CliExit{kExitIo, fmt::format("cannot write '{}': no folder '{}'", c.out, out.parent_path().string())};
+  }
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  mb::RecordingObserver ra, rb;
+  for (auto [p, rec, name] : {std::tuple{&pa, &ra, "A"}, std::tuple{&pb, &rb, "B"}}) {
+    mb::RunSummary summary;
+    try {
+      summary = mb::Simulate(*p->model, p->options, *rec);
+    } catch (const std::invalid_argument& e) {
+      throw CliExit{kExitUsage, e.what()};
+    }
+    if (summary.status == mb::RunStatus::kFailed) {
+      std::cerr << fmt::format("error: the simulation of {} ({}) failed {}\n  nothing to compare; nothing was written\n"
+                               "  hint: try a tighter tolerance (--rtol), a stiff solver (--solver bdf) or check the model's parameters\n",
+                               name, p->lm.file, summary.message);
+      return kExitSolver;
+    }
+    if (summary.status == mb::RunStatus::kInterrupted) {
+      std::cerr << summary.message << "; nothing was written\n";
+      return kExitInterrupted;
+    }
+  }
+  mb::ComparisonReport report;
+  try {
+    report = mb::CompareRecordings(ra, rb);
+  } catch (const std::invalid_argument& e) {
+    throw CliExit{kExitUsage, e.what()};
+  }
+  mb::SortComparison(report, c.sort == "name" ? mb::ComparisonOrder::kName : mb::ComparisonOrder::kRelative);
+  const size_t shown = c.top ? std::min<size_t>(*c.top, report.columns.size()) : report.columns.size();
+  const std::string order = c.sort == "name" ? "by name" : "by relative difference, largest first";
+
+  std::cout << fmt::format("A: {} (model '{}'; {})\nB: {} (model '{}'; {})\n", c.a, pa.lm.graph.name(), RunSettings(pa), c.b,
+                           pb.lm.graph.name(), RunSettings(pb));
+  std::cout << fmt::format("{} samples from t = {:g} to {:g} s (dt {:g} s); {} columns in both, {}{}\n", report.samples, report.t_first,
+                           report.t_last, pa.options.dt, report.columns.size(), order,
+                           shown < report.columns.size() ? fmt::format(", top {} shown", shown) : "");
+  size_t width = 6;
+  for (size_t k = 0; k < shown; ++k)
+    width = std::max(width, report.columns[k].name.size() + report.columns[k].unit.size() + 3);
+  width = std::min<size_t>(width, 48);
+  std::cout << fmt::format("  {:<{}}  {:>12}  {:>10}  {:>12}  {:>10}\n", "column", width, "max |A-B|", "at t [s]", "scale max|A|",
+                           "relative");
+  for (size_t k = 0; k < shown; ++k) {
+    const mb::ColumnComparison& col = report.columns[k];
+    std::cout << fmt::format("  {:<{}}  {:>12.4g}  {:>10.6g}  {:>12.4g}  {:>10.3g}{}\n", col.name + " [" + col.unit + "]", width,
+                             col.max_abs_diff, col.time, col.scale, col.relative,
+                             col.unit_b != col.unit ? fmt::format("  (unit in B: {})", col.unit_b) : "");
+  }
+  auto list = [](const std::vector<std::string>& names) {
+    std::string s;
+    for (const auto& n : names) s += (s.empty() ? "" : ", ") + n;
+    return s;
+  };
+  std::cout << fmt::format("only in A ({}){}{}\n", report.only_in_a.size(), report.only_in_a.empty() ? "" : ": ", list(report.only_in_a));
+  std::cout << fmt::format("only in B ({}){}{}\n", report.only_in_b.size(), report.only_in_b.empty() ? "" : ": ", list(report.only_in_b));
+  if (const mb::ColumnComparison* w = report.Worst())
+    std::cout << fmt::format("largest relative difference: {:.3g} in {} at t = {:g} s\n", w->relative, w->name, w->time);
+
+  if (!c.out.empty()) {
+    std::string csv = fmt::format(
+        "# multibond compare; A: {} ({}); B: {} ({}); t_end {:g} s, dt {:g} s, jit {}, all_variables {}, sort {}, top {}; multibond {}\n",
+        c.a, RunSettings(pa), c.b, RunSettings(pb), pa.options.t_end, pa.options.dt, c.run.jit, c.run.all_variables, c.sort,
+        c.top ? std::to_string(*c.top) : "all", mb::kVersion);
+    csv += fmt::format("# only in A ({}): {}\n# only in B ({}): {}\n", report.only_in_a.size(), list(report.only_in_a),
+                       report.only_in_b.size(), list(report.only_in_b));
+    csv += "column,unit,max_abs_diff,time,scale,relative_diff\n";
+    for (size_t k = 0; k < shown; ++k) {
+      const mb::ColumnComparison& col = report.columns[k];
+      csv += fmt::format("{},{},{},{},{},{}\n", CsvCell(col.name), CsvCell(col.unit), col.max_abs_diff, col.time, col.scale, col.relative);
+    }
+    try {
+      mb::WriteFileAtomic(c.out, csv);
+    } catch (const std::exception& e) {
+      throw CliExit{kExitIo, e.what()};
+    }
+    std::cout << "wrote " << c.out << '\n';
+  }
+  return kExitOk;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -208,8 +564,18 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string(mb::kVersion));
 
   std::string model, format = "text", out;
+  CheckArgs ca;
   auto* check = app.add_subcommand("check", "Assign causality, print it and the state variables; exit 1 unless integrally causal");
-  check->add_option("MODEL", model, "model file (YAML)")->required();
+  check->add_option("MODEL", ca.model, "model file (YAML)")->required();
+  AddConstraintsOption(check, ca.constraints);
+  check->add_flag("--suggest", ca.suggest,
+                  "for derivative causality: list compliant couplings (a C and an R each, greedy: each one needed) that remove "
+                  "it, with K and R from --frequency and --damping-ratio");
+  check->add_option("--frequency", ca.frequency, "--suggest: target natural frequency of each coupling [Hz] (default 100)")
+      ->check(CLI::PositiveNumber);
+  check->add_option("--damping-ratio", ca.damping_ratio, "--suggest: target damping ratio of each coupling (default 0.7)")
+      ->check(CLI::NonNegativeNumber);
+  check->add_option("--write", ca.write, "--suggest: write the repaired model file to FILE (implies --suggest)")->type_name("FILE");
 
   auto* eq = app.add_subcommand("equations", "Print the state equations generated from the graph, with their causal paths");
   eq->add_option("MODEL", model, "model file (YAML)")->required();
@@ -219,25 +585,23 @@ int main(int argc, char** argv) {
   graph->add_option("MODEL", model, "model file (YAML)")->required();
   graph->add_option("-o,--output", out, "output file: .dot, .svg or .png")->required();
 
-  RunArgs ra;
+  RunCommand rc;
   auto* run = app.add_subcommand("run", "Simulate and write DIR/results.csv and DIR/run.json");
-  run->add_option("MODEL", ra.model, "model file (YAML)")->required();
-  run->add_option("-o,--output", ra.out, "output folder")->required();
-  run->add_option("--t-end", ra.t_end, "end time [s] (default: the model's, else 1)")->check(CLI::PositiveNumber);
-  run->add_option("--dt", ra.dt, "output interval [s] (default: the model's, else 1e-3)")->check(CLI::PositiveNumber);
-  run->add_option("--solver", ra.solver, "bdf, adams, dopri5 or rk4 (default: the model's, else bdf)");
-  run->add_option("--rtol", ra.rtol, "relative tolerance (default 1e-8)")->check(CLI::PositiveNumber);
-  run->add_option("--atol", ra.atol, "absolute tolerance (default 1e-10)")->check(CLI::PositiveNumber);
-  run->add_option("--step", ra.step, "fixed step [s] for rk4 (or a fixed-step dopri5)")->check(CLI::PositiveNumber);
-  run->add_option("--max-step", ra.max_step, "largest step [s] of the adaptive methods")->check(CLI::PositiveNumber);
-  run->add_flag("--all-variables", ra.all_variables, "add a column for every effort and flow");
-  run->add_option("--jit", ra.jit,
-                  "right-hand side as generated C++ compiled with the system compiler (auto: when one works; "
-                  "off: the plan interpreter)")
-      ->check(CLI::IsMember({"auto", "on", "off"}));
-  run->add_flag("--no-projection", ra.no_projection,
-                "do not re-orthonormalise orientation matrices after each step (shows the raw drift)");
-  run->add_flag("-q,--quiet", ra.quiet, "no progress and no summary");
+  run->add_option("MODEL", rc.model, "model file (YAML)")->required();
+  run->add_option("-o,--output", rc.out, "output folder")->required();
+  AddRunOptions(run, rc.run);
+  run->add_flag("-q,--quiet", rc.quiet, "no progress and no summary");
+
+  CompareCommand cc;
+  auto* compare = app.add_subcommand(
+      "compare", "Run two models on one output grid and report, per result column, the largest difference over time");
+  compare->add_option("A", cc.a, "model file (YAML); its values give each column's scale")->required();
+  compare->add_option("B", cc.b, "model file (YAML)")->required();
+  compare->add_option("-o,--output", cc.out, "also write the report as CSV to FILE")->type_name("FILE");
+  compare->add_option("--sort", cc.sort, "diff: largest relative difference first (default); name: by column name")
+      ->check(CLI::IsMember({"diff", "name"}));
+  compare->add_option("--top", cc.top, "report only the first N columns")->check(CLI::PositiveNumber);
+  AddRunOptions(compare, cc.run);
 
   std::string plot_dir, plot_model;
   auto* plot = app.add_subcommand("plot", "Draw the paper's figures (Figs. 2-33) from a results folder and write DIR/index.html");
@@ -258,10 +622,14 @@ int main(int argc, char** argv) {
       std::cout << "multibond " << mb::kVersion << '\n';
       return kExitOk;
     }
-    if (*check) return Check(model);
+    if (*check) {
+      ca.suggest = ca.suggest || ca.write.has_value();
+      return Check(ca);
+    }
     if (*eq) return Equations(model, format);
     if (*graph) return Graph(model, out);
-    if (*run) return Run(ra, args);
+    if (*run) return Run(rc, args);
+    if (*compare) return Compare(cc);
     if (*plot) {
       mb::PlotOptions po;
       po.model_path = plot_model;
@@ -271,8 +639,11 @@ int main(int argc, char** argv) {
       std::cout << fmt::format("wrote {} figure files in {}/figures and {}/index.html\n", report.files.size(), plot_dir, plot_dir);
       return report.files.empty() ? kExitIo : kExitOk;
     }
+  } catch (const CliExit& e) {
+    std::cerr << "error: " << e.message << '\n';
+    return e.code;
   } catch (const mb::ModelError& e) {
-    return ModelFailure(e, *run || *graph);
+    return ModelFailure(e, *run || *graph || *compare || (*check && ca.write));
   } catch (const mb::SolverError& e) {
     std::cerr << "error: solver failure " << e.what() << '\n';
     return kExitSolver;

@@ -204,3 +204,234 @@ TEST_F(CliTest, CheckExplainsDerivativeCausalityInMechanismTerms) {
 }
 
 }  // namespace
+
+namespace {
+
+// --- check --suggest (issue 7, item 5) ---------------------------------------------------------
+
+TEST_F(CliTest, CheckSuggestListsOneCouplingForTheRigidGearPairWithItsDefaults) {
+  const Result r = Cli("check " + Example("rigid_gear_pair.yaml") + " --suggest");
+  EXPECT_EQ(r.code, 1) << r.out;  // the model as given is still not integrally causal
+  EXPECT_THAT(r.out, HasSubstr("f = 100 Hz (default) and zeta = 0.7 (default)"));
+  EXPECT_THAT(r.out, HasSubstr("1 coupling:"));
+  EXPECT_THAT(r.out, HasSubstr("I 'J2' (dependent: I 'J1' -> 1 'j1' -> TF 'gear' -> 1 'j2' -> I 'J2'), on bond 'j2->J2'"));
+  // m_eff = 0.04 * (0.01 / 0.5^2) / (0.04 + 0.04) = 0.02; K = m_eff (2 pi 100)^2; R = 2 0.7 sqrt(K m_eff)
+  EXPECT_THAT(r.out, HasSubstr("C 'J2_K' K = 7895.68 N m/rad and R 'J2_R' R = 17.5929 N m s/rad"));
+  EXPECT_THAT(r.out, HasSubstr("m_eff = 0.02 kg m^2"));
+  EXPECT_THAT(r.out, HasSubstr("the repaired graph is integrally causal"));
+  EXPECT_THAT(r.out, HasSubstr("removes at least one derivative causality"));
+}
+
+TEST_F(CliTest, CheckSuggestTakesFrequencyAndDampingRatio) {
+  const Result r = Cli("check " + Example("rigid_gear_pair.yaml") + " --suggest --frequency 50 --damping-ratio 0.2");
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("f = 50 Hz and zeta = 0.2\n"));
+  EXPECT_THAT(r.out, HasSubstr("K = 1973.92 N m/rad"));  // 0.02 (2 pi 50)^2
+  EXPECT_EQ(Cli("check " + Example("rigid_gear_pair.yaml") + " --suggest --frequency -1").code, 64);
+  EXPECT_EQ(Cli("check " + Example("rigid_gear_pair.yaml") + " --suggest --damping-ratio x").code, 64);
+  EXPECT_THAT(Cli("check --help").out, HasSubstr("(default 100)"));
+  EXPECT_THAT(Cli("check --help").out, HasSubstr("(default 0.7)"));
+}
+
+TEST_F(CliTest, CheckSuggestWriteGivesAModelThatChecksAndRuns) {
+  fs::create_directories(dir_);
+  const fs::path fixed = dir_ / "fixed.yaml";
+  Result r = Cli("check " + Example("rigid_gear_pair.yaml") + " --suggest --write " + fixed.string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("wrote " + fixed.string()));
+  EXPECT_FALSE(fs::exists(fixed.string() + ".partial"));
+  const std::string text = Read(fixed);
+  EXPECT_THAT(text, HasSubstr("# Two inertias joined by a rigid gear (TF)"));  // the user's comments are kept
+  EXPECT_THAT(text, HasSubstr("  - j2 -> J2_coupling\n  - J2_coupling -> J2\n"));
+  r = Cli("check " + fixed.string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("integrally causal; 5 states"));
+  EXPECT_THAT(r.out, HasSubstr("J2_K.q [rad]"));
+  r = Cli("run " + fixed.string() + " -o " + (dir_ / "out").string() + " --t-end 0.2");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(Read(dir_ / "out" / "results.csv"), HasSubstr("J2_K.q [rad]"));
+}
+
+TEST_F(CliTest, CheckSuggestWriteGivesTwoCouplingsForTwoDependentInertias) {
+  fs::create_directories(dir_);
+  const fs::path fixed = dir_ / "train.yaml";
+  Result r = Cli("check " + std::string(MULTIBOND_SOURCE_DIR) + "/tests/models/rigid_gear_train.yaml --write " + fixed.string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("2 couplings:"));
+  EXPECT_THAT(r.out, HasSubstr("on bond 'j2->J2'"));
+  EXPECT_THAT(r.out, HasSubstr("on bond 'j3->J3'"));
+  EXPECT_EQ(Cli("check " + fixed.string()).code, 0);
+  EXPECT_EQ(Cli("run " + fixed.string() + " -q -o " + (dir_ / "out").string()).code, 0);
+}
+
+TEST_F(CliTest, CheckSuggestWriteFailuresWriteNothing) {
+  // A folder that does not exist: 74.
+  Result r = Cli("check " + Example("rigid_gear_pair.yaml") + " --write " + (dir_ / "no" / "such" / "f.yaml").string());
+  EXPECT_EQ(r.code, 74) << r.out;
+  EXPECT_FALSE(fs::exists(dir_ / "no"));
+  // An integrally causal model: nothing to repair, nothing written, exit 0.
+  fs::create_directories(dir_);
+  r = Cli("check " + Example("mass_spring_damper.yaml") + " --suggest --write " + (dir_ / "x.yaml").string());
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("nothing to repair"));
+  EXPECT_FALSE(fs::exists(dir_ / "x.yaml"));
+}
+
+TEST_F(CliTest, CheckSuggestOnAMechanismFileAnswersInMechanismTerms) {
+  fs::create_directories(dir_);
+  const fs::path model = dir_ / "rigid_drive.yaml";
+  std::ofstream(model) << "bodies:\n"
+                          "  G: {shape: {disc: {diameter: 0.1, thickness: 0.01, axis: x}}, density: 2700}\n"
+                          "joints:\n"
+                          "  G_bearing: {child: G, translation: {K: 1.0e6, R: 20}, rotation: {axes: [y, z], K: 1.0e4, R: 10}}\n"
+                          "elements:\n"
+                          "  motor: {type: Sf, flow: [50, 0, 0]}\n"
+                          "bonds:\n"
+                          "  - motor -> G.omega\n";
+  const Result r = Cli("check " + model.string() + " --suggest --write " + (dir_ / "fixed.yaml").string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("this is a mechanism file"));
+  EXPECT_THAT(r.out, HasSubstr("body 'G' (I 'G.inertia')"));
+  EXPECT_THAT(r.out, HasSubstr("joint, gear mesh or velocity drive"));
+  EXPECT_THAT(r.out, HasSubstr("nothing was written"));
+  EXPECT_FALSE(fs::exists(dir_ / "fixed.yaml"));
+}
+
+TEST_F(CliTest, ConstraintsOptionIsCheckedAndAcceptedByCheckRunAndCompare) {
+  EXPECT_EQ(Cli("check " + Example("mass_spring_damper.yaml") + " --constraints compliant").code, 0);
+  EXPECT_EQ(Cli("check " + Example("mass_spring_damper.yaml") + " --constraints bogus").code, 64);
+  EXPECT_EQ(Cli("run " + Example("mass_spring_damper.yaml") + " -q --t-end 0.1 --constraints compliant -o " + dir_.string()).code, 0);
+  EXPECT_EQ(nlohmann::json::parse(Read(dir_ / "run.json"))["options"]["ideal_constraints"], false);
+  EXPECT_EQ(Cli("compare " + Example("mass_spring_damper.yaml") + " " + Example("mass_spring_damper.yaml") +
+                " --t-end 0.1 --constraints compliant").code,
+            0);
+  // compliant: derivative causality stays an error.
+  EXPECT_EQ(Cli("check " + Example("rigid_gear_pair.yaml") + " --constraints compliant").code, 1);
+}
+
+// --- compare (issue 7, item 4) -----------------------------------------------------------------
+
+class CompareTest : public CliTest {
+ protected:
+  /// The mass-spring-damper with k = 150 N/m and its spring force output renamed.
+  std::string Stiffer() {
+    fs::create_directories(dir_);
+    std::string text = Read(Example("mass_spring_damper.yaml"));
+    text.replace(text.find("stiffness: 100.0"), 16, "stiffness: 150.0");
+    text.replace(text.find("name: spring_force"), 18, "name: force_in_spring");
+    const fs::path p = dir_ / "stiffer.yaml";
+    std::ofstream(p) << text;
+    return p.string();
+  }
+};
+
+std::vector<std::string> Lines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+TEST_F(CompareTest, ReportsEachColumnsLargestDifferenceAndWritesCsv) {
+  const std::string b = Stiffer(), csv = (dir_ / "report.csv").string();
+  const Result r = Cli("compare " + Example("mass_spring_damper.yaml") + " " + b + " --t-end 2 -o " + csv);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("2001 samples from t = 0 to 2 s (dt 0.001 s); 12 columns in both, by relative difference"));
+  EXPECT_THAT(r.out, HasSubstr("only in A (1): spring_force"));
+  EXPECT_THAT(r.out, HasSubstr("only in B (1): force_in_spring"));
+  EXPECT_THAT(r.out, HasSubstr("largest relative difference: 0.743 in "));
+  EXPECT_FALSE(fs::exists(csv + ".partial"));
+  const std::vector<std::string> lines = Lines(Read(csv));
+  ASSERT_EQ(lines.size(), 4u + 12u);
+  EXPECT_THAT(lines[0], HasSubstr("# multibond compare; A: " + Example("mass_spring_damper.yaml") + " (solver bdf, rtol 1e-10"));
+  EXPECT_THAT(lines[0], HasSubstr("B: " + b));
+  EXPECT_THAT(lines[0], HasSubstr("t_end 2 s, dt 0.001 s"));
+  EXPECT_THAT(lines[0], HasSubstr("multibond 0."));
+  EXPECT_EQ(lines[1], "# only in A (1): spring_force");
+  EXPECT_EQ(lines[2], "# only in B (1): force_in_spring");
+  EXPECT_EQ(lines[3], "column,unit,max_abs_diff,time,scale,relative_diff");
+  // The largest relative difference first: the momentum and the velocity (0.743), then the others.
+  EXPECT_THAT(lines[4], ::testing::StartsWith("mass.p,N s,0.0640"));
+  double previous = 1e300;
+  for (size_t k = 4; k < lines.size(); ++k) {
+    const double rel = std::stod(lines[k].substr(lines[k].rfind(',') + 1));
+    EXPECT_LE(rel, previous) << lines[k];
+    previous = rel;
+  }
+  bool found = false;
+  for (const auto& l : lines) found = found || l.rfind("spring.q,m,0.00897", 0) == 0;
+  EXPECT_TRUE(found);
+}
+
+TEST_F(CompareTest, SortByNameAndTop) {
+  const std::string csv = (dir_ / "top.csv").string();
+  const Result r = Cli("compare " + Example("mass_spring_damper.yaml") + " " + Stiffer() + " --t-end 0.5 --sort name --top 3 -o " + csv);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("by name, top 3 shown"));
+  const std::vector<std::string> lines = Lines(Read(csv));
+  ASSERT_EQ(lines.size(), 4u + 3u);
+  EXPECT_THAT(lines[0], HasSubstr("sort name, top 3"));
+  EXPECT_THAT(lines[4], ::testing::StartsWith("damper.dissipated,"));
+  EXPECT_THAT(lines[5], ::testing::StartsWith("energy.dissipated,"));
+  EXPECT_THAT(lines[6], ::testing::StartsWith("energy.kinetic,"));
+}
+
+TEST_F(CompareTest, TheSameModelTwiceHasNoDifference) {
+  const Result r = Cli("compare " + Example("dc_motor.yaml") + " " + Example("dc_motor.yaml") + " --t-end 0.2 --jit off");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("only in A (0)\nonly in B (0)\n"));
+  EXPECT_THAT(r.out, HasSubstr("largest relative difference: 0 in "));
+}
+
+TEST_F(CompareTest, ExitCodes) {
+  fs::create_directories(dir_);
+  const std::string msd = Example("mass_spring_damper.yaml");
+  // usage: a missing model, an unknown sort, a bad --top, models on different output grids
+  EXPECT_EQ(Cli("compare " + msd).code, 64);
+  EXPECT_EQ(Cli("compare " + msd + " " + msd + " --sort size").code, 64);
+  EXPECT_EQ(Cli("compare " + msd + " " + msd + " --top 0").code, 64);
+  EXPECT_EQ(Cli("compare " + msd + " " + msd + " --solver euler").code, 64);
+  Result r = Cli("compare " + msd + " " + Example("rlc_circuit.yaml"));
+  EXPECT_EQ(r.code, 64);
+  EXPECT_THAT(r.out, HasSubstr("output grids differ"));
+  EXPECT_EQ(Cli("compare " + msd + " " + Example("rlc_circuit.yaml") + " --t-end 0.1 --dt 0.001").code, 0);
+  // a model error in either model, before anything runs
+  r = Cli("compare " + msd + " " + Example("rigid_gear_pair.yaml") + " --t-end 1");
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.out, HasSubstr("derivative causality at I 'J2'"));
+  // a solver failure
+  r = Cli("compare " + msd + " " + msd + " --solver rk4 --step 0.5 --dt 0.5 --t-end 500 -o " + (dir_ / "r.csv").string());
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_FALSE(fs::exists(dir_ / "r.csv"));
+  // the report cannot be written
+  r = Cli("compare " + msd + " " + msd + " --t-end 0.1 -o " + (dir_ / "no" / "such" / "r.csv").string());
+  EXPECT_EQ(r.code, 74);
+  EXPECT_FALSE(fs::exists(dir_ / "no"));
+}
+
+}  // namespace
+
+namespace {
+
+TEST_F(CliTest, CheckAcceptsRigidJointsAndSuggestNamesThem) {
+  // Rigid joints and meshes are ideal constraints the compiler solves: check must see the
+  // causality the compiler sees (their Sf is an effort source of unknown reaction), not conflicts.
+  Result r = Cli("check " + Example("differential_ideal.yaml"));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("causal with ideal constraints"));
+  r = Cli("check " + Example("differential_ideal.yaml") + " --suggest");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("nothing to repair"));
+  EXPECT_THAT(r.out, HasSubstr("rigid (ideal constraints, solved exactly by their reactions): 16 parts"));
+  EXPECT_THAT(r.out, HasSubstr("  - gear mesh 'mesh_GA'\n"));
+  EXPECT_THAT(r.out, HasSubstr("give these joints and gear meshes K and R instead of 'rigid'"));
+}
+
+TEST_F(CliTest, CheckWithIdealConstraintsAcceptsDerivativeCausality) {
+  const Result r = Cli("check " + Example("rigid_gear_pair.yaml") + " --constraints ideal");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("ideal constraints: 1 storage element in derivative causality, solved exactly: I 'J2'"));
+  EXPECT_THAT(r.out, HasSubstr("causal with ideal constraints (1 constraint effort)"));
+}
+
+}  // namespace

@@ -24,6 +24,7 @@
 
 #include <fmt/format.h>
 
+#include "multibond/causality/repair.h"
 #include "multibond/compile/compiled_model.h"
 
 namespace multibond {
@@ -37,13 +38,11 @@ void CompiledModel::PrepareConstraintGraph() {
     bool target;
   };
   std::vector<Pending> pending;
-  // Rigid joints and other explicit constraints: the Sf becomes the multiplier's effort source.
-  for (int i = 0; i < g.num_elements(); ++i) {
-    Element& e = g.element(i);
-    if (e.kind != ElementKind::kSf || !e.constraint) continue;
-    e.kind = ElementKind::kSe;
-    pending.push_back({e.name, i, {i}, true});
-  }
+  // Rigid joints and other explicit constraints: the Sf becomes the multiplier's effort source
+  // (the same view `check` analyses, causality/repair.h).
+  g = CausalView(g);
+  for (int i = 0; i < g.num_elements(); ++i)
+    if (g.element(i).constraint) pending.push_back({g.element(i).name, i, {i}, true});
   for (;;) {
     DiagnosticSink sink;
     structure_ = AnalyzeStructure(g, options_.default_domain, sink);

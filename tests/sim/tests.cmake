@@ -1,0 +1,1 @@
+multibond_test(sim/compare_test.cc LIBS multibond::io LABELS unit)
