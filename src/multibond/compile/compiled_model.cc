@@ -505,6 +505,7 @@ void CompiledModel::Build() {
       plan_writes.push_back(out_class[k]);
     }
     BuildConstraints(plan_reads, plan_writes);
+    FindIndependentConstraints();
   }
   if (options_.generate_code && !constraints_.empty()) {
     rhs_engine_ = "interpreter (ideal constraints are solved around the plan)";
@@ -613,6 +614,10 @@ Workspace CompiledModel::MakeWorkspace() const {
     ws.con.rhs.assign(m, 0.0);
     ws.con.scale.assign(m, 0.0);
     ws.con.perm.assign(m, 0);
+    const int r = static_cast<int>(independent_.size());
+    ws.con.wr.setZero(r, r);
+    ws.con.yr.setZero(r);
+    ws.con.llt = Eigen::LLT<Eigen::MatrixXd>(r);
   }
   return ws;
 }

@@ -390,6 +390,35 @@ void CompiledModel::AssembleConstraintMatrix(double t, const double* x, Workspac
 }
 
 void CompiledModel::SolveConstraintSystem(Workspace& ws) const {
+  if (!independent_.empty() && SolveIndependent(ws)) return;
+  SolvePivoted(ws);
+}
+
+bool CompiledModel::SolveIndependent(Workspace& ws) const {
+  // The constraints found independent at t = 0 (redundant ones get zero effort): W restricted to
+  // them is positive definite, and a blocked Cholesky factorisation solves it. A configuration
+  // where they stop being independent (a near-zero pivot) falls back to the pivoted solve.
+  const int m = num_lambda_, r = static_cast<int>(independent_.size());
+  const double* w = ws.con.w.data();
+  Eigen::MatrixXd& a = ws.con.wr;
+  Eigen::VectorXd& y = ws.con.yr;
+  for (int i = 0; i < r; ++i) {
+    const double si = 1.0 / std::sqrt(w[independent_[i] * m + independent_[i]]);
+    ws.con.scale[i] = si;
+    y[i] = ws.con.rhs[independent_[i]] * si;
+  }
+  for (int j = 0; j < r; ++j)
+    for (int i = 0; i < r; ++i) a(i, j) = w[independent_[i] * m + independent_[j]] * ws.con.scale[i] * ws.con.scale[j];
+  ws.con.llt.compute(a);
+  if (ws.con.llt.info() != Eigen::Success) return false;
+  if (ws.con.llt.matrixLLT().diagonal().minCoeff() < 1e-5) return false;  // pivot^2 < 1e-10: nearly dependent
+  ws.con.llt.solveInPlace(y);
+  std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
+  for (int i = 0; i < r; ++i) ws.lambda[independent_[i]] = y[i] * ws.con.scale[i];
+  return true;
+}
+
+void CompiledModel::SolvePivoted(Workspace& ws) const {
   const int m = num_lambda_;
   double* a = ws.con.w.data();
   double* y = ws.con.rhs.data();
@@ -436,6 +465,21 @@ void CompiledModel::SolveConstraintSystem(Workspace& ws) const {
   for (int i = rank; i < m; ++i) y[i] = 0.0;
   // Undo the permutation and the scaling (lambda written to ws.lambda).
   for (int i = 0; i < m; ++i) ws.lambda[perm[i]] = y[i] * s[perm[i]];
+  ws.con.rank = rank;
+}
+
+void CompiledModel::FindIndependentConstraints() {
+  independent_.clear();
+  if (constraints_.empty()) return;
+  // At the initial state: the pivoted factorisation's first `rank` pivots are an independent set.
+  Workspace ws = MakeWorkspace();
+  std::vector<double> xdot(num_states());
+  EvalPlan(0.0, x0_.data(), xdot.data(), ws);
+  AssembleConstraintMatrix(0.0, x0_.data(), ws);
+  std::fill(ws.con.rhs.begin(), ws.con.rhs.end(), 0.0);
+  SolvePivoted(ws);
+  independent_.assign(ws.con.perm.begin(), ws.con.perm.begin() + ws.con.rank);
+  std::sort(independent_.begin(), independent_.end());
 }
 
 void CompiledModel::CalcConstrained(double t, const double* x, double* xdot, Workspace& ws) const {
