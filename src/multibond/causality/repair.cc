@@ -12,26 +12,8 @@ namespace multibond {
 
 namespace {
 
-std::string Num(double v) { return fmt::format("{:.6g}", v); }
 
-/// "0.04" for a multiple of the identity, else "[0.1, 0.2]" (diagonal) or "[[..], [..]]".
-std::string Show(const Eigen::MatrixXd& m) {
-  const Param p = ParamOf(m);
-  if (p.is_scalar) return Num(p.scalar);
-  const bool diagonal = m.isDiagonal(0.0);
-  std::string s = "[";
-  for (int i = 0; i < m.rows(); ++i) {
-    if (i) s += ", ";
-    if (diagonal) {
-      s += Num(m(i, i));
-      continue;
-    }
-    s += "[";
-    for (int j = 0; j < m.cols(); ++j) s += (j ? ", " : "") + Num(m(i, j));
-    s += "]";
-  }
-  return s + "]";
-}
+std::string Show(const Eigen::MatrixXd& m) { return MatrixText(m, false); }
 
 std::string UniqueName(const BondGraph& g, const std::string& base) {
   std::string name = base;
@@ -139,6 +121,25 @@ CouplingUnits CouplingUnitsOf(const std::string& domain) {
   if (domain == "electrical") return {"H", "1/F", "ohm"};
   if (domain == "hydraulic") return {"Pa s^2/m^3", "Pa/m^3", "Pa s/m^3"};
   return {"-", "-", "-"};
+}
+
+std::string MatrixText(const Eigen::MatrixXd& m, bool full_precision) {
+  auto num = [&](double v) { return full_precision ? fmt::format("{}", v) : fmt::format("{:.6g}", v); };
+  const Param p = ParamOf(m);
+  if (p.is_scalar) return num(p.scalar);
+  const bool diagonal = m.isDiagonal(0.0);
+  std::string s = "[";
+  for (int i = 0; i < m.rows(); ++i) {
+    if (i) s += ", ";
+    if (diagonal) {
+      s += num(m(i, i));
+      continue;
+    }
+    s += "[";
+    for (int j = 0; j < m.cols(); ++j) s += (j ? ", " : "") + num(m(i, j));
+    s += "]";
+  }
+  return s + "]";
 }
 
 Param ParamOf(const Eigen::MatrixXd& m) {

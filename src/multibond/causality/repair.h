@@ -119,5 +119,8 @@ CouplingUnits CouplingUnitsOf(const std::string& domain);
 /// A parameter for a dim x dim matrix: a scalar when it is a multiple of the identity, else the
 /// matrix (diagonal or full).
 Param ParamOf(const Eigen::MatrixXd& m);
+/// The matrix as a model file writes a parameter: "0.04" for a multiple of the identity, else
+/// "[0.1, 0.2]" (diagonal) or "[[..], [..]]"; 6 significant digits, or every digit.
+std::string MatrixText(const Eigen::MatrixXd& m, bool full_precision);
 
 }  // namespace multibond

@@ -144,7 +144,6 @@ std::string BondText(const YAML::Node& b, const std::string& from, const std::st
   return s + "}";
 }
 
-std::string Num(double v) { return fmt::format("{}", v); }
 
 /// The new elements of one coupling, as "name: {spec}" entries with a trailing comment each.
 std::vector<std::pair<std::string, std::string>> ElementEntries(const SuggestedCoupling& c) {
@@ -187,23 +186,7 @@ int CheckRepaired(const std::string& text, const std::string& file) {
 
 }  // namespace
 
-std::string ParamYaml(const Eigen::MatrixXd& m) {
-  const Param p = ParamOf(m);
-  if (p.is_scalar) return Num(p.scalar);
-  std::string s = "[";
-  const bool diagonal = m.isDiagonal(0.0);
-  for (int i = 0; i < m.rows(); ++i) {
-    if (i) s += ", ";
-    if (diagonal) {
-      s += Num(m(i, i));
-      continue;
-    }
-    s += "[";
-    for (int j = 0; j < m.cols(); ++j) s += (j ? ", " : "") + Num(m(i, j));
-    s += "]";
-  }
-  return s + "]";
-}
+std::string ParamYaml(const Eigen::MatrixXd& m) { return MatrixText(m, true); }
 
 RepairedText RepairModelText(const std::string& text, const std::string& file, const RepairResult& repair,
                              const CouplingTarget& target) {
