@@ -325,7 +325,7 @@ struct RunArgs {
 void AddRunOptions(CLI::App* cmd, RunArgs& a) {
   cmd->add_option("--t-end", a.t_end, "end time [s] (default: the model's, else 1)")->check(CLI::PositiveNumber);
   cmd->add_option("--dt", a.dt, "output interval [s] (default: the model's, else 1e-3)")->check(CLI::PositiveNumber);
-  cmd->add_option("--solver", a.solver, "bdf, adams, dopri5 or rk4 (default: the model's, else bdf)");
+  cmd->add_option("--solver", a.solver, "bdf, adams, dopri5, bs3 (Bogacki-Shampine 3(2)) or rk4 (default: the model's, else bdf)");
   cmd->add_option("--rtol", a.rtol, "relative tolerance (default: the model's, else 1e-8)")->check(CLI::PositiveNumber);
   cmd->add_option("--atol", a.atol, "absolute tolerance (default: the model's, else 1e-10)")->check(CLI::PositiveNumber);
   cmd->add_option("--step", a.step, "fixed step [s] for rk4 (or a fixed-step dopri5)")->check(CLI::PositiveNumber);

@@ -617,7 +617,6 @@ Workspace CompiledModel::MakeWorkspace() const {
     const int r = static_cast<int>(independent_.size());
     ws.con.wr.setZero(r, r);
     ws.con.yr.setZero(r);
-    ws.con.llt = Eigen::LLT<Eigen::MatrixXd>(r);
   }
   return ws;
 }

@@ -48,9 +48,8 @@ struct Workspace {
     std::vector<double> w, rhs, scale;    ///< the m x m system W lambda = rhs, and its scaling
     std::vector<int> perm;
     int rank = 0;                         ///< of the last pivoted solve
-    Eigen::MatrixXd wr;                   ///< W on the independent constraints (scaled)
+    Eigen::MatrixXd wr;                   ///< W on the independent constraints, factorised in place
     Eigen::VectorXd yr;
-    Eigen::LLT<Eigen::MatrixXd> llt;
   } con;
 };
 
@@ -236,6 +235,7 @@ class CompiledModel {
   /// Solves W y = rhs in place (rhs in ws.con.rhs) by a scaled, pivoted LDL^T; pivots below a
   /// relative 1e-11 are redundant constraints and get a zero multiplier.
   void SolveConstraintSystem(Workspace& ws) const;
+  void FormFullW(Workspace& ws) const;  ///< W (m x m) from B and V in ws
   bool SolveIndependent(Workspace& ws) const;  ///< false: fall back to SolvePivoted
   void SolvePivoted(Workspace& ws) const;
   /// The constraints independent at the initial state (the rest are redundant there).
@@ -300,6 +300,7 @@ class CompiledModel {
   struct WPair { int i, j, begin, end; };  ///< a nonzero of W and its range in w_terms_
   std::vector<WPair> w_pairs_;
   std::vector<std::pair<int, int>> w_terms_;  ///< (position in column i, position in column j)
+  std::vector<WPair> w_pairs_independent_;  ///< W's nonzeros within independent_, in its numbering
   std::vector<int> independent_;  ///< multipliers of an independent set at t = 0 (all if none redundant)
 
   std::vector<StateBlock> blocks_;

@@ -379,7 +379,13 @@ void CompiledModel::AssembleConstraintMatrix(double t, const double* x, Workspac
       for (int st : cg.starts) std::fill(lin + plan_[st].dst, lin + plan_[st].dst + cg.size, 0.0);
     }
   }
+}
+
+void CompiledModel::FormFullW(Workspace& ws) const {
   // W = B^T M^-1 B over the rows the two columns share (precomputed pairs).
+  const int m = num_lambda_;
+  const double* b = ws.con.b.data();
+  const double* v = ws.con.v.data();
   double* wm = ws.con.w.data();
   std::fill(ws.con.w.begin(), ws.con.w.end(), 0.0);
   for (const WPair& pr : w_pairs_) {
@@ -391,30 +397,34 @@ void CompiledModel::AssembleConstraintMatrix(double t, const double* x, Workspac
 
 void CompiledModel::SolveConstraintSystem(Workspace& ws) const {
   if (!independent_.empty() && SolveIndependent(ws)) return;
+  FormFullW(ws);
   SolvePivoted(ws);
 }
 
 bool CompiledModel::SolveIndependent(Workspace& ws) const {
   // The constraints found independent at t = 0 (redundant ones get zero effort): W restricted to
-  // them is positive definite, and a blocked Cholesky factorisation solves it. A configuration
-  // where they stop being independent (a near-zero pivot) falls back to the pivoted solve.
-  const int m = num_lambda_, r = static_cast<int>(independent_.size());
-  const double* w = ws.con.w.data();
+  // them is positive definite, and Cholesky solves it. A configuration where they stop being
+  // independent (a pivot below 1e-5 of its diagonal's root) falls back to the pivoted solve.
+  const int r = static_cast<int>(independent_.size());
+  const double* b = ws.con.b.data();
+  const double* v = ws.con.v.data();
   Eigen::MatrixXd& a = ws.con.wr;
-  Eigen::VectorXd& y = ws.con.yr;
-  for (int i = 0; i < r; ++i) {
-    const double si = 1.0 / std::sqrt(w[independent_[i] * m + independent_[i]]);
-    ws.con.scale[i] = si;
-    y[i] = ws.con.rhs[independent_[i]] * si;
+  a.setZero();
+  for (const WPair& pr : w_pairs_independent_) {
+    double sum = 0.0;
+    for (int k = pr.begin; k < pr.end; ++k) sum += b[w_terms_[k].first] * v[w_terms_[k].second];
+    a(pr.i, pr.j) = sum;  // lower triangle (i >= j): what the factorisation reads
   }
-  for (int j = 0; j < r; ++j)
-    for (int i = 0; i < r; ++i) a(i, j) = w[independent_[i] * m + independent_[j]] * ws.con.scale[i] * ws.con.scale[j];
-  ws.con.llt.compute(a);
-  if (ws.con.llt.info() != Eigen::Success) return false;
-  if (ws.con.llt.matrixLLT().diagonal().minCoeff() < 1e-5) return false;  // pivot^2 < 1e-10: nearly dependent
-  ws.con.llt.solveInPlace(y);
+  for (int i = 0; i < r; ++i) ws.con.scale[i] = a(i, i);
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(a);  // in place: no allocation
+  if (llt.info() != Eigen::Success) return false;
+  for (int i = 0; i < r; ++i)
+    if (!(a(i, i) * a(i, i) > 1e-10 * ws.con.scale[i])) return false;  // nearly dependent here
+  Eigen::VectorXd& y = ws.con.yr;
+  for (int i = 0; i < r; ++i) y[i] = ws.con.rhs[independent_[i]];
+  llt.solveInPlace(y);
   std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
-  for (int i = 0; i < r; ++i) ws.lambda[independent_[i]] = y[i] * ws.con.scale[i];
+  for (int i = 0; i < r; ++i) ws.lambda[independent_[i]] = y[i];
   return true;
 }
 
@@ -476,10 +486,19 @@ void CompiledModel::FindIndependentConstraints() {
   std::vector<double> xdot(num_states());
   EvalPlan(0.0, x0_.data(), xdot.data(), ws);
   AssembleConstraintMatrix(0.0, x0_.data(), ws);
+  FormFullW(ws);
   std::fill(ws.con.rhs.begin(), ws.con.rhs.end(), 0.0);
   SolvePivoted(ws);
   independent_.assign(ws.con.perm.begin(), ws.con.perm.begin() + ws.con.rank);
   std::sort(independent_.begin(), independent_.end());
+  // W's nonzeros between independent constraints, in their own numbering.
+  std::vector<int> position(num_lambda_, -1);
+  for (size_t k = 0; k < independent_.size(); ++k) position[independent_[k]] = static_cast<int>(k);
+  w_pairs_independent_.clear();
+  for (const WPair& pr : w_pairs_)
+    if (position[pr.i] >= 0 && position[pr.j] >= 0)
+      w_pairs_independent_.push_back({std::max(position[pr.i], position[pr.j]), std::min(position[pr.i], position[pr.j]),
+                                      pr.begin, pr.end});
 }
 
 void CompiledModel::CalcConstrained(double t, const double* x, double* xdot, Workspace& ws) const {

@@ -45,7 +45,11 @@ JitResult CompileAndLoad(const std::string& source, const std::string& symbol) {
   const char* env_cxx = std::getenv("MULTIBOND_CXX");
   const std::string cxx = env_cxx && *env_cxx ? env_cxx : "c++";
   // -march=native: the object is cached per machine (the cache key includes the flags).
-  const std::vector<std::string> flags = {"-std=c++20", "-O2", "-march=native", "-fPIC", "-shared", "-fno-math-errno"};
+  // -fno-tree-slp-vectorize: GCC's straight-line vectoriser packs the scalar results of the
+  // generated code into vectors with more shuffles than it saves; without it the differential's
+  // right-hand side takes 151 ns instead of 174 (GCC 12; clang accepts the flag too).
+  const std::vector<std::string> flags = {"-std=c++20", "-O2", "-march=native", "-fno-tree-slp-vectorize",
+                                          "-fPIC", "-shared", "-fno-math-errno"};
   std::string key_text = cxx;
   for (const auto& f : flags) key_text += " " + f;
   key_text += "\n" + source;

@@ -13,8 +13,9 @@ class OdeSystem {
   /// True if the exact solution stays on a manifold that Project() can restore (for example
   /// orientation matrices, which stay orthonormal). Integrators then project after each step.
   virtual bool has_invariants() const { return false; }
-  /// Moves x (num_states() entries) onto that manifold, in place. Must not allocate.
-  virtual void Project(double* /*x*/) {}
+  /// Moves x (num_states() entries), the state at time t, onto that manifold, in place (the
+  /// manifold may move with t: ideal constraints on prescribed flows). Must not allocate.
+  virtual void Project(double /*t*/, double* /*x*/) {}
 };
 
 }  // namespace multibond

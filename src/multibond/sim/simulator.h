@@ -21,21 +21,15 @@ class ModelSystem : public OdeSystem {
  public:
   explicit ModelSystem(const CompiledModel& model) : model_(model), ws_(model.MakeWorkspace()) {}
   int num_states() const override { return model_.num_states(); }
-  void CalcDerivatives(double t, const double* x, double* xdot) override {
-    last_t_ = t;
-    model_.CalcStateDerivatives(t, x, xdot, ws_);
-  }
+  void CalcDerivatives(double t, const double* x, double* xdot) override { model_.CalcStateDerivatives(t, x, xdot, ws_); }
   bool has_invariants() const override { return model_.has_invariants(); }
-  /// Orientations onto SO(3) and, with ideal constraints, momenta onto the constraints. The
-  /// integrators project right after a step, whose last evaluation was at the step's end time:
-  /// that time is the one prescribed constraint flows are evaluated at.
-  void Project(double* x) override { model_.Project(last_t_, x, ws_); }
+  /// Orientations onto SO(3) and, with ideal constraints, momenta onto the constraints at t.
+  void Project(double t, double* x) override { model_.Project(t, x, ws_); }
   Workspace& workspace() { return ws_; }
 
  private:
   const CompiledModel& model_;
   Workspace ws_;
-  double last_t_ = 0.0;
 };
 
 struct RunOptions {

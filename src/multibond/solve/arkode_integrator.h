@@ -1,6 +1,7 @@
 #pragma once
 /// \file
-/// Private to solve/: the ARKODE ERKStep-backed integrator (Method::kDormandPrince, Method::kRk4).
+/// Private to solve/: the ARKODE ERKStep-backed integrator (Method::kDormandPrince,
+/// Method::kBogackiShampine, Method::kRk4).
 
 #include <memory>
 

@@ -11,7 +11,7 @@
 namespace multibond {
 namespace {
 
-constexpr const char* kValidNames = "bdf, adams, dopri5 (or dormand-prince), rk4";
+constexpr const char* kValidNames = "bdf, adams, dopri5 (or dormand-prince), bs3 (or bogacki-shampine), rk4";
 
 /// For a model without states (purely algebraic): time just advances, nothing to integrate.
 /// SUNDIALS cannot be given zero-length vectors.
@@ -66,6 +66,7 @@ Method ParseMethod(const std::string& name) {
   if (name == "bdf") return Method::kBdf;
   if (name == "adams") return Method::kAdams;
   if (name == "dopri5" || name == "dormand-prince") return Method::kDormandPrince;
+  if (name == "bs3" || name == "bogacki-shampine") return Method::kBogackiShampine;
   if (name == "rk4") return Method::kRk4;
   throw std::invalid_argument(
       fmt::format("unknown integration method '{}'; valid methods: {}", name, kValidNames));
@@ -81,6 +82,8 @@ const char* MethodName(Method m) {
       return "dopri5";
     case Method::kRk4:
       return "rk4";
+    case Method::kBogackiShampine:
+      return "bs3";
   }
   return "unknown";
 }
@@ -95,6 +98,7 @@ std::unique_ptr<Integrator> MakeIntegrator(OdeSystem& system, const IntegratorOp
     case Method::kAdams:
       return MakeCvodeIntegrator(system, options);
     case Method::kDormandPrince:
+    case Method::kBogackiShampine:
     case Method::kRk4:
       return MakeArkodeIntegrator(system, options);
   }
