@@ -185,6 +185,15 @@ void CompiledModel::Build() {
     }
   }
   x0_ = Eigen::Map<Eigen::VectorXd>(x0.data(), static_cast<Eigen::Index>(x0.size()));
+  for (const StateBlock& blk : blocks_) {
+    if (blk.kind != StateBlock::Kind::kMomentum && blk.kind != StateBlock::Kind::kDisplacement) continue;
+    const Element& e = g.element(blk.owner);
+    EnergyTerm et{blk.offset, blk.size, -1, static_cast<int>(energy_coef_.size()), blk.kind == StateBlock::Kind::kMomentum};
+    if (e.kind == ElementKind::kI && !e.rotation.empty())
+      et.rotation = blocks_[aux_block_[g.FindAux(e.rotation)]].offset;
+    AppendRowMajor(energy_coef_, energy_matrix_[blk.owner]);
+    energy_terms_.push_back(et);
+  }
   auto state_offset = [&](int block) { return blocks_[block].offset; };
   auto aux_offset = [&](const std::string& name) { return state_offset(aux_block_[g.FindAux(name)]); };
 
@@ -1094,31 +1103,46 @@ void CompiledModel::Read(const VariableRef& v, const double* x, const Workspace&
   std::copy(from, from + v.size, out);
 }
 
+double CompiledModel::EnergyOf(const EnergyTerm& et, const double* x) const {
+  // 1/2 s^T E s with E = I^-1 or K (row-major in energy_coef_); a body's angular momentum is
+  // taken to its frame first (h_b = R^T h), where its inertia is constant. No allocation: these
+  // run at every output time.
+  const double* s = x + et.state;
+  double hb[3];
+  if (et.rotation >= 0) {
+    const double* r = x + et.rotation;
+    for (int i = 0; i < 3; ++i) hb[i] = r[i] * s[0] + r[3 + i] * s[1] + r[6 + i] * s[2];
+    s = hb;
+  }
+  const double* e = energy_coef_.data() + et.coef;
+  double sum = 0.0;
+  for (int i = 0; i < et.size; ++i) {
+    double row = 0.0;
+    for (int j = 0; j < et.size; ++j) row += e[i * et.size + j] * s[j];
+    sum += s[i] * row;
+  }
+  return 0.5 * sum;
+}
+
 double CompiledModel::StoredEnergy(int element, const double* x) const {
   const int blk = element_block_.at(element);
   if (blk < 0) return 0.0;
-  const StateBlock& b = blocks_[blk];
-  const Eigen::Map<const Eigen::VectorXd> s(x + b.offset, b.size);
-  const Element& e = graph_.element(element);
-  if (e.kind == ElementKind::kI && !e.rotation.empty()) {
-    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(x + blocks_[aux_block_[graph_.FindAux(e.rotation)]].offset);
-    const Eigen::Vector3d hb = r.transpose() * s;  // angular momentum in the body frame
-    return 0.5 * hb.dot(energy_matrix_[element] * hb);
-  }
-  return 0.5 * s.dot(energy_matrix_[element] * s);
+  for (const EnergyTerm& et : energy_terms_)
+    if (et.state == blocks_[blk].offset) return EnergyOf(et, x);
+  return 0.0;
 }
 
 double CompiledModel::KineticEnergy(const double* x) const {
   double sum = 0.0;
-  for (const StateBlock& b : blocks_)
-    if (b.kind == StateBlock::Kind::kMomentum) sum += StoredEnergy(b.owner, x);
+  for (const EnergyTerm& et : energy_terms_)
+    if (et.kinetic) sum += EnergyOf(et, x);
   return sum;
 }
 
 double CompiledModel::PotentialEnergy(const double* x) const {
   double sum = 0.0;
-  for (const StateBlock& b : blocks_)
-    if (b.kind == StateBlock::Kind::kDisplacement) sum += StoredEnergy(b.owner, x);
+  for (const EnergyTerm& et : energy_terms_)
+    if (!et.kinetic) sum += EnergyOf(et, x);
   return sum;
 }
 

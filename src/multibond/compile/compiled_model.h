@@ -309,6 +309,16 @@ class CompiledModel {
   std::vector<int> element_block_;  ///< per element: its state block (I, C) or -1
   std::vector<int> aux_block_;      ///< per aux state
   std::vector<Eigen::MatrixXd> energy_matrix_;  ///< per element: I^-1 (I) or K (C); Ib^-1 for rotated I
+  /// The stored energy of each I and C, ready for output times (no lookups, no allocation).
+  struct EnergyTerm {
+    int state, size;
+    int rotation;  ///< state offset of the body's orientation (rotated inertia), or -1
+    int coef;      ///< offset in energy_coef_ of the size x size matrix (row-major)
+    bool kinetic;
+  };
+  std::vector<EnergyTerm> energy_terms_;
+  std::vector<double> energy_coef_;
+  double EnergyOf(const EnergyTerm& et, const double* x) const;
 };
 
 /// Component suffixes for a bond of dimension n: none for 1, x y z for 3, 1..n otherwise,
