@@ -185,6 +185,7 @@ void CompiledModel::Build() {
     }
   }
   x0_ = Eigen::Map<Eigen::VectorXd>(x0.data(), static_cast<Eigen::Index>(x0.size()));
+  energy_term_of_element_.assign(g.num_elements(), -1);
   for (const StateBlock& blk : blocks_) {
     if (blk.kind != StateBlock::Kind::kMomentum && blk.kind != StateBlock::Kind::kDisplacement) continue;
     const Element& e = g.element(blk.owner);
@@ -192,6 +193,8 @@ void CompiledModel::Build() {
     if (e.kind == ElementKind::kI && !e.rotation.empty())
       et.rotation = blocks_[aux_block_[g.FindAux(e.rotation)]].offset;
     AppendRowMajor(energy_coef_, energy_matrix_[blk.owner]);
+    energy_term_of_element_.resize(g.num_elements(), -1);
+    energy_term_of_element_[blk.owner] = static_cast<int>(energy_terms_.size());
     energy_terms_.push_back(et);
   }
   auto state_offset = [&](int block) { return blocks_[block].offset; };
@@ -1125,11 +1128,8 @@ double CompiledModel::EnergyOf(const EnergyTerm& et, const double* x) const {
 }
 
 double CompiledModel::StoredEnergy(int element, const double* x) const {
-  const int blk = element_block_.at(element);
-  if (blk < 0) return 0.0;
-  for (const EnergyTerm& et : energy_terms_)
-    if (et.state == blocks_[blk].offset) return EnergyOf(et, x);
-  return 0.0;
+  const int term = energy_term_of_element_.at(element);
+  return term < 0 ? 0.0 : EnergyOf(energy_terms_[term], x);
 }
 
 double CompiledModel::KineticEnergy(const double* x) const {

@@ -318,6 +318,7 @@ class CompiledModel {
   };
   std::vector<EnergyTerm> energy_terms_;
   std::vector<double> energy_coef_;
+  std::vector<int> energy_term_of_element_;  ///< index in energy_terms_, or -1
   double EnergyOf(const EnergyTerm& et, const double* x) const;
 };
 
