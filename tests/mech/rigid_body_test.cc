@@ -6,6 +6,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "support/example_runner.h"
+
 #include "multibond/compile/compiled_model.h"
 #include "multibond/mech/mechanism.h"
 #include "multibond/sim/simulator.h"
@@ -17,15 +19,8 @@ using std::numbers::pi;
 
 RecordingObserver Simulated(const Mechanism& m, double t_end, double dt, double rtol = 1e-10, double atol = 1e-12,
                             bool project = true) {
-  const auto model = CompiledModel::Compile(m.Build("test"));
-  RunOptions o;
-  o.t_end = t_end;
-  o.dt = dt;
-  o.integrator.rtol = rtol;
-  o.integrator.atol = atol;
-  o.integrator.project = project;
-  RecordingObserver rec;
-  Simulate(*model, o, rec);
+  RecordingObserver rec =
+      testing::RunGraph(m.Build("test"), {}, t_end, dt, IntegratorOptions{}.method, rtol, atol, project);
   EXPECT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
   return rec;
 }

@@ -16,18 +16,8 @@ namespace {
 
 using testing::MaxEnergyResidual;
 
-RecordingObserver RunText(const std::string& text, double t_end, Method method = Method::kDormandPrince, double rtol = 1e-10) {
-  const LoadedModel lm = LoadModelString(text, "<test>");
-  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
-  RunOptions o;
-  o.t_end = t_end;
-  o.dt = t_end / 100;
-  o.integrator.method = method;
-  o.integrator.rtol = rtol;
-  o.integrator.atol = 1e-12;
-  RecordingObserver rec;
-  Simulate(*model, o, rec);
-  return rec;
+RecordingObserver RunText(const std::string& text, double t_end) {
+  return testing::RunModelText(text, t_end, t_end / 100, Method::kDormandPrince, 1e-10, 1e-12);
 }
 
 // The rigid gear pair of examples/rigid_gear_pair.yaml, accepted with 'constraints: ideal': a

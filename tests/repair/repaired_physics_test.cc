@@ -28,14 +28,7 @@ Repaired Repair(const std::string& path, const CouplingTarget& target = {}) {
 }
 
 RecordingObserver Simulated(const LoadedModel& lm, double t_end, double dt) {
-  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
-  RunOptions o;
-  o.t_end = t_end;
-  o.dt = dt;
-  o.integrator.rtol = 1e-10;
-  o.integrator.atol = 1e-12;
-  RecordingObserver rec;
-  Simulate(*model, o, rec);
+  RecordingObserver rec = testing::RunModel(lm, t_end, dt);
   EXPECT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
   return rec;
 }

@@ -28,16 +28,7 @@ std::string Replace(std::string text, const std::string& from, const std::string
 }
 
 RecordingObserver RunText(const std::string& yaml, double t_end, double dt) {
-  const LoadedModel lm = LoadModelString(yaml, "<test>");
-  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
-  RunOptions o;
-  o.t_end = t_end;
-  o.dt = dt;
-  o.integrator.rtol = 1e-11;
-  o.integrator.atol = 1e-13;
-  RecordingObserver rec;
-  Simulate(*model, o, rec);
-  return rec;
+  return testing::RunModelText(yaml, t_end, dt, IntegratorOptions{}.method, 1e-11, 1e-13);
 }
 
 const ColumnComparison& Find(const ComparisonReport& r, const std::string& name) {

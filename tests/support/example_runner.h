@@ -27,6 +27,35 @@ inline RecordingObserver RunExample(const std::string& name, double t_end = 0.0,
   return rec;
 }
 
+/// Compiles a graph and simulates it into memory over [0, t_end], samples every dt.
+inline RecordingObserver RunGraph(BondGraph g, const CompileOptions& co, double t_end, double dt,
+                                  Method method = IntegratorOptions{}.method, double rtol = 1e-10, double atol = 1e-12,
+                                  bool project = true) {
+  const auto model = CompiledModel::Compile(std::move(g), co);
+  RunOptions o;
+  o.t_end = t_end;
+  o.dt = dt;
+  o.integrator.method = method;
+  o.integrator.rtol = rtol;
+  o.integrator.atol = atol;
+  o.integrator.project = project;
+  RecordingObserver rec;
+  Simulate(*model, o, rec);
+  return rec;
+}
+
+/// The same for a loaded model.
+inline RecordingObserver RunModel(const LoadedModel& lm, double t_end, double dt, Method method = IntegratorOptions{}.method,
+                                  double rtol = 1e-10, double atol = 1e-12) {
+  return RunGraph(lm.graph, lm.compile, t_end, dt, method, rtol, atol);
+}
+
+/// The same for a model given as YAML text.
+inline RecordingObserver RunModelText(const std::string& yaml, double t_end, double dt,
+                                      Method method = IntegratorOptions{}.method, double rtol = 1e-10, double atol = 1e-12) {
+  return RunModel(LoadModelString(yaml, "<test>"), t_end, dt, method, rtol, atol);
+}
+
 /// The energy balance of a run, measured two ways (see docs/design.md, "energy account"):
 ///  - the largest |energy.residual| = |W - dE - D| / |W| over the samples after `from_fraction`
 ///    of the run (at the very start W is ~0 and the ratio is 0/0);
