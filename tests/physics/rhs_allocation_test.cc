@@ -1,0 +1,54 @@
+// The right-hand side allocates nothing (docs/design.md): counted by replacing the global
+// operator new in this test binary. Covers the plan interpreter, generated code, and the ideal
+// constraints' solve and projection.
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+#include <gtest/gtest.h>
+
+#include "multibond/io/model_loader.h"
+#include "multibond/sim/simulator.h"
+
+namespace {
+std::atomic<long> g_allocations{0};
+}  // namespace
+
+void* operator new(std::size_t n) {
+  ++g_allocations;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+namespace multibond {
+namespace {
+
+long AllocationsOfEvaluations(const std::string& example, bool generate_code) {
+  const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + example);
+  CompileOptions co = lm.compile;
+  co.generate_code = generate_code;
+  const auto model = CompiledModel::Compile(lm.graph, co);
+  Workspace ws = model->MakeWorkspace();
+  Eigen::VectorXd x = model->MakeInitialState(), xdot(x.size());
+  for (int i = 0; i < x.size(); ++i) x[i] += 1e-6 * (i % 5);
+  const long before = g_allocations;
+  for (int i = 0; i < 10; ++i) {
+    model->CalcStateDerivatives(1e-3 * i, x.data(), xdot.data(), ws);
+    model->CalcDerivatives(1e-3 * i, x.data(), xdot.data(), ws);
+    model->Project(1e-3 * i, x.data(), ws);
+  }
+  return g_allocations - before;
+}
+
+TEST(RhsAllocation, CompliantDifferentialInterpreted) { EXPECT_EQ(AllocationsOfEvaluations("differential.yaml", false), 0); }
+TEST(RhsAllocation, CompliantDifferentialGenerated) { EXPECT_EQ(AllocationsOfEvaluations("differential.yaml", true), 0); }
+TEST(RhsAllocation, IdealDifferential) { EXPECT_EQ(AllocationsOfEvaluations("differential_ideal.yaml", false), 0); }
+
+}  // namespace
+}  // namespace multibond
