@@ -868,6 +868,42 @@ void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Wor
   EvalPlan(t, x, xdot, ws);
 }
 
+void CompiledModel::StateKernel(const Instr& in, const double* c, const double* r, const double* s, double* dst) {
+  switch (in.op) {
+    case Op::kStateScale:
+      for (int k = 0; k < in.n; ++k) dst[k] = c[in.coef] * s[k];
+      break;
+    case Op::kStateScale3:
+      for (int k = 0; k < 3; ++k) dst[k] = c[in.coef] * s[k];
+      break;
+    case Op::kStateDiag3:
+      for (int k = 0; k < 3; ++k) dst[k] = c[in.coef + k] * s[k];
+      break;
+    case Op::kStateMatrix:
+      for (int row = 0; row < in.n; ++row) {
+        double sum = 0.0;
+        for (int k = 0; k < in.n; ++k) sum += c[in.coef + row * in.n + k] * s[k];
+        dst[row] = sum;
+      }
+      break;
+    case Op::kIFlowRotated:
+    case Op::kIFlowRotatedDiag: {
+      // f = R Ib^-1 R^T h: the inertia tensor turns with the body (no Euler junction structure).
+      double hb[3], wb[3];
+      RotApply(hb, r, s, true);
+      if (in.op == Op::kIFlowRotatedDiag) {
+        for (int k = 0; k < 3; ++k) wb[k] = c[in.coef + k] * hb[k];
+      } else {
+        MatVec<3, 3>(wb, c + in.coef, hb);
+      }
+      RotApply(dst, r, wb, false);
+      break;
+    }
+    default:
+      MB_ASSERT(false, "StateKernel on an instruction that does not read a state");
+  }
+}
+
 void CompiledModel::Exec(const Instr& in, double t, const double* x, const double* win, double* wout, const double* mod,
                          const double* lambda, const double* c, const int* sum_terms, const double* sum_signs,
                          const TimeFunction* fns) {
@@ -877,35 +913,13 @@ void CompiledModel::Exec(const Instr& in, double t, const double* x, const doubl
       for (int k = 0; k < in.n; ++k) dst[k] = fns[in.coef + k](t);
       break;
     case Op::kStateScale:
-      for (int k = 0; k < in.n; ++k) dst[k] = c[in.coef] * x[in.src + k];
-      break;
     case Op::kStateScale3:
-      for (int k = 0; k < 3; ++k) dst[k] = c[in.coef] * x[in.src + k];
-      break;
     case Op::kStateDiag3:
-      for (int k = 0; k < 3; ++k) dst[k] = c[in.coef + k] * x[in.src + k];
-      break;
     case Op::kStateMatrix:
-      for (int r = 0; r < in.n; ++r) {
-        double s = 0.0;
-        for (int k = 0; k < in.n; ++k) s += c[in.coef + r * in.n + k] * x[in.src + k];
-        dst[r] = s;
-      }
-      break;
     case Op::kIFlowRotated:
-    case Op::kIFlowRotatedDiag: {
-      // f = R Ib^-1 R^T h: the inertia tensor turns with the body (no Euler junction structure).
-      const double* r = x + in.aux;
-      double hb[3], wb[3];
-      RotApply(hb, r, x + in.src, true);
-      if (in.op == Op::kIFlowRotatedDiag) {
-        for (int k = 0; k < 3; ++k) wb[k] = c[in.coef + k] * hb[k];
-      } else {
-        MatVec<3, 3>(wb, c + in.coef, hb);
-      }
-      RotApply(dst, r, wb, false);
+    case Op::kIFlowRotatedDiag:
+      StateKernel(in, c, x + in.aux, x + in.src, dst);
       break;
-    }
     case Op::kScale:
       for (int k = 0; k < in.n; ++k) dst[k] = c[in.coef] * win[in.src + k];
       break;

@@ -220,6 +220,9 @@ class CompiledModel {
   /// The plain evaluation of the plan (interpreter or generated code) and the gathers.
   void EvalPlan(double t, const double* x, double* xdot, Workspace& ws) const;
   /// One instruction of the plan, on slots `w` (interpreter and constraint passes share it).
+  /// The instructions that read a state block s (I flows, C efforts): dst = E s, or R Ib^-1 R^T s
+  /// with the orientation r. Exec passes the state; the constraint solve passes momenta of its own.
+  static void StateKernel(const Instr& in, const double* c, const double* r, const double* s, double* dst);
   /// Reads slots from `win`, writes its output slot in `wout` (the same array in the plain pass).
   static void Exec(const Instr& in, double t, const double* x, const double* win, double* wout, const double* mod,
                    const double* lambda, const double* c, const int* sum_terms, const double* sum_signs,

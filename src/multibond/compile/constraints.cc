@@ -314,42 +314,6 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
   }
 }
 
-namespace {
-
-/// out = M^-1 p for the inertia whose flow instruction is `op` (scalar, diagonal, matrix, or
-/// rotated R Ib^-1 R^T), with p given apart from the state.
-template <typename Instr, typename Op>
-void InverseInertia(const Instr& in, const double* x, const double* c, const double* p, double* out, int n) {
-  using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
-  switch (in.op) {
-    case Op::kStateScale:
-    case Op::kStateScale3:
-      for (int k = 0; k < n; ++k) out[k] = c[in.coef] * p[k];
-      break;
-    case Op::kStateDiag3:
-      for (int k = 0; k < 3; ++k) out[k] = c[in.coef + k] * p[k];
-      break;
-    case Op::kStateMatrix:
-      for (int r = 0; r < n; ++r) {
-        double s = 0.0;
-        for (int k = 0; k < n; ++k) s += c[in.coef + r * n + k] * p[k];
-        out[r] = s;
-      }
-      break;
-    default: {  // rotated
-      const Eigen::Map<const Rm3> r(x + in.aux);
-      Eigen::Vector3d hb = r.transpose() * Eigen::Map<const Eigen::Vector3d>(p);
-      if (in.op == Op::kIFlowRotatedDiag) hb = hb.cwiseProduct(Eigen::Vector3d(c[in.coef], c[in.coef + 1], c[in.coef + 2]));
-      else hb = Eigen::Map<const Rm3>(c + in.coef) * hb;
-      Eigen::Map<Eigen::Vector3d> o(out);
-      o = r * hb;
-      break;
-    }
-  }
-}
-
-}  // namespace
-
 void CompiledModel::AssembleConstraintMatrix(double t, const double* x, Workspace& ws) const {
   double* lin = ws.con.lin.data();
   double* b = ws.con.b.data();
@@ -371,7 +335,8 @@ void CompiledModel::AssembleConstraintMatrix(double t, const double* x, Workspac
       for (int gi : cg.momenta) {
         const Gather& gt = gathers_[gi];
         for (int r = 0; r < gt.size; ++r) bc[r] = gt.sign * lin[gt.effort + r];
-        InverseInertia<Instr, Op>(plan_[flow_instr_of_block_[gi]], x, c, bc, vc, gt.size);
+        const Instr& flow = plan_[flow_instr_of_block_[gi]];  // f = M^-1 p, applied to p = bc
+        StateKernel(flow, c, x + flow.aux, bc, vc);
         bc += gt.size;
         vc += gt.size;
       }
