@@ -1,1 +1,2 @@
 multibond_test(solve/integrator_test.cc LIBS multibond::solve LABELS unit)
+multibond_test(solve/eigen_linear_solver_test.cc LIBS multibond::solve LABELS unit)

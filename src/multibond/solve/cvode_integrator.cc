@@ -7,9 +7,9 @@
 #include <cvode/cvode_proj.h>
 #include <cvode/cvode_ls.h>
 #include <fmt/format.h>
-#include <sunlinsol/sunlinsol_dense.h>
 #include <sunmatrix/sunmatrix_dense.h>
 
+#include "multibond/solve/eigen_linear_solver.h"
 #include "multibond/solve/sundials_support.h"
 
 namespace multibond {
@@ -130,9 +130,10 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<sun::CallbackState>
     // into a recoverable convergence failure: CVODE then shrinks h and creeps towards the
     // failing time until max_steps_per_output is exhausted (1e6 steps, seconds). Newton aborts
     // at once, tolerates mild stiffness and took ~25% fewer steps on a damped oscillator; the
-    // price, a dense LU per Jacobian update, is small at the size of our models.
+    // price, a dense LU per Jacobian update, is small at the size of our models, with Eigen's
+    // LU (eigen_linear_solver.h).
     jacobian_.reset(sun::NonNull(SUNDenseMatrix(n_, n_, ctx_.get())));
-    linear_solver_.reset(sun::NonNull(SUNLinSol_Dense(y_.get(), jacobian_.get(), ctx_.get())));
+    linear_solver_.reset(sun::NonNull(sun::MakeEigenDenseSolver(n_, ctx_.get())));
     Check(CVodeSetLinearSolver(mem, linear_solver_.get(), jacobian_.get()), t0);
     if (options_.max_step > 0) Check(CVodeSetMaxStep(mem, options_.max_step), t0);
     if (options_.initial_step > 0) Check(CVodeSetInitStep(mem, options_.initial_step), t0);

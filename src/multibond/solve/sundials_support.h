@@ -4,6 +4,7 @@
 /// and ARKODE integrators. Not installed API; include only from this folder's .cc files.
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <vector>
@@ -96,6 +97,11 @@ template <int N>
 inline void Combine(const sunrealtype* c, N_Vector* x, sunrealtype* z, sunindextype n) {
   const sunrealtype* xs[N];
   for (int j = 0; j < N; ++j) xs[j] = Data(x[j]);
+  // z is either one of the x_j (same elements) or disjoint from all: element i of z depends on
+  // element i of the x_j only, so there is no loop-carried dependence. Said explicitly: with more
+  // than ~8 vectors GCC stops checking the pointers for overlap at run time and would otherwise
+  // not vectorise the loop (SSPRK(9,3)'s 10-vector combinations ran 4 times slower).
+#pragma GCC ivdep
   for (sunindextype i = 0; i < n; ++i) {
     sunrealtype s = c[0] * xs[0][i];
     for (int j = 1; j < N; ++j) s += c[j] * xs[j][i];
@@ -105,12 +111,19 @@ inline void Combine(const sunrealtype* c, N_Vector* x, sunrealtype* z, sunindext
 /// Terms with a zero coefficient are left out (Butcher tables have many: Bogacki-Shampine's
 /// solution weights end in 0, Dormand-Prince's have two), which saves reading a whole vector
 /// each; 0 * x_j adds nothing unless x_j holds an infinity or a NaN.
+/// Up to kMaxFused vectors in one pass (the 9-stage SSPRK(9,3) combines 10); more in passes.
+constexpr int kMaxFused = 16;
+template <int... N>
+constexpr std::array<void (*)(const sunrealtype*, N_Vector*, sunrealtype*, sunindextype), sizeof...(N)> CombineTable(
+    std::integer_sequence<int, N...>) {
+  return {&Combine<N + 1>...};
+}
 inline int LinearCombination(int nvec, sunrealtype* c, N_Vector* x, N_Vector z) {
   sunrealtype* zd = Data(z);
   const sunindextype n = Len(z);
-  sunrealtype cs[8];
-  N_Vector xs[8];
-  if (nvec <= 8) {
+  sunrealtype cs[kMaxFused];
+  N_Vector xs[kMaxFused];
+  if (nvec <= kMaxFused) {
     int kept = 0;
     for (int j = 0; j < nvec; ++j)
       if (c[j] != 0.0) {
@@ -121,20 +134,9 @@ inline int LinearCombination(int nvec, sunrealtype* c, N_Vector* x, N_Vector z) 
       std::fill_n(zd, n, 0.0);
       return 0;
     }
-    nvec = kept;
-    c = cs;
-    x = xs;
-  }
-  switch (nvec) {
-    case 1: Combine<1>(c, x, zd, n); return 0;
-    case 2: Combine<2>(c, x, zd, n); return 0;
-    case 3: Combine<3>(c, x, zd, n); return 0;
-    case 4: Combine<4>(c, x, zd, n); return 0;
-    case 5: Combine<5>(c, x, zd, n); return 0;
-    case 6: Combine<6>(c, x, zd, n); return 0;
-    case 7: Combine<7>(c, x, zd, n); return 0;
-    case 8: Combine<8>(c, x, zd, n); return 0;
-    default: break;
+    static constexpr auto kCombine = CombineTable(std::make_integer_sequence<int, kMaxFused>{});
+    kCombine[kept - 1](cs, xs, zd, n);
+    return 0;
   }
   // More vectors (high-order tables): accumulate in passes.
   const sunrealtype* x0 = Data(x[0]);
