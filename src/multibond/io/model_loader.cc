@@ -32,7 +32,7 @@ class Loader {
   Loader(std::string file, std::string text) : file_(std::move(file)), text_(std::move(text)) {}
 
   LoadedModel Load() {
-    LoadedModel out{BondGraph("model"), {}, {}, file_, text_};
+    LoadedModel out{BondGraph("model"), {}, {}, file_, text_, {}, nullptr};
     YAML::Node root;
     try {
       root = YAML::Load(text_);

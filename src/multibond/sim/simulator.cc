@@ -48,7 +48,7 @@ struct Layout {
 
 Layout MakeLayout(const CompiledModel& model, bool all_variables) {
   Layout l;
-  l.Add("time", "s", {ColumnSource::Kind::kTime});
+  l.Add("time", "s", {ColumnSource::Kind::kTime, 0, {}});
   for (int i = 0; i < model.num_states(); ++i)
     l.Add(model.state_names()[i], model.state_units()[i], {ColumnSource::Kind::kLinear, 0, {{true, i, 1.0}}});
   DiagnosticSink sink;
@@ -108,11 +108,11 @@ Layout MakeLayout(const CompiledModel& model, bool all_variables) {
     for (const StateBlock& b : model.state_blocks())
       if (b.kind == StateBlock::Kind::kMomentum || b.kind == StateBlock::Kind::kDisplacement)
         l.Add(model.graph().element(b.owner).name + ".energy", "J", {ColumnSource::Kind::kStored, b.owner, {}});
-    l.Add("energy.work", "J", {ColumnSource::Kind::kWork});
-    l.Add("energy.kinetic", "J", {ColumnSource::Kind::kKinetic});
-    l.Add("energy.potential", "J", {ColumnSource::Kind::kPotential});
-    l.Add("energy.dissipated", "J", {ColumnSource::Kind::kDissipated});
-    l.Add("energy.residual", "-", {ColumnSource::Kind::kResidual});
+    l.Add("energy.work", "J", {ColumnSource::Kind::kWork, 0, {}});
+    l.Add("energy.kinetic", "J", {ColumnSource::Kind::kKinetic, 0, {}});
+    l.Add("energy.potential", "J", {ColumnSource::Kind::kPotential, 0, {}});
+    l.Add("energy.dissipated", "J", {ColumnSource::Kind::kDissipated, 0, {}});
+    l.Add("energy.residual", "-", {ColumnSource::Kind::kResidual, 0, {}});
   }
   std::map<std::string, size_t> seen;
   for (size_t c = 0; c < l.columns.size(); ++c) {
