@@ -626,9 +626,8 @@ Workspace CompiledModel::MakeWorkspace() const {
     ws.con.rhs.assign(m, 0.0);
     ws.con.scale.assign(m, 0.0);
     ws.con.perm.assign(m, 0);
-    const int r = static_cast<int>(independent_.size());
-    ws.con.wr.setZero(r, r);
-    ws.con.yr.setZero(r);
+    ws.con.factor.assign(factor_.values(), 0.0);
+    ws.con.y.assign(factor_.size(), 0.0);
   }
   return ws;
 }
@@ -1038,34 +1037,36 @@ void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace&
   const double* lambda = ws.lambda.data();
   for (const Instr& in : plan_)
     Exec(in, t, x, w, w, mod, lambda, c, sum_terms_.data(), sum_signs_.data(), source_fns_.data());
-  for (const Gather& gt : gathers_) {
-    double* out = xdot + gt.state;
-    switch (gt.kind) {
-      case StateBlock::Kind::kMomentum:
-      case StateBlock::Kind::kDisplacement:
-        for (int k = 0; k < gt.size; ++k) out[k] = gt.sign * w[gt.effort + k];
-        break;
-      case StateBlock::Kind::kIntegral:
-        for (int k = 0; k < gt.size; ++k) out[k] = w[gt.flow + k];
-        break;
-      case StateBlock::Kind::kOrientation: {
-        // dR/dt = [w x] R  (- g (R R^T - I) R: zero on SO(3), pulls a drifting R back)
-        const double* om = w + gt.flow;
-        const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(x + gt.state);
-        Eigen::Matrix3d skew;
-        skew << 0, -om[2], om[1], om[2], 0, -om[0], -om[1], om[0], 0;
-        Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> rdot(out);
-        if (gt.sign > 0.0) skew -= gt.sign * (r * r.transpose() - Eigen::Matrix3d::Identity());
-        rdot.noalias() = skew * r;
-        break;
-      }
-      case StateBlock::Kind::kWork:
-      case StateBlock::Kind::kDissipation: {
-        double p = 0.0;
-        for (int k = 0; k < gt.size; ++k) p += w[gt.effort + k] * w[gt.flow + k];
-        out[0] = gt.sign * p;
-        break;
-      }
+  for (const Gather& gt : gathers_) EvalGather(gt, x, w, xdot);
+}
+
+void CompiledModel::EvalGather(const Gather& gt, const double* x, const double* w, double* xdot) {
+  double* out = xdot + gt.state;
+  switch (gt.kind) {
+    case StateBlock::Kind::kMomentum:
+    case StateBlock::Kind::kDisplacement:
+      for (int k = 0; k < gt.size; ++k) out[k] = gt.sign * w[gt.effort + k];
+      break;
+    case StateBlock::Kind::kIntegral:
+      for (int k = 0; k < gt.size; ++k) out[k] = w[gt.flow + k];
+      break;
+    case StateBlock::Kind::kOrientation: {
+      // dR/dt = [w x] R  (- g (R R^T - I) R: zero on SO(3), pulls a drifting R back)
+      const double* om = w + gt.flow;
+      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(x + gt.state);
+      Eigen::Matrix3d skew;
+      skew << 0, -om[2], om[1], om[2], 0, -om[0], -om[1], om[0], 0;
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> rdot(out);
+      if (gt.sign > 0.0) skew -= gt.sign * (r * r.transpose() - Eigen::Matrix3d::Identity());
+      rdot.noalias() = skew * r;
+      break;
+    }
+    case StateBlock::Kind::kWork:
+    case StateBlock::Kind::kDissipation: {
+      double p = 0.0;
+      for (int k = 0; k < gt.size; ++k) p += w[gt.effort + k] * w[gt.flow + k];
+      out[0] = gt.sign * p;
+      break;
     }
   }
 }

@@ -48,8 +48,10 @@ struct Workspace {
     std::vector<double> w, rhs, scale;    ///< the m x m system W lambda = rhs, and its scaling
     std::vector<int> perm;
     int rank = 0;                         ///< of the last pivoted solve
-    Eigen::MatrixXd wr;                   ///< W on the independent constraints, factorised in place
-    Eigen::VectorXd yr;
+    /// W on the independent constraints, factorised in place in its fixed sparse pattern
+    /// (CompiledModel::IndependentFactor): D^-1, L, L D.
+    std::vector<double> factor;
+    std::vector<double> y;                ///< the solution in the factor's order
   } con;
 };
 
@@ -219,6 +221,8 @@ class CompiledModel {
   void EvalModuli(const double* x, double* moduli, bool derivative = false) const;
   /// The plain evaluation of the plan (interpreter or generated code) and the gathers.
   void EvalPlan(double t, const double* x, double* xdot, Workspace& ws) const;
+  /// One state block's derivative from the slots `w` (and x, for orientations).
+  static void EvalGather(const Gather& gt, const double* x, const double* w, double* xdot);
   /// One instruction of the plan, on slots `w` (interpreter and constraint passes share it).
   /// The instructions that read a state block s (I flows, C efforts): dst = E s, or R Ib^-1 R^T s
   /// with the orientation r. Exec passes the state; the constraint solve passes momenta of its own.
@@ -231,7 +235,8 @@ class CompiledModel {
   void PrepareConstraintGraph();
   void BuildConstraints(const std::vector<std::vector<int>>& plan_reads, const std::vector<int>& plan_writes);
   void CalcConstrained(double t, const double* x, double* xdot, Workspace& ws) const;
-  /// d/dt of every slot along (xdot, d/dt sources), into ws.con.dslots.
+  /// d/dt along (xdot, d/dt sources) of the slots the constraints' flows depend on (tangent_plan_),
+  /// into ws.con.dslots; the other entries are not written.
   void Tangent(double t, const double* x, const double* xdot, Workspace& ws) const;
   /// B (momentum-rate response to each unit multiplier), V = M^-1 B and W = B^T V at x.
   void AssembleConstraintMatrix(double t, const double* x, Workspace& ws) const;
@@ -299,12 +304,35 @@ class CompiledModel {
   std::vector<int> momentum_row_;       ///< per state: row in B, or -1
   std::vector<int> b_offset_;           ///< per multiplier: offset of its compressed column
   std::vector<int> b_rows_;             ///< compressed columns' momentum state offsets
+  std::vector<int> reaction_plan_;     ///< plan indices the multipliers reach (their instructions too), in order
+  std::vector<int> reaction_gathers_;  ///< gathers that read a slot the multipliers reach
+  std::vector<int> tangent_plan_;      ///< plan indices the constraints' flows depend on, in order
   std::vector<int> flow_instr_of_block_;  ///< per momentum gather: its I-flow instruction in plan_
   struct WPair { int i, j, begin, end; };  ///< a nonzero of W and its range in w_terms_
   std::vector<WPair> w_pairs_;
   std::vector<std::pair<int, int>> w_terms_;  ///< (position in column i, position in column j)
-  std::vector<WPair> w_pairs_independent_;  ///< W's nonzeros within independent_, in its numbering
   std::vector<int> independent_;  ///< multipliers of an independent set at t = 0 (all if none redundant)
+  /// W on independent_ is factorised as L D L^T with a pattern fixed at compile time (constraints
+  /// touch one or two bodies, so W and L are sparse). Positions are the factor's order (minimum
+  /// degree). Workspace::con.factor holds D^-1 (one per position), then L's strict lower triangle
+  /// row by row (CSR), then the same entries times their column's pivot (L D, Crout's form).
+  struct IndependentFactor {
+    /// factor[target] += x[a] y[b] + x[a + 1] y[b + 1] + x[a + 2] y[b + 2] (Dot3) or x[a] y[b]
+    /// (Dot1): sparse dot products cut into runs of three consecutive positions (a 3-vector
+    /// constraint or momentum) and single ones, so that the loops have fixed trip counts.
+    struct Dot { int target, a, b; };
+    std::vector<int> multiplier;  ///< per position: the multiplier (an element of independent_)
+    std::vector<int> row_offset;  ///< per row of L: its range in cols (size + 1)
+    std::vector<int> cols;        ///< columns of L's strict lower triangle, sorted within a row
+    std::vector<Dot> w3, w1;      ///< W = B^T V: a = position in b, b = position in v; target in factor
+    /// Per entry e of L: sum_k L(i, k) (L D)(j, k) over its rows' common columns k < j, in
+    /// l3[l3_offset[e]..] and l1[l1_offset[e]..] (a, b: entries of L; target unused).
+    std::vector<int> l3_offset, l1_offset;
+    std::vector<Dot> l3, l1;
+    int size() const { return static_cast<int>(multiplier.size()); }
+    int entries() const { return static_cast<int>(cols.size()); }
+    int values() const { return size() + 2 * entries(); }  ///< length of con.factor
+  } factor_;
 
   std::vector<StateBlock> blocks_;
   std::vector<std::string> state_names_, state_units_;

@@ -12,11 +12,11 @@
 // delivers. The junction structure conserves power, so g depends on the momenta as B^T M^-1 p,
 // where B (momentum rate per unit multiplier) is read off the plan. At every evaluation:
 //   1. the plan at lambda = 0 gives dx/dt;
-//   2. a tangent pass (the time derivative of every slot along dx/dt, with dR/dt for the moduli)
-//      gives dg/dt at lambda = 0;
+//   2. a tangent pass (the time derivative along dx/dt, with dR/dt for the moduli, of every slot
+//      the constraints' flows depend on) gives dg/dt at lambda = 0;
 //   3. W = B^T M^-1 B, and W lambda = dv/dt - dg/dt|lambda=0 makes dg/dt = 0 (index reduction to
-//      the acceleration level, exactly: no finite differences);
-//   4. the plan again with lambda: dx/dt and every effort, reactions included.
+//      the acceleration level, exactly: no finite differences), by a sparse L D L^T;
+//   4. what the multipliers reach, again with lambda: dx/dt and every effort, reactions included.
 // Drift of g (the velocity-level constraint) is removed after every step by Project(t, x, ws).
 
 #include <algorithm>
@@ -195,6 +195,46 @@ void CompiledModel::BuildConstraints(const std::vector<std::vector<int>>& plan_r
     }
   }
   b_offset_.push_back(static_cast<int>(b_rows_.size()));
+  // What the multipliers reach, all constraints together: the second pass of an evaluation (with
+  // lambda) re-runs only these instructions and gathers; every other slot keeps its value from
+  // the pass at lambda = 0, which is what a full pass would compute again.
+  std::vector<char> in_reaction(np, 0), reached_slot(num_slots_, 0);
+  for (const ConstraintGroup& cg : constraints_) {
+    for (int k : cg.starts) in_reaction[k] = 1;
+    for (int k : cg.closure) in_reaction[k] = 1;
+  }
+  reaction_plan_.clear();
+  for (int k = 0; k < np; ++k)
+    if (in_reaction[k]) {
+      reaction_plan_.push_back(k);
+      const int c = plan_writes[k];
+      std::fill(reached_slot.begin() + class_offset_[c], reached_slot.begin() + class_offset_[c] + class_size_[c], 1);
+    }
+  // The tangent pass is read only at the constraints' flows: it runs the instructions those flows
+  // depend on (the flow side of the plan), not the efforts that only feed momentum rates.
+  std::vector<char> feeds_flow(num_slot_classes(), 0);
+  for (const ConstraintGroup& cg : constraints_)
+    for (const auto& m : cg.members)
+      for (int c = 0; c < num_slot_classes(); ++c)
+        if (class_offset_[c] <= m.flow && m.flow < class_offset_[c] + class_size_[c]) feeds_flow[c] = 1;
+  tangent_plan_.clear();
+  for (int k = np - 1; k >= 0; --k)
+    if (feeds_flow[plan_writes[k]]) {
+      tangent_plan_.push_back(k);
+      for (int c : plan_reads[k]) feeds_flow[c] = 1;
+    }
+  std::reverse(tangent_plan_.begin(), tangent_plan_.end());
+  reaction_gathers_.clear();
+  for (size_t gi = 0; gi < gathers_.size(); ++gi) {
+    const Gather& gt = gathers_[gi];
+    const bool effort = gt.kind == StateBlock::Kind::kMomentum || gt.kind == StateBlock::Kind::kDisplacement ||
+                        gt.kind == StateBlock::Kind::kWork || gt.kind == StateBlock::Kind::kDissipation;
+    const bool flow = gt.kind != StateBlock::Kind::kMomentum && gt.kind != StateBlock::Kind::kDisplacement;
+    bool reads_reached = false;
+    for (int k = 0; k < (gt.kind == StateBlock::Kind::kOrientation ? 3 : gt.size); ++k)
+      reads_reached |= (effort && reached_slot[gt.effort + k]) || (flow && reached_slot[gt.flow + k]);
+    if (reads_reached) reaction_gathers_.push_back(static_cast<int>(gi));
+  }
   // The nonzeros of W = B^T M^-1 B: the pairs of columns that share momentum rows, with the
   // positions of the shared rows in their compressed columns (rows are sorted within a column).
   w_pairs_.clear();
@@ -246,7 +286,8 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
     }
   };
   using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
-  for (const Instr& in : plan_) {
+  for (int index : tangent_plan_) {
+    const Instr& in = plan_[index];
     switch (in.op) {
       case Op::kSource:
         for (int k = 0; k < in.n; ++k) d[in.dst + k] = source_fns_[in.coef + k].Derivative(t);
@@ -321,7 +362,6 @@ void CompiledModel::AssembleConstraintMatrix(double t, const double* x, Workspac
   const double* mod = ws.moduli.data();
   const double* c = coef_.data();
   const double* lam = ws.lambda.data();
-  const int m = num_lambda_;
   // B, column by column: a unit multiplier through its closure (everything else is zero in lin).
   for (const ConstraintGroup& cg : constraints_) {
     for (int k = 0; k < cg.size; ++k) {
@@ -368,28 +408,55 @@ void CompiledModel::SolveConstraintSystem(Workspace& ws) const {
 
 bool CompiledModel::SolveIndependent(Workspace& ws) const {
   // The constraints found independent at t = 0 (redundant ones get zero effort): W restricted to
-  // them is positive definite, and Cholesky solves it. A configuration where they stop being
-  // independent (a pivot below 1e-5 of its diagonal's root) falls back to the pivoted solve.
-  const int r = static_cast<int>(independent_.size());
+  // them is positive definite, and L D L^T solves it without pivoting, in the sparse pattern fixed
+  // at compile time (FindIndependentConstraints). A configuration where they stop being
+  // independent (a pivot below 1e-10 of W's diagonal entry: the square of the 1e-5 that Cholesky's
+  // diagonal would be checked against) falls back to the pivoted solve.
+  const IndependentFactor& f = factor_;
+  const int n = f.size(), ne = f.entries();
   const double* b = ws.con.b.data();
   const double* v = ws.con.v.data();
-  Eigen::MatrixXd& a = ws.con.wr;
-  a.setZero();
-  for (const WPair& pr : w_pairs_independent_) {
-    double sum = 0.0;
-    for (int k = pr.begin; k < pr.end; ++k) sum += b[w_terms_[k].first] * v[w_terms_[k].second];
-    a(pr.i, pr.j) = sum;  // lower triangle (i >= j): what the factorisation reads
+  double* d = ws.con.factor.data();  // W's diagonal, then D^-1 (row by row); then L; then L D
+  double* l = d + n;
+  double* ld = l + ne;
+  // W's nonzeros straight into their places in the factor; fill-in starts at zero.
+  std::fill(ws.con.factor.begin(), ws.con.factor.end(), 0.0);
+  for (const IndependentFactor::Dot& e : f.w3)
+    d[e.target] += b[e.a] * v[e.b] + b[e.a + 1] * v[e.b + 1] + b[e.a + 2] * v[e.b + 2];
+  for (const IndependentFactor::Dot& e : f.w1) d[e.target] += b[e.a] * v[e.b];
+  // Crout's L D L^T, row by row: (L D)(i, j) = W(i, j) - sum_{k < j} L(i, k) (L D)(j, k), then
+  // L(i, j) = (L D)(i, j) / d_j and d_i = W(i, i) - sum_{k < i} L(i, k) (L D)(i, k). Each entry is
+  // a dot product accumulated in a register over the precomputed common columns (the
+  // column-by-column form scatters its updates into a work vector, which chains them through
+  // memory: measured slower here).
+  for (int i = 0; i < n; ++i) {
+    double di = d[i];
+    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) {
+      double c = l[e];
+      for (int t = f.l3_offset[e]; t < f.l3_offset[e + 1]; ++t) {
+        const IndependentFactor::Dot& u = f.l3[t];
+        c -= l[u.a] * ld[u.b] + l[u.a + 1] * ld[u.b + 1] + l[u.a + 2] * ld[u.b + 2];
+      }
+      for (int t = f.l1_offset[e]; t < f.l1_offset[e + 1]; ++t) c -= l[f.l1[t].a] * ld[f.l1[t].b];
+      ld[e] = c;
+      l[e] = c * d[f.cols[e]];  // the next entries wait for this one: a product, not a division
+      di -= l[e] * c;
+    }
+    if (!(di > 1e-10 * d[i])) return false;  // not positive definite here, or nearly dependent
+    d[i] = 1.0 / di;  // from here on, d holds D^-1
   }
-  for (int i = 0; i < r; ++i) ws.con.scale[i] = a(i, i);
-  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(a);  // in place: no allocation
-  if (llt.info() != Eigen::Success) return false;
-  for (int i = 0; i < r; ++i)
-    if (!(a(i, i) * a(i, i) > 1e-10 * ws.con.scale[i])) return false;  // nearly dependent here
-  Eigen::VectorXd& y = ws.con.yr;
-  for (int i = 0; i < r; ++i) y[i] = ws.con.rhs[independent_[i]];
-  llt.solveInPlace(y);
+  // L D L^T y = rhs (in the factor's order), then back to the multipliers.
+  double* y = ws.con.y.data();
+  for (int i = 0; i < n; ++i) {
+    double s = ws.con.rhs[f.multiplier[i]];
+    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) s -= l[e] * y[f.cols[e]];
+    y[i] = s;
+  }
+  for (int i = 0; i < n; ++i) y[i] *= d[i];
+  for (int i = n - 1; i >= 0; --i)
+    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) y[f.cols[e]] -= l[e] * y[i];
   std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
-  for (int i = 0; i < r; ++i) ws.lambda[independent_[i]] = y[i];
+  for (int i = 0; i < n; ++i) ws.lambda[f.multiplier[i]] = y[i];
   return true;
 }
 
@@ -456,14 +523,90 @@ void CompiledModel::FindIndependentConstraints() {
   SolvePivoted(ws);
   independent_.assign(ws.con.perm.begin(), ws.con.perm.begin() + ws.con.rank);
   std::sort(independent_.begin(), independent_.end());
-  // W's nonzeros between independent constraints, in their own numbering.
+  // W's graph on the independent constraints: constraints sharing a body's momentum are adjacent.
+  const int n = static_cast<int>(independent_.size());
   std::vector<int> position(num_lambda_, -1);
-  for (size_t k = 0; k < independent_.size(); ++k) position[independent_[k]] = static_cast<int>(k);
-  w_pairs_independent_.clear();
+  for (int k = 0; k < n; ++k) position[independent_[k]] = k;
+  std::vector<std::vector<char>> adjacent(n, std::vector<char>(n, 0));
   for (const WPair& pr : w_pairs_)
     if (position[pr.i] >= 0 && position[pr.j] >= 0)
-      w_pairs_independent_.push_back({std::max(position[pr.i], position[pr.j]), std::min(position[pr.i], position[pr.j]),
-                                      pr.begin, pr.end});
+      adjacent[position[pr.i]][position[pr.j]] = adjacent[position[pr.j]][position[pr.i]] = 1;
+  // Minimum-degree order (ties to the lowest index, so it is reproducible): eliminating the
+  // constraint with the fewest neighbours first keeps the fill-in of L small (in the differential,
+  // 405 nonzeros and a quarter of the dense factorisation's operations). Eliminating a vertex
+  // joins its remaining neighbours: `adjacent` becomes the pattern of L + L^T.
+  IndependentFactor& f = factor_;
+  f = IndependentFactor{};
+  std::vector<char> done(n, 0);
+  std::vector<int> order;  // order[pos] = index in independent_
+  for (int step = 0; step < n; ++step) {
+    int best = 0, best_degree = n + 1;  // the first vertex not done has degree <= n
+    for (int u = 0; u < n; ++u) {
+      if (done[u]) continue;
+      int degree = 0;
+      for (int w = 0; w < n; ++w) degree += !done[w] && adjacent[u][w];
+      if (degree < best_degree) best = u, best_degree = degree;
+    }
+    done[best] = 1;
+    std::vector<int> neighbours;
+    for (int u = 0; u < n; ++u)
+      if (!done[u] && adjacent[best][u]) neighbours.push_back(u);
+    for (int a : neighbours)
+      for (int c : neighbours)
+        if (a != c) adjacent[a][c] = 1;
+    order.push_back(best);
+  }
+  std::vector<int> pos_of(n);
+  for (int p = 0; p < n; ++p) {
+    pos_of[order[p]] = p;
+    f.multiplier.push_back(independent_[order[p]]);
+  }
+  // L's pattern row by row in the new order (columns sorted).
+  std::vector<std::vector<int>> index_of(n, std::vector<int>(n, -1));  // [row][col] -> entry of L
+  f.row_offset.push_back(0);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < i; ++j)
+      if (adjacent[order[i]][order[j]]) {
+        index_of[i][j] = f.entries();
+        f.cols.push_back(j);
+      }
+    f.row_offset.push_back(f.entries());
+  }
+  // Runs of three consecutive positions on both sides become one Dot3, the rest Dot1s.
+  auto cut = [](const std::vector<std::pair<int, int>>& terms, int target, std::vector<IndependentFactor::Dot>& dot3,
+                std::vector<IndependentFactor::Dot>& dot1) {
+    for (size_t k = 0; k < terms.size();) {
+      const auto [a, b] = terms[k];
+      if (k + 2 < terms.size() && terms[k + 2].first == a + 2 && terms[k + 2].second == b + 2) {
+        dot3.push_back({target, a, b});  // positions are increasing: k + 1 is (a + 1, b + 1)
+        k += 3;
+      } else {
+        dot1.push_back({target, a, b});
+        k += 1;
+      }
+    }
+  };
+  // Each entry's update terms: the columns k < j that rows i and j share.
+  f.l3_offset.push_back(0);
+  f.l1_offset.push_back(0);
+  for (int i = 0; i < n; ++i)
+    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) {
+      const int j = f.cols[e];
+      std::vector<std::pair<int, int>> terms;
+      for (int k = 0; k < j; ++k)
+        if (index_of[i][k] >= 0 && index_of[j][k] >= 0) terms.push_back({index_of[i][k], index_of[j][k]});
+      cut(terms, e, f.l3, f.l1);
+      f.l3_offset.push_back(static_cast<int>(f.l3.size()));
+      f.l1_offset.push_back(static_cast<int>(f.l1.size()));
+    }
+  // Where each nonzero of W goes in Workspace::con.factor (D first, then L's entries).
+  for (const WPair& pr : w_pairs_) {
+    if (position[pr.i] < 0 || position[pr.j] < 0) continue;
+    const int i = std::max(pos_of[position[pr.i]], pos_of[position[pr.j]]);
+    const int j = std::min(pos_of[position[pr.i]], pos_of[position[pr.j]]);
+    cut(std::vector<std::pair<int, int>>(w_terms_.begin() + pr.begin, w_terms_.begin() + pr.end),
+        i == j ? i : n + index_of[i][j], f.w3, f.w1);
+  }
 }
 
 void CompiledModel::CalcConstrained(double t, const double* x, double* xdot, Workspace& ws) const {
@@ -481,7 +624,12 @@ void CompiledModel::CalcConstrained(double t, const double* x, double* xdot, Wor
     }
   AssembleConstraintMatrix(t, x, ws);
   SolveConstraintSystem(ws);
-  EvalPlan(t, x, xdot, ws);
+  // Step 4: only what the multipliers reach changes (BuildConstraints, reaction_plan_).
+  double* w = ws.slots.data();
+  const double* mod = ws.moduli.data();
+  for (int k : reaction_plan_)
+    Exec(plan_[k], t, x, w, w, mod, ws.lambda.data(), coef_.data(), sum_terms_.data(), sum_signs_.data(), source_fns_.data());
+  for (int gi : reaction_gathers_) EvalGather(gathers_[gi], x, w, xdot);
 }
 
 double CompiledModel::ConstraintResidual(double t, const double* x, Workspace& ws) const {
