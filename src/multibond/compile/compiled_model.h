@@ -311,8 +311,8 @@ class CompiledModel {
   struct WPair { int i, j, begin, end; };  ///< a nonzero of W and its range in w_terms_
   std::vector<WPair> w_pairs_;
   std::vector<std::pair<int, int>> w_terms_;  ///< (position in column i, position in column j)
-  std::vector<int> independent_;  ///< multipliers of an independent set at t = 0 (all if none redundant)
-  /// W on independent_ is factorised as L D L^T with a pattern fixed at compile time (constraints
+  /// W on the multipliers of an independent set at t = 0 (all, if none is redundant) is
+  /// factorised as L D L^T with a pattern fixed at compile time (constraints
   /// touch one or two bodies, so W and L are sparse). Positions are the factor's order (minimum
   /// degree). Workspace::con.factor holds D^-1 (one per position), then L's strict lower triangle
   /// row by row (CSR), then the same entries times their column's pivot (L D, Crout's form).
@@ -321,7 +321,7 @@ class CompiledModel {
     /// (Dot1): sparse dot products cut into runs of three consecutive positions (a 3-vector
     /// constraint or momentum) and single ones, so that the loops have fixed trip counts.
     struct Dot { int target, a, b; };
-    std::vector<int> multiplier;  ///< per position: the multiplier (an element of independent_)
+    std::vector<int> multiplier;  ///< per position: the multiplier (one of the independent set)
     std::vector<int> row_offset;  ///< per row of L: its range in cols (size + 1)
     std::vector<int> cols;        ///< columns of L's strict lower triangle, sorted within a row
     std::vector<Dot> w3, w1;      ///< W = B^T V: a = position in b, b = position in v; target in factor

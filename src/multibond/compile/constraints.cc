@@ -401,7 +401,7 @@ void CompiledModel::FormFullW(Workspace& ws) const {
 }
 
 void CompiledModel::SolveConstraintSystem(Workspace& ws) const {
-  if (!independent_.empty() && SolveIndependent(ws)) return;
+  if (factor_.size() > 0 && SolveIndependent(ws)) return;
   FormFullW(ws);
   SolvePivoted(ws);
 }
@@ -511,7 +511,7 @@ void CompiledModel::SolvePivoted(Workspace& ws) const {
 }
 
 void CompiledModel::FindIndependentConstraints() {
-  independent_.clear();
+  factor_ = IndependentFactor{};
   if (constraints_.empty()) return;
   // At the initial state: the pivoted factorisation's first `rank` pivots are an independent set.
   Workspace ws = MakeWorkspace();
@@ -521,12 +521,12 @@ void CompiledModel::FindIndependentConstraints() {
   FormFullW(ws);
   std::fill(ws.con.rhs.begin(), ws.con.rhs.end(), 0.0);
   SolvePivoted(ws);
-  independent_.assign(ws.con.perm.begin(), ws.con.perm.begin() + ws.con.rank);
-  std::sort(independent_.begin(), independent_.end());
+  std::vector<int> independent(ws.con.perm.begin(), ws.con.perm.begin() + ws.con.rank);
+  std::sort(independent.begin(), independent.end());
   // W's graph on the independent constraints: constraints sharing a body's momentum are adjacent.
-  const int n = static_cast<int>(independent_.size());
+  const int n = static_cast<int>(independent.size());
   std::vector<int> position(num_lambda_, -1);
-  for (int k = 0; k < n; ++k) position[independent_[k]] = k;
+  for (int k = 0; k < n; ++k) position[independent[k]] = k;
   std::vector<std::vector<char>> adjacent(n, std::vector<char>(n, 0));
   for (const WPair& pr : w_pairs_)
     if (position[pr.i] >= 0 && position[pr.j] >= 0)
@@ -536,9 +536,8 @@ void CompiledModel::FindIndependentConstraints() {
   // 405 nonzeros and a quarter of the dense factorisation's operations). Eliminating a vertex
   // joins its remaining neighbours: `adjacent` becomes the pattern of L + L^T.
   IndependentFactor& f = factor_;
-  f = IndependentFactor{};
   std::vector<char> done(n, 0);
-  std::vector<int> order;  // order[pos] = index in independent_
+  std::vector<int> order;  // order[pos] = index in independent
   for (int step = 0; step < n; ++step) {
     int best = 0, best_degree = n + 1;  // the first vertex not done has degree <= n
     for (int u = 0; u < n; ++u) {
@@ -559,7 +558,7 @@ void CompiledModel::FindIndependentConstraints() {
   std::vector<int> pos_of(n);
   for (int p = 0; p < n; ++p) {
     pos_of[order[p]] = p;
-    f.multiplier.push_back(independent_[order[p]]);
+    f.multiplier.push_back(independent[order[p]]);
   }
   // L's pattern row by row in the new order (columns sorted).
   std::vector<std::vector<int>> index_of(n, std::vector<int>(n, -1));  // [row][col] -> entry of L
