@@ -15,7 +15,9 @@ namespace {
 
 std::shared_ptr<const mb::CompiledModel> IdealDifferential() {
   const mb::LoadedModel lm = mb::LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential_ideal.yaml");
-  return mb::CompiledModel::Compile(lm.graph, lm.compile);
+  mb::CompileOptions co = lm.compile;
+  co.generate_code = true;  // as the CLI does (--jit auto)
+  return mb::CompiledModel::Compile(lm.graph, co);
 }
 
 void BM_IdealDifferentialRhs(benchmark::State& state) {

@@ -49,6 +49,7 @@ long AllocationsOfEvaluations(const std::string& example, bool generate_code) {
 TEST(RhsAllocation, CompliantDifferentialInterpreted) { EXPECT_EQ(AllocationsOfEvaluations("differential.yaml", false), 0); }
 TEST(RhsAllocation, CompliantDifferentialGenerated) { EXPECT_EQ(AllocationsOfEvaluations("differential.yaml", true), 0); }
 TEST(RhsAllocation, IdealDifferential) { EXPECT_EQ(AllocationsOfEvaluations("differential_ideal.yaml", false), 0); }
+TEST(RhsAllocation, IdealDifferentialGenerated) { EXPECT_EQ(AllocationsOfEvaluations("differential_ideal.yaml", true), 0); }
 
 }  // namespace
 }  // namespace multibond

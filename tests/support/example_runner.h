@@ -13,9 +13,11 @@ inline std::string ExamplePath(const std::string& name) { return std::string(MUL
 /// Loads examples/<name>, compiles it and simulates it with the file's simulation settings,
 /// overridden by `t_end` and `dt` when they are > 0.
 inline RecordingObserver RunExample(const std::string& name, double t_end = 0.0, double dt = 0.0,
-                                    Method method = Method::kBdf) {
+                                    Method method = Method::kBdf, bool generate_code = false) {
   const LoadedModel lm = LoadModelFile(ExamplePath(name));
-  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+  CompileOptions co = lm.compile;
+  co.generate_code = generate_code;
+  const auto model = CompiledModel::Compile(lm.graph, co);
   RunOptions o;
   o.t_end = t_end > 0 ? t_end : lm.simulation.t_end.value_or(1.0);
   o.dt = dt > 0 ? dt : lm.simulation.dt.value_or(1e-3);

@@ -10,6 +10,7 @@
 
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -125,6 +126,11 @@ class CompiledModel {
   /// `multibond_rhs(t, x, xdot, w, moduli, ctx)` with every offset and coefficient a literal.
   std::string GenerateSource() const;
   std::string GenerateBody() const;
+  /// C++ source of the constraint system's sparse L D L^T (SolveIndependent) for the pattern
+  /// fixed at compile time: `multibond_ldlt(b, v, rhs, lambda, factor, y)`, 1 on success.
+  std::string GenerateFactorSource() const;
+  /// C++ source of B's columns (AssembleConstraintMatrix): `multibond_bcols(x, lin, mod, b, v)`.
+  std::string GenerateColumnsSource() const;
   /// How the right-hand side is evaluated: "generated code (<library>)" or "interpreter (<why>)".
   const std::string& rhs_engine() const { return rhs_engine_; }
   bool uses_generated_code() const { return generated_ != nullptr; }
@@ -281,6 +287,16 @@ class CompiledModel {
   GeneratedRhs generated_ = nullptr;
   GeneratedRhs generated_fast_ = nullptr;
   std::shared_ptr<void> generated_library_;  ///< keeps the shared object loaded
+  /// One plan instruction as C++ (slots in w[], states in x[], moduli in mod[]), appended to o;
+  /// levers_done: the lever arms already declared in the enclosing scope.
+  void EmitInstr(const Instr& in, std::string& o, std::set<int>& levers_done) const;
+  /// SolveIndependent as generated code (null: interpreted), for models with ideal constraints.
+  using GeneratedLdlt = int (*)(const double*, const double*, const double*, double*, double*, double*);
+  GeneratedLdlt generated_ldlt_ = nullptr;
+  /// AssembleConstraintMatrix as generated code: (x, lin, moduli, b, v).
+  using GeneratedColumns = void (*)(const double*, double*, const double*, double*, double*);
+  GeneratedColumns generated_bcols_ = nullptr;
+  std::shared_ptr<void> generated_constraints_library_;
   std::string rhs_engine_ = "interpreter";
 
   /// An ideal constraint: an Sf marked `constraint` (now an effort source of unknown effort), or

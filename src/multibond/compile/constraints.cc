@@ -356,6 +356,10 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
 }
 
 void CompiledModel::AssembleConstraintMatrix(double t, const double* x, Workspace& ws) const {
+  if (generated_bcols_) {
+    generated_bcols_(x, ws.con.lin.data(), ws.moduli.data(), ws.con.b.data(), ws.con.v.data());
+    return;
+  }
   double* lin = ws.con.lin.data();
   double* b = ws.con.b.data();
   double* v = ws.con.v.data();
@@ -412,6 +416,9 @@ bool CompiledModel::SolveIndependent(Workspace& ws) const {
   // at compile time (FindIndependentConstraints). A configuration where they stop being
   // independent (a pivot below 1e-10 of W's diagonal entry: the square of the 1e-5 that Cholesky's
   // diagonal would be checked against) falls back to the pivoted solve.
+  if (generated_ldlt_)
+    return generated_ldlt_(ws.con.b.data(), ws.con.v.data(), ws.con.rhs.data(), ws.lambda.data(), ws.con.factor.data(),
+                           ws.con.y.data()) != 0;
   const IndependentFactor& f = factor_;
   const int n = f.size(), ne = f.entries();
   const double* b = ws.con.b.data();
