@@ -525,7 +525,7 @@ void CompiledModel::Build() {
     // With them, the plan at zero multipliers (step 1 of CalcConstrained); what the multipliers
     // reach is re-run by the interpreter once they are known.
     const JitResult jit = CompileAndLoad(
-        GenerateSource() + GenerateColumnsSource() + (factor_.size() > 0 ? GenerateFactorSource() : ""), "multibond_bcols");
+        GenerateSource(/*with_fast=*/false) + GenerateColumnsSource() + (factor_.size() > 0 ? GenerateFactorSource() : ""), "multibond_bcols");
     void* ldlt = jit.symbol && factor_.size() > 0 ? dlsym(jit.library.get(), "multibond_ldlt") : nullptr;
     void* plan = jit.symbol ? dlsym(jit.library.get(), "multibond_rhs") : nullptr;
     if (jit.symbol && plan && (ldlt || factor_.size() == 0)) {

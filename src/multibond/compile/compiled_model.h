@@ -124,7 +124,7 @@ class CompiledModel {
 
   /// C++ source of the right-hand side, generated from the plan: one straight-line function
   /// `multibond_rhs(t, x, xdot, w, moduli, ctx)` with every offset and coefficient a literal.
-  std::string GenerateSource() const;
+  std::string GenerateSource(bool with_fast = true) const;
   std::string GenerateBody() const;
   /// C++ source of the constraint system's sparse L D L^T (SolveIndependent) for the pattern
   /// fixed at compile time: `multibond_ldlt(b, v, rhs, lambda, factor, y)`, 1 on success.
