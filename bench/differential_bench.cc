@@ -58,19 +58,26 @@ void BM_DifferentialRhs(benchmark::State& state) {
 }
 BENCHMARK(BM_DifferentialRhs)->Args({0, 0})->Args({1, 0})->Args({1, 1});
 
-/// The whole 0-5 s run without file output. range(0): 0 = the example's solver settings,
-/// 1 = Dormand-Prince at the same tolerances.
-void BM_DifferentialRun(benchmark::State& state) {
+/// The example compiled to generated code, and its own run settings (solver, tolerances, times).
+std::pair<std::shared_ptr<const mb::CompiledModel>, mb::RunOptions> ExampleRun() {
   const mb::LoadedModel lm = mb::LoadModelFile(kModel);
   mb::CompileOptions co = lm.compile;
   co.generate_code = true;
-  const auto model = mb::CompiledModel::Compile(lm.graph, co);
   mb::RunOptions o;
   o.t_end = *lm.simulation.t_end;
   o.dt = *lm.simulation.dt;
-  o.integrator.method = state.range(0) == 0 ? mb::ParseMethod(*lm.simulation.solver) : mb::Method::kDormandPrince;
+  o.integrator.method = mb::ParseMethod(*lm.simulation.solver);
   o.integrator.rtol = *lm.simulation.rtol;
   o.integrator.atol = *lm.simulation.atol;
+  return {mb::CompiledModel::Compile(lm.graph, co), o};
+}
+
+/// The whole 0-5 s run without file output. range(0): 0 = the example's solver settings,
+/// 1 = Dormand-Prince at the same tolerances.
+void BM_DifferentialRun(benchmark::State& state) {
+  const auto [model, example_options] = ExampleRun();
+  mb::RunOptions o = example_options;
+  if (state.range(0) != 0) o.integrator.method = mb::Method::kDormandPrince;
   mb::RunSummary s;
   for (auto _ : state) {
     mb::NullObserver obs;
@@ -94,16 +101,7 @@ BENCHMARK(BM_DifferentialRun)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->It
 /// right-hand side, no integrator library, no output: 500,000 steps, 2,000,000 evaluations)
 /// and then the example's run (as BM_DifferentialRun/0), back to back.
 void BM_DifferentialRunVsReference(benchmark::State& state) {
-  const mb::LoadedModel lm = mb::LoadModelFile(kModel);
-  mb::CompileOptions co = lm.compile;
-  co.generate_code = true;
-  const auto model = mb::CompiledModel::Compile(lm.graph, co);
-  mb::RunOptions o;
-  o.t_end = *lm.simulation.t_end;
-  o.dt = *lm.simulation.dt;
-  o.integrator.method = mb::ParseMethod(*lm.simulation.solver);
-  o.integrator.rtol = *lm.simulation.rtol;
-  o.integrator.atol = *lm.simulation.atol;
+  const auto [model, o] = ExampleRun();
   const int n = model->num_states();
   mb::Workspace ws = model->MakeWorkspace();
   Eigen::VectorXd x(n), y(n), k1(n), k2(n), k3(n), k4(n);
