@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <set>
 #include <string>
 #include <vector>
@@ -59,21 +60,54 @@ std::string CompiledModel::GenerateSource(bool with_fast) const {
   return o;
 }
 
-void CompiledModel::EmitInstr(const Instr& in, std::string& o, std::set<int>& levers_done) const {
-  std::string* out = &o;
-  auto line = [&](const std::string& s) { *out += "  " + s + "\n"; };
+void CompiledModel::EmitStateKernel(const Instr& in, const std::function<std::string(int)>& src,
+                                    const std::function<std::string(int)>& dst, std::string& o) const {
+  auto line = [&](const std::string& s) { o += "  " + s + "\n"; };
   const double* c = coef_.data();
-  // y = op(R) v, R row-major at state offset r.
-  auto rot = [&](const std::string& y, int r, const std::string& v, bool transpose) {
-    for (int i = 0; i < 3; ++i) {
-      if (transpose)
-        line(fmt::format("{}[{}] = x[{}] * {}[0] + x[{}] * {}[1] + x[{}] * {}[2];", y, i, r + i, v, r + 3 + i, v, r + 6 + i, v));
-      else
-        line(fmt::format("{}[{}] = x[{}] * {}[0] + x[{}] * {}[1] + x[{}] * {}[2];", y, i, r + 3 * i, v, r + 3 * i + 1, v, r + 3 * i + 2, v));
+  switch (in.op) {
+    case Op::kStateScale:
+    case Op::kStateScale3:
+      for (int k = 0; k < in.n; ++k) line(fmt::format("{} = {} * {};", dst(k), Lit(c[in.coef]), src(k)));
+      break;
+    case Op::kStateDiag3:
+      for (int k = 0; k < 3; ++k) line(fmt::format("{} = {} * {};", dst(k), Lit(c[in.coef + k]), src(k)));
+      break;
+    case Op::kStateMatrix:
+      for (int r = 0; r < in.n; ++r) {
+        std::vector<std::pair<double, std::string>> terms;
+        for (int k = 0; k < in.n; ++k) terms.push_back({c[in.coef + r * in.n + k], src(k)});
+        line(fmt::format("{} = {};", dst(r), LinComb(terms)));
+      }
+      break;
+    case Op::kIFlowRotated:
+    case Op::kIFlowRotatedDiag: {
+      // f = R Ib^-1 R^T h, R row-major at state offset a.
+      const int a = in.aux;
+      line("{");
+      for (int i = 0; i < 3; ++i)  // hb = R^T h
+        line(fmt::format("  const double hb{} = x[{}] * {} + x[{}] * {} + x[{}] * {};", i, a + i, src(0), a + 3 + i, src(1), a + 6 + i, src(2)));
+      for (int i = 0; i < 3; ++i) {
+        if (in.op == Op::kIFlowRotatedDiag)
+          line(fmt::format("  const double wb{} = {} * hb{};", i, Lit(c[in.coef + i]), i));
+        else
+          line(fmt::format("  const double wb{} = {};", i,
+                           LinComb({{c[in.coef + 3 * i], "hb0"}, {c[in.coef + 3 * i + 1], "hb1"}, {c[in.coef + 3 * i + 2], "hb2"}})));
+      }
+      for (int i = 0; i < 3; ++i)  // f = R wb
+        line(fmt::format("  {} = x[{}] * wb0 + x[{}] * wb1 + x[{}] * wb2;", dst(i), a + 3 * i, a + 3 * i + 1, a + 3 * i + 2));
+      line("}");
+      break;
     }
-  };
+    default:
+      MB_ASSERT(false, "StateKernel on an instruction that does not read a state");
+  }
+}
+
+void CompiledModel::EmitInstr(const Instr& in, std::string& o, std::set<int>& levers_done) const {
+  auto line = [&](const std::string& s) { o += "  " + s + "\n"; };
+  const double* c = coef_.data();
   const std::string who = in.element >= 0 ? graph_.element(in.element).name : "";
-  *out += "  // " + who + "\n";
+  o += "  // " + who + "\n";
   const int d = in.dst;
   switch (in.op) {
     case Op::kSource:
@@ -89,36 +123,12 @@ void CompiledModel::EmitInstr(const Instr& in, std::string& o, std::set<int>& le
       break;
     case Op::kStateScale:
     case Op::kStateScale3:
-      for (int k = 0; k < in.n; ++k) line(fmt::format("{} = {} * {};", W(d + k), Lit(c[in.coef]), X(in.src + k)));
-      break;
     case Op::kStateDiag3:
-      for (int k = 0; k < 3; ++k) line(fmt::format("{} = {} * {};", W(d + k), Lit(c[in.coef + k]), X(in.src + k)));
-      break;
     case Op::kStateMatrix:
-      for (int r = 0; r < in.n; ++r) {
-        std::vector<std::pair<double, std::string>> terms;
-        for (int k = 0; k < in.n; ++k) terms.push_back({c[in.coef + r * in.n + k], X(in.src + k)});
-        line(fmt::format("{} = {};", W(d + r), LinComb(terms)));
-      }
-      break;
     case Op::kIFlowRotated:
-    case Op::kIFlowRotatedDiag: {
-      line("{");
-      line(fmt::format("  const double h[3] = {{{}, {}, {}}};", X(in.src), X(in.src + 1), X(in.src + 2)));
-      line("  double hb[3], wb[3], f[3];");
-      rot("  hb", in.aux, "h", true);
-      for (int k = 0; k < 3; ++k) {
-        if (in.op == Op::kIFlowRotatedDiag)
-          line(fmt::format("  wb[{}] = {} * hb[{}];", k, Lit(c[in.coef + k]), k));
-        else
-          line(fmt::format("  wb[{}] = {};", k,
-                           LinComb({{c[in.coef + 3 * k], "hb[0]"}, {c[in.coef + 3 * k + 1], "hb[1]"}, {c[in.coef + 3 * k + 2], "hb[2]"}})));
-      }
-      rot("  f", in.aux, "wb", false);
-      for (int k = 0; k < 3; ++k) line(fmt::format("  {} = f[{}];", W(d + k), k));
-      line("}");
+    case Op::kIFlowRotatedDiag:
+      EmitStateKernel(in, [&](int k) { return X(in.src + k); }, [&](int k) { return W(d + k); }, o);
       break;
-    }
     case Op::kScale:
     case Op::kScale1:
     case Op::kScale3:
@@ -416,7 +426,6 @@ std::string CompiledModel::GenerateColumnsSource() const {
   // AssembleConstraintMatrix (constraints.cc) written out: per multiplier, a unit effort through
   // its closure in the scratch slots w (zero outside the closure, and left so), then the
   // momentum rows it reaches (b) and their flows M^-1 b (v). Same operations in the same order.
-  const double* c = coef_.data();
   std::string o;
   auto line = [&](const std::string& s) { o += "  " + s + "\n"; };
   o += "// Generated by multibond from the constraint columns of model '" + graph_.name() + "'. Do not edit.\n";
@@ -442,44 +451,8 @@ std::string CompiledModel::GenerateColumnsSource() const {
           line(fmt::format("b[{}] = {};", off + r, gt.sign == 1.0 ? e : gt.sign == -1.0 ? "-" + e : Lit(gt.sign) + " * " + e));
         }
         // v = M^-1 b with the I's flow instruction (StateKernel in compiled_model.cc).
-        const Instr& in = plan_[flow_instr_of_block_[gi]];
-        auto bv = [&](int i) { return fmt::format("b[{}]", off + i); };
-        switch (in.op) {
-          case Op::kStateScale:
-          case Op::kStateScale3:
-            for (int r = 0; r < in.n; ++r) line(fmt::format("v[{}] = {} * {};", off + r, Lit(c[in.coef]), bv(r)));
-            break;
-          case Op::kStateDiag3:
-            for (int r = 0; r < 3; ++r) line(fmt::format("v[{}] = {} * {};", off + r, Lit(c[in.coef + r]), bv(r)));
-            break;
-          case Op::kStateMatrix:
-            for (int r = 0; r < in.n; ++r) {
-              std::vector<std::pair<double, std::string>> terms;
-              for (int q = 0; q < in.n; ++q) terms.push_back({c[in.coef + r * in.n + q], bv(q)});
-              line(fmt::format("v[{}] = {};", off + r, LinComb(terms)));
-            }
-            break;
-          case Op::kIFlowRotated:
-          case Op::kIFlowRotatedDiag: {
-            const int a = in.aux;
-            line("{");
-            for (int i = 0; i < 3; ++i)  // hb = R^T b
-              line(fmt::format("  const double hb{} = x[{}] * {} + x[{}] * {} + x[{}] * {};", i, a + i, bv(0), a + 3 + i, bv(1), a + 6 + i, bv(2)));
-            for (int i = 0; i < 3; ++i) {
-              if (in.op == Op::kIFlowRotatedDiag)
-                line(fmt::format("  const double wb{} = {} * hb{};", i, Lit(c[in.coef + i]), i));
-              else
-                line(fmt::format("  const double wb{} = {};", i,
-                                 LinComb({{c[in.coef + 3 * i], "hb0"}, {c[in.coef + 3 * i + 1], "hb1"}, {c[in.coef + 3 * i + 2], "hb2"}})));
-            }
-            for (int i = 0; i < 3; ++i)  // v = R wb
-              line(fmt::format("  v[{}] = x[{}] * wb0 + x[{}] * wb1 + x[{}] * wb2;", off + i, a + 3 * i, a + 3 * i + 1, a + 3 * i + 2));
-            line("}");
-            break;
-          }
-          default:
-            MB_ASSERT(false, "a momentum's flow instruction that does not read a state");
-        }
+        EmitStateKernel(plan_[flow_instr_of_block_[gi]], [&](int k) { return fmt::format("b[{}]", off + k); },
+                        [&](int k) { return fmt::format("v[{}]", off + k); }, o);
         off += gt.size;
       }
       for (int q : cg.closure)

@@ -8,6 +8,7 @@
 /// nothing but their sums. Every other computed variable is one instruction of the plan, in an
 /// order found by topological sort of the causal dependencies (a cycle is an algebraic loop).
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <set>
@@ -287,6 +288,10 @@ class CompiledModel {
   GeneratedRhs generated_ = nullptr;
   GeneratedRhs generated_fast_ = nullptr;
   std::shared_ptr<void> generated_library_;  ///< keeps the shared object loaded
+  /// A state-reading kernel (StateKernel: the flow M^-1 of a momentum or displacement) as C++,
+  /// from the input expressions src(k) to the outputs dst(k); orientations read from x[].
+  void EmitStateKernel(const Instr& in, const std::function<std::string(int)>& src,
+                       const std::function<std::string(int)>& dst, std::string& o) const;
   /// One plan instruction as C++ (slots in w[], states in x[], moduli in mod[]), appended to o;
   /// levers_done: the lever arms already declared in the enclosing scope.
   void EmitInstr(const Instr& in, std::string& o, std::set<int>& levers_done) const;
