@@ -1164,6 +1164,16 @@ double CompiledModel::StoredEnergy(int element, const double* x) const {
   return term < 0 ? 0.0 : EnergyOf(energy_terms_[term], x);
 }
 
+CompiledModel::EnergyTotals CompiledModel::StoredEnergies(const double* x, double* per_term) const {
+  EnergyTotals t;
+  for (size_t k = 0; k < energy_terms_.size(); ++k) {
+    const double e = EnergyOf(energy_terms_[k], x);
+    per_term[k] = e;
+    (energy_terms_[k].kinetic ? t.kinetic : t.potential) += e;
+  }
+  return t;
+}
+
 double CompiledModel::KineticEnergy(const double* x) const {
   double sum = 0.0;
   for (const EnergyTerm& et : energy_terms_)

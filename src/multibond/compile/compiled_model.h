@@ -151,6 +151,14 @@ class CompiledModel {
 
   // --- energy account (from the state; the workspace must have been filled at x) ---
   double StoredEnergy(int element, const double* x) const;  ///< I or C
+  /// Every I's and C's stored energy in one pass (what an output row needs): per_term receives
+  /// num_energy_terms() values, in the order energy_term(element) gives; returns the sums.
+  struct EnergyTotals {
+    double kinetic = 0.0, potential = 0.0;
+  };
+  EnergyTotals StoredEnergies(const double* x, double* per_term) const;
+  int num_energy_terms() const { return static_cast<int>(energy_terms_.size()); }
+  int energy_term(int element) const { return energy_term_of_element_.at(element); }  ///< or -1
   double KineticEnergy(const double* x) const;
   double PotentialEnergy(const double* x) const;
   double Work(const double* x) const;        ///< total work of all sources so far

@@ -128,6 +128,41 @@ Layout MakeLayout(const CompiledModel& model, bool all_variables) {
   return l;
 }
 
+/// The layout as flat lists, for the output rows (5,001 of them in the differential's run): most
+/// columns are one state or one workspace slot, read directly; the rest are sums of terms, or
+/// computed once per row (energies, orthonormality, time).
+struct RowPlan {
+  struct Copy {
+    int column, offset;
+  };
+  struct Sum {
+    int column, begin, end;  ///< its terms: terms[begin, end)
+  };
+  std::vector<Copy> from_state, from_slot;
+  std::vector<Sum> sums;
+  std::vector<ColumnSource::Term> terms;
+  std::vector<Copy> stored;  ///< column, and its I's or C's energy term (offset -1: none)
+  std::vector<int> other;    ///< the columns computed from the row's totals
+
+  RowPlan(const Layout& l, const CompiledModel& model) {
+    for (int c = 0; c < static_cast<int>(l.sources.size()); ++c) {
+      const ColumnSource& s = l.sources[c];
+      if (s.kind == ColumnSource::Kind::kLinear) {
+        if (s.terms.size() == 1 && s.terms[0].coef == 1.0) {
+          (s.terms[0].state ? from_state : from_slot).push_back({c, s.terms[0].offset});
+        } else {
+          sums.push_back({c, static_cast<int>(terms.size()), static_cast<int>(terms.size() + s.terms.size())});
+          terms.insert(terms.end(), s.terms.begin(), s.terms.end());
+        }
+      } else if (s.kind == ColumnSource::Kind::kStored) {
+        stored.push_back({c, model.energy_term(s.index)});
+      } else {
+        other.push_back(c);
+      }
+    }
+  }
+};
+
 /// The energy balance: (work - (stored - stored at start) - dissipated) relative to the largest
 /// energy the run has handled so far (|work|, stored, dissipated). For a driven run whose work
 /// grows, that is the work itself; dividing by the current work instead would blow up whenever
@@ -196,36 +231,45 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
 
   RunSummary summary;
   std::vector<double> row(layout.columns.size());
+  const RowPlan plan(layout, model);
+  std::vector<double> energies(model.num_energy_terms());
   const bool project = options.integrator.project && model.has_invariants();
   auto sample = [&](double t) {
     // Between steps the integrator reports an interpolant; with projection on, the reported
     // orientations are its nearest rotations, like the integrated state itself.
     if (project) model.Project(t, x.data(), ws);
     model.CalcDerivatives(t, x.data(), xdot.data(), ws);  // fills every effort and flow at (t, x)
-    const double work = model.Work(x.data()), kin = model.KineticEnergy(x.data());
-    const double pot = model.PotentialEnergy(x.data()), diss = model.Dissipated(x.data());
+    const CompiledModel::EnergyTotals stored = model.StoredEnergies(x.data(), energies.data());
+    const double work = model.Work(x.data()), kin = stored.kinetic, pot = stored.potential;
+    const double diss = model.Dissipated(x.data());
     const double residual = balance.Residual(work, kin + pot, diss);
-    for (size_t c = 0; c < row.size(); ++c) {
+    for (const RowPlan::Copy& k : plan.from_state) row[k.column] = x[k.offset];
+    for (const RowPlan::Copy& k : plan.from_slot) row[k.column] = ws.slots[k.offset];
+    for (const RowPlan::Sum& k : plan.sums) {
+      double v = 0.0;
+      for (int i = k.begin; i < k.end; ++i) {
+        const ColumnSource::Term& term = plan.terms[i];
+        v += term.coef * (term.state ? x[term.offset] : ws.slots[term.offset]);
+      }
+      row[k.column] = v;
+    }
+    for (const RowPlan::Copy& k : plan.stored) row[k.column] = k.offset < 0 ? 0.0 : energies[k.offset];
+    for (const int c : plan.other) {
       const ColumnSource& s = layout.sources[c];
       switch (s.kind) {
         case ColumnSource::Kind::kTime: row[c] = t; break;
-        case ColumnSource::Kind::kLinear: {
-          double v = 0.0;
-          for (const auto& term : s.terms) v += term.coef * (term.state ? x[term.offset] : ws.slots[term.offset]);
-          row[c] = v;
-          break;
-        }
         case ColumnSource::Kind::kOrthonormality: {
           const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(x.data() + s.index);
           row[c] = (r.transpose() * r - Eigen::Matrix3d::Identity()).norm();
           break;
         }
-        case ColumnSource::Kind::kStored: row[c] = model.StoredEnergy(s.index, x.data()); break;
         case ColumnSource::Kind::kWork: row[c] = work; break;
         case ColumnSource::Kind::kKinetic: row[c] = kin; break;
         case ColumnSource::Kind::kPotential: row[c] = pot; break;
         case ColumnSource::Kind::kDissipated: row[c] = diss; break;
         case ColumnSource::Kind::kResidual: row[c] = residual; break;
+        case ColumnSource::Kind::kLinear:
+        case ColumnSource::Kind::kStored: break;  // in the lists above
       }
     }
     summary.t_reached = t;
