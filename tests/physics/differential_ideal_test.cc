@@ -118,9 +118,12 @@ TEST(IdealDifferential, ValidatesAgainstTheRigidMechanism) {
   }
 }
 
-/// B's columns and W's L D L^T as generated code give the interpreter's constraint efforts, state
+/// The generated constraint code (the plan at zero multipliers, its tangent, B's columns, W's
+/// L D L^T and what the multipliers reach) gives the interpreter's constraint efforts, state
 /// derivatives and reactions to rounding, at states along the start transient and in the steady
-/// rotation, and the same projection onto the constraints.
+/// rotation, and the same projection onto the constraints. (Checked to fail when the generated
+/// tangent's product rule is off by 1e-6, or when one body's momentum rate is left at its value
+/// without the multipliers.)
 TEST(IdealDifferential, GeneratedConstraintCodeMatchesTheInterpreter) {
   const LoadedModel lm = LoadModelFile(testing::ExamplePath("differential_ideal.yaml"));
   CompileOptions gen = lm.compile, interp = lm.compile;

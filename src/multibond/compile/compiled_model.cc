@@ -524,17 +524,23 @@ void CompiledModel::Build() {
     // B's columns and W's L D L^T as generated code (about 70% of the interpreted evaluation).
     // With them, the plan at zero multipliers (step 1 of CalcConstrained); what the multipliers
     // reach is re-run by the interpreter once they are known.
-    const JitResult jit = CompileAndLoad(
-        GenerateSource(/*with_fast=*/false) + GenerateColumnsSource() + (factor_.size() > 0 ? GenerateFactorSource() : ""), "multibond_bcols");
+    const JitResult jit = CompileAndLoad(GenerateSource(/*with_fast=*/false) + GenerateColumnsSource() +
+                                             (factor_.size() > 0 ? GenerateFactorSource() : "") + GenerateTangentSource() +
+                                             GenerateReactSource(),
+                                         "multibond_bcols");
     void* ldlt = jit.symbol && factor_.size() > 0 ? dlsym(jit.library.get(), "multibond_ldlt") : nullptr;
     void* plan = jit.symbol ? dlsym(jit.library.get(), "multibond_rhs") : nullptr;
-    if (jit.symbol && plan && (ldlt || factor_.size() == 0)) {
+    void* tangent = jit.symbol ? dlsym(jit.library.get(), "multibond_tangent") : nullptr;
+    void* react = jit.symbol ? dlsym(jit.library.get(), "multibond_react") : nullptr;
+    if (jit.symbol && plan && tangent && react && (ldlt || factor_.size() == 0)) {
       generated_bcols_ = reinterpret_cast<GeneratedColumns>(jit.symbol);
       generated_ldlt_ = reinterpret_cast<GeneratedLdlt>(ldlt);
       generated_ = reinterpret_cast<GeneratedRhs>(plan);  // no generated_fast_: CalcStateDerivatives must solve
+      generated_tangent_ = reinterpret_cast<GeneratedTangent>(tangent);
+      generated_react_ = reinterpret_cast<GeneratedReact>(react);
       generated_constraints_library_ = jit.library;
-      rhs_engine_ = "generated code for the plan at zero multipliers, the constraint matrix and its L D L^T; "
-                    "the interpreter for the multipliers' effects (" + jit.description + ")";
+      rhs_engine_ = "generated code for the plan at zero multipliers, its tangent, the constraint matrix and its L D L^T, "
+                    "and what the multipliers reach (" + jit.description + ")";
     } else {
       rhs_engine_ += " (code generation for the constraint matrix failed: " + jit.description + ")";
     }
@@ -857,12 +863,11 @@ inline void Cross(double* out, const double* a, const double* b, double s) {
 
 namespace {
 // The generated code's view of the source functions (see codegen.cc).
-struct MbSources {
-  const void* fns;
-  double (*eval)(const void*, int, double);
-};
 double EvalSource(const void* fns, int i, double t) { return static_cast<const TimeFunction*>(fns)[i](t); }
+double EvalSourceDerivative(const void* fns, int i, double t) { return static_cast<const TimeFunction*>(fns)[i].Derivative(t); }
 }  // namespace
+
+CompiledModel::SourceTable CompiledModel::Sources() const { return {source_fns_.data(), &EvalSource, &EvalSourceDerivative}; }
 
 void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot, Workspace& ws) const {
   if (!generated_fast_) {
@@ -870,8 +875,8 @@ void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot
     return;
   }
   if (!needed_moduli_.empty()) EvalModuli(x, ws.moduli.data());
-  const MbSources sources{source_fns_.data(), &EvalSource};
-  reinterpret_cast<void (*)(double, const double*, double*, const double*, const MbSources*)>(generated_fast_)(
+  const SourceTable sources = Sources();
+  reinterpret_cast<void (*)(double, const double*, double*, const double*, const SourceTable*)>(generated_fast_)(
       t, x, xdot, ws.moduli.data(), &sources);
 }
 
@@ -1045,8 +1050,8 @@ void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace&
   double* mod = ws.moduli.data();
   if (!needed_moduli_.empty()) EvalModuli(x, mod);
   if (generated_) {
-    const MbSources sources{source_fns_.data(), &EvalSource};
-    reinterpret_cast<void (*)(double, const double*, double*, double*, const double*, const MbSources*)>(generated_)(
+    const SourceTable sources = Sources();
+    reinterpret_cast<void (*)(double, const double*, double*, double*, const double*, const SourceTable*)>(generated_)(
         t, x, xdot, w, mod, &sources);
     return;
   }

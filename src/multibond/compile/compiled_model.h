@@ -132,6 +132,10 @@ class CompiledModel {
   std::string GenerateFactorSource() const;
   /// C++ source of B's columns (AssembleConstraintMatrix): `multibond_bcols(x, lin, mod, b, v)`.
   std::string GenerateColumnsSource() const;
+  /// C++ source of the constraints' tangent pass and of what the multipliers reach (steps 2 and 4
+  /// of CalcConstrained): `multibond_tangent` and `multibond_react`.
+  std::string GenerateTangentSource() const;
+  std::string GenerateReactSource() const;
   /// How the right-hand side is evaluated: "generated code (<library>)" or "interpreter (<why>)".
   const std::string& rhs_engine() const { return rhs_engine_; }
   bool uses_generated_code() const { return generated_ != nullptr; }
@@ -300,9 +304,37 @@ class CompiledModel {
   /// from the input expressions src(k) to the outputs dst(k); orientations read from x[].
   void EmitStateKernel(const Instr& in, const std::function<std::string(int)>& src,
                        const std::function<std::string(int)>& dst, std::string& o) const;
-  /// One plan instruction as C++ (slots in w[], states in x[], moduli in mod[]), appended to o;
-  /// levers_done: the lever arms already declared in the enclosing scope.
-  void EmitInstr(const Instr& in, std::string& o, std::set<int>& levers_done) const;
+  /// The arrays an instruction's generated code reads and writes (EmitInstr).
+  struct CodeNames {
+    const char* x = "x";    ///< states: the inputs of state kernels, R of rotation and lever kernels
+    const char* in = "w";   ///< the slots it reads
+    const char* out = "w";  ///< the slots it writes
+    const char* mod = "mod";
+    bool multipliers = false;  ///< kMultiplier reads lam[] (else 0: the plan at zero multipliers)
+  };
+  /// One plan instruction as C++, appended to o; levers_done: the lever arms already declared
+  /// in the enclosing scope. A rotated inertia's kernel reads its R from x[] whatever names.x.
+  void EmitInstr(const Instr& in, std::string& o, std::set<std::string>& levers_done, const CodeNames& names) const;
+  void EmitInstr(const Instr& in, std::string& o, std::set<std::string>& levers_done) const {
+    EmitInstr(in, o, levers_done, CodeNames{});
+  }
+  /// A state block's derivative from the slots (EvalGather) as C++; `reads` gets the slots read.
+  void EmitGather(const Gather& gt, std::string& o, std::vector<int>* reads = nullptr) const;
+  /// The sources' time functions as generated code calls them (its struct MbSources).
+  struct SourceTable {
+    const void* fns;
+    double (*eval)(const void*, int, double);
+    double (*deriv)(const void*, int, double);
+  };
+  SourceTable Sources() const;
+  /// Tangent (constraints.cc) as generated code:
+  /// (t, x, xdot, slots, dslots, moduli, dmoduli, sources).
+  using GeneratedTangent = void (*)(double, const double*, const double*, const double*, double*, const double*,
+                                    const double*, const void*);
+  GeneratedTangent generated_tangent_ = nullptr;
+  /// Step 4 of CalcConstrained as generated code: (t, x, xdot, slots, moduli, lambda, sources).
+  using GeneratedReact = void (*)(double, const double*, double*, double*, const double*, const double*, const void*);
+  GeneratedReact generated_react_ = nullptr;
   /// SolveIndependent as generated code (null: interpreted), for models with ideal constraints.
   using GeneratedLdlt = int (*)(const double*, const double*, const double*, double*, double*, double*);
   GeneratedLdlt generated_ldlt_ = nullptr;

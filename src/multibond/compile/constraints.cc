@@ -274,6 +274,11 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
   const double* mod = ws.moduli.data();
   double* dmod = ws.con.dmoduli.data();
   if (!needed_moduli_.empty()) EvalModuli(xdot, dmod, true);
+  if (generated_tangent_) {
+    const SourceTable sources = Sources();
+    generated_tangent_(t, x, xdot, w, d, mod, dmod, &sources);
+    return;
+  }
   const double* c = coef_.data();
   const double* lam = ws.lambda.data();
   auto exec = [&](const Instr& in, const double* xs, const double* win, double* wout, const double* m) {
@@ -633,6 +638,11 @@ void CompiledModel::CalcConstrained(double t, const double* x, double* xdot, Wor
   // Step 4: only what the multipliers reach changes (BuildConstraints, reaction_plan_).
   double* w = ws.slots.data();
   const double* mod = ws.moduli.data();
+  if (generated_react_) {
+    const SourceTable sources = Sources();
+    generated_react_(t, x, xdot, w, mod, ws.lambda.data(), &sources);
+    return;
+  }
   for (int k : reaction_plan_)
     Exec(plan_[k], t, x, w, w, mod, ws.lambda.data(), coef_.data(), sum_terms_.data(), sum_signs_.data(), source_fns_.data());
   for (int gi : reaction_gathers_) EvalGather(gathers_[gi], x, w, xdot);
