@@ -133,6 +133,36 @@ bonds: []
   EXPECT_THAT(ds[0].details[0], HasSubstr("m.yaml:2:3"));
 }
 
+TEST(ModelLoader, DuplicateKeysAreAnErrorNotASilentChoice) {
+  // yaml-cpp keeps both entries of a repeated key and looks up the first: the second value
+  // (stiffness 2, and t_end 9) would be dropped without a word.
+  const auto ds = Errors(R"(elements:
+  s: {type: Se, effort: 1}
+  k: {type: C, stiffness: 1, stiffness: 2}
+bonds: [s -> k]
+simulation:
+  t_end: 1
+  dt: 0.1
+  t_end: 9
+)");
+  ASSERT_EQ(ds.size(), 2u);
+  EXPECT_EQ(ds[0].code, "yaml.duplicate_key");
+  EXPECT_THAT(ds[0].message, HasSubstr("duplicate key 'stiffness'"));
+  EXPECT_EQ(ds[0].element, "elements.k.stiffness");
+  EXPECT_EQ(ds[0].where.line, 3);
+  ASSERT_EQ(ds[0].details.size(), 1u);
+  EXPECT_THAT(ds[0].details[0], HasSubstr("m.yaml:3:"));
+  EXPECT_THAT(ds[1].message, HasSubstr("duplicate key 't_end'"));
+  EXPECT_EQ(ds[1].where.line, 8);
+  EXPECT_THAT(ds[1].details[0], HasSubstr("m.yaml:6:3"));
+  // Repeated keys in different mappings are fine.
+  EXPECT_NO_THROW(LoadModelString(R"(elements:
+  s: {type: Se, effort: 1}
+  k: {type: C, stiffness: 1}
+bonds: [s -> k]
+)", "m.yaml"));
+}
+
 TEST(ModelLoader, DanglingElementAndDimensionMismatch) {
   auto ds = Errors(R"(elements:
   s: {type: Se, effort: 1}

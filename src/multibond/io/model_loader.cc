@@ -45,6 +45,8 @@ class Loader {
                   "start from an example in examples/");
       sink_.ThrowIfErrors();
     }
+    CheckDuplicateKeys(root, "");
+    sink_.ThrowIfErrors();
     CheckKeys(root, kTopKeys, "");
     std::string name = "model";
     if (root["model"]) name = Str(root["model"], "model");
@@ -98,6 +100,36 @@ class Loader {
     return {file_, m.line + 1, m.column + 1};
   }
   SourceLocation Loc(const YAML::Node& n) const { return Loc(n.Mark()); }
+
+  /// A key given twice in one mapping: YAML forbids it, and yaml-cpp would keep the first value
+  /// and drop the other without a word. Checked over the whole document before it is read.
+  /// Element names (the keys of an 'elements' mapping) have their own check, with the same
+  /// information (ReadScope: "duplicate element name").
+  void CheckDuplicateKeys(const YAML::Node& node, const std::string& path, bool element_names = false) {
+    if (node.IsSequence()) {
+      for (size_t i = 0; i < node.size(); ++i) CheckDuplicateKeys(node[i], fmt::format("{}[{}]", path, i));
+      return;
+    }
+    if (!node.IsMap()) return;
+    std::map<std::string, SourceLocation> seen;
+    for (const auto& kv : node) {
+      if (!kv.first.IsScalar()) continue;
+      const std::string key = kv.first.Scalar();
+      const std::string where = path.empty() ? key : path + "." + key;
+      const auto [first, fresh] = seen.emplace(key, Loc(kv.first));
+      if (!fresh && !element_names) {
+        Diagnostic d;
+        d.where = Loc(kv.first);
+        d.element = where;
+        d.message = fmt::format("duplicate key '{}': YAML allows a key once per mapping, and only the first value would be used", key);
+        d.details.push_back("first given at " + first->second.ToString());
+        d.hint = "remove one of the two, or merge them";
+        d.code = "yaml.duplicate_key";
+        sink_.Add(d);
+      }
+      CheckDuplicateKeys(kv.second, where, key == "elements");
+    }
+  }
 
   void CheckKeys(const YAML::Node& map, const std::vector<std::string>& allowed, const std::string& element) {
     if (!map.IsMap()) return;
