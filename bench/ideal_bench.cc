@@ -22,6 +22,7 @@ std::shared_ptr<const mb::CompiledModel> IdealDifferential() {
 
 void BM_IdealDifferentialRhs(benchmark::State& state) {
   const auto model = IdealDifferential();
+  if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
   mb::Workspace ws = model->MakeWorkspace();
   Eigen::VectorXd x = model->MakeInitialState(), xdot(x.size());
   double t = 0.0;
@@ -38,6 +39,7 @@ BENCHMARK(BM_IdealDifferentialRhs);
 /// range(0): 0 = dopri5, 1 = bdf; range(1): -log10(rtol).
 void BM_IdealDifferentialRun(benchmark::State& state) {
   const auto model = IdealDifferential();
+  if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
   mb::RunOptions o;
   o.t_end = 5.0;
   o.dt = 1e-3;

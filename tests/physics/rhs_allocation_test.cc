@@ -34,6 +34,10 @@ long AllocationsOfEvaluations(const std::string& example, bool generate_code) {
   CompileOptions co = lm.compile;
   co.generate_code = generate_code;
   const auto model = CompiledModel::Compile(lm.graph, co);
+  if (generate_code && !model->uses_generated_code()) {  // else this would measure the interpreter
+    ADD_FAILURE() << model->rhs_engine();
+    return -1;
+  }
   Workspace ws = model->MakeWorkspace();
   Eigen::VectorXd x = model->MakeInitialState(), xdot(x.size());
   for (int i = 0; i < x.size(); ++i) x[i] += 1e-6 * (i % 5);

@@ -1,6 +1,7 @@
 #pragma once
 // Test helpers: load a shipped example, compile it and run it into memory.
 
+#include <stdexcept>
 #include <string>
 
 #include "multibond/io/model_loader.h"
@@ -18,6 +19,9 @@ inline RecordingObserver RunExample(const std::string& name, double t_end = 0.0,
   CompileOptions co = lm.compile;
   co.generate_code = generate_code;
   const auto model = CompiledModel::Compile(lm.graph, co);
+  // A test that asks for generated code must not pass on the interpreter's fallback.
+  if (generate_code && !model->uses_generated_code())
+    throw std::runtime_error("generated code was asked for and not built: " + model->rhs_engine());
   RunOptions o;
   o.t_end = t_end > 0 ? t_end : lm.simulation.t_end.value_or(1.0);
   o.dt = dt > 0 ? dt : lm.simulation.dt.value_or(1e-3);

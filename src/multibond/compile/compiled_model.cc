@@ -528,13 +528,15 @@ void CompiledModel::Build() {
                                              (factor_.size() > 0 ? GenerateFactorSource() : "") + GenerateTangentSource() +
                                              GenerateReactSource(),
                                          "multibond_bcols");
-    void* ldlt = jit.symbol && factor_.size() > 0 ? dlsym(jit.library.get(), "multibond_ldlt") : nullptr;
+    void* factor = jit.symbol && factor_.size() > 0 ? dlsym(jit.library.get(), "multibond_ldlt_factor") : nullptr;
+    void* solve = jit.symbol && factor_.size() > 0 ? dlsym(jit.library.get(), "multibond_ldlt_solve") : nullptr;
     void* plan = jit.symbol ? dlsym(jit.library.get(), "multibond_rhs") : nullptr;
     void* tangent = jit.symbol ? dlsym(jit.library.get(), "multibond_tangent") : nullptr;
     void* react = jit.symbol ? dlsym(jit.library.get(), "multibond_react") : nullptr;
-    if (jit.symbol && plan && tangent && react && (ldlt || factor_.size() == 0)) {
+    if (jit.symbol && plan && tangent && react && ((factor && solve) || factor_.size() == 0)) {
+      generated_factor_ = reinterpret_cast<GeneratedFactor>(factor);
+      generated_solve_ = reinterpret_cast<GeneratedSolve>(solve);
       generated_bcols_ = reinterpret_cast<GeneratedColumns>(jit.symbol);
-      generated_ldlt_ = reinterpret_cast<GeneratedLdlt>(ldlt);
       generated_ = reinterpret_cast<GeneratedRhs>(plan);  // no generated_fast_: CalcStateDerivatives must solve
       generated_tangent_ = reinterpret_cast<GeneratedTangent>(tangent);
       generated_react_ = reinterpret_cast<GeneratedReact>(react);
@@ -651,6 +653,7 @@ Workspace CompiledModel::MakeWorkspace() const {
     ws.con.perm.assign(m, 0);
     ws.con.factor.assign(factor_.values(), 0.0);
     ws.con.y.assign(factor_.size(), 0.0);
+    ws.con.factored_at.assign(num_states(), 0.0);
   }
   return ws;
 }

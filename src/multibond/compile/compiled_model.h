@@ -54,6 +54,11 @@ struct Workspace {
     /// (CompiledModel::IndependentFactor): D^-1, L, L D.
     std::vector<double> factor;
     std::vector<double> y;                ///< the solution in the factor's order
+    /// The state at which b, v and factor were last formed, when `factored`: a solve at that very
+    /// state reuses them (B and W depend on the orientations only, so an output time's projection,
+    /// which changes momenta, leaves them right for the evaluation that follows it).
+    std::vector<double> factored_at;
+    bool factored = false;
   } con;
 };
 
@@ -127,8 +132,9 @@ class CompiledModel {
   /// `multibond_rhs(t, x, xdot, w, moduli, ctx)` with every offset and coefficient a literal.
   std::string GenerateSource(bool with_fast = true) const;
   std::string GenerateBody() const;
-  /// C++ source of the constraint system's sparse L D L^T (SolveIndependent) for the pattern
-  /// fixed at compile time: `multibond_ldlt(b, v, rhs, lambda, factor, y)`, 1 on success.
+  /// C++ source of the constraint system's sparse L D L^T for the pattern fixed at compile time:
+  /// `multibond_ldlt_factor(b, v, factor)` (1 on success) and `multibond_ldlt_solve(rhs,
+  /// lambda, factor, y)`.
   std::string GenerateFactorSource() const;
   /// C++ source of B's columns (AssembleConstraintMatrix): `multibond_bcols(x, lin, mod, b, v)`.
   std::string GenerateColumnsSource() const;
@@ -261,9 +267,13 @@ class CompiledModel {
   void AssembleConstraintMatrix(double t, const double* x, Workspace& ws) const;
   /// Solves W y = rhs in place (rhs in ws.con.rhs) by a scaled, pivoted LDL^T; pivots below a
   /// relative 1e-11 are redundant constraints and get a zero multiplier.
-  void SolveConstraintSystem(Workspace& ws) const;
+  /// B's columns at (t, x) (AssembleConstraintMatrix) and lambda from W lambda = ws.con.rhs: the
+  /// sparse L D L^T on the independent set, else the pivoted solve. When ws holds B and the
+  /// factor for this very x (Workspace::ConstraintScratch::factored_at), the solve only.
+  void SolveConstraintsAt(double t, const double* x, Workspace& ws) const;
+  bool FactorIndependent(Workspace& ws) const;  ///< L D L^T of W on the independent set; false: not definite
+  void SolveFactored(Workspace& ws) const;      ///< lambda from the factor and ws.con.rhs
   void FormFullW(Workspace& ws) const;  ///< W (m x m) from B and V in ws
-  bool SolveIndependent(Workspace& ws) const;  ///< false: fall back to SolvePivoted
   void SolvePivoted(Workspace& ws) const;
   /// The constraints independent at the initial state (the rest are redundant there).
   void FindIndependentConstraints();
@@ -335,9 +345,12 @@ class CompiledModel {
   /// Step 4 of CalcConstrained as generated code: (t, x, xdot, slots, moduli, lambda, sources).
   using GeneratedReact = void (*)(double, const double*, double*, double*, const double*, const double*, const void*);
   GeneratedReact generated_react_ = nullptr;
-  /// SolveIndependent as generated code (null: interpreted), for models with ideal constraints.
-  using GeneratedLdlt = int (*)(const double*, const double*, const double*, double*, double*, double*);
-  GeneratedLdlt generated_ldlt_ = nullptr;
+  /// FactorIndependent and SolveFactored as generated code (null: interpreted), for models with
+  /// ideal constraints: (b, v, factor) -> 1 on success; (rhs, lambda, factor, y).
+  using GeneratedFactor = int (*)(const double*, const double*, double*);
+  using GeneratedSolve = void (*)(const double*, double*, double*, double*);
+  GeneratedFactor generated_factor_ = nullptr;
+  GeneratedSolve generated_solve_ = nullptr;
   /// AssembleConstraintMatrix as generated code: (x, lin, moduli, b, v).
   using GeneratedColumns = void (*)(const double*, double*, const double*, double*, double*);
   GeneratedColumns generated_bcols_ = nullptr;

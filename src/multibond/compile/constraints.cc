@@ -409,21 +409,13 @@ void CompiledModel::FormFullW(Workspace& ws) const {
   }
 }
 
-void CompiledModel::SolveConstraintSystem(Workspace& ws) const {
-  if (factor_.size() > 0 && SolveIndependent(ws)) return;
-  FormFullW(ws);
-  SolvePivoted(ws);
-}
-
-bool CompiledModel::SolveIndependent(Workspace& ws) const {
+bool CompiledModel::FactorIndependent(Workspace& ws) const {
   // The constraints found independent at t = 0 (redundant ones get zero effort): W restricted to
   // them is positive definite, and L D L^T solves it without pivoting, in the sparse pattern fixed
   // at compile time (FindIndependentConstraints). A configuration where they stop being
   // independent (a pivot below 1e-10 of W's diagonal entry: the square of the 1e-5 that Cholesky's
   // diagonal would be checked against) falls back to the pivoted solve.
-  if (generated_ldlt_)
-    return generated_ldlt_(ws.con.b.data(), ws.con.v.data(), ws.con.rhs.data(), ws.lambda.data(), ws.con.factor.data(),
-                           ws.con.y.data()) != 0;
+  if (generated_factor_) return generated_factor_(ws.con.b.data(), ws.con.v.data(), ws.con.factor.data()) != 0;
   const IndependentFactor& f = factor_;
   const int n = f.size(), ne = f.entries();
   const double* b = ws.con.b.data();
@@ -457,7 +449,19 @@ bool CompiledModel::SolveIndependent(Workspace& ws) const {
     if (!(di > 1e-10 * d[i])) return false;  // not positive definite here, or nearly dependent
     d[i] = 1.0 / di;  // from here on, d holds D^-1
   }
+  return true;
+}
+
+void CompiledModel::SolveFactored(Workspace& ws) const {
+  if (generated_solve_) {
+    generated_solve_(ws.con.rhs.data(), ws.lambda.data(), ws.con.factor.data(), ws.con.y.data());
+    return;
+  }
   // L D L^T y = rhs (in the factor's order), then back to the multipliers.
+  const IndependentFactor& f = factor_;
+  const int n = f.size();
+  const double* d = ws.con.factor.data();
+  const double* l = d + n;
   double* y = ws.con.y.data();
   for (int i = 0; i < n; ++i) {
     double s = ws.con.rhs[f.multiplier[i]];
@@ -469,7 +473,23 @@ bool CompiledModel::SolveIndependent(Workspace& ws) const {
     for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) y[f.cols[e]] -= l[e] * y[i];
   std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
   for (int i = 0; i < n; ++i) ws.lambda[f.multiplier[i]] = y[i];
-  return true;
+}
+
+void CompiledModel::SolveConstraintsAt(double t, const double* x, Workspace& ws) const {
+  const int n = num_states();
+  if (ws.con.factored && std::equal(x, x + n, ws.con.factored_at.begin())) {
+    SolveFactored(ws);
+    return;
+  }
+  AssembleConstraintMatrix(t, x, ws);
+  ws.con.factored = factor_.size() > 0 && FactorIndependent(ws);
+  if (ws.con.factored) {
+    SolveFactored(ws);
+    std::copy(x, x + n, ws.con.factored_at.begin());
+    return;
+  }
+  FormFullW(ws);
+  SolvePivoted(ws);
 }
 
 void CompiledModel::SolvePivoted(Workspace& ws) const {
@@ -633,8 +653,7 @@ void CompiledModel::CalcConstrained(double t, const double* x, double* xdot, Wor
         r -= mb.sign * (d[mb.flow + k] - (mb.source_fn >= 0 ? source_fns_[mb.source_fn + k].Derivative(t) : 0.0));
       rhs[cg.lambda + k] = r;
     }
-  AssembleConstraintMatrix(t, x, ws);
-  SolveConstraintSystem(ws);
+  SolveConstraintsAt(t, x, ws);
   // Step 4: only what the multipliers reach changes (BuildConstraints, reaction_plan_).
   double* w = ws.slots.data();
   const double* mod = ws.moduli.data();
@@ -667,13 +686,15 @@ void CompiledModel::Project(double t, double* x, Workspace& ws) const {
   EvalPlan(t, x, ws.con.xdot.data(), ws);
   ConstraintValues(t, ws.slots.data(), ws.con.rhs.data());
   for (int i = 0; i < num_lambda_; ++i) ws.con.rhs[i] = -ws.con.rhs[i];
-  AssembleConstraintMatrix(t, x, ws);
-  SolveConstraintSystem(ws);
+  SolveConstraintsAt(t, x, ws);
   for (int col = 0; col < num_lambda_; ++col) {
     const double mu = ws.lambda[col];
     if (mu == 0.0) continue;
     for (int q = b_offset_[col]; q < b_offset_[col + 1]; ++q) x[b_rows_[q]] += ws.con.b[q] * mu;
   }
+  // Only momenta moved (the rows of B): B and the factor stay right for x, which the evaluation
+  // at an output time, right after this, reuses.
+  if (ws.con.factored) std::copy(x, x + num_states(), ws.con.factored_at.begin());
   std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
 }
 
