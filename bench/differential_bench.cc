@@ -76,6 +76,7 @@ std::pair<std::shared_ptr<const mb::CompiledModel>, mb::RunOptions> ExampleRun()
 /// 1 = Dormand-Prince at the same tolerances.
 void BM_DifferentialRun(benchmark::State& state) {
   const auto [model, example_options] = ExampleRun();
+  if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
   mb::RunOptions o = example_options;
   if (state.range(0) != 0) o.integrator.method = mb::Method::kDormandPrince;
   mb::RunSummary s;
@@ -102,6 +103,7 @@ BENCHMARK(BM_DifferentialRun)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->It
 /// and then the example's run (as BM_DifferentialRun/0), back to back.
 void BM_DifferentialRunVsReference(benchmark::State& state) {
   const auto [model, o] = ExampleRun();
+  if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
   const int n = model->num_states();
   mb::Workspace ws = model->MakeWorkspace();
   Eigen::VectorXd x(n), y(n), k1(n), k2(n), k3(n), k4(n);
