@@ -54,10 +54,11 @@ struct Workspace {
     /// (CompiledModel::IndependentFactor): D^-1, L, L D.
     std::vector<double> factor;
     std::vector<double> y;                ///< the solution in the factor's order
-    /// The state at which b, v and factor were last formed, when `factored`: a solve at that very
-    /// state reuses them (B and W depend on the orientations only, so an output time's projection,
+    /// The time and state at which b, v and factor were last formed, when `factored`: a solve at
+    /// that very time and state reuses them (B and W depend on the orientations only, so an output time's projection,
     /// which changes momenta, leaves them right for the evaluation that follows it).
     std::vector<double> factored_at;
+    double factored_t = 0.0;
     bool factored = false;
   } con;
 };

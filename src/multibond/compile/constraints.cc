@@ -477,7 +477,7 @@ void CompiledModel::SolveFactored(Workspace& ws) const {
 
 void CompiledModel::SolveConstraintsAt(double t, const double* x, Workspace& ws) const {
   const int n = num_states();
-  if (ws.con.factored && std::equal(x, x + n, ws.con.factored_at.begin())) {
+  if (ws.con.factored && t == ws.con.factored_t && std::equal(x, x + n, ws.con.factored_at.begin())) {
     SolveFactored(ws);
     return;
   }
@@ -486,6 +486,7 @@ void CompiledModel::SolveConstraintsAt(double t, const double* x, Workspace& ws)
   if (ws.con.factored) {
     SolveFactored(ws);
     std::copy(x, x + n, ws.con.factored_at.begin());
+    ws.con.factored_t = t;
     return;
   }
   FormFullW(ws);
