@@ -37,7 +37,7 @@ class Loader {
     try {
       root = YAML::Load(text_);
     } catch (const YAML::Exception& e) {
-      sink_.Error(Loc(e.mark), "", "YAML syntax error: " + e.msg, "check indentation, colons and brackets near this place");
+      sink_.Add(ExplainSyntaxError(e));
       sink_.ThrowIfErrors();
     }
     if (!root.IsMap()) {
@@ -94,6 +94,86 @@ class Loader {
     Env defaults;
     std::set<std::string> ports;
   };
+
+  /// yaml-cpp reports a syntax error where it noticed it, often a line after the cause (an
+  /// unclosed '{' is found at the next key). Where the cause can be told from the text, the
+  /// diagnostic says it: the bracket that is not closed, or closed by the wrong one, and the line
+  /// indented deeper than the block it is in.
+  Diagnostic ExplainSyntaxError(const YAML::Exception& e) const {
+    Diagnostic d;
+    d.where = Loc(e.mark);
+    d.message = "YAML syntax error: " + e.msg;
+    d.hint = "check indentation, colons and brackets near this place";
+    d.code = "yaml.syntax";
+    if (e.mark.line < 0) return d;
+    // Offset of the error in the text, from its line and column.
+    size_t at = 0;
+    for (int line = 0; line < e.mark.line; ++line) {
+      const size_t end = text_.find('\n', at);
+      if (end == std::string::npos) return d;  // fewer lines than the mark says
+      at = end + 1;
+    }
+    at = std::min(text_.size(), at + static_cast<size_t>(std::max(0, e.mark.column)));
+    // The flow brackets still open at the error (quotes and comments skipped).
+    struct Open {
+      char c;
+      size_t pos;
+    };
+    std::vector<Open> open;
+    char quote = 0;
+    for (size_t i = 0; i < at; ++i) {
+      const char c = text_[i];
+      if (quote) {
+        if (c == quote && !(quote == '"' && i > 0 && text_[i - 1] == '\\')) quote = 0;
+        else if (c == '\n') quote = 0;  // flow scalars do not span lines here; do not run away
+        continue;
+      }
+      if (c == '"' || c == '\'') quote = c;
+      else if (c == '#' && (i == 0 || text_[i - 1] == ' ' || text_[i - 1] == '\n')) i = std::min(at, text_.find('\n', i)) - 1;
+      else if (c == '{' || c == '[') open.push_back({c, i});
+      else if ((c == '}' || c == ']') && !open.empty()) open.pop_back();
+    }
+    auto location = [&](size_t pos) {
+      const size_t line_start = pos == 0 ? 0 : text_.rfind('\n', pos - 1) + 1;
+      const int line = static_cast<int>(std::count(text_.begin(), text_.begin() + static_cast<long>(pos), '\n')) + 1;
+      return SourceLocation{file_, line, static_cast<int>(pos - line_start) + 1};
+    };
+    const char here = at < text_.size() ? text_[at] : '\0';
+    if (!open.empty() && (here == '}' || here == ']') && here != (open.back().c == '{' ? '}' : ']')) {
+      d.details.push_back(fmt::format("the '{}' opened at {} is closed here by '{}'", open.back().c, location(open.back().pos).ToString(), here));
+      d.hint = fmt::format("close it with '{}'", open.back().c == '{' ? '}' : ']');
+    } else if (!open.empty() && e.msg.find("flow") != std::string::npos && e.msg.find("not found") != std::string::npos) {
+      const Open& o = open.back();
+      d.where = location(o.pos);
+      d.details.push_back(fmt::format("the '{}' opened here is not closed (yaml-cpp noticed it at {})", o.c, Loc(e.mark).ToString()));
+      d.hint = fmt::format("close it with '{}' (a flow collection may continue on the next lines, but must end)", o.c == '{' ? '}' : ']');
+    } else if (e.msg.find("end of map not found") != std::string::npos || e.msg.find("end of sequence not found") != std::string::npos) {
+      // A block collection broken by a line indented deeper than its siblings.
+      auto indent = [&](size_t line_start) {
+        size_t k = line_start;
+        while (k < text_.size() && text_[k] == ' ') ++k;
+        return k - line_start;
+      };
+      const size_t line_start = at == 0 ? 0 : text_.rfind('\n', at - 1) + 1;
+      size_t prev = line_start;  // the previous line with content
+      while (prev > 0) {
+        prev = prev >= 2 ? text_.rfind('\n', prev - 2) + 1 : 0;
+        const size_t k = prev + indent(prev);
+        if (k < text_.size() && text_[k] != '\n' && text_[k] != '#') break;
+      }
+      const size_t prev_end = text_.find('\n', prev);
+      const std::string prev_line = text_.substr(prev, prev_end == std::string::npos ? std::string::npos : prev_end - prev);
+      const bool opens_block = !prev_line.empty() && prev_line.find_last_not_of(' ') != std::string::npos &&
+                               prev_line[prev_line.find_last_not_of(' ')] == ':';
+      if (prev < line_start && indent(line_start) > indent(prev) && !opens_block) {
+        d.where = location(line_start + indent(line_start));
+        d.details.push_back(fmt::format("this line is indented by {} spaces, the one before it (line {}) by {}, and that one "
+                                        "does not open a block", indent(line_start), location(prev).line, indent(prev)));
+        d.hint = "indent entries of the same mapping or list equally";
+      }
+    }
+    return d;
+  }
 
   SourceLocation Loc(const YAML::Mark& m) const {
     if (m.line < 0) return {file_, 0, 0};
