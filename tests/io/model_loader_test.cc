@@ -76,6 +76,11 @@ TEST(ModelLoader, UnclosedBracketIsReportedWhereItOpens) {
   ASSERT_EQ(ds[0].details.size(), 1u);
   EXPECT_THAT(ds[0].details[0], HasSubstr("'{' opened here is not closed"));
   EXPECT_THAT(ds[0].details[0], HasSubstr("m.yaml:3:"));
+  // A brace inside plain text opens nothing.
+  const auto text = Errors("description: uses {braces\nelements:\n  s: {type: Se, effort: 1\n  k: {type: C, stiffness: 1}\nbonds: [s -> k]\n");
+  ASSERT_EQ(text.size(), 1u);
+  EXPECT_EQ(text[0].where.line, 3);
+  EXPECT_EQ(text[0].where.column, 6);
 }
 
 TEST(ModelLoader, BracketClosedByTheWrongOneNamesBoth) {

@@ -130,7 +130,7 @@ class Loader {
       }
       if (c == '"' || c == '\'') quote = c;
       else if (c == '#' && (i == 0 || text_[i - 1] == ' ' || text_[i - 1] == '\n')) i = std::min(at, text_.find('\n', i)) - 1;
-      else if (c == '{' || c == '[') open.push_back({c, i});
+      else if ((c == '{' || c == '[') && OpensFlow(i)) open.push_back({c, i});
       else if ((c == '}' || c == ']') && !open.empty()) open.pop_back();
     }
     auto location = [&](size_t pos) {
@@ -163,8 +163,8 @@ class Loader {
       }
       const size_t prev_end = text_.find('\n', prev);
       const std::string prev_line = text_.substr(prev, prev_end == std::string::npos ? std::string::npos : prev_end - prev);
-      const bool opens_block = !prev_line.empty() && prev_line.find_last_not_of(' ') != std::string::npos &&
-                               prev_line[prev_line.find_last_not_of(' ')] == ':';
+      const size_t last = prev_line.find_last_not_of(" \r");
+      const bool opens_block = last != std::string::npos && prev_line[last] == ':';
       if (prev < line_start && indent(line_start) > indent(prev) && !opens_block) {
         d.where = location(line_start + indent(line_start));
         d.details.push_back(fmt::format("this line is indented by {} spaces, the one before it (line {}) by {}, and that one "
@@ -173,6 +173,13 @@ class Loader {
       }
     }
     return d;
+  }
+
+  /// A '{' or '[' at text_[i] starts a flow collection when it starts a value: after ':', ',',
+  /// '-', another bracket or the line's indentation. Inside a plain scalar ("uses {x}") it is text.
+  bool OpensFlow(size_t i) const {
+    while (i > 0 && text_[i - 1] == ' ') --i;
+    return i == 0 || std::string(":,-[{\n").find(text_[i - 1]) != std::string::npos;
   }
 
   SourceLocation Loc(const YAML::Mark& m) const {
