@@ -521,9 +521,9 @@ void CompiledModel::Build() {
   }
   if (options_.generate_code && !constraints_.empty()) {
     rhs_engine_ = "interpreter (ideal constraints are solved around the plan)";
-    // B's columns and W's L D L^T as generated code (about 70% of the interpreted evaluation).
-    // With them, the plan at zero multipliers (step 1 of CalcConstrained); what the multipliers
-    // reach is re-run by the interpreter once they are known.
+    // Every part of a constrained evaluation as generated code, in one library: the plan at zero
+    // multipliers (step 1 of CalcConstrained), its tangent (step 2), B's columns and W's
+    // L D L^T (step 3) and what the multipliers reach (step 4).
     const JitResult jit = CompileAndLoad(GenerateSource(/*with_fast=*/false) + GenerateColumnsSource() +
                                              (factor_.size() > 0 ? GenerateFactorSource() : "") + GenerateTangentSource() +
                                              GenerateReactSource(),
@@ -544,7 +544,7 @@ void CompiledModel::Build() {
       rhs_engine_ = "generated code for the plan at zero multipliers, its tangent, the constraint matrix and its L D L^T, "
                     "and what the multipliers reach (" + jit.description + ")";
     } else {
-      rhs_engine_ += " (code generation for the constraint matrix failed: " + jit.description + ")";
+      rhs_engine_ += " (code generation for the constrained evaluation failed: " + jit.description + ")";
     }
   } else if (options_.generate_code) {
     const JitResult jit = CompileAndLoad(GenerateSource(), "multibond_rhs");

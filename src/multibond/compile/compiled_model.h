@@ -55,8 +55,9 @@ struct Workspace {
     std::vector<double> factor;
     std::vector<double> y;                ///< the solution in the factor's order
     /// The time and state at which b, v and factor were last formed, when `factored`: a solve at
-    /// that very time and state reuses them (B and W depend on the orientations only, so an output time's projection,
-    /// which changes momenta, leaves them right for the evaluation that follows it).
+    /// that very time and state reuses them (B and W depend on the orientations only, so an
+    /// output time's projection, which changes momenta, leaves them right for the evaluation
+    /// that follows it).
     std::vector<double> factored_at;
     double factored_t = 0.0;
     bool factored = false;
@@ -266,8 +267,6 @@ class CompiledModel {
   void Tangent(double t, const double* x, const double* xdot, Workspace& ws) const;
   /// B (momentum-rate response to each unit multiplier), V = M^-1 B and W = B^T V at x.
   void AssembleConstraintMatrix(double t, const double* x, Workspace& ws) const;
-  /// Solves W y = rhs in place (rhs in ws.con.rhs) by a scaled, pivoted LDL^T; pivots below a
-  /// relative 1e-11 are redundant constraints and get a zero multiplier.
   /// B's columns at (t, x) (AssembleConstraintMatrix) and lambda from W lambda = ws.con.rhs: the
   /// sparse L D L^T on the independent set, else the pivoted solve. When ws holds B and the
   /// factor for this very x (Workspace::ConstraintScratch::factored_at), the solve only.
@@ -275,6 +274,8 @@ class CompiledModel {
   bool FactorIndependent(Workspace& ws) const;  ///< L D L^T of W on the independent set; false: not definite
   void SolveFactored(Workspace& ws) const;      ///< lambda from the factor and ws.con.rhs
   void FormFullW(Workspace& ws) const;  ///< W (m x m) from B and V in ws
+  /// Solves W y = rhs in place (rhs in ws.con.rhs) by a scaled, pivoted LDL^T; pivots below a
+  /// relative 1e-11 are redundant constraints and get a zero multiplier.
   void SolvePivoted(Workspace& ws) const;
   /// The constraints independent at the initial state (the rest are redundant there).
   void FindIndependentConstraints();
