@@ -2,8 +2,12 @@
 //  - BM_ChainRhs/N: ns per right-hand-side evaluation of a chain of N mass-spring-dampers
 //    (cost must grow linearly with N);
 //  - BM_ChainCompile/N: causality + plan for the chain (N = 10,000 must take under 1 s);
-//  - BM_ChainSimulate/N: wall time per simulated second (BDF, rtol 1e-6).
+//  - BM_ChainSimulate/N/J: wall time per simulated second (BDF, rtol 1e-6), with the dense
+//    (J = 0) or the sparse (J = 1) Jacobian: dense costs N evaluations and an N^3 LU per
+//    Jacobian, sparse a few evaluations (the chain's column groups) and KLU.
 // Run: build/release/bench/multibond_bench  (or --benchmark_filter=Rhs)
+
+#include <string>
 
 #include <benchmark/benchmark.h>
 
@@ -77,15 +81,21 @@ void BM_ChainSimulate(benchmark::State& state) {
   o.integrator.method = mb::Method::kBdf;
   o.integrator.rtol = 1e-6;
   o.integrator.atol = 1e-9;
-  long rhs = 0;
+  o.integrator.jacobian = state.range(1) ? mb::JacobianKind::kSparse : mb::JacobianKind::kDense;
+  mb::IntegratorStats stats;
   for (auto _ : state) {
     mb::NullObserver obs;
-    rhs = mb::Simulate(*model, o, obs).stats.rhs_evals;
+    stats = mb::Simulate(*model, o, obs).stats;
   }
-  state.counters["rhs_evals"] = static_cast<double>(rhs);
-  state.SetLabel("wall time per simulated second");
+  state.counters["steps"] = static_cast<double>(stats.steps);
+  state.counters["rhs_evals"] = static_cast<double>(stats.rhs_evals);
+  state.counters["jac_evals"] = static_cast<double>(stats.jac_evals);
+  state.counters["evals_per_jacobian"] = static_cast<double>(stats.evals_per_jacobian);
+  state.SetLabel(std::string(state.range(1) ? "sparse" : "dense") + " Jacobian; wall time per simulated second");
 }
-BENCHMARK(BM_ChainSimulate)->Arg(10)->Arg(100)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ChainSimulate)
+    ->Args({10, 0})->Args({100, 0})->Args({100, 1})->Args({1000, 0})->Args({1000, 1})->Args({10000, 1})
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

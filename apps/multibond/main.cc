@@ -320,6 +320,7 @@ struct RunArgs {
   std::optional<std::string> solver, constraints;
   bool all_variables = false, no_projection = false;
   std::string jit = "auto";
+  std::string jacobian = "auto";
 };
 
 void AddRunOptions(CLI::App* cmd, RunArgs& a) {
@@ -337,6 +338,11 @@ void AddRunOptions(CLI::App* cmd, RunArgs& a) {
       ->check(CLI::IsMember({"auto", "on", "off"}));
   cmd->add_flag("--no-projection", a.no_projection,
                 "do not re-orthonormalise orientation matrices after each step (shows the raw drift)");
+  cmd->add_option("--jacobian", a.jacobian,
+                  "bdf and adams: the Newton matrix (sparse: difference quotients on the model's structural pattern, one "
+                  "evaluation per group of columns sharing no row, KLU; dense: one evaluation per state, dense LU; auto: "
+                  "sparse from 50 states when at most a quarter of the Jacobian can be nonzero)")
+      ->check(CLI::IsMember({"auto", "dense", "sparse"}));
   AddConstraintsOption(cmd, a.constraints);
 }
 
@@ -373,6 +379,7 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a) {
   o.integrator.max_step = a.max_step.value_or(d.max_step.value_or(0.0));
   o.all_variables = a.all_variables;
   o.integrator.project = !a.no_projection;
+  o.integrator.jacobian = mb::ParseJacobianKind(a.jacobian);
   o.stop = &g_stop;
   (void)mb::MakeColumns(*p.model, o.all_variables);  // a bad output is a model error: before any file is touched
   return p;

@@ -119,6 +119,22 @@ TEST_F(CliTest, UsageErrorsExit64) {
   EXPECT_THAT(r.out, HasSubstr("bdf"));
 }
 
+TEST_F(CliTest, JacobianOptionIsRecordedAndCheckedAgainstTheModel) {
+  const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --t-end 0.1 --jacobian sparse");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  EXPECT_EQ(run["options"]["jacobian"], "sparse");
+  EXPECT_EQ(run["solver_stats"]["jacobian"], "sparse");
+  EXPECT_GE(run["solver_stats"]["evals_per_jacobian"].get<long>(), 1);
+  EXPECT_EQ(Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --jacobian banded").code, 64);
+  // A model with ideal constraints has no pattern: refused with the reason, exit 64.
+  const Result ideal = Cli("run " + Example("rigid_gear_pair.yaml") + " -o " + dir_.string() +
+                           "_ideal --constraints ideal --solver bdf --jacobian sparse --t-end 0.1");
+  EXPECT_EQ(ideal.code, 64) << ideal.out;
+  EXPECT_THAT(ideal.out, HasSubstr("ideal constraints"));
+  fs::remove_all(dir_.string() + "_ideal");
+}
+
 TEST_F(CliTest, DivergingRunExitsTwoKeepsResultsAndMarksThemFailed) {
   // RK4 with a step far beyond its stability limit (w h = 5): the state overflows.
   const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() +

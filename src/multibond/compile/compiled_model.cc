@@ -519,6 +519,7 @@ void CompiledModel::Build() {
     BuildConstraints(plan_reads, plan_writes);
     FindIndependentConstraints();
   }
+  BuildJacobianPattern();
   if (options_.generate_code && !constraints_.empty()) {
     rhs_engine_ = "interpreter (ideal constraints are solved around the plan)";
     // Every part of a constrained evaluation as generated code, in one library: the plan at zero

@@ -19,6 +19,7 @@
 
 #include "multibond/causality/causality.h"
 #include "multibond/core/graph.h"
+#include "multibond/core/ode_system.h"
 #include "multibond/core/structure.h"
 
 namespace multibond {
@@ -155,6 +156,12 @@ class CompiledModel {
   const std::vector<std::string>& state_units() const { return state_units_; }
   const std::vector<StateBlock>& state_blocks() const { return blocks_; }
   int num_instructions() const { return static_cast<int>(plan_.size()); }
+  /// Which state derivatives can depend on which states, from the plan (an instruction's outputs
+  /// depend on all its inputs, component by component for sums, copies and diagonal
+  /// coefficients): the structure of the Jacobian, never missing an entry that the numbers can
+  /// make nonzero. Null for a model with ideal constraints (the multipliers couple everything
+  /// they reach).
+  const JacobianPattern* jacobian_pattern() const { return jacobian_pattern_.n > 0 ? &jacobian_pattern_ : nullptr; }
 
   /// Looks up "<element>.e|f|e1|f1|e2|f2|p|q" or an auxiliary state's name.
   std::optional<VariableRef> FindVariable(const std::string& name) const;
@@ -283,6 +290,8 @@ class CompiledModel {
   void ConstraintValues(double t, const double* w, double* out) const;
   /// Rewrites generic instructions into fixed-size kernels (see Op).
   void Specialize();
+  /// jacobian_pattern_ from the plan's reads and writes (compile/jacobian_pattern.cc).
+  void BuildJacobianPattern();
   /// The state-derivative gathers, from the state layout and the slot classes.
   void BuildGathers();
 
@@ -306,6 +315,7 @@ class CompiledModel {
   std::vector<int> needed_moduli_;  ///< indices of moduli_ that EvalModuli must compute
   std::vector<Gather> gathers_;
   std::vector<TimeFunction> source_fns_;
+  JacobianPattern jacobian_pattern_;
 
   /// The generated right-hand side (null: the interpreter runs the plan).
   using GeneratedRhs = void (*)();  ///< cast to its real signature at the call (see codegen.cc)

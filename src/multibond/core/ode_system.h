@@ -2,7 +2,23 @@
 /// \file
 /// The ODE interface between a model and an integrator: dx/dt = f(t, x).
 
+#include <algorithm>
+#include <vector>
+
 namespace multibond {
+
+/// Which entries of the Jacobian df/dx can be nonzero, column by column (compressed sparse
+/// column): the rows of column j are row_index[col_start[j] .. col_start[j + 1]), ascending. The
+/// diagonal is always included (implicit integrators factorise I - gamma J).
+struct JacobianPattern {
+  int n = 0;
+  std::vector<int> col_start;  ///< n + 1 entries
+  std::vector<int> row_index;
+  int nonzeros() const { return static_cast<int>(row_index.size()); }
+  bool Contains(int row, int col) const {
+    return std::binary_search(row_index.begin() + col_start[col], row_index.begin() + col_start[col + 1], row);
+  }
+};
 
 class OdeSystem {
  public:
@@ -16,6 +32,10 @@ class OdeSystem {
   /// Moves x (num_states() entries), the state at time t, onto that manifold, in place (the
   /// manifold may move with t: ideal constraints on prescribed flows). Must not allocate.
   virtual void Project(double /*t*/, double* /*x*/) {}
+  /// The structure of df/dx if the system knows it (null: unknown, treat as dense). Implicit
+  /// integrators then estimate the Jacobian with one evaluation of f per group of columns that
+  /// share no row, and factorise it as a sparse matrix.
+  virtual const JacobianPattern* jacobian_pattern() const { return nullptr; }
 };
 
 }  // namespace multibond

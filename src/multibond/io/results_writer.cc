@@ -83,7 +83,7 @@ nlohmann::json MakeRunRecord(const std::string& model_file, const std::string& m
   j["options"] = {{"t_start", options.t_start}, {"t_end", options.t_end}, {"dt", options.dt},
                   {"solver", MethodName(io.method)}, {"rtol", io.rtol}, {"atol", io.atol},
                   {"step", io.fixed_step}, {"max_step", io.max_step}, {"all_variables", options.all_variables},
-                  {"projection", io.project}};
+                  {"projection", io.project}, {"jacobian", JacobianKindName(io.jacobian)}};
   j["status"] = RunStatusName(summary.status);
   if (!summary.message.empty()) j["message"] = summary.message;
   j["t_reached"] = summary.t_reached;
@@ -93,6 +93,10 @@ nlohmann::json MakeRunRecord(const std::string& model_file, const std::string& m
                        {"jac_evals", summary.stats.jac_evals}, {"linear_setups", summary.stats.linear_setups},
                        {"error_test_failures", summary.stats.error_test_failures},
                        {"nonlinear_failures", summary.stats.nonlinear_failures}, {"last_step", summary.stats.last_step}};
+  if (io.method == Method::kBdf || io.method == Method::kAdams) {
+    j["solver_stats"]["jacobian"] = summary.stats.sparse_jacobian ? "sparse" : "dense";
+    j["solver_stats"]["evals_per_jacobian"] = summary.stats.evals_per_jacobian;
+  }
   j["energy"] = {{"work", summary.energy_work}, {"stored", summary.energy_stored},
                  {"dissipated", summary.energy_dissipated}, {"residual", summary.energy_residual},
                  {"max_abs_residual", summary.max_abs_energy_residual}};

@@ -25,6 +25,7 @@ class ModelSystem : public OdeSystem {
   bool has_invariants() const override { return model_.has_invariants(); }
   /// Orientations onto SO(3) and, with ideal constraints, momenta onto the constraints at t.
   void Project(double t, double* x) override { model_.Project(t, x, ws_); }
+  const JacobianPattern* jacobian_pattern() const override { return model_.jacobian_pattern(); }
   Workspace& workspace() { return ws_; }
 
  private:

@@ -1,14 +1,20 @@
 #include "multibond/solve/cvode_integrator.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <string>
+#include <vector>
 
 #include <cvode/cvode.h>
 #include <cvode/cvode_proj.h>
 #include <cvode/cvode_ls.h>
 #include <fmt/format.h>
+#include <sunlinsol/sunlinsol_klu.h>
 #include <sunmatrix/sunmatrix_dense.h>
+#include <sunmatrix/sunmatrix_sparse.h>
 
+#include "multibond/solve/column_groups.h"
 #include "multibond/solve/eigen_linear_solver.h"
 #include "multibond/solve/sundials_support.h"
 
@@ -35,7 +41,7 @@ std::string Explain(int flag, const IntegratorOptions& options) {
     case CV_LINIT_FAIL:
     case CV_LSETUP_FAIL:
     case CV_LSOLVE_FAIL:
-      return "the dense linear solver failed (singular Newton matrix?)";
+      return "the linear solver failed (singular Newton matrix?)";
     case CV_RHSFUNC_FAIL:
     case CV_FIRST_RHSFUNC_ERR:
     case CV_REPTD_RHSFUNC_ERR:
@@ -56,7 +62,70 @@ std::string Explain(int flag, const IntegratorOptions& options) {
   }
 }
 
-class CvodeIntegrator final : public sun::SundialsIntegrator<sun::CallbackState> {
+/// CallbackState plus what the sparse difference-quotient Jacobian needs.
+struct CvodeCallbackState : sun::CallbackState {
+  using CallbackState::CallbackState;
+  void* mem = nullptr;  ///< CVODE's, for the step and the error weights
+  const JacobianPattern* pattern = nullptr;
+  ColumnGroups groups;
+  std::vector<double> increment;  ///< per state, for the group being evaluated
+  long evaluations = 0;           ///< of f, by SparseJacobian
+};
+
+/// J = df/dy on the system's pattern by difference quotients, one evaluation of f per group of
+/// columns that share no row. Each increment is CVODE's own (cvLsDenseDQJac): max(sqrt(u) |y_j|,
+/// minInc / w_j), minInc = 1000 |h| u n |f|_wrms, w the error weights; so a sparse Jacobian holds
+/// the same quotients as CVODE's dense one, column by column.
+int SparseJacobian(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix jac, void* user_data, N_Vector tmp1,
+                   N_Vector tmp2, N_Vector tmp3) noexcept {
+  auto* state = static_cast<CvodeCallbackState*>(user_data);
+  try {
+    const JacobianPattern& p = *state->pattern;
+    const sunindextype n = N_VGetLength(y);
+    sunindextype* col_start = SUNSparseMatrix_IndexPointers(jac);
+    sunindextype* row = SUNSparseMatrix_IndexValues(jac);
+    sunrealtype* data = SUNSparseMatrix_Data(jac);
+    std::copy(p.col_start.begin(), p.col_start.end(), col_start);  // CVODE zeroes the matrix first
+    std::copy(p.row_index.begin(), p.row_index.end(), row);
+
+    N_Vector ewt = tmp3;
+    sunrealtype h = 0.0;
+    if (CVodeGetErrWeights(state->mem, ewt) != CV_SUCCESS || CVodeGetCurrentStep(state->mem, &h) != CV_SUCCESS)
+      return -1;
+    const double uround = std::numeric_limits<double>::epsilon();
+    const double srur = std::sqrt(uround);
+    const double fnorm = N_VWrmsNorm(fy, ewt);
+    const double min_inc = fnorm != 0.0 ? 1000.0 * std::abs(h) * uround * static_cast<double>(n) * fnorm : 1.0;
+    const sunrealtype* yv = N_VGetArrayPointer(y);
+    const sunrealtype* f0 = N_VGetArrayPointer(fy);
+    const sunrealtype* w = N_VGetArrayPointer(ewt);
+    sunrealtype* yp = N_VGetArrayPointer(tmp1);
+    sunrealtype* f1 = N_VGetArrayPointer(tmp2);
+    std::copy_n(yv, n, yp);
+    const ColumnGroups& groups = state->groups;
+    for (int g = 0; g < groups.count(); ++g) {
+      for (int k = groups.start[g]; k < groups.start[g + 1]; ++k) {
+        const int j = groups.column[k];
+        yp[j] = yv[j] + std::max(srur * std::abs(yv[j]), min_inc / w[j]);
+        state->increment[j] = yp[j] - yv[j];  // the step as represented
+      }
+      state->system->CalcDerivatives(t, yp, f1);
+      ++state->evaluations;
+      for (int k = groups.start[g]; k < groups.start[g + 1]; ++k) {
+        const int j = groups.column[k];
+        const double inv = 1.0 / state->increment[j];
+        for (int e = p.col_start[j]; e < p.col_start[j + 1]; ++e) data[e] = (f1[p.row_index[e]] - f0[p.row_index[e]]) * inv;
+        yp[j] = yv[j];
+      }
+    }
+    return 0;
+  } catch (...) {
+    state->pending = std::current_exception();
+    return -1;
+  }
+}
+
+class CvodeIntegrator final : public sun::SundialsIntegrator<CvodeCallbackState> {
  public:
   CvodeIntegrator(OdeSystem& system, const IntegratorOptions& options) : SundialsIntegrator(system, options) {}
 
@@ -103,7 +172,9 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<sun::CallbackState>
     CVodeGetLastStep(mem, &s.last_step);
     CVodeGetNumLinRhsEvals(mem, &nfe_ls);  // the difference-quotient Jacobian's evaluations
     CVodeGetNumJacEvals(mem, &s.jac_evals);
-    s.rhs_evals = nfe + nfe_ls;
+    s.rhs_evals = nfe + nfe_ls + callbacks_.evaluations;
+    s.sparse_jacobian = callbacks_.pattern != nullptr;
+    s.evals_per_jacobian = s.sparse_jacobian ? callbacks_.groups.count() : n_;
     return s;
   }
 
@@ -123,8 +194,8 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<sun::CallbackState>
       std::copy_n(options_.atol_per_state.data(), n_, N_VGetArrayPointer(atol.get()));
       Check(CVodeSVtolerances(mem, options_.rtol, atol.get()), t0);  // CVODE keeps a copy
     }
-    // Both methods use CVODE's default Newton iteration with a dense difference-quotient
-    // Jacobian (no CVodeSetJacFn: CVODE approximates J by finite differences).
+    // Both methods use CVODE's default Newton iteration with a difference-quotient Jacobian:
+    // CVODE's own, dense, or (JacobianKind) ours on the system's pattern, sparse, with KLU.
     // Adams would classically use fixed-point iteration, but SUNDIALS 6.4's
     // SUNNonlinSol_FixedPoint turns an unrecoverable RHS failure (our -1 after an exception)
     // into a recoverable convergence failure: CVODE then shrinks h and creeps towards the
@@ -132,9 +203,25 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<sun::CallbackState>
     // at once, tolerates mild stiffness and took ~25% fewer steps on a damped oscillator; the
     // price, a dense LU per Jacobian update, is small at the size of our models, with Eigen's
     // LU (eigen_linear_solver.h).
-    jacobian_.reset(sun::NonNull(SUNDenseMatrix(n_, n_, ctx_.get())));
-    linear_solver_.reset(sun::NonNull(sun::MakeEigenDenseSolver(n_, ctx_.get())));
-    Check(CVodeSetLinearSolver(mem, linear_solver_.get(), jacobian_.get()), t0);
+    callbacks_.mem = mem;
+    const JacobianPattern* pattern = callbacks_.system->jacobian_pattern();
+    const bool sparse = pattern != nullptr && pattern->n == n_ &&
+                        (options_.jacobian == JacobianKind::kSparse ||
+                         (options_.jacobian == JacobianKind::kAuto && n_ >= kSparseMinStates &&
+                          pattern->nonzeros() <= kSparseMaxDensity * static_cast<double>(n_) * static_cast<double>(n_)));
+    if (sparse) {
+      callbacks_.pattern = pattern;
+      callbacks_.groups = GroupColumns(*pattern);
+      callbacks_.increment.assign(n_, 0.0);
+      jacobian_.reset(sun::NonNull(SUNSparseMatrix(n_, n_, pattern->nonzeros(), CSC_MAT, ctx_.get())));
+      linear_solver_.reset(sun::NonNull(SUNLinSol_KLU(y_.get(), jacobian_.get(), ctx_.get())));
+      Check(CVodeSetLinearSolver(mem, linear_solver_.get(), jacobian_.get()), t0);
+      Check(CVodeSetJacFn(mem, SparseJacobian), t0);
+    } else {
+      jacobian_.reset(sun::NonNull(SUNDenseMatrix(n_, n_, ctx_.get())));
+      linear_solver_.reset(sun::NonNull(sun::MakeEigenDenseSolver(n_, ctx_.get())));
+      Check(CVodeSetLinearSolver(mem, linear_solver_.get(), jacobian_.get()), t0);
+    }
     if (options_.max_step > 0) Check(CVodeSetMaxStep(mem, options_.max_step), t0);
     if (options_.initial_step > 0) Check(CVodeSetInitStep(mem, options_.initial_step), t0);
     Check(CVodeSetMaxNumSteps(mem, options_.max_steps_per_output), t0);

@@ -62,6 +62,22 @@ void Validate(const IntegratorOptions& o, int num_states) {
 
 }  // namespace
 
+JacobianKind ParseJacobianKind(const std::string& name) {
+  if (name == "auto") return JacobianKind::kAuto;
+  if (name == "dense") return JacobianKind::kDense;
+  if (name == "sparse") return JacobianKind::kSparse;
+  throw std::invalid_argument(fmt::format("unknown Jacobian kind '{}' (valid: auto, dense, sparse)", name));
+}
+
+const char* JacobianKindName(JacobianKind k) {
+  switch (k) {
+    case JacobianKind::kAuto: return "auto";
+    case JacobianKind::kDense: return "dense";
+    case JacobianKind::kSparse: return "sparse";
+  }
+  return "?";
+}
+
 Method ParseMethod(const std::string& name) {
   if (name == "bdf") return Method::kBdf;
   if (name == "adams") return Method::kAdams;
@@ -93,6 +109,10 @@ std::unique_ptr<Integrator> MakeIntegrator(OdeSystem& system, const IntegratorOp
   MB_ASSERT(n >= 0, "negative number of states");
   Validate(options, n);
   if (n == 0) return std::make_unique<StatelessIntegrator>(options);
+  Require(options.jacobian != JacobianKind::kSparse || system.jacobian_pattern() != nullptr ||
+              (options.method != Method::kBdf && options.method != Method::kAdams),
+          "a sparse Jacobian needs the model's Jacobian pattern, and this model has none (a model with ideal "
+          "constraints: every multiplier couples the states it reaches); use the dense or automatic Jacobian");
   switch (options.method) {
     case Method::kBdf:
     case Method::kAdams:

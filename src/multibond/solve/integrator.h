@@ -25,6 +25,22 @@ enum class Method {
   kBogackiShampine,
 };
 
+/// How BDF and Adams form and factorise their Newton matrix I - gamma J.
+enum class JacobianKind {
+  /// kSparse when the system gives a Jacobian pattern (OdeSystem::jacobian_pattern) with at
+  /// least kSparseMinStates states and at most kSparseMaxDensity of the entries; else kDense.
+  kAuto,
+  /// Difference quotients one column at a time (CVODE's), Eigen's dense LU.
+  kDense,
+  /// Difference quotients one group of columns that share no row at a time (Curtis, Powell and
+  /// Reid), on the system's pattern; SUNDIALS' KLU sparse LU. Needs a pattern.
+  kSparse,
+};
+constexpr int kSparseMinStates = 50;
+constexpr double kSparseMaxDensity = 0.25;
+JacobianKind ParseJacobianKind(const std::string& name);  ///< "auto", "dense", "sparse"
+const char* JacobianKindName(JacobianKind k);
+
 /// Parses "bdf", "adams", "dopri5"/"dormand-prince", "bs3"/"bogacki-shampine", "rk4"; throws
 /// std::invalid_argument.
 Method ParseMethod(const std::string& name);
@@ -46,6 +62,7 @@ struct IntegratorOptions {
   /// every step; the adaptive ERKStep methods project when the drift reaches a thousandth of the
   /// error tolerance (checked every 16 steps); fixed-step ERKStep after every step.
   bool project = true;
+  JacobianKind jacobian = JacobianKind::kAuto;  ///< BDF and Adams only
 };
 
 struct IntegratorStats {
@@ -56,6 +73,10 @@ struct IntegratorStats {
   long error_test_failures = 0;
   long nonlinear_failures = 0;
   long projections = 0;         ///< adaptive ERKStep: restarts from a projected state
+  /// BDF and Adams: the evaluations of f per Jacobian (the number of column groups for a sparse
+  /// Jacobian, the number of states for a dense one), and whether it was sparse.
+  long evals_per_jacobian = 0;
+  bool sparse_jacobian = false;
   double last_step = 0.0;
 };
 

@@ -1,0 +1,161 @@
+/// \file
+/// The structural Jacobian of the plan (CompiledModel::jacobian_pattern): which states each
+/// state derivative can depend on, found by following the plan's reads and writes, the way the
+/// numbers flow, with sets of states instead of numbers.
+
+#include <algorithm>
+#include <iterator>
+#include <vector>
+
+#include "multibond/compile/compiled_model.h"
+
+namespace multibond {
+namespace {
+
+using Deps = std::vector<int>;  ///< sorted, unique state indices
+
+void Merge(Deps& into, const Deps& more) {
+  if (more.empty()) return;
+  Deps out;
+  out.reserve(into.size() + more.size());
+  std::set_union(into.begin(), into.end(), more.begin(), more.end(), std::back_inserter(out));
+  into.swap(out);
+}
+
+Deps Range(int first, int count) {
+  Deps d(count);
+  for (int k = 0; k < count; ++k) d[k] = first + k;
+  return d;
+}
+
+}  // namespace
+
+void CompiledModel::BuildJacobianPattern() {
+  jacobian_pattern_ = JacobianPattern{};
+  // A multiplier's value depends on the whole constrained system: no useful structure.
+  if (!constraints_.empty()) return;
+  const int n = num_states();
+  std::vector<Deps> slot(num_slots_);  // what each slot depends on, once written
+  auto slots = [&](int first, int count) {
+    Deps d;
+    for (int k = 0; k < count; ++k) Merge(d, slot[first + k]);
+    return d;
+  };
+  auto modulus = [&](int index) {
+    const ModulusEval& me = moduli_[index];
+    return me.kind == Modulus::Kind::kConstant ? Deps{} : Range(me.rotation, 9);
+  };
+  for (const Instr& in : plan_) {
+    // Component-wise instructions: output k reads input component k only.
+    auto componentwise = [&](int size, auto&& inputs_of) {
+      for (int k = 0; k < size; ++k) {
+        Deps d;
+        inputs_of(k, d);
+        slot[in.dst + k] = std::move(d);
+      }
+    };
+    Deps all;  // every output reads every input
+    switch (in.op) {
+      case Op::kSource:
+        break;
+      case Op::kStateScale:
+      case Op::kStateScale3:
+      case Op::kStateDiag3:
+        componentwise(in.n, [&](int k, Deps& d) { d = {in.src + k}; });
+        continue;
+      case Op::kStateMatrix:
+        all = Range(in.src, in.n);
+        break;
+      case Op::kIFlowRotated:
+      case Op::kIFlowRotatedDiag:
+        all = Range(in.src, 3);
+        Merge(all, Range(in.aux, 9));
+        break;
+      case Op::kScale:
+      case Op::kScale1:
+      case Op::kScale3:
+      case Op::kDiag2:
+      case Op::kDiag3:
+      case Op::kCopy1:
+      case Op::kCopy3:
+        componentwise(in.n, [&](int k, Deps& d) { d = slot[in.src + k]; });
+        continue;
+      case Op::kSum:
+      case Op::kSum1:
+      case Op::kSum3:
+        componentwise(in.n, [&](int k, Deps& d) {
+          for (int j = 0; j < in.count; ++j) Merge(d, slot[sum_terms_[in.coef + j] + k]);
+        });
+        continue;
+      case Op::kMat13:
+      case Op::kMat23:
+      case Op::kMat33:
+      case Op::kMat31:
+      case Op::kMat32:
+      case Op::kMatrix:
+        all = slots(in.src, in.m);
+        break;
+      case Op::kRotFwd1:
+      case Op::kRotFwd2:
+      case Op::kRotFwd3:
+      case Op::kRotBwd1:
+      case Op::kRotBwd2:
+      case Op::kRotBwd3:
+      case Op::kLeverFwd:
+      case Op::kLeverBwd:
+        all = slots(in.src, in.m);
+        Merge(all, Range(in.aux, 9));
+        break;
+      case Op::kModulated:
+        all = slots(in.src, in.m);
+        Merge(all, modulus(in.modulus));
+        break;
+      case Op::kMultiplier:
+        return;  // not reached: constrained models stop above
+    }
+    for (int k = 0; k < in.n; ++k) slot[in.dst + k] = all;
+  }
+
+  std::vector<Deps> row(n);  // what each state derivative depends on
+  for (const Gather& gt : gathers_) {
+    switch (gt.kind) {
+      case StateBlock::Kind::kMomentum:
+      case StateBlock::Kind::kDisplacement:
+        for (int k = 0; k < gt.size; ++k) row[gt.state + k] = slot[gt.effort + k];
+        break;
+      case StateBlock::Kind::kIntegral:
+        for (int k = 0; k < gt.size; ++k) row[gt.state + k] = slot[gt.flow + k];
+        break;
+      case StateBlock::Kind::kOrientation: {
+        Deps d = slots(gt.flow, 3);
+        Merge(d, Range(gt.state, 9));
+        for (int k = 0; k < 9; ++k) row[gt.state + k] = d;
+        break;
+      }
+      case StateBlock::Kind::kWork:
+      case StateBlock::Kind::kDissipation: {
+        Deps d = slots(gt.effort, gt.size);
+        Merge(d, slots(gt.flow, gt.size));
+        row[gt.state] = std::move(d);
+        break;
+      }
+    }
+  }
+  // Rows to columns, with the diagonal.
+  std::vector<int> count(n, 1);
+  for (int i = 0; i < n; ++i)
+    for (int j : row[i])
+      if (j != i) ++count[j];
+  JacobianPattern& p = jacobian_pattern_;
+  p.n = n;
+  p.col_start.assign(n + 1, 0);
+  for (int j = 0; j < n; ++j) p.col_start[j + 1] = p.col_start[j] + count[j];
+  p.row_index.assign(p.col_start[n], 0);
+  std::vector<int> next(p.col_start.begin(), p.col_start.end() - 1);
+  for (int i = 0; i < n; ++i) {  // rows in ascending order: each column comes out sorted
+    if (!std::binary_search(row[i].begin(), row[i].end(), i)) p.row_index[next[i]++] = i;
+    for (int j : row[i]) p.row_index[next[j]++] = i;
+  }
+}
+
+}  // namespace multibond
