@@ -169,6 +169,23 @@ TEST(SparseJacobian, BdfMatchesTheHeatEquationsModesWithThreeEvaluationsPerJacob
   EXPECT_LT(sparse.stats.rhs_evals, dense.stats.rhs_evals);
 }
 
+TEST(SparseJacobian, ARestartCountsItsOwnEvaluations) {
+  const int n = 60;
+  HeatEquation sys(n, 1.0, true);
+  IntegratorOptions o;
+  o.method = Method::kBdf;
+  auto integ = MakeIntegrator(sys, o);
+  std::vector<double> x(n);
+  for (int run = 0; run < 2; ++run) {
+    for (int i = 0; i < n; ++i) x[i] = sys.Mode(2, i);
+    sys.evaluations = 0;
+    integ->Reset(0.0, x.data());
+    integ->AdvanceTo(0.5, x.data());
+    EXPECT_TRUE(integ->stats().sparse_jacobian);
+    EXPECT_EQ(integ->stats().rhs_evals, sys.evaluations) << "run " << run;
+  }
+}
+
 TEST(SparseJacobian, AdamsUsesItToo) {
   const int n = 60;
   HeatEquation sys(n, 0.2, true);

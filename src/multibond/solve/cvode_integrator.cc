@@ -131,6 +131,7 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<CvodeCallbackState>
 
   void Reset(double t0, const double* x0) override {
     LoadInitialState(x0);
+    callbacks_.evaluations = 0;  // CVodeReInit zeroes CVODE's counters too
     if (mem_) {
       Check(CVodeReInit(mem_.get(), t0, y_.get()), t0);  // keeps every option, zeroes counters
     } else {
