@@ -63,11 +63,14 @@ std::string Stroke(const mb::BondGraph& g, const mb::CausalAssignment& c, int b)
 }
 
 /// Loads a model; `constraints` ("ideal" or "compliant", from --constraints) overrides the file's
-/// `constraints:` setting.
-mb::LoadedModel Load(const std::string& path, const std::optional<std::string>& constraints = std::nullopt) {
+/// `constraints:` setting, `loops` ("solve" or "error", from --algebraic-loops) its
+/// `algebraic_loops:`.
+mb::LoadedModel Load(const std::string& path, const std::optional<std::string>& constraints = std::nullopt,
+                     const std::optional<std::string>& loops = std::nullopt) {
   mb::LoadedModel lm = mb::LoadModelFile(path);
   PrintDiagnostics(lm.warnings);
   if (constraints) lm.compile.ideal_constraints = *constraints == "ideal";
+  if (loops) lm.compile.solve_algebraic_loops = *loops == "solve";
   return lm;
 }
 
@@ -78,12 +81,19 @@ void AddConstraintsOption(CLI::App* cmd, std::optional<std::string>& constraints
       ->check(CLI::IsMember({"ideal", "compliant"}));
 }
 
+void AddLoopsOption(CLI::App* cmd, std::optional<std::string>& loops) {
+  cmd->add_option("--algebraic-loops", loops,
+                  "solve: tear each algebraic loop at one variable and solve its linear system at every evaluation; "
+                  "error: report it and refuse the model (default: the model file's 'algebraic_loops:', else error)")
+      ->check(CLI::IsMember({"solve", "error"}));
+}
+
 // ---------------------------------------------------------------------------------------------
 // check [--suggest]
 
 struct CheckArgs {
   std::string model;
-  std::optional<std::string> constraints;
+  std::optional<std::string> constraints, loops;
   bool suggest = false;
   double frequency = 100.0;     ///< --frequency [Hz]
   double damping_ratio = 0.7;   ///< --damping-ratio
@@ -218,7 +228,7 @@ int Suggest(const mb::LoadedModel& lm, const CheckArgs& a) {
 }
 
 int Check(const CheckArgs& a) {
-  const mb::LoadedModel lm = Load(a.model, a.constraints);
+  const mb::LoadedModel lm = Load(a.model, a.constraints, a.loops);
   const std::string& path = a.model;
   const mb::BondGraph& g = lm.graph;
   mb::DiagnosticSink sink;
@@ -276,6 +286,8 @@ int Check(const CheckArgs& a) {
                                  ? fmt::format("causal with ideal constraints ({} constraint effort{})", model->num_multipliers(), model->num_multipliers() == 1 ? "" : "s")
                                  : "integrally causal";
   std::cout << fmt::format("\n{}; {} states ({} instructions in the plan):\n", causal, model->num_states(), model->num_instructions());
+  for (const auto& loop : model->algebraic_loops())
+    std::cout << fmt::format("  algebraic loop {}: solved for {} at every evaluation\n", loop.path, loop.torn);
   for (int i = 0; i < model->num_states(); ++i)
     std::cout << fmt::format("  {} [{}]\n", model->state_names()[i], model->state_units()[i]);
   return kExitOk;
@@ -317,7 +329,7 @@ int Graph(const std::string& path, const std::string& out) {
 
 struct RunArgs {
   std::optional<double> t_end, dt, rtol, atol, step, max_step;
-  std::optional<std::string> solver, constraints;
+  std::optional<std::string> solver, constraints, loops;
   bool all_variables = false, no_projection = false;
   std::string jit = "auto";
   std::string jacobian = "auto";
@@ -344,6 +356,7 @@ void AddRunOptions(CLI::App* cmd, RunArgs& a) {
                   "sparse from 50 states when at most a quarter of the Jacobian can be nonzero)")
       ->check(CLI::IsMember({"auto", "dense", "sparse"}));
   AddConstraintsOption(cmd, a.constraints);
+  AddLoopsOption(cmd, a.loops);
 }
 
 /// A model loaded and compiled, with its run options resolved: the command line over the model
@@ -358,7 +371,7 @@ struct PreparedRun {
 /// Throws ModelError (bad model, bad output), CliExit 64 (unknown solver) or 74 (--jit on
 /// without a working compiler).
 PreparedRun PrepareRun(const std::string& path, const RunArgs& a) {
-  PreparedRun p{Load(path, a.constraints), nullptr, {}, {}};
+  PreparedRun p{Load(path, a.constraints, a.loops), nullptr, {}, {}};
   mb::CompileOptions co = p.lm.compile;
   co.generate_code = a.jit != "off";
   p.model = mb::CompiledModel::Compile(p.lm.graph, co);
@@ -575,6 +588,7 @@ int main(int argc, char** argv) {
   auto* check = app.add_subcommand("check", "Assign causality, print it and the state variables; exit 1 unless integrally causal");
   check->add_option("MODEL", ca.model, "model file (YAML)")->required();
   AddConstraintsOption(check, ca.constraints);
+  AddLoopsOption(check, ca.loops);
   check->add_flag("--suggest", ca.suggest,
                   "for derivative causality: list compliant couplings (a C and an R each, greedy: each one needed) that remove "
                   "it, with K and R from --frequency and --damping-ratio");

@@ -72,6 +72,17 @@ TEST_F(CliTest, CheckAlgebraicLoopExitsOne) {
   EXPECT_THAT(r.out, HasSubstr("algebraic loop"));
 }
 
+TEST_F(CliTest, AlgebraicLoopsOptionSolvesTheLoop) {
+  const Result c = Cli("check " + Example("algebraic_loop.yaml") + " --algebraic-loops solve");
+  EXPECT_EQ(c.code, 0) << c.out;
+  EXPECT_THAT(c.out, HasSubstr("solved for j1.f at every evaluation"));
+  const Result r = Cli("run " + Example("algebraic_loop.yaml") + " -o " + dir_.string() + " --algebraic-loops solve --t-end 0.05");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("ok to t = 0.05 s"));
+  EXPECT_EQ(Cli("check " + Example("algebraic_loop.yaml") + " --algebraic-loops error").code, 1);
+  EXPECT_EQ(Cli("check " + Example("algebraic_loop.yaml") + " --algebraic-loops maybe").code, 64);
+}
+
 TEST_F(CliTest, RunWritesResultsWithUnitsAndRunRecord) {
   const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --t-end 1 --dt 0.01");
   ASSERT_EQ(r.code, 0) << r.out;

@@ -1,6 +1,6 @@
 // The right-hand side allocates nothing (docs/design.md): counted by replacing the global
 // operator new in this test binary. Covers the plan interpreter, generated code, and the ideal
-// constraints' solve and projection.
+// constraints' solve and projection, and the solve of an algebraic loop.
 
 #include <atomic>
 #include <cstdlib>
@@ -29,10 +29,11 @@ void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
 namespace multibond {
 namespace {
 
-long AllocationsOfEvaluations(const std::string& example, bool generate_code) {
+long AllocationsOfEvaluations(const std::string& example, bool generate_code, bool solve_loops = false) {
   const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + example);
   CompileOptions co = lm.compile;
   co.generate_code = generate_code;
+  co.solve_algebraic_loops = solve_loops;
   const auto model = CompiledModel::Compile(lm.graph, co);
   if (generate_code && !model->uses_generated_code()) {  // else this would measure the interpreter
     ADD_FAILURE() << model->rhs_engine();
@@ -54,6 +55,7 @@ TEST(RhsAllocation, CompliantDifferentialInterpreted) { EXPECT_EQ(AllocationsOfE
 TEST(RhsAllocation, CompliantDifferentialGenerated) { EXPECT_EQ(AllocationsOfEvaluations("differential.yaml", true), 0); }
 TEST(RhsAllocation, IdealDifferential) { EXPECT_EQ(AllocationsOfEvaluations("differential_ideal.yaml", false), 0); }
 TEST(RhsAllocation, IdealDifferentialGenerated) { EXPECT_EQ(AllocationsOfEvaluations("differential_ideal.yaml", true), 0); }
+TEST(RhsAllocation, SolvedAlgebraicLoop) { EXPECT_EQ(AllocationsOfEvaluations("algebraic_loop.yaml", false, true), 0); }
 
 }  // namespace
 }  // namespace multibond

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <numeric>
 #include <queue>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
@@ -451,26 +452,33 @@ void CompiledModel::Build() {
     MB_ASSERT(writer[c] >= 0, "slot '" + class_names_[c] + "' has no writer after causality");
 
   // --- Order: topological sort of the causal dependencies; a cycle is an algebraic loop. ---
+  // With solve_algebraic_loops, each cycle is broken by tearing one of its variables: its
+  // readers take it as an unknown (solved at every evaluation, see EvalTorn), its writer's
+  // result goes to a slot of its own. Cycles are torn one at a time until the order exists.
   const int ni = static_cast<int>(instrs.size());
-  std::vector<int> indegree(ni, 0);
-  std::vector<std::vector<int>> users(ni);
-  for (int k = 0; k < ni; ++k)
-    for (int c : reads[k]) {
-      users[writer[c]].push_back(k);
-      ++indegree[k];
-    }
-  std::priority_queue<int, std::vector<int>, std::greater<int>> ready;  // deterministic order
-  for (int k = 0; k < ni; ++k)
-    if (indegree[k] == 0) ready.push(k);
+  std::vector<char> torn(nclasses, 0);
   std::vector<int> order;
-  while (!ready.empty()) {
-    const int k = ready.top();
-    ready.pop();
-    order.push_back(k);
-    for (int u : users[k])
-      if (--indegree[u] == 0) ready.push(u);
-  }
-  if (static_cast<int>(order.size()) != ni) {
+  for (;;) {
+    std::vector<int> indegree(ni, 0);
+    std::vector<std::vector<int>> users(ni);
+    for (int k = 0; k < ni; ++k)
+      for (int c : reads[k]) {
+        if (torn[c]) continue;
+        users[writer[c]].push_back(k);
+        ++indegree[k];
+      }
+    std::priority_queue<int, std::vector<int>, std::greater<int>> ready;  // deterministic order
+    for (int k = 0; k < ni; ++k)
+      if (indegree[k] == 0) ready.push(k);
+    order.clear();
+    while (!ready.empty()) {
+      const int k = ready.top();
+      ready.pop();
+      order.push_back(k);
+      for (int u : users[k])
+        if (--indegree[u] == 0) ready.push(u);
+    }
+    if (static_cast<int>(order.size()) == ni) break;
     // Walk back from a blocked instruction through blocked inputs until a node repeats: a cycle.
     int k = 0;
     while (indegree[k] == 0) ++k;
@@ -479,7 +487,7 @@ void CompiledModel::Build() {
       seen[k] = static_cast<int>(walk.size());
       walk.push_back(k);
       for (int c : reads[k])
-        if (indegree[writer[c]] > 0) {
+        if (!torn[c] && indegree[writer[c]] > 0) {
           k = writer[c];
           break;
         }
@@ -488,12 +496,21 @@ void CompiledModel::Build() {
     std::reverse(cycle.begin(), cycle.end());
     std::vector<int> elements;
     std::string vars;
+    int tear = -1;  // the class to tear: a junction's sum if the loop has one (it joins most paths)
     for (int c : cycle) {
       elements.push_back(instrs[c].element);
       for (int cls = 0; cls < nclasses; ++cls)
-        if (writer[cls] == c) vars += (vars.empty() ? "" : ", ") + class_names_[cls];
+        if (writer[cls] == c) {
+          vars += (vars.empty() ? "" : ", ") + class_names_[cls];
+          if (tear < 0 || (instrs[c].op == Op::kSum && instrs[writer[tear]].op != Op::kSum)) tear = cls;
+        }
     }
     elements.push_back(elements.front());
+    if (options_.solve_algebraic_loops && tear >= 0) {
+      torn[tear] = 1;
+      algebraic_loops_.push_back({FormatPath(g, elements), class_names_[tear], elements.front(), tear});
+      continue;
+    }
     Diagnostic d;
     d.where = g.element(elements.front()).where;
     d.element = g.element(elements.front()).name;
@@ -501,10 +518,20 @@ void CompiledModel::Build() {
     d.message = "algebraic loop: these variables depend on themselves with no storage element in between";
     d.details.push_back("loop: " + FormatPath(g, elements));
     d.details.push_back("variables: " + vars);
-    d.hint = "add a storage element in the loop (a small C or I where the physics has one), or merge the resistors into one";
+    d.hint = "add a storage element in the loop (a small C or I where the physics has one), merge the resistors into "
+             "one, or let multibond solve it (algebraic_loops: solve in the model file, --algebraic-loops solve)";
     throw ModelError(d);
   }
   for (int k : order) plan_.push_back(instrs[k]);
+  // Torn variables: the slot of each keeps the unknown; its writer writes to a slot of its own.
+  for (int cls = 0; cls < nclasses; ++cls) {
+    if (!torn[cls]) continue;
+    const int at = static_cast<int>(std::find(order.begin(), order.end(), writer[cls]) - order.begin());
+    tears_.push_back({class_offset_[cls], class_size_[cls], num_slots_});
+    plan_[at].dst = num_slots_;
+    num_slots_ += class_size_[cls];
+    num_tear_ += class_size_[cls];
+  }
   Specialize();
   BuildGathers();
   {
@@ -515,6 +542,16 @@ void CompiledModel::Build() {
     for (int k : order) {
       plan_reads.push_back(reads[k]);
       plan_writes.push_back(out_class[k]);
+    }
+    if (!tears_.empty() && !constraints_.empty()) {
+      Diagnostic d;
+      d.code = "causality.algebraic_loop";
+      d.where = graph_.element(algebraic_loops_.front().element).where;
+      d.element = graph_.element(algebraic_loops_.front().element).name;
+      d.message = "algebraic loops are not solved in a model with ideal constraints (yet)";
+      for (const AlgebraicLoop& loop : algebraic_loops_) d.details.push_back("loop: " + loop.path);
+      d.hint = "add a storage element in the loop, or use compliant joints";
+      throw ModelError(d);
     }
     BuildConstraints(plan_reads, plan_writes);
     FindIndependentConstraints();
@@ -547,6 +584,8 @@ void CompiledModel::Build() {
     } else {
       rhs_engine_ += " (code generation for the constrained evaluation failed: " + jit.description + ")";
     }
+  } else if (options_.generate_code && !tears_.empty()) {
+    rhs_engine_ = "interpreter (algebraic loops are solved around the plan, which the generated code does not do)";
   } else if (options_.generate_code) {
     const JitResult jit = CompileAndLoad(GenerateSource(), "multibond_rhs");
     void* fast = jit.symbol ? dlsym(jit.library.get(), "multibond_rhs_fast") : nullptr;
@@ -639,6 +678,12 @@ Workspace CompiledModel::MakeWorkspace() const {
   Workspace ws;
   ws.slots.assign(num_slots_, 0.0);
   ws.moduli.assign(num_moduli_, 0.0);
+  if (num_tear_ > 0) {
+    ws.tear.a.setZero(num_tear_, num_tear_);
+    ws.tear.c0.setZero(num_tear_);
+    ws.tear.z.setZero(num_tear_);
+    ws.tear.lu = Eigen::PartialPivLU<Eigen::MatrixXd>(num_tear_);
+  }
   if (!constraints_.empty()) {
     const int m = num_lambda_;
     ws.lambda.assign(m, 0.0);
@@ -1053,6 +1098,11 @@ void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace&
   double* w = ws.slots.data();
   double* mod = ws.moduli.data();
   if (!needed_moduli_.empty()) EvalModuli(x, mod);
+  if (!tears_.empty()) {
+    EvalTorn(t, x, ws);
+    for (const Gather& gt : gathers_) EvalGather(gt, x, w, xdot);
+    return;
+  }
   if (generated_) {
     const SourceTable sources = Sources();
     reinterpret_cast<void (*)(double, const double*, double*, double*, const double*, const SourceTable*)>(generated_)(
@@ -1064,6 +1114,53 @@ void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace&
   for (const Instr& in : plan_)
     Exec(in, t, x, w, w, mod, lambda, c, sum_terms_.data(), sum_signs_.data(), source_fns_.data());
   for (const Gather& gt : gathers_) EvalGather(gt, x, w, xdot);
+}
+
+void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
+  double* w = ws.slots.data();
+  auto run = [&] {
+    for (const Instr& in : plan_)
+      Exec(in, t, x, w, w, ws.moduli.data(), ws.lambda.data(), coef_.data(), sum_terms_.data(), sum_signs_.data(),
+           source_fns_.data());
+  };
+  // Every instruction is linear in the slots it reads, so what the torn variables' writers compute
+  // is affine in the unknowns z: c(z) = c0 + A z. One pass at z = 0 and one per unknown give c0
+  // and A; then (I - A) z = c0, and a last pass with z fills every slot consistently.
+  auto set_unknowns = [&](const double* z) {
+    int k = 0;
+    for (const Tear& tr : tears_)
+      for (int i = 0; i < tr.size; ++i) w[tr.slot + i] = z ? z[k++] : 0.0;
+  };
+  auto computed = [&](double* out) {
+    int k = 0;
+    for (const Tear& tr : tears_)
+      for (int i = 0; i < tr.size; ++i) out[k++] = w[tr.shadow + i];
+  };
+  Workspace::TearScratch& s = ws.tear;
+  set_unknowns(nullptr);
+  run();
+  computed(s.c0.data());
+  for (int j = 0; j < num_tear_; ++j) {
+    s.z.setZero();
+    s.z[j] = 1.0;
+    set_unknowns(s.z.data());
+    run();
+    computed(s.a.col(j).data());
+    s.a.col(j) -= s.c0;
+  }
+  s.a = -s.a;
+  s.a.diagonal().array() += 1.0;
+  s.lu.compute(s.a);
+  s.z.noalias() = s.lu.solve(s.c0);
+  // A loop whose gain is 1 (I - A singular) has no unique solution: the model is ill-posed there.
+  if (!s.z.allFinite() || !(s.lu.rcond() > 1e-13)) {
+    std::string names;
+    for (const AlgebraicLoop& loop : algebraic_loops_) names += (names.empty() ? "" : "; ") + loop.torn;
+    throw std::runtime_error(fmt::format("at t = {}: the algebraic loop through {} has no unique solution (its linear "
+                                         "system is singular: reciprocal condition {:.3g})", t, names, s.lu.rcond()));
+  }
+  set_unknowns(s.z.data());
+  run();
 }
 
 void CompiledModel::EvalGather(const Gather& gt, const double* x, const double* w, double* xdot) {

@@ -31,6 +31,9 @@ struct CompileOptions {
   /// compiler (cached by the source's hash; see compile/jit.h). Falls back to the plan
   /// interpreter, with the reason in CompiledModel::rhs_engine(), if no compiler works.
   bool generate_code = false;
+  /// Solve algebraic loops instead of refusing them: each loop is torn at one variable, which
+  /// every evaluation solves for from a small linear system (see docs/design.md).
+  bool solve_algebraic_loops = false;
   bool ideal_constraints = false;  ///< accept derivative causality: dependent storage handled exactly by constraint efforts (see docs/design.md)
 };
 
@@ -63,6 +66,12 @@ struct Workspace {
     double factored_t = 0.0;
     bool factored = false;
   } con;
+  /// Algebraic loops only (empty otherwise): the affine map of the torn variables and its solve.
+  struct TearScratch {
+    Eigen::MatrixXd a;  ///< A, then I - A
+    Eigen::VectorXd c0, z;
+    Eigen::PartialPivLU<Eigen::MatrixXd> lu;
+  } tear;
 };
 
 /// A named, contiguous group of states (I momenta, C displacements, auxiliary states, energy).
@@ -162,6 +171,15 @@ class CompiledModel {
   /// make nonzero. Null for a model with ideal constraints (the multipliers couple everything
   /// they reach).
   const JacobianPattern* jacobian_pattern() const { return jacobian_pattern_.n > 0 ? &jacobian_pattern_ : nullptr; }
+  /// The algebraic loops solved at every evaluation (CompileOptions::solve_algebraic_loops): each
+  /// by its elements and the variable it is torn at, the unknown of its linear system.
+  struct AlgebraicLoop {
+    std::string path;  ///< "R1 -> n0 -> R2 -> ..."
+    std::string torn;  ///< the slot class solved for, "n0.e"
+    int element = -1;     ///< the loop's first element (index in graph())
+    int slot_class = -1;  ///< of the torn variable
+  };
+  const std::vector<AlgebraicLoop>& algebraic_loops() const { return algebraic_loops_; }
 
   /// Looks up "<element>.e|f|e1|f1|e2|f2|p|q" or an auxiliary state's name.
   std::optional<VariableRef> FindVariable(const std::string& name) const;
@@ -316,6 +334,16 @@ class CompiledModel {
   std::vector<Gather> gathers_;
   std::vector<TimeFunction> source_fns_;
   JacobianPattern jacobian_pattern_;
+  /// Algebraic loops torn (solve_algebraic_loops): per torn variable, its slot (which holds the
+  /// unknown), its size and the slot its writer writes to instead (beyond the classes' slots).
+  struct Tear {
+    int slot, size, shadow;
+  };
+  std::vector<Tear> tears_;
+  int num_tear_ = 0;
+  std::vector<AlgebraicLoop> algebraic_loops_;
+  /// The plan with the torn variables solved for (EvalPlan on a model with algebraic loops).
+  void EvalTorn(double t, const double* x, Workspace& ws) const;
 
   /// The generated right-hand side (null: the interpreter runs the plan).
   using GeneratedRhs = void (*)();  ///< cast to its real signature at the call (see codegen.cc)

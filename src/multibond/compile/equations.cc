@@ -140,6 +140,8 @@ class EquationWriter {
     }
     is_effort_.assign(nc, false);
     for (int b = 0; b < g_.num_bonds(); ++b) is_effort_[m_.slot_class_of_effort(b)] = true;
+    torn_.assign(nc, false);
+    for (const auto& loop : m_.algebraic_loops()) torn_[loop.slot_class] = true;
     RankClasses();
   }
 
@@ -167,6 +169,13 @@ class EquationWriter {
         out += "\n";
       }
       for (const std::string& c : rows_[r].notes) out += c + "\n";
+    }
+    for (const auto& loop : m_.algebraic_loops()) {
+      const std::string text = fmt::format(
+          "algebraic loop {}: {} = {}, solved for {} as a linear system at every evaluation (docs/design.md, "
+          "\"Algebraic loops\")",
+          loop.path, loop.torn, Render(Body(loop.slot_class), false), loop.torn);
+      out += latex_ ? "% " + OneLine(text) + "\n" : "\n" + text + "\n";
     }
     if (m_.has_constraints()) {
       std::string names;
@@ -197,7 +206,10 @@ class EquationWriter {
 
   const Definition& Def(int c) const { return m_.definition(c); }
 
+  /// Sources, inertia flows, compliance efforts, and the variables algebraic loops are torn at
+  /// (named unknowns, defined in a line of their own).
   bool IsLeaf(int c) const {
+    if (torn_[c]) return true;
     const Definition::Kind k = Def(c).kind;
     return k == Definition::Kind::kSource || k == Definition::Kind::kMomentumFlow ||
            k == Definition::Kind::kStiffnessEffort;
@@ -269,6 +281,7 @@ class EquationWriter {
   }
 
   Expr Leaf(int c) const {
+    if (torn_[c]) return Ref(c);
     const Definition& d = Def(c);
     const Element& el = g_.element(d.element);
     const std::string& n = el.name;
@@ -359,8 +372,10 @@ class EquationWriter {
     return {text, latex};
   }
 
-  Expr Inline(int c) {
-    if (IsLeaf(c)) return Leaf(c);
+  Expr Inline(int c) { return IsLeaf(c) ? Leaf(c) : Body(c); }
+
+  /// The definition of a computed class with its inputs inlined.
+  Expr Body(int c) {
     const Definition& d = Def(c);
     if (d.kind == Definition::Kind::kLinear) return Apply(d, d.terms.front(), Inline(d.terms.front().slot_class));
     Expr sum;
@@ -580,6 +595,7 @@ class EquationWriter {
   std::vector<long long> full_, routes_;
   std::vector<int> rank_;
   std::vector<bool> is_effort_;
+  std::vector<bool> torn_;  ///< per slot class: an algebraic loop's unknown
   std::vector<std::vector<int>> class_bonds_;
   std::map<std::pair<int, int>, std::vector<int>> junctions_;
   std::vector<Row> rows_;

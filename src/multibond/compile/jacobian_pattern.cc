@@ -34,6 +34,8 @@ void CompiledModel::BuildJacobianPattern() {
   jacobian_pattern_ = JacobianPattern{};
   // A multiplier's value depends on the whole constrained system: no useful structure.
   if (!constraints_.empty()) return;
+  // A torn variable depends on everything its loop's linear system reads: left dense too.
+  if (!tears_.empty()) return;
   const int n = num_states();
   std::vector<Deps> slot(num_slots_);  // what each slot depends on, once written
   auto slots = [&](int first, int count) {

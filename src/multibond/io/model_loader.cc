@@ -24,7 +24,7 @@ using Env = std::map<std::string, double>;  // submodel parameters in scope
 
 const std::vector<std::string> kTopKeys = {"model", "description", "domain", "elements", "bonds", "states", "outputs",
                                            "simulation", "submodels", "gravity", "bodies", "joints", "gears", "drives", "points",
-                                           "constraints", "rigid"};
+                                           "constraints", "rigid", "algebraic_loops"};
 const std::vector<std::string> kCommonKeys = {"type", "dim", "domain", "components", "description"};
 
 class Loader {
@@ -59,6 +59,14 @@ class Loader {
       else if (c != "compliant")
         sink_.Error(Loc(root["constraints"]), "constraints", fmt::format("unknown constraints '{}'", c),
                     "write 'constraints: ideal' (derivative causality solved exactly) or 'constraints: compliant' (the default)");
+    }
+    if (root["algebraic_loops"]) {
+      const std::string c = root["algebraic_loops"].IsScalar() ? root["algebraic_loops"].Scalar() : "";
+      if (c == "solve") out.compile.solve_algebraic_loops = true;
+      else if (c != "error")
+        sink_.Error(Loc(root["algebraic_loops"]), "algebraic_loops", fmt::format("unknown algebraic_loops '{}'", c),
+                    "write 'algebraic_loops: solve' (each loop solved as a linear system at every evaluation) or "
+                    "'algebraic_loops: error' (the default: a loop is reported and the model refused)");
     }
     if (root["submodels"]) ReadSubmodelDefs(root["submodels"]);
     const bool mechanism = root["bodies"].IsDefined();
