@@ -293,8 +293,9 @@ int Check(const CheckArgs& a) {
   return kExitOk;
 }
 
-int Equations(const std::string& path, const std::string& format) {
-  const mb::LoadedModel lm = Load(path);
+int Equations(const std::string& path, const std::string& format, const std::optional<std::string>& constraints,
+              const std::optional<std::string>& loops) {
+  const mb::LoadedModel lm = Load(path, constraints, loops);
   const auto model = mb::CompiledModel::Compile(lm.graph, lm.compile);
   std::cout << mb::FormatEquations(*model, format == "latex" ? mb::EquationFormat::kLatex : mb::EquationFormat::kText);
   return kExitOk;
@@ -601,6 +602,9 @@ int main(int argc, char** argv) {
   auto* eq = app.add_subcommand("equations", "Print the state equations generated from the graph, with their causal paths");
   eq->add_option("MODEL", model, "model file (YAML)")->required();
   eq->add_option("--format", format, "text or latex")->check(CLI::IsMember({"text", "latex"}));
+  std::optional<std::string> eq_constraints, eq_loops;
+  AddConstraintsOption(eq, eq_constraints);
+  AddLoopsOption(eq, eq_loops);
 
   auto* graph = app.add_subcommand("graph", "Draw the bond graph with causal strokes (Graphviz DOT, and SVG/PNG when dot is installed)");
   graph->add_option("MODEL", model, "model file (YAML)")->required();
@@ -647,7 +651,7 @@ int main(int argc, char** argv) {
       ca.suggest = ca.suggest || ca.write.has_value();
       return Check(ca);
     }
-    if (*eq) return Equations(model, format);
+    if (*eq) return Equations(model, format, eq_constraints, eq_loops);
     if (*graph) return Graph(model, out);
     if (*run) return Run(rc, args);
     if (*compare) return Compare(cc);

@@ -79,6 +79,9 @@ TEST_F(CliTest, AlgebraicLoopsOptionSolvesTheLoop) {
   const Result r = Cli("run " + Example("algebraic_loop.yaml") + " -o " + dir_.string() + " --algebraic-loops solve --t-end 0.05");
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_THAT(r.out, HasSubstr("ok to t = 0.05 s"));
+  const Result eq = Cli("equations " + Example("algebraic_loop.yaml") + " --algebraic-loops solve");
+  EXPECT_EQ(eq.code, 0) << eq.out;
+  EXPECT_THAT(eq.out, HasSubstr("j1.f = 1/R2.R * (V(t) - R1.R * j1.f) + L.p/L.I"));
   EXPECT_EQ(Cli("check " + Example("algebraic_loop.yaml") + " --algebraic-loops error").code, 1);
   EXPECT_EQ(Cli("check " + Example("algebraic_loop.yaml") + " --algebraic-loops maybe").code, 64);
 }

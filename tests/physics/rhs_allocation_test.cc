@@ -1,6 +1,7 @@
 // The right-hand side allocates nothing (docs/design.md): counted by replacing the global
-// operator new in this test binary. Covers the plan interpreter, generated code, and the ideal
-// constraints' solve and projection, and the solve of an algebraic loop.
+// operator new and (outside AddressSanitizer builds) malloc in this test binary. Covers the plan
+// interpreter, generated code, the ideal constraints' solve and projection, and the solve of an
+// algebraic loop.
 
 #include <atomic>
 #include <cstdlib>
@@ -14,6 +15,31 @@
 namespace {
 std::atomic<long> g_allocations{0};
 }  // namespace
+
+// Eigen allocates its dynamic matrices with std::malloc, not operator new: count malloc too, by
+// interposing glibc's (which exports the real ones as __libc_*). Not under AddressSanitizer, which
+// interposes malloc itself.
+#if !defined(__SANITIZE_ADDRESS__)
+extern "C" {
+void* __libc_malloc(std::size_t);
+void* __libc_calloc(std::size_t, std::size_t);
+void* __libc_realloc(void*, std::size_t);
+void __libc_free(void*);
+void* malloc(std::size_t n) {
+  ++g_allocations;
+  return __libc_malloc(n);
+}
+void* calloc(std::size_t count, std::size_t n) {
+  ++g_allocations;
+  return __libc_calloc(count, n);
+}
+void* realloc(void* p, std::size_t n) {
+  ++g_allocations;
+  return __libc_realloc(p, n);
+}
+void free(void* p) { __libc_free(p); }
+}
+#endif
 
 void* operator new(std::size_t n) {
   ++g_allocations;

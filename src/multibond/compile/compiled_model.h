@@ -169,7 +169,7 @@ class CompiledModel {
   /// depend on all its inputs, component by component for sums, copies and diagonal
   /// coefficients): the structure of the Jacobian, never missing an entry that the numbers can
   /// make nonzero. Null for a model with ideal constraints (the multipliers couple everything
-  /// they reach).
+  /// they reach) or with solved algebraic loops (so do the torn unknowns).
   const JacobianPattern* jacobian_pattern() const { return jacobian_pattern_.n > 0 ? &jacobian_pattern_ : nullptr; }
   /// The algebraic loops solved at every evaluation (CompileOptions::solve_algebraic_loops): each
   /// by its elements and the variable it is torn at, the unknown of its linear system.

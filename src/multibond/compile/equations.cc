@@ -171,10 +171,7 @@ class EquationWriter {
       for (const std::string& c : rows_[r].notes) out += c + "\n";
     }
     for (const auto& loop : m_.algebraic_loops()) {
-      const std::string text = fmt::format(
-          "algebraic loop {}: {} = {}, solved for {} as a linear system at every evaluation (docs/design.md, "
-          "\"Algebraic loops\")",
-          loop.path, loop.torn, Render(Body(loop.slot_class), false), loop.torn);
+      const std::string text = LoopEquation(loop);
       out += latex_ ? "% " + OneLine(text) + "\n" : "\n" + text + "\n";
     }
     if (m_.has_constraints()) {
@@ -511,6 +508,51 @@ class EquationWriter {
 
   // --- equations ---
 
+  /// The junction variables an expression was cut at, each expanded the same way (which may name
+  /// further ones), in evaluation order.
+  std::vector<std::pair<int, Expr>> Intermediates(std::set<int>& refs) {
+    std::map<int, Expr> where;
+    while (true) {
+      int next = -1;
+      for (int r : refs)
+        if (!where.count(r)) {
+          next = r;
+          break;
+        }
+      if (next < 0) break;
+      long long u = 0;
+      where.emplace(next, Build(next, kBudget, true, &u, &refs));
+    }
+    std::vector<std::pair<int, Expr>> out(where.begin(), where.end());
+    std::sort(out.begin(), out.end(), [&](const auto& a, const auto& b) {
+      return std::make_pair(rank_[a.first], a.first) < std::make_pair(rank_[b.first], b.first);
+    });
+    return out;
+  }
+
+  /// An algebraic loop's own equation: the torn variable's definition (its terms built within the
+  /// budget, as the state equations are), then the variables it was cut at.
+  std::string LoopEquation(const CompiledModel::AlgebraicLoop& loop) {
+    const Definition& d = Def(loop.slot_class);
+    std::set<int> refs;
+    long long used = 0;
+    Expr body;
+    if (d.kind == Definition::Kind::kLinear) {
+      body = Apply(d, d.terms.front(), Build(d.terms.front().slot_class, kBudget, true, &used, &refs));
+    } else {
+      body.kind = Expr::Kind::kSum;
+      const long long share = std::max<long long>(1, kBudget / static_cast<long long>(d.terms.size()));
+      for (const Definition::Term& t : d.terms)
+        body.children.push_back(Signed(t.sign, "", "", Build(t.slot_class, share, false, &used, &refs)));
+    }
+    std::string text = fmt::format(
+        "algebraic loop {}: {} = {}, solved for {} as a linear system at every evaluation (docs/design.md, "
+        "\"Algebraic loops\")",
+        loop.path, loop.torn, Render(body, false), loop.torn);
+    for (const auto& [c, e] : Intermediates(refs)) text += fmt::format("\n    where {} = {}", Ref(c).text, Render(e, false));
+    return text;
+  }
+
   void WriteEquation(const StateBlock& blk) {
     int cls = -1, consumer = -1;
     double sign = 1.0;
@@ -547,34 +589,17 @@ class EquationWriter {
       row.line = latex_ ? lhs_latex + " &= " + Render(rhs, true) : lhs_text + " = " + Render(rhs, false);
     }
 
-    // Intermediates: each once, expanded the same way (which may name further ones).
-    std::map<int, Expr> where;
-    while (true) {
-      int next = -1;
-      for (int r : refs)
-        if (!where.count(r)) {
-          next = r;
-          break;
-        }
-      if (next < 0) break;
-      long long u = 0;
-      where.emplace(next, Build(next, kBudget, true, &u, &refs));
-    }
-    std::vector<int> order;
-    for (const auto& [c, e] : where) order.push_back(c);
-    std::sort(order.begin(), order.end(), [&](int a, int b) { return std::make_pair(rank_[a], a) < std::make_pair(rank_[b], b); });
-
+    const std::vector<std::pair<int, Expr>> where = Intermediates(refs);
     std::vector<Row> where_rows;
-    if (!order.empty() && !latex_) row.notes.push_back("  where:");
-    for (size_t k = 0; k < order.size(); ++k) {
-      const int c = order[k];
-      const Expr ref = Ref(c);
+    if (!where.empty() && !latex_) row.notes.push_back("  where:");
+    for (size_t k = 0; k < where.size(); ++k) {
+      const Expr ref = Ref(where[k].first);
       if (latex_) {
         where_rows.push_back({fmt::format("{}{} &= {}", k == 0 ? "\\text{where } " : "\\qquad ", ref.latex,
-                                          Render(where.at(c), true)),
+                                          Render(where[k].second, true)),
                               {}});
       } else {
-        row.notes.push_back(fmt::format("    {} = {}", ref.text, Render(where.at(c), false)));
+        row.notes.push_back(fmt::format("    {} = {}", ref.text, Render(where[k].second, false)));
       }
     }
     std::vector<std::string> paths = PathLines(cls, consumer);

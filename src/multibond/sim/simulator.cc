@@ -283,10 +283,22 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   };
 
   observer.OnStart(layout.columns);
-  sample(options.t_start);
+  // An output row evaluates the model too (an algebraic loop can have no solution there): a failure
+  // ends the run like a solver failure, with what was computed until then.
+  auto sample_or_fail = [&](double t) {
+    try {
+      sample(t);
+      return true;
+    } catch (const std::exception& e) {
+      summary.status = RunStatus::kFailed;
+      summary.message = fmt::format("at t = {:.9g} s: evaluating the outputs failed: {}", t, e.what());
+      return false;
+    }
+  };
+  const bool started = sample_or_fail(options.t_start);
   const long n_out = std::max(1L, std::lround((options.t_end - options.t_start) / options.dt));
   auto last_progress = wall_start;
-  for (long k = 1; k <= n_out; ++k) {
+  for (long k = 1; started && k <= n_out; ++k) {
     const double tout = k == n_out ? options.t_end : options.t_start + static_cast<double>(k) * options.dt;
     try {
       integrator->AdvanceTo(tout, x.data());
@@ -314,7 +326,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
       summary.message = fmt::format("at t = {:.9g} s: the state is no longer finite ({})", tout, names);
       break;
     }
-    sample(tout);
+    if (!sample_or_fail(tout)) break;
     if (options.stop && options.stop->load()) {
       summary.status = RunStatus::kInterrupted;
       summary.message = fmt::format("interrupted at t = {:.9g} s", tout);

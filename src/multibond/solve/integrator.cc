@@ -112,7 +112,8 @@ std::unique_ptr<Integrator> MakeIntegrator(OdeSystem& system, const IntegratorOp
   Require(options.jacobian != JacobianKind::kSparse || system.jacobian_pattern() != nullptr ||
               (options.method != Method::kBdf && options.method != Method::kAdams),
           "a sparse Jacobian needs the model's Jacobian pattern, and this model has none (a model with ideal "
-          "constraints: every multiplier couples the states it reaches); use the dense or automatic Jacobian");
+          "constraints, whose multipliers couple the states they reach, or with solved algebraic loops, whose "
+          "unknowns couple what their loops read); use the dense or automatic Jacobian");
   switch (options.method) {
     case Method::kBdf:
     case Method::kAdams:
