@@ -26,6 +26,28 @@ double ReadScalar(const CompiledModel& m, const std::string& name, const double*
   return v;
 }
 
+/// The model's run with BDF at rtol 1e-10 (atol 1e-14), outputs every dt; fails the test if the
+/// run does not reach t_end.
+RecordingObserver RunAccurately(const CompiledModel& m, double t_end, double dt, RunSummary* summary = nullptr) {
+  RunOptions o;
+  o.t_end = t_end;
+  o.dt = dt;
+  o.integrator.method = Method::kBdf;
+  o.integrator.rtol = 1e-10;
+  o.integrator.atol = 1e-14;
+  RecordingObserver rec;
+  const RunSummary s = Simulate(m, o, rec);
+  EXPECT_EQ(s.status, RunStatus::kOk) << s.message;
+  if (summary) *summary = s;
+  return rec;
+}
+
+std::shared_ptr<const CompiledModel> CompileSolvingLoops(const BondGraph& g) {
+  CompileOptions co;
+  co.solve_algebraic_loops = true;
+  return CompiledModel::Compile(g, co);
+}
+
 TEST(AlgebraicLoop, RefusedByDefaultWithTheWayOut) {
   try {
     CompiledModel::Compile(Example().graph, Example().compile);
@@ -48,15 +70,8 @@ TEST(AlgebraicLoop, ResistorNetworkFollowsItsClosedFormAndKirchhoffsLaws) {
   EXPECT_EQ(m->jacobian_pattern(), nullptr);
   const double V = 1.0, R1 = 10.0, R2 = 20.0, L = 0.1, tau = L / (R1 * R2 / (R1 + R2));
 
-  RunOptions o;
-  o.t_end = 0.1;
-  o.dt = 0.005;
-  o.integrator.method = Method::kBdf;
-  o.integrator.rtol = 1e-10;
-  o.integrator.atol = 1e-14;
-  RecordingObserver rec;
-  const RunSummary s = Simulate(*m, o, rec);
-  ASSERT_EQ(s.status, RunStatus::kOk) << s.message;
+  RunSummary s;
+  const RecordingObserver rec = RunAccurately(*m, 0.1, 0.005, &s);
   Workspace ws = m->MakeWorkspace();
   Eigen::VectorXd xdot(m->num_states());
   for (const auto& row : rec.rows()) {
@@ -97,18 +112,9 @@ TEST(AlgebraicLoop, TwoLoopsAreTornSeparately) {
   BondGraph g("two_loops");
   AddNetwork(g, "a_", 10.0, 20.0);
   AddNetwork(g, "b_", 4.0, 1.0);
-  CompileOptions co;
-  co.solve_algebraic_loops = true;
-  const auto m = CompiledModel::Compile(g, co);
+  const auto m = CompileSolvingLoops(g);
   ASSERT_EQ(m->algebraic_loops().size(), 2u);
-  RunOptions o;
-  o.t_end = 0.05;
-  o.dt = 0.05;
-  o.integrator.method = Method::kBdf;
-  o.integrator.rtol = 1e-10;
-  o.integrator.atol = 1e-14;
-  RecordingObserver rec;
-  ASSERT_EQ(Simulate(*m, o, rec).status, RunStatus::kOk);
+  const RecordingObserver rec = RunAccurately(*m, 0.05, 0.05);
   const auto& last = rec.rows().back();
   for (auto [p, r1, r2] : {std::tuple{"a_", 10.0, 20.0}, std::tuple{"b_", 4.0, 1.0}}) {
     const double tau = 0.1 / (r1 * r2 / (r1 + r2));
@@ -135,18 +141,9 @@ TEST(AlgebraicLoop, VectorBondsTearAllTheirComponents) {
   g.Connect("j1", "n0");
   g.Connect("n0", "R2");
   g.Connect("n0", "L");
-  CompileOptions co;
-  co.solve_algebraic_loops = true;
-  const auto m = CompiledModel::Compile(g, co);
+  const auto m = CompileSolvingLoops(g);
   ASSERT_EQ(m->algebraic_loops().size(), 1u);
-  RunOptions o;
-  o.t_end = 0.5;
-  o.dt = 0.5;
-  o.integrator.method = Method::kBdf;
-  o.integrator.rtol = 1e-10;
-  o.integrator.atol = 1e-14;
-  RecordingObserver rec;
-  ASSERT_EQ(Simulate(*m, o, rec).status, RunStatus::kOk);
+  const RecordingObserver rec = RunAccurately(*m, 0.5, 0.5);
   const Eigen::Vector3d v(1.0, -2.0, 0.5);
   const Eigen::Vector3d expected = r1.ldlt().solve(v);  // the inductor shorts R2 at steady state
   const double* x = rec.rows().back().data() + 1;
