@@ -68,6 +68,10 @@ TEST(AlgebraicLoop, ResistorNetworkFollowsItsClosedFormAndKirchhoffsLaws) {
   EXPECT_THAT(m->algebraic_loops().front().path, HasSubstr("R1"));
   EXPECT_THAT(m->algebraic_loops().front().path, HasSubstr("R2"));
   EXPECT_EQ(m->jacobian_pattern(), nullptr);
+  // The probes rerun only what depends on the unknown (R1's effort, n0's sum, R2's flow, j1's sum),
+  // not the source or the inductor's flow.
+  EXPECT_EQ(m->num_loop_instructions(), 4);
+  EXPECT_EQ(m->num_instructions(), 6);
   const double V = 1.0, R1 = 10.0, R2 = 20.0, L = 0.1, tau = L / (R1 * R2 / (R1 + R2));
 
   RunSummary s;

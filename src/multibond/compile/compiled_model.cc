@@ -532,6 +532,20 @@ void CompiledModel::Build() {
     num_slots_ += class_size_[cls];
     num_tear_ += class_size_[cls];
   }
+  if (!tears_.empty()) {
+    // The instructions that depend on an unknown (through the slots they read, in plan order):
+    // the only ones the probes and the last pass of EvalTorn need to run again.
+    std::vector<char> reached(torn.begin(), torn.end());
+    for (int at = 0; at < ni; ++at) {
+      const int k = order[at];
+      bool depends = false;
+      for (int c : reads[k]) depends = depends || reached[c];
+      if (!depends) continue;
+      tear_closure_.push_back(at);
+      for (int cls = 0; cls < nclasses; ++cls)
+        if (writer[cls] == k) reached[cls] = 1;
+    }
+  }
   Specialize();
   BuildGathers();
   {
@@ -1118,14 +1132,20 @@ void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace&
 
 void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
   double* w = ws.slots.data();
+  auto exec = [&](const Instr& in) {
+    Exec(in, t, x, w, w, ws.moduli.data(), ws.lambda.data(), coef_.data(), sum_terms_.data(), sum_signs_.data(),
+         source_fns_.data());
+  };
   auto run = [&] {
-    for (const Instr& in : plan_)
-      Exec(in, t, x, w, w, ws.moduli.data(), ws.lambda.data(), coef_.data(), sum_terms_.data(), sum_signs_.data(),
-           source_fns_.data());
+    for (const Instr& in : plan_) exec(in);
+  };
+  auto run_closure = [&] {  // what depends on the unknowns; every other slot keeps its value
+    for (int at : tear_closure_) exec(plan_[at]);
   };
   // Every instruction is linear in the slots it reads, so what the torn variables' writers compute
-  // is affine in the unknowns z: c(z) = c0 + A z. One pass at z = 0 and one per unknown give c0
-  // and A; then (I - A) z = c0, and a last pass with z fills every slot consistently.
+  // is affine in the unknowns z: c(z) = c0 + A z. One pass of the plan at z = 0 and one of the
+  // unknowns' closure per unknown give c0 and A; then (I - A) z = c0, and a last pass of the
+  // closure with z makes every slot consistent.
   auto set_unknowns = [&](const double* z) {
     int k = 0;
     for (const Tear& tr : tears_)
@@ -1146,7 +1166,7 @@ void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
     s.z.setZero();
     s.z[j] = probe;
     set_unknowns(s.z.data());
-    run();
+    run_closure();
     computed(s.a.col(j).data());
     s.a.col(j) = (s.a.col(j) - s.c0) / probe;
   }
@@ -1167,7 +1187,7 @@ void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
     }
   }
   set_unknowns(s.z.data());
-  run();
+  run_closure();
 }
 
 void CompiledModel::EvalGather(const Gather& gt, const double* x, const double* w, double* xdot) {

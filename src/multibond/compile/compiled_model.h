@@ -180,6 +180,9 @@ class CompiledModel {
     int slot_class = -1;  ///< of the torn variable
   };
   const std::vector<AlgebraicLoop>& algebraic_loops() const { return algebraic_loops_; }
+  /// How many of the plan's instructions depend on the loops' unknowns: each evaluation runs the
+  /// plan once and these once more per unknown, plus once.
+  int num_loop_instructions() const { return static_cast<int>(tear_closure_.size()); }
 
   /// Looks up "<element>.e|f|e1|f1|e2|f2|p|q" or an auxiliary state's name.
   std::optional<VariableRef> FindVariable(const std::string& name) const;
@@ -341,6 +344,7 @@ class CompiledModel {
   };
   std::vector<Tear> tears_;
   int num_tear_ = 0;
+  std::vector<int> tear_closure_;  ///< plan indices that depend on an unknown, in order
   std::vector<AlgebraicLoop> algebraic_loops_;
   /// The plan with the torn variables solved for (EvalPlan on a model with algebraic loops).
   void EvalTorn(double t, const double* x, Workspace& ws) const;
