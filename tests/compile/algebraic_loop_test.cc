@@ -7,6 +7,7 @@
 #include <cmath>
 #include <string>
 #include <tuple>
+#include <utility>
 
 #include "multibond/compile/compiled_model.h"
 #include "multibond/compile/equations.h"
@@ -97,14 +98,16 @@ TEST(AlgebraicLoop, ResistorNetworkFollowsItsClosedFormAndKirchhoffsLaws) {
   EXPECT_LT(std::abs(s.energy_residual), 1e-8);
 }
 
-/// The example's network built through the API, its names prefixed (two copies make two loops).
-void AddNetwork(BondGraph& g, const std::string& p, double r1, double r2) {
-  g.AddSe(p + "V", {{TimeFunction::Constant(1.0)}});
+/// The example's network built through the API (source V, R1 in series with R2 parallel to L), its
+/// names prefixed (two copies make two loops), on bonds of `dim` components.
+void AddNetwork(BondGraph& g, const std::string& p, Param r1, Param r2, int dim = 1,
+                SourceValue v = {{TimeFunction::Constant(1.0)}}, double inductance = 0.1) {
+  g.AddSe(p + "V", std::move(v), dim);
   g.AddJunction(p + "j1", ElementKind::kOne);
-  g.AddR(p + "R1", Param::Scalar(r1));
+  g.AddR(p + "R1", std::move(r1), dim);
   g.AddJunction(p + "n0", ElementKind::kZero);
-  g.AddR(p + "R2", Param::Scalar(r2));
-  g.AddI(p + "L", Param::Scalar(0.1));
+  g.AddR(p + "R2", std::move(r2), dim);
+  g.AddI(p + "L", Param::Scalar(inductance), dim);
   g.Connect(p + "V", p + "j1");
   g.Connect(p + "j1", p + "R1");
   g.Connect(p + "j1", p + "n0");
@@ -114,8 +117,8 @@ void AddNetwork(BondGraph& g, const std::string& p, double r1, double r2) {
 
 TEST(AlgebraicLoop, TwoLoopsAreTornSeparately) {
   BondGraph g("two_loops");
-  AddNetwork(g, "a_", 10.0, 20.0);
-  AddNetwork(g, "b_", 4.0, 1.0);
+  AddNetwork(g, "a_", Param::Scalar(10.0), Param::Scalar(20.0));
+  AddNetwork(g, "b_", Param::Scalar(4.0), Param::Scalar(1.0));
   const auto m = CompileSolvingLoops(g);
   ASSERT_EQ(m->algebraic_loops().size(), 2u);
   const RecordingObserver rec = RunAccurately(*m, 0.05, 0.05);
@@ -134,17 +137,8 @@ TEST(AlgebraicLoop, VectorBondsTearAllTheirComponents) {
   Eigen::Matrix3d r1;
   r1 << 4.0, 1.0, 0.5, 1.0, 3.0, 0.2, 0.5, 0.2, 5.0;
   BondGraph g("vector_loop");
-  g.AddSe("V", {{TimeFunction::Constant(1.0), TimeFunction::Constant(-2.0), TimeFunction::Constant(0.5)}}, 3);
-  g.AddJunction("j1", ElementKind::kOne);
-  g.AddR("R1", Param::Matrix(r1), 3);
-  g.AddJunction("n0", ElementKind::kZero);
-  g.AddR("R2", Param::Scalar(7.0), 3);
-  g.AddI("L", Param::Scalar(0.01), 3);
-  g.Connect("V", "j1");
-  g.Connect("j1", "R1");
-  g.Connect("j1", "n0");
-  g.Connect("n0", "R2");
-  g.Connect("n0", "L");
+  AddNetwork(g, "", Param::Matrix(r1), Param::Scalar(7.0), 3,
+             {{TimeFunction::Constant(1.0), TimeFunction::Constant(-2.0), TimeFunction::Constant(0.5)}}, 0.01);
   const auto m = CompileSolvingLoops(g);
   ASSERT_EQ(m->algebraic_loops().size(), 1u);
   const RecordingObserver rec = RunAccurately(*m, 0.5, 0.5);

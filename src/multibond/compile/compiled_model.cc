@@ -523,6 +523,8 @@ void CompiledModel::Build() {
     throw ModelError(d);
   }
   for (int k : order) plan_.push_back(instrs[k]);
+  std::vector<int> out_class(ni, -1);  // per instruction: the class it writes
+  for (int cls = 0; cls < nclasses; ++cls) out_class[writer[cls]] = cls;
   // Torn variables: the slot of each keeps the unknown; its writer writes to a slot of its own.
   for (int cls = 0; cls < nclasses; ++cls) {
     if (!torn[cls]) continue;
@@ -542,15 +544,12 @@ void CompiledModel::Build() {
       for (int c : reads[k]) depends = depends || reached[c];
       if (!depends) continue;
       tear_closure_.push_back(at);
-      for (int cls = 0; cls < nclasses; ++cls)
-        if (writer[cls] == k) reached[cls] = 1;
+      reached[out_class[k]] = 1;
     }
   }
   Specialize();
   BuildGathers();
   {
-    std::vector<int> out_class(ni, -1);
-    for (int cls = 0; cls < nclasses; ++cls) out_class[writer[cls]] = cls;
     std::vector<std::vector<int>> plan_reads;
     std::vector<int> plan_writes;
     for (int k : order) {
