@@ -2,6 +2,7 @@
 // rigid and the housing fixed, against the closed-form solution of the rigid mechanism: one
 // equivalent inertia J on the drive coupling (docs/differential.md, "The ideal mechanism").
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -94,6 +95,22 @@ void EnergyIsConservedAndOrientationsStayRotations(const RecordingObserver& r) {
   }
 }
 
+// Four planet-sun meshes for two planets: one of them is redundant, and the split of the mesh
+// torques is the compliant meshes' (equal stiffnesses): by symmetry both planets carry the same
+// torque on each sun, at every sample. (With the independent set's split, P1S1 carried nothing
+// and P2S1 all of it.)
+void RedundantMeshesShareTheTorqueSymmetrically(const RecordingObserver& r) {
+  double worst = 0.0, largest = 0.0;
+  for (const auto& row : r.rows())
+    for (const char* sun : {"S1", "S2"}) {
+      const double p1 = row[r.Index(std::string("mesh_P1") + sun + ".torque")], p2 = row[r.Index(std::string("mesh_P2") + sun + ".torque")];
+      worst = std::max(worst, std::abs(p1 - p2));
+      largest = std::max(largest, std::abs(p1));
+    }
+  EXPECT_GT(largest, 1e-2);  // the start transient loads the meshes
+  EXPECT_LT(worst, 1e-9 * largest);
+}
+
 // With generated code for the plan's constraint columns and W's factorisation, as the CLI runs it
 // (--jit auto); GeneratedConstraintCodeMatchesTheInterpreter holds the two paths together.
 TEST(IdealDifferential, ValidatesAgainstTheRigidMechanism) {
@@ -115,6 +132,10 @@ TEST(IdealDifferential, ValidatesAgainstTheRigidMechanism) {
   {
     SCOPED_TRACE("energy and orientations");
     EnergyIsConservedAndOrientationsStayRotations(rec);
+  }
+  {
+    SCOPED_TRACE("redundant meshes");
+    RedundantMeshesShareTheTorqueSymmetrically(rec);
   }
 }
 

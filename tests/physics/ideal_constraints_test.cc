@@ -2,11 +2,13 @@
 // energy balance of every run and the constraints held to rounding.
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <fmt/format.h>
 
 #include "multibond/compile/equations.h"
 #include "multibond/io/model_loader.h"
@@ -193,7 +195,6 @@ outputs: [{name: w1, variable: J1.f}, {name: w2, variable: J2.f}, {name: w3, var
   }
   EXPECT_LT(MaxEnergyResidual(rec), 1e-8);
 }
-
 }  // namespace
 }  // namespace multibond
 
@@ -242,6 +243,109 @@ TEST(IdealConstraints, PlanetOnACarrierKeepsItsConstraints) {
   }
   EXPECT_LT(worst_w, 1e-12 * rec.At("A.omega.z", 1.0));
   EXPECT_LT(MaxEnergyResidual(rec), 1e-8);
+}
+
+// A statically indeterminate support: a rigid beam (mass m, inertia J about x = 0) on three
+// supports at x_i, loaded by a force F at x = a. Rigid supports leave the three reactions free
+// along one direction that moves nothing; supports of stiffness k_i share the load as the
+// elastic beam does (least complementary energy): e_i = k_i (u + theta x_i), with u and theta
+// from sum e_i = F and sum x_i e_i = F a. `support` is the text of each support's element, with
+// {k} for its stiffness; `order` lists the supports in the file's order.
+std::string BeamOnThreeSupports(const std::string& support, const std::vector<int>& order) {
+  const double x[3] = {0.5, 1.5, 3.0}, k[3] = {1e4, 2e4, 4e4};
+  std::string text = R"(
+model: beam
+domain: translation
+elements:
+  load:   {type: Se, effort: 10.0}
+  moment: {type: Se, effort: 12.0}
+  v:      {type: "1"}
+  w:      {type: "1"}
+  mass:   {type: I, inertia: 2.0}
+  inertia: {type: I, inertia: 5.0}
+)";
+  std::string bonds = "bonds: [load -> v, moment -> w, v -> mass, w -> inertia";
+  for (int i : order) {
+    std::string s = support;
+    for (size_t at; (at = s.find("{k}")) != std::string::npos;) s.replace(at, 3, fmt::format("{:g}", k[i]));
+    for (size_t at; (at = s.find("{c}")) != std::string::npos;) s.replace(at, 3, fmt::format("{:.17g}", 1.0 / k[i]));
+    text += fmt::format("  s{0}: {{type: \"0\"}}\n  arm{0}: {{type: TF, ratio: {1:g}}}\n  c{0}: {2}\n", i, x[i], s);
+    bonds += fmt::format(", v -> s{0}, w -> arm{0}, arm{0} -> s{0}, s{0} -> c{0}", i);
+  }
+  text += bonds + "]\noutputs: [";
+  for (int i = 0; i < 3; ++i) text += fmt::format("{}{{name: e{}, variable: s{}.e}}", i ? ", " : "", i, i);
+  return text + "]\n";
+}
+
+/// The elastic split of BeamOnThreeSupports' load (F = 10 at a = 1.2, i.e. a moment of 12)
+/// over supports of stiffness k_i at x_i.
+std::array<double, 3> ElasticSplit(const std::array<double, 3>& k) {
+  const double x[3] = {0.5, 1.5, 3.0}, f = 10.0, m = 12.0;
+  double s0 = 0, s1 = 0, s2 = 0;
+  for (int i = 0; i < 3; ++i) {
+    s0 += k[i];
+    s1 += k[i] * x[i];
+    s2 += k[i] * x[i] * x[i];
+  }
+  const double det = s0 * s2 - s1 * s1, u = (f * s2 - m * s1) / det, theta = (s0 * m - s1 * f) / det;
+  return {k[0] * (u + theta * x[0]), k[1] * (u + theta * x[1]), k[2] * (u + theta * x[2])};
+}
+
+TEST(IdealConstraints, RedundantSupportsShareTheLoadAsTheirStiffnessesDo) {
+  const std::array<double, 3> expected = ElasticSplit({1e4, 2e4, 4e4});
+  // Whatever order the supports come in (the solve's independent set changes with it).
+  for (const std::vector<int>& order : {std::vector<int>{0, 1, 2}, {2, 1, 0}, {1, 2, 0}}) {
+    const RecordingObserver rec =
+        RunText(BeamOnThreeSupports("{type: Sf, flow: 0, constraint: true, compliance: {c}}", order), 1.0);
+    ASSERT_EQ(rec.summary().status, RunStatus::kOk);
+    for (double t : {0.0, 0.5, 1.0})
+      for (int i = 0; i < 3; ++i) EXPECT_NEAR(rec.At(fmt::format("e{}", i), t), expected[i], 1e-9) << t << " support " << i;
+    // Equilibrium of the beam (the split moves nothing).
+    EXPECT_NEAR(rec.At("e0", 1.0) + rec.At("e1", 1.0) + rec.At("e2", 1.0), 10.0, 1e-10);
+    EXPECT_NEAR(0.5 * rec.At("e0", 1.0) + 1.5 * rec.At("e1", 1.0) + 3.0 * rec.At("e2", 1.0), 12.0, 1e-10);
+  }
+}
+
+// The same supports made compliant (a C and a damper each): at rest, the springs carry exactly
+// the split the ideal supports report.
+TEST(IdealConstraints, RedundantSupportsMatchTheCompliantStructureAtRest) {
+  const std::array<double, 3> expected = ElasticSplit({1e4, 2e4, 4e4});
+  std::string text = BeamOnThreeSupports("{type: C, stiffness: {k}}", {0, 1, 2});
+  // A damper on each support's junction settles the beam within a fraction of a second.
+  for (int i = 0; i < 3; ++i) {
+    text.replace(text.find(fmt::format("  c{}:", i)), 0, fmt::format("  d{}: {{type: R, resistance: 400}}\n  j{}: {{type: \"1\"}}\n", i, i));
+    const std::string bond = fmt::format("s{0} -> c{0}", i);
+    text.replace(text.find(bond), bond.size(), fmt::format("s{0} -> j{0}, j{0} -> c{0}, j{0} -> d{0}", i));
+  }
+  const RecordingObserver rec = RunText(text, 3.0);
+  ASSERT_EQ(rec.summary().status, RunStatus::kOk);
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(rec.At(fmt::format("e{}", i), 3.0), expected[i], 1e-7) << "support " << i;
+}
+
+// Without compliances, the split weighs each constraint by W's diagonal (1/m + x_i^2/J here),
+// as if its stiffness were the inverse of that: still unique, whatever the order.
+TEST(IdealConstraints, RedundantSupportsWithoutCompliancesSplitByTheirMobility) {
+  std::array<double, 3> k;
+  const double x[3] = {0.5, 1.5, 3.0};
+  for (int i = 0; i < 3; ++i) k[i] = 1.0 / (1.0 / 2.0 + x[i] * x[i] / 5.0);
+  const std::array<double, 3> expected = ElasticSplit(k);
+  for (const std::vector<int>& order : {std::vector<int>{0, 1, 2}, {2, 0, 1}}) {
+    const RecordingObserver rec = RunText(BeamOnThreeSupports("{type: Sf, flow: 0, constraint: true}", order), 1.0);
+    ASSERT_EQ(rec.summary().status, RunStatus::kOk);
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(rec.At(fmt::format("e{}", i), 1.0), expected[i], 1e-9) << "support " << i;
+  }
+}
+
+TEST(IdealConstraints, ComplianceNeedsAConstraintAndAPositiveValue) {
+  for (const char* bad : {"{type: Sf, flow: 0, compliance: 1e-4}", "{type: Sf, flow: 0, constraint: true, compliance: -1}"}) {
+    try {
+      LoadModelString(BeamOnThreeSupports(bad, {0, 1, 2}), "<test>");
+      FAIL() << bad << " accepted";
+    } catch (const ModelError& e) {
+      ASSERT_FALSE(e.diagnostics().empty());
+      EXPECT_THAT(e.diagnostics().front().message, ::testing::HasSubstr("compliance")) << bad;
+    }
+  }
 }
 
 }  // namespace

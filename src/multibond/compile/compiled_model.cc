@@ -710,6 +710,10 @@ Workspace CompiledModel::MakeWorkspace() const {
     ws.con.rhs.assign(m, 0.0);
     ws.con.scale.assign(m, 0.0);
     ws.con.perm.assign(m, 0);
+    ws.con.nullspace.assign(static_cast<size_t>(m) * m, 0.0);
+    ws.con.gram.assign(static_cast<size_t>(m) * m, 0.0);
+    ws.con.proj.assign(m, 0.0);
+    ws.con.weight.assign(m, 0.0);
     ws.con.factor.assign(factor_.values(), 0.0);
     ws.con.y.assign(factor_.size(), 0.0);
     ws.con.factored_at.assign(num_states(), 0.0);
@@ -932,6 +936,10 @@ double EvalSourceDerivative(const void* fns, int i, double t) { return static_ca
 CompiledModel::SourceTable CompiledModel::Sources() const { return {source_fns_.data(), &EvalSource, &EvalSourceDerivative}; }
 
 void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot, Workspace& ws) const {
+  if (!constraints_.empty()) {
+    CalcConstrained(t, x, xdot, ws, /*share=*/false);  // the motion does not depend on the split
+    return;
+  }
   if (!generated_fast_) {
     CalcDerivatives(t, x, xdot, ws);
     return;
@@ -945,7 +953,7 @@ void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot
 
 void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Workspace& ws) const {
   if (!constraints_.empty()) {
-    CalcConstrained(t, x, xdot, ws);
+    CalcConstrained(t, x, xdot, ws, /*share=*/true);
     return;
   }
   EvalPlan(t, x, xdot, ws);

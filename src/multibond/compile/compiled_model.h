@@ -54,6 +54,8 @@ struct Workspace {
     std::vector<double> w, rhs, scale;    ///< the m x m system W lambda = rhs, and its scaling
     std::vector<int> perm;
     int rank = 0;                         ///< of the last pivoted solve
+    /// ShareRedundantEfforts: N's columns (m each, at most m), N^T C N and N^T C lambda, weights.
+    std::vector<double> nullspace, gram, proj, weight;
     /// W on the independent constraints, factorised in place in its fixed sparse pattern
     /// (CompiledModel::IndependentFactor): D^-1, L, L D.
     std::vector<double> factor;
@@ -289,7 +291,10 @@ class CompiledModel {
   /// Ideal constraints: the graph rewriting before the plan, and the plan's constraint tables.
   void PrepareConstraintGraph();
   void BuildConstraints(const std::vector<std::vector<int>>& plan_reads, const std::vector<int>& plan_writes);
-  void CalcConstrained(double t, const double* x, double* xdot, Workspace& ws) const;
+  /// `share`: split a statically indeterminate reaction between redundant constraints as an
+  /// elastic structure would (ShareRedundantEfforts); the motion does not depend on it, so the
+  /// integrator's evaluations skip it and the output times' do it.
+  void CalcConstrained(double t, const double* x, double* xdot, Workspace& ws, bool share) const;
   /// d/dt along (xdot, d/dt sources) of the slots the constraints' flows depend on (tangent_plan_),
   /// into ws.con.dslots; the other entries are not written.
   void Tangent(double t, const double* x, const double* xdot, Workspace& ws) const;
@@ -301,6 +306,14 @@ class CompiledModel {
   void SolveConstraintsAt(double t, const double* x, Workspace& ws) const;
   bool FactorIndependent(Workspace& ws) const;  ///< L D L^T of W on the independent set; false: not definite
   void SolveFactored(Workspace& ws) const;      ///< lambda from the factor and ws.con.rhs
+  /// out (m, zero off the independent set) from the factor and rhs (m; read on the independent set).
+  void SolveFactored(const double* rhs, double* out, Workspace& ws) const;
+  /// Redundant constraints (W singular) leave lambda free along the null space N of B, which
+  /// moves nothing. After a solve, picks the lambda + N alpha that minimises the complementary
+  /// energy sum_j c_j lambda_j^2 (Menabrea): c_j the compliance 1/K of the coupling the
+  /// constraint replaces, or W_jj when a constraint has none (units agree: effort times flow
+  /// rate). The result does not depend on which set was chosen independent. No allocation.
+  void ShareRedundantEfforts(Workspace& ws) const;
   void FormFullW(Workspace& ws) const;  ///< W (m x m) from B and V in ws
   /// Solves W y = rhs in place (rhs in ws.con.rhs) by a scaled, pivoted LDL^T; pivots below a
   /// relative 1e-11 are redundant constraints and get a zero multiplier.
@@ -428,6 +441,14 @@ class CompiledModel {
   std::vector<int> flow_instr_of_block_;  ///< per momentum gather: its I-flow instruction in plan_
   struct WPair { int i, j, begin, end; };  ///< a nonzero of W and its range in w_terms_
   std::vector<WPair> w_pairs_;
+  /// Redundancy at t = 0 (FindIndependentConstraints): the multipliers outside the factor's
+  /// independent set, and the w_pairs_ that ShareRedundantEfforts needs on the factored path (W's
+  /// diagonal and every entry in a redundant multiplier's row or column).
+  std::vector<int> dependent_;
+  std::vector<int> share_pairs_;
+  /// Per multiplier: the compliance (1/K) of the coupling it replaces, when every constraint
+  /// declares one (else empty: W's diagonal weighs the split instead).
+  std::vector<double> lambda_compliance_;
   std::vector<std::pair<int, int>> w_terms_;  ///< (position in column i, position in column j)
   /// W on the multipliers of an independent set at t = 0 (all, if none is redundant) is
   /// factorised as L D L^T with a pattern fixed at compile time (constraints

@@ -128,6 +128,19 @@ void CompiledModel::BuildConstraints(const std::vector<std::vector<int>>& plan_r
       }
     }
   }
+  // The couplings' compliances, when every constraint declares one (ShareRedundantEfforts).
+  lambda_compliance_.clear();
+  bool all_compliant = true;
+  for (const ConstraintGroup& cg : constraints_) all_compliant &= g.element(cg.element).compliance.size() > 0;
+  if (all_compliant)
+    for (const ConstraintGroup& cg : constraints_) {
+      const Element& e = g.element(cg.element);
+      if (e.compliance.size() != 1 && e.compliance.size() != cg.size)
+        throw ModelError(Diagnostic{Diagnostic::Severity::kError, e.where, e.name,
+                                    fmt::format("the constraint has {} components but {} compliances", cg.size, e.compliance.size()),
+                                    "give one compliance, or one per component", {}, "param.shape"});
+      for (int k = 0; k < cg.size; ++k) lambda_compliance_.push_back(e.compliance[e.compliance.size() == 1 ? 0 : k]);
+    }
   // The momentum gathers and the instruction that computes each inertia's flow.
   std::vector<int> flow_instr_of_element(g.num_elements(), -1);
   for (int k = 0; k < np; ++k) {
@@ -452,9 +465,11 @@ bool CompiledModel::FactorIndependent(Workspace& ws) const {
   return true;
 }
 
-void CompiledModel::SolveFactored(Workspace& ws) const {
+void CompiledModel::SolveFactored(Workspace& ws) const { SolveFactored(ws.con.rhs.data(), ws.lambda.data(), ws); }
+
+void CompiledModel::SolveFactored(const double* rhs, double* out, Workspace& ws) const {
   if (generated_solve_) {
-    generated_solve_(ws.con.rhs.data(), ws.lambda.data(), ws.con.factor.data(), ws.con.y.data());
+    generated_solve_(rhs, out, ws.con.factor.data(), ws.con.y.data());
     return;
   }
   // L D L^T y = rhs (in the factor's order), then back to the multipliers.
@@ -464,15 +479,112 @@ void CompiledModel::SolveFactored(Workspace& ws) const {
   const double* l = d + n;
   double* y = ws.con.y.data();
   for (int i = 0; i < n; ++i) {
-    double s = ws.con.rhs[f.multiplier[i]];
+    double s = rhs[f.multiplier[i]];
     for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) s -= l[e] * y[f.cols[e]];
     y[i] = s;
   }
   for (int i = 0; i < n; ++i) y[i] *= d[i];
   for (int i = n - 1; i >= 0; --i)
     for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) y[f.cols[e]] -= l[e] * y[i];
-  std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
-  for (int i = 0; i < n; ++i) ws.lambda[f.multiplier[i]] = y[i];
+  std::fill(out, out + num_lambda_, 0.0);
+  for (int i = 0; i < n; ++i) out[f.multiplier[i]] = y[i];
+}
+
+void CompiledModel::ShareRedundantEfforts(Workspace& ws) const {
+  const int m = num_lambda_;
+  double* nsp = ws.con.nullspace.data();  // column k: nsp[k * m ..]
+  double* c = ws.con.weight.data();
+  int d = 0;  // null vectors found
+  if (ws.con.factored) {
+    // The independent set of t = 0 (factor_): each redundant multiplier j has b_j = B_I c_j with
+    // W_II c_j = W_Ij (the factor solves it), so n_j = e_j - c_j moves nothing (B n_j = 0).
+    if (dependent_.empty()) return;
+    const double* b = ws.con.b.data();
+    const double* v = ws.con.v.data();
+    double* wm = ws.con.w.data();  // only the redundant multipliers' rows are used here
+    for (int j : dependent_) std::fill(wm + static_cast<size_t>(j) * m, wm + static_cast<size_t>(j + 1) * m, 0.0);
+    std::fill(c, c + m, 0.0);
+    for (int k : share_pairs_) {
+      const WPair& pr = w_pairs_[k];
+      double sum = 0.0;
+      for (int q = pr.begin; q < pr.end; ++q) sum += b[w_terms_[q].first] * v[w_terms_[q].second];
+      wm[pr.i * m + pr.j] = wm[pr.j * m + pr.i] = sum;
+      if (pr.i == pr.j) c[pr.i] = sum;  // W_ii
+    }
+    for (int j : dependent_) {
+      double* n = nsp + static_cast<size_t>(d) * m;
+      SolveFactored(wm + static_cast<size_t>(j) * m, n, ws);  // W's row j = its column j
+      for (int i = 0; i < m; ++i) n[i] = -n[i];
+      n[j] = 1.0;
+      ++d;
+    }
+  } else {
+    // After SolvePivoted: w holds L D L^T of the scaled, permuted W, whose first `rank` pivots
+    // are independent. For a redundant position r, W_II c = W_Ir gives (in scaled form)
+    // c = L_II^-T L_rI^T: one back substitution on L's row r. Unscaled: n = S (e_r - c).
+    const int rank = ws.con.rank;
+    if (rank == m) return;
+    const double* a = ws.con.w.data();
+    const double* s = ws.con.scale.data();
+    const int* perm = ws.con.perm.data();
+    for (int i = 0; i < m; ++i) c[i] = s[i] > 0.0 ? 1.0 / (s[i] * s[i]) : 0.0;  // W_ii
+    for (int r = rank; r < m; ++r) {
+      if (!(s[perm[r]] > 0.0)) continue;  // a constraint that acts on nothing: its effort stays 0
+      double* n = nsp + static_cast<size_t>(d) * m;
+      std::fill(n, n + m, 0.0);
+      double* y = ws.con.proj.data();  // c in the factor's order, positions 0..rank
+      for (int k = rank - 1; k >= 0; --k) {
+        double sum = a[r * m + k];
+        for (int i = k + 1; i < rank; ++i) sum -= a[i * m + k] * y[i];
+        y[k] = sum;
+      }
+      for (int k = 0; k < rank; ++k) n[perm[k]] = -y[k] * s[perm[k]];
+      n[perm[r]] = s[perm[r]];
+      ++d;
+    }
+  }
+  if (d == 0) return;
+  if (!lambda_compliance_.empty()) std::copy(lambda_compliance_.begin(), lambda_compliance_.end(), c);
+  // min over alpha of sum_i c_i (lambda + N alpha)_i^2: (N^T C N) alpha = -N^T C lambda, by
+  // Cholesky (N's columns are independent: each has a 1 where the others have 0).
+  double* g = ws.con.gram.data();
+  double* rhs = ws.con.proj.data();
+  const double* lam = ws.lambda.data();
+  for (int p = 0; p < d; ++p) {
+    const double* np = nsp + static_cast<size_t>(p) * m;
+    double r = 0.0;
+    for (int i = 0; i < m; ++i) r -= c[i] * np[i] * lam[i];
+    rhs[p] = r;
+    for (int q = 0; q <= p; ++q) {
+      const double* nq = nsp + static_cast<size_t>(q) * m;
+      double sum = 0.0;
+      for (int i = 0; i < m; ++i) sum += c[i] * np[i] * nq[i];
+      g[p * d + q] = sum;
+    }
+  }
+  for (int p = 0; p < d; ++p) {
+    for (int q = 0; q < p; ++q) {
+      double sum = g[p * d + q];
+      for (int k = 0; k < q; ++k) sum -= g[p * d + k] * g[q * d + k];
+      g[p * d + q] = sum / g[q * d + q];
+    }
+    double diag = g[p * d + p];
+    for (int k = 0; k < p; ++k) diag -= g[p * d + k] * g[p * d + k];
+    if (!(diag > 0.0)) return;  // cannot happen with positive weights; keep the solve's own split
+    g[p * d + p] = std::sqrt(diag);
+  }
+  for (int p = 0; p < d; ++p) {
+    for (int k = 0; k < p; ++k) rhs[p] -= g[p * d + k] * rhs[k];
+    rhs[p] /= g[p * d + p];
+  }
+  for (int p = d - 1; p >= 0; --p) {
+    for (int k = p + 1; k < d; ++k) rhs[p] -= g[k * d + p] * rhs[k];
+    rhs[p] /= g[p * d + p];
+  }
+  for (int p = 0; p < d; ++p) {
+    const double* np = nsp + static_cast<size_t>(p) * m;
+    for (int i = 0; i < m; ++i) ws.lambda[i] += rhs[p] * np[i];
+  }
 }
 
 void CompiledModel::SolveConstraintsAt(double t, const double* x, Workspace& ws) const {
@@ -556,6 +668,16 @@ void CompiledModel::FindIndependentConstraints() {
   SolvePivoted(ws);
   std::vector<int> independent(ws.con.perm.begin(), ws.con.perm.begin() + ws.con.rank);
   std::sort(independent.begin(), independent.end());
+  dependent_.clear();
+  share_pairs_.clear();
+  for (int j = 0; j < num_lambda_; ++j)
+    if (!std::binary_search(independent.begin(), independent.end(), j)) dependent_.push_back(j);
+  for (size_t k = 0; k < w_pairs_.size(); ++k) {
+    const WPair& pr = w_pairs_[k];
+    if (pr.i == pr.j || std::binary_search(dependent_.begin(), dependent_.end(), pr.i) ||
+        std::binary_search(dependent_.begin(), dependent_.end(), pr.j))
+      share_pairs_.push_back(static_cast<int>(k));
+  }
   // W's graph on the independent constraints: constraints sharing a body's momentum are adjacent.
   const int n = static_cast<int>(independent.size());
   std::vector<int> position(num_lambda_, -1);
@@ -641,7 +763,7 @@ void CompiledModel::FindIndependentConstraints() {
   }
 }
 
-void CompiledModel::CalcConstrained(double t, const double* x, double* xdot, Workspace& ws) const {
+void CompiledModel::CalcConstrained(double t, const double* x, double* xdot, Workspace& ws, bool share) const {
   std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
   EvalPlan(t, x, xdot, ws);
   Tangent(t, x, xdot, ws);
@@ -655,6 +777,7 @@ void CompiledModel::CalcConstrained(double t, const double* x, double* xdot, Wor
       rhs[cg.lambda + k] = r;
     }
   SolveConstraintsAt(t, x, ws);
+  if (share) ShareRedundantEfforts(ws);
   // Step 4: only what the multipliers reach changes (BuildConstraints, reaction_plan_).
   double* w = ws.slots.data();
   const double* mod = ws.moduli.data();

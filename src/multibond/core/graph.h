@@ -96,6 +96,10 @@ struct Element {
   /// through transformers that cannot invert (a 2 x 3 selection) and on storage elements that
   /// would otherwise be in derivative causality (see docs/design.md, "Ideal constraints").
   bool constraint = false;
+  /// Constraint only: the compliance (1/K, > 0) of each component (one value: all of them), the
+  /// coupling it stands for. With redundant constraints the reaction is then shared as that
+  /// elastic structure would share it (least complementary energy); without, by W's diagonal.
+  Eigen::VectorXd compliance;
   Eigen::VectorXd initial;    ///< I: p(0); C: q(0) (empty = zero)
   /// I, C: the name of the state (default "<name>.p" for I, "<name>.q" for C). The rigid-body
   /// library names a body's momenta "B.p" and "B.h" this way.

@@ -582,8 +582,19 @@ class Loader {
         const char* key = e.kind == ElementKind::kSe ? "effort" : "flow";
         keys.push_back(key);
         if (e.kind == ElementKind::kSf) {
-          keys.push_back("constraint");
+          keys.insert(keys.end(), {"constraint", "compliance"});
           if (spec["constraint"]) e.constraint = Bool(spec["constraint"], name);
+          if (spec["compliance"]) {
+            if (!e.constraint)
+              sink_.Error(Loc(spec["compliance"]), name, "'compliance' belongs to an ideal constraint",
+                          "add 'constraint: true', or model the coupling as a C");
+            e.compliance = Vector(spec["compliance"], name, env);
+            for (Eigen::Index k = 0; k < e.compliance.size(); ++k)
+              if (!(e.compliance[k] > 0) || !std::isfinite(e.compliance[k]))
+                sink_.Error("param.range", Loc(spec["compliance"]), name,
+                            fmt::format("compliance must be > 0 and finite (got {:g})", e.compliance[k]),
+                            "the compliance 1/K of the coupling the constraint stands for shares a redundant reaction");
+          }
         }
         if (require(key, e.kind == ElementKind::kSe ? "e.g. effort: 1.0 or effort: {step: 1.0}" : "e.g. flow: 0 or flow: {sine: {amplitude: 1, frequency: 2}}"))
           e.source = ReadSource(spec[key], name, env);

@@ -286,6 +286,9 @@ class Expander {
       c.source.components = {TimeFunction::Constant(0.0)};
       c.constraint = true;
       c.components = comps;
+      // The stiffness it stands for, if given, shares a redundant reaction as the compliant
+      // coupling would (CompiledModel::ShareRedundantEfforts).
+      if (n > 0 && k.size() == n && (k.array() > 0.0).all() && k.allFinite()) c.compliance = k.cwiseInverse();
       g_.Add(c);
       Bond(from, name, name + ".in");
       Bond(name + ".rigid", name, name + ".rigid");
