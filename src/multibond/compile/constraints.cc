@@ -512,6 +512,7 @@ void CompiledModel::ShareRedundantEfforts(Workspace& ws) const {
       if (pr.i == pr.j) c[pr.i] = sum;  // W_ii
     }
     for (int j : dependent_) {
+      if (!(c[j] > 0.0)) continue;  // a constraint that acts on nothing: its effort stays 0
       double* n = nsp + static_cast<size_t>(d) * m;
       SolveFactored(wm + static_cast<size_t>(j) * m, n, ws);  // W's row j = its column j
       for (int i = 0; i < m; ++i) n[i] = -n[i];
