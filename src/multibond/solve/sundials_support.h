@@ -93,20 +93,29 @@ inline void Const(sunrealtype c, N_Vector z) {
 }
 /// z = sum_j c_j x_j in one pass over the elements (z written once, each x_j read once), with
 /// the number of vectors a compile-time constant so the inner sum unrolls and the loop vectorises.
-template <int N>
-inline void Combine(const sunrealtype* c, N_Vector* x, sunrealtype* z, sunindextype n) {
-  const sunrealtype* xs[N];
-  for (int j = 0; j < N; ++j) xs[j] = Data(x[j]);
+/// The coefficients and the data pointers are copied into locals first: read through `c` and `x`
+/// inside the loop, GCC reloads them at every element (a store to z might change them), which
+/// made the 4-vector combination of the differential 1.45 times slower (103 against 71 ns for 196
+/// elements, alone in a loop). The sum runs in the same order as before: bit-identical results.
+template <size_t... J>
+inline void CombineTerms(std::index_sequence<J...>, const sunrealtype* c, N_Vector* x, sunrealtype* z, sunindextype n) {
+  // J runs over 0..N-2: the terms after the first.
+  const sunrealtype cc[] = {c[0], c[J + 1]...};
+  const sunrealtype* const xs[] = {Data(x[0]), Data(x[J + 1])...};
   // z is either one of the x_j (same elements) or disjoint from all: element i of z depends on
   // element i of the x_j only, so there is no loop-carried dependence. Said explicitly: with more
   // than ~8 vectors GCC stops checking the pointers for overlap at run time and would otherwise
   // not vectorise the loop (SSPRK(9,3)'s 10-vector combinations ran 4 times slower).
 #pragma GCC ivdep
   for (sunindextype i = 0; i < n; ++i) {
-    sunrealtype s = c[0] * xs[0][i];
-    for (int j = 1; j < N; ++j) s += c[j] * xs[j][i];
+    sunrealtype s = cc[0] * xs[0][i];
+    ((s += cc[J + 1] * xs[J + 1][i]), ...);
     z[i] = s;  // z may be x[0] (SUNDIALS allows it): x[0][i] has been read already
   }
+}
+template <int N>
+inline void Combine(const sunrealtype* c, N_Vector* x, sunrealtype* z, sunindextype n) {
+  CombineTerms(std::make_index_sequence<N - 1>{}, c, x, z, n);
 }
 /// Terms with a zero coefficient are left out (Butcher tables have many: Bogacki-Shampine's
 /// solution weights end in 0, Dormand-Prince's have two), which saves reading a whole vector
