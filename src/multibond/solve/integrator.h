@@ -58,9 +58,10 @@ struct IntegratorOptions {
   double max_step = 0.0;        ///< 0 = no limit
   double initial_step = 0.0;    ///< 0 = solver's choice
   long max_steps_per_output = 1000000;  ///< between two AdvanceTo calls
-  /// Keep the state on the system's invariant manifold (if it has one): CVODE projects after
-  /// every step; the adaptive ERKStep methods project when the drift reaches a thousandth of the
-  /// error tolerance (checked every 16 steps); fixed-step ERKStep after every step.
+  /// Keep the state on the system's invariant manifold (if it has one): CVODE's BDF projects
+  /// after every step; the adaptive ERKStep methods project when the drift reaches a thousandth
+  /// of the error tolerance (checked every 16 steps); fixed-step ERKStep after every step.
+  /// Adams cannot (CVODE projects with BDF only): its drift is the integration error's.
   bool project = true;
   JacobianKind jacobian = JacobianKind::kAuto;  ///< BDF and Adams only
 };
