@@ -218,18 +218,12 @@ drives:
   s: {type: torque, body: P, axis: [1, 0, 0], value: 0.01}
 )";
 
+RecordingObserver RunPlanet(Method method) { return testing::RunModelText(kPlanet, 1.0, 0.01, method, 1e-10, 1e-12); }
+
 TEST(IdealConstraints, PlanetOnACarrierKeepsItsConstraints) {
   const LoadedModel lm = LoadModelString(kPlanet, "<test>");
-  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
-  ASSERT_TRUE(model->has_constraints());
-  RunOptions o;
-  o.t_end = 1.0;
-  o.dt = 0.01;
-  o.integrator.method = Method::kDormandPrince;
-  o.integrator.rtol = 1e-10;
-  o.integrator.atol = 1e-12;
-  RecordingObserver rec;
-  Simulate(*model, o, rec);
+  ASSERT_TRUE(CompiledModel::Compile(lm.graph, lm.compile)->has_constraints());
+  const RecordingObserver rec = RunPlanet(Method::kDormandPrince);
   ASSERT_EQ(rec.summary().status, RunStatus::kOk);
   double worst_w = 0.0;
   for (double t = 0.1; t <= 1.0; t += 0.1) {
@@ -249,16 +243,7 @@ TEST(IdealConstraints, PlanetOnACarrierKeepsItsConstraints) {
 // CV_ILL_INPUT): it integrates the same model without, and the constraints hold to the
 // integration error.
 TEST(IdealConstraints, AdamsKeepsTheConstraintsToItsTolerance) {
-  const LoadedModel lm = LoadModelString(kPlanet, "<test>");
-  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
-  RunOptions o;
-  o.t_end = 1.0;
-  o.dt = 0.01;
-  o.integrator.method = Method::kAdams;
-  o.integrator.rtol = 1e-10;
-  o.integrator.atol = 1e-12;
-  RecordingObserver rec;
-  Simulate(*model, o, rec);
+  const RecordingObserver rec = RunPlanet(Method::kAdams);
   ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
   double worst_w = 0.0;
   for (double t = 0.1; t <= 1.0; t += 0.1) {
