@@ -41,6 +41,27 @@ struct CliExit {
   std::string message;
 };
 
+/// CLI11's own range checks name the range ("Value 0 not in range 0.000000 to 1797...") and say
+/// the same for a word that is not a number; these say what is expected and what was given.
+CLI::Validator NumberAbove(double low, bool inclusive) {
+  return CLI::Validator(
+      [low, inclusive](std::string& text) -> std::string {
+        double v = 0.0;
+        try {
+          size_t used = 0;
+          v = std::stod(text, &used);
+          if (used != text.size()) throw std::invalid_argument(text);
+        } catch (const std::exception&) {
+          return fmt::format("'{}' is not a number", text);
+        }
+        if (!std::isfinite(v)) return fmt::format("must be a finite number (got {})", text);
+        if (inclusive ? !(v >= low) : !(v > low)) return fmt::format("must be {} {:g} (got {})", inclusive ? ">=" : ">", low, text);
+        return "";
+      },
+      inclusive ? "NUMBER >= 0" : "NUMBER > 0");
+}
+const CLI::Validator kPositive = NumberAbove(0.0, false), kNonNegative = NumberAbove(0.0, true);
+
 std::atomic<bool> g_stop{false};
 extern "C" void OnSignal(int) { g_stop.store(true); }
 
@@ -275,9 +296,9 @@ int Check(const CheckArgs& a) {
   }
   if (a.suggest && accepted) {
     // The model runs with ideal constraints; the couplings are the compliant alternative.
-    if (const int code = Suggest(lm, a); code == kExitIo) return code;
+    if (const int code = Suggest(lm, a); code == kExitIo || code == kExitUsage) return code;
   } else if (a.suggest) {
-    std::cout << "\n--suggest: nothing to repair, the model is integrally causal" << (a.write ? "; nothing was written" : "") << '\n';
+    std::cout << "\n--suggest: nothing to repair (no storage element in derivative causality)" << (a.write ? "; nothing was written" : "") << '\n';
     PrintRigidParts(lm);
   }
   const auto model = mb::CompiledModel::Compile(lm.graph, lm.compile);  // also finds algebraic loops
@@ -337,13 +358,13 @@ struct RunArgs {
 };
 
 void AddRunOptions(CLI::App* cmd, RunArgs& a) {
-  cmd->add_option("--t-end", a.t_end, "end time [s] (default: the model's, else 1)")->check(CLI::PositiveNumber);
-  cmd->add_option("--dt", a.dt, "output interval [s] (default: the model's, else 1e-3)")->check(CLI::PositiveNumber);
+  cmd->add_option("--t-end", a.t_end, "end time [s] (default: the model's, else 1)")->check(kPositive);
+  cmd->add_option("--dt", a.dt, "output interval [s] (default: the model's, else 1e-3)")->check(kPositive);
   cmd->add_option("--solver", a.solver, "bdf, adams, dopri5, bs3 (Bogacki-Shampine 3(2)) or rk4 (default: the model's, else bdf)");
-  cmd->add_option("--rtol", a.rtol, "relative tolerance (default: the model's, else 1e-8)")->check(CLI::PositiveNumber);
-  cmd->add_option("--atol", a.atol, "absolute tolerance (default: the model's, else 1e-10)")->check(CLI::PositiveNumber);
-  cmd->add_option("--step", a.step, "fixed step [s] for rk4 (or a fixed-step dopri5)")->check(CLI::PositiveNumber);
-  cmd->add_option("--max-step", a.max_step, "largest step [s] of the adaptive methods")->check(CLI::PositiveNumber);
+  cmd->add_option("--rtol", a.rtol, "relative tolerance (default: the model's, else 1e-8)")->check(kPositive);
+  cmd->add_option("--atol", a.atol, "absolute tolerance (default: the model's, else 1e-10)")->check(kPositive);
+  cmd->add_option("--step", a.step, "fixed step [s] for rk4 (or a fixed-step dopri5)")->check(kPositive);
+  cmd->add_option("--max-step", a.max_step, "largest step [s] of the adaptive methods")->check(kPositive);
   cmd->add_flag("--all-variables", a.all_variables, "add a column for every effort and flow");
   cmd->add_option("--jit", a.jit,
                   "right-hand side as generated C++ compiled with the system compiler (auto: when one works; "
@@ -376,7 +397,9 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a) {
   mb::CompileOptions co = p.lm.compile;
   co.generate_code = a.jit != "off";
   p.model = mb::CompiledModel::Compile(p.lm.graph, co);
-  if (a.jit == "on" && !p.model->uses_generated_code()) throw CliExit{kExitIo, "--jit on, but " + p.model->rhs_engine()};
+  // --jit on for a model that generated code does not cover is a usage error; a compiler that fails is the machine's.
+  if (a.jit == "on" && !p.model->uses_generated_code())
+    throw CliExit{p.model->algebraic_loops().empty() ? kExitIo : kExitUsage, "--jit on, but " + p.model->rhs_engine()};
   const mb::SimulationDefaults& d = p.lm.simulation;
   mb::RunOptions& o = p.options;
   o.t_end = a.t_end.value_or(d.t_end.value_or(1.0));
@@ -396,6 +419,11 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a) {
   o.integrator.jacobian = mb::ParseJacobianKind(a.jacobian);
   o.stop = &g_stop;
   (void)mb::MakeColumns(*p.model, o.all_variables);  // a bad output is a model error: before any file is touched
+  try {
+    mb::CheckRunOptions(*p.model, o);  // and so are options the run would refuse
+  } catch (const std::invalid_argument& e) {
+    throw CliExit{kExitUsage, e.what()};
+  }
   return p;
 }
 
@@ -434,7 +462,11 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   nlohmann::json record = mb::MakeRunRecord(a.model, lm.text, lm.graph.name(), o, summary, argv);
   record["rhs_engine"] = model->rhs_engine();
   record["options"]["jit"] = a.run.jit;
-  record["options"]["ideal_constraints"] = lm.compile.ideal_constraints;
+  record["options"]["ideal_constraints"] = lm.compile.ideal_constraints;  // derivative causality solved by constraints
+  record["options"]["algebraic_loops"] = lm.compile.solve_algebraic_loops ? "solve" : "error";
+  // What the compiled model has, whichever way (rigid parts, Sf constraints, cut inertias).
+  record["constraint_efforts"] = model->num_multipliers();
+  record["algebraic_loops_solved"] = model->algebraic_loops().size();
   mb::WriteFileAtomic((fs::path(a.out) / "run.json").string(), record.dump(2) + "\n");
   if (!a.quiet || summary.status != mb::RunStatus::kOk) {
     std::cout << fmt::format("{}: {} to t = {:g} s with {} ({} steps, {} right-hand sides, {:.3f} s wall)\n",
@@ -480,7 +512,8 @@ std::string RunSettings(const PreparedRun& p) {
   std::string s = fmt::format("solver {}, rtol {:g}, atol {:g}", p.solver, i.rtol, i.atol);
   if (i.fixed_step > 0) s += fmt::format(", step {:g}", i.fixed_step);
   if (i.max_step > 0) s += fmt::format(", max_step {:g}", i.max_step);
-  if (p.lm.compile.ideal_constraints) s += ", ideal constraints";
+  if (p.model->has_constraints()) s += fmt::format(", ideal constraints ({} efforts)", p.model->num_multipliers());
+  if (!p.model->algebraic_loops().empty()) s += ", algebraic loops solved";
   return s;
 }
 
@@ -594,9 +627,9 @@ int main(int argc, char** argv) {
                   "for derivative causality: list compliant couplings (a C and an R each, greedy: each one needed) that remove "
                   "it, with K and R from --frequency and --damping-ratio");
   check->add_option("--frequency", ca.frequency, "--suggest: target natural frequency of each coupling [Hz] (default 100)")
-      ->check(CLI::PositiveNumber);
+      ->check(kPositive);
   check->add_option("--damping-ratio", ca.damping_ratio, "--suggest: target damping ratio of each coupling (default 0.7)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(kNonNegative);
   check->add_option("--write", ca.write, "--suggest: write the repaired model file to FILE (implies --suggest)")->type_name("FILE");
 
   auto* eq = app.add_subcommand("equations", "Print the state equations generated from the graph, with their causal paths");
@@ -625,7 +658,7 @@ int main(int argc, char** argv) {
   compare->add_option("-o,--output", cc.out, "also write the report as CSV to FILE")->type_name("FILE");
   compare->add_option("--sort", cc.sort, "diff: largest relative difference first (default); name: by column name")
       ->check(CLI::IsMember({"diff", "name"}));
-  compare->add_option("--top", cc.top, "report only the first N columns")->check(CLI::PositiveNumber);
+  compare->add_option("--top", cc.top, "report only the first N columns")->check(kPositive);
   AddRunOptions(compare, cc.run);
 
   std::string plot_dir, plot_model;
@@ -660,9 +693,13 @@ int main(int argc, char** argv) {
       po.model_path = plot_model;
       const mb::PlotReport report = mb::MakePaperFigures(plot_dir, po);
       for (const auto& w : report.warnings) std::cerr << "warning: " << w << '\n';
+      if (report.files.empty()) {
+        std::cerr << fmt::format("error: no figure drawn from '{}' (see the warnings above); nothing was written\n", plot_dir);
+        return kExitIo;
+      }
       mb::WriteResultsPage(plot_dir, report);
       std::cout << fmt::format("wrote {} figure files in {}/figures and {}/index.html\n", report.files.size(), plot_dir, plot_dir);
-      return report.files.empty() ? kExitIo : kExitOk;
+      return kExitOk;
     }
   } catch (const CliExit& e) {
     std::cerr << "error: " << e.message << '\n';

@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -131,6 +133,39 @@ TEST_F(CliTest, UsageErrorsExit64) {
   const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --solver euler");
   EXPECT_EQ(r.code, 64);
   EXPECT_THAT(r.out, HasSubstr("bdf"));
+}
+
+// Options a run would refuse are refused before anything is written (the output folder is not
+// created), with a message that says what is expected; rk4's step cannot pass the output times.
+TEST_F(CliTest, RefusedOptionsCreateNothingAndSayWhatIsExpected) {
+  const std::string base = "run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string();
+  for (const auto& [args, expected] : std::vector<std::pair<std::string, std::string>>{
+           {" --solver rk4", "rk4 needs a fixed step"},
+           {" --solver rk4 --step 0.01 --dt 0.001", "longer than the output interval"},
+           {" --solver bdf --step 0.01", "chooses its own steps"},
+           {" --t-end 1e16", "output rows"},
+           {" --t-end 0", "must be > 0 (got 0)"},
+           {" --t-end 1s", "'1s' is not a number"}}) {
+    const Result r = Cli(base + args);
+    EXPECT_EQ(r.code, 64) << args << ": " << r.out;
+    EXPECT_THAT(r.out, HasSubstr(expected)) << args;
+    EXPECT_FALSE(fs::exists(dir_)) << args << " created the output folder";
+  }
+}
+
+// The output grid is 0, dt, 2 dt, ... and t_end, also when t_end is not a multiple of dt.
+TEST_F(CliTest, OutputGridEndsExactlyAtTheEndTime) {
+  const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --t-end 1 --dt 0.3");
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::istringstream csv(Read(dir_ / "results.csv"));
+  std::string line;
+  std::vector<double> times;
+  std::getline(csv, line);  // header
+  while (std::getline(csv, line))
+    if (!line.empty() && line[0] != '#') times.push_back(std::stod(line.substr(0, line.find(','))));
+  ASSERT_EQ(times.size(), 5u);
+  const double expected[] = {0.0, 0.3, 0.6, 0.9, 1.0};
+  for (size_t k = 0; k < times.size(); ++k) EXPECT_NEAR(times[k], expected[k], 1e-12) << k;
 }
 
 TEST_F(CliTest, JacobianOptionIsRecordedAndCheckedAgainstTheModel) {
@@ -341,6 +376,31 @@ TEST_F(CliTest, ConstraintsOptionIsCheckedAndAcceptedByCheckRunAndCompare) {
             0);
   // compliant: derivative causality stays an error.
   EXPECT_EQ(Cli("check " + Example("rigid_gear_pair.yaml") + " --constraints compliant").code, 1);
+}
+
+// Conflicts between options are usage errors (64), whatever command meets them; a plot that
+// draws nothing says so and writes no page.
+TEST_F(CliTest, OptionConflictsExit64AndAnEmptyPlotSaysSo) {
+  fs::create_directories(dir_);
+  const fs::path copy = dir_ / "gears.yaml";
+  fs::copy_file(Example("rigid_gear_pair.yaml"), copy);
+  const std::string before = Read(copy);
+  const Result onto_model = Cli("check " + copy.string() + " --constraints ideal --write " + copy.string());
+  EXPECT_EQ(onto_model.code, 64) << onto_model.out;
+  EXPECT_EQ(Read(copy), before);
+  const Result jit = Cli("run " + Example("algebraic_loop.yaml") + " -o " + (dir_ / "loop").string() +
+                         " --algebraic-loops solve --jit on --t-end 0.01");
+  EXPECT_EQ(jit.code, 64) << jit.out;
+  EXPECT_THAT(jit.out, HasSubstr("--jit on"));
+  // The paper's figures from a run of another model, without its run.json (which names the
+  // model, for the graph of Fig. 2): none can be drawn.
+  const fs::path other = dir_ / "msd";
+  ASSERT_EQ(Cli("run " + Example("mass_spring_damper.yaml") + " -q --t-end 0.01 -o " + other.string()).code, 0);
+  fs::remove(other / "run.json");
+  const Result plot = Cli("plot " + other.string());
+  EXPECT_EQ(plot.code, 74) << plot.out;
+  EXPECT_THAT(plot.out, HasSubstr("error: no figure drawn"));
+  EXPECT_FALSE(fs::exists(other / "index.html"));
 }
 
 // --- compare (issue 7, item 4) -----------------------------------------------------------------

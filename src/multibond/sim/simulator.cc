@@ -213,10 +213,33 @@ std::vector<Column> MakeColumns(const CompiledModel& model, bool all_variables) 
   return MakeLayout(model, all_variables).columns;
 }
 
+long NumOutputIntervals(const RunOptions& options) {
+  const double ratio = (options.t_end - options.t_start) / options.dt;
+  return std::max(1L, static_cast<long>(std::ceil(ratio - 1e-9 * ratio)));
+}
+
+void CheckRunOptions(const CompiledModel& model, const RunOptions& options) {
+  if (!(std::isfinite(options.dt) && options.dt > 0.0))
+    throw std::invalid_argument(fmt::format("the output interval must be a finite number > 0 (got {})", options.dt));
+  if (!std::isfinite(options.t_start) || !std::isfinite(options.t_end) || !(options.t_end > options.t_start))
+    throw std::invalid_argument(fmt::format("the end time ({}) must be a finite time after the start time ({})", options.t_end, options.t_start));
+  // Beyond this many rows the grid is a mistake (a billion 8-byte numbers per column), and the
+  // count itself would overflow a long further on.
+  constexpr double kMaxOutputIntervals = 1e8;
+  const double ratio = (options.t_end - options.t_start) / options.dt;
+  if (!(ratio <= kMaxOutputIntervals))
+    throw std::invalid_argument(fmt::format("{:g} s of run at an output interval of {:g} s is {:.3g} output rows, more than {:g}; "
+                                            "use a larger output interval (--dt)", options.t_end - options.t_start, options.dt, ratio,
+                                            kMaxOutputIntervals));
+  CheckIntegratorOptions(ModelSystem(model), options.integrator);
+  if (options.integrator.fixed_step > options.dt * (1.0 + 1e-12))
+    throw std::invalid_argument(fmt::format("the fixed step ({:g} s) is longer than the output interval ({:g} s): the steps end "
+                                            "at every output time; use a step no longer than --dt",
+                                            options.integrator.fixed_step, options.dt));
+}
+
 RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Observer& observer) {
-  if (!(options.dt > 0.0)) throw std::invalid_argument(fmt::format("the output interval must be > 0 (got {})", options.dt));
-  if (!(options.t_end > options.t_start))
-    throw std::invalid_argument(fmt::format("the end time ({}) must be after the start time ({})", options.t_end, options.t_start));
+  CheckRunOptions(model, options);
   const auto wall_start = std::chrono::steady_clock::now();
   const Layout layout = MakeLayout(model, options.all_variables);
   ModelSystem system(model);
@@ -296,7 +319,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
     }
   };
   const bool started = sample_or_fail(options.t_start);
-  const long n_out = std::max(1L, std::lround((options.t_end - options.t_start) / options.dt));
+  const long n_out = NumOutputIntervals(options);
   auto last_progress = wall_start;
   for (long k = 1; started && k <= n_out; ++k) {
     const double tout = k == n_out ? options.t_end : options.t_start + static_cast<double>(k) * options.dt;

@@ -107,8 +107,17 @@ class RecordingObserver : public Observer {
 /// The output columns of a run: time, states, declared outputs, (all variables), energy.
 std::vector<Column> MakeColumns(const CompiledModel& model, bool all_variables);
 
+/// The output times of a run: t_start, t_start + dt, t_start + 2 dt, ... while before t_end, and
+/// t_end itself (a last interval shorter than a billionth of the run is merged into the one
+/// before). Returns the number of times after t_start.
+long NumOutputIntervals(const RunOptions& options);
+/// Throws std::invalid_argument, saying what is wrong, for options that Simulate would refuse
+/// (times, output interval, integrator options): a front end checks them before writing anything.
+void CheckRunOptions(const CompiledModel& model, const RunOptions& options);
+
 /// Runs the model. Throws ModelError for a declared output that names no variable and
-/// std::invalid_argument for inconsistent options; solver failures end the run with kFailed.
+/// std::invalid_argument for inconsistent options (CheckRunOptions); solver failures end the run
+/// with kFailed.
 RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Observer& observer);
 
 }  // namespace multibond
