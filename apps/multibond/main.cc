@@ -62,6 +62,22 @@ CLI::Validator NumberAbove(double low, bool inclusive) {
 }
 const CLI::Validator kPositive = NumberAbove(0.0, false), kNonNegative = NumberAbove(0.0, true);
 
+/// What to try after a failed run, from what failed and with which settings (the same advice
+/// for every failure sent users of rk4 to --rtol, which it ignores, and users of bdf to bdf).
+std::string FailureHint(const mb::RunOptions& o, const std::string& message) {
+  const mb::IntegratorOptions& i = o.integrator;
+  const auto has = [&](const char* text) { return message.find(text) != std::string::npos; };
+  if (has("evaluating the outputs failed")) return "check the model's parameters (an output could not be evaluated there)";
+  if (has("beyond machine precision")) return "loosen the tolerances (--rtol, --atol): double precision cannot resolve them";
+  if (i.fixed_step > 0)
+    return fmt::format("try a smaller fixed step (--step, now {:g} s): beyond its stability limit a fixed step blows up; or an adaptive "
+                       "solver (--solver bs3, dopri5 or bdf without --step)", i.fixed_step);
+  if (has("max_steps_per_output") && i.max_step > 0)
+    return fmt::format("try a larger --max-step (now {:g} s), a stiff solver (--solver bdf) or a shorter output interval (--dt)", i.max_step);
+  if (i.method == mb::Method::kBdf) return "try a tighter tolerance (--rtol), or check the model's parameters (is the solution blowing up?)";
+  return "try a stiff solver (--solver bdf), a tighter tolerance (--rtol), or check the model's parameters";
+}
+
 std::atomic<bool> g_stop{false};
 extern "C" void OnSignal(int) { g_stop.store(true); }
 
@@ -479,7 +495,7 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   }
   if (summary.status == mb::RunStatus::kFailed) {
     std::cerr << "error: the simulation failed " << summary.message << "\n  the results up to then are kept; run.json marks the run as failed\n"
-              << "  hint: try a tighter tolerance (--rtol), a stiff solver (--solver bdf) or check the model's parameters\n";
+              << "  hint: " << FailureHint(o, summary.message) << '\n';
     return kExitSolver;
   }
   if (summary.status == mb::RunStatus::kInterrupted) {
@@ -541,9 +557,8 @@ int Compare(const CompareCommand& c) {
       throw CliExit{kExitUsage, e.what()};
     }
     if (summary.status == mb::RunStatus::kFailed) {
-      std::cerr << fmt::format("error: the simulation of {} ({}) failed {}\n  nothing to compare; nothing was written\n"
-                               "  hint: try a tighter tolerance (--rtol), a stiff solver (--solver bdf) or check the model's parameters\n",
-                               name, p->lm.file, summary.message);
+      std::cerr << fmt::format("error: the simulation of {} ({}) failed {}\n  nothing to compare; nothing was written\n  hint: {}\n",
+                               name, p->lm.file, summary.message, FailureHint(p->options, summary.message));
       return kExitSolver;
     }
     if (summary.status == mb::RunStatus::kInterrupted) {

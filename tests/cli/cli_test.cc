@@ -191,6 +191,7 @@ TEST_F(CliTest, DivergingRunExitsTwoKeepsResultsAndMarksThemFailed) {
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_THAT(r.out, HasSubstr("at t = "));
   EXPECT_THAT(r.out, HasSubstr("the states that failed first: "));
+  EXPECT_THAT(r.out, HasSubstr("hint: try a smaller fixed step (--step, now 0.5 s)"));  // not --rtol, which rk4 ignores
   const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "failed");
   EXPECT_LT(run["t_reached"].get<double>(), 500.0);
