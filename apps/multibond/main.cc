@@ -416,6 +416,10 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a) {
   // --jit on for a model that generated code does not cover is a usage error; a compiler that fails is the machine's.
   if (a.jit == "on" && !p.model->uses_generated_code())
     throw CliExit{p.model->algebraic_loops().empty() ? kExitIo : kExitUsage, "--jit on, but " + p.model->rhs_engine()};
+  // --jit auto falls back to the interpreter when the compiler fails: same numbers, slower; said
+  // here, not only in run.json.
+  if (a.jit == "auto" && p.model->rhs_engine().find("failed") != std::string::npos)
+    std::cerr << "warning: running on the interpreter: " << p.model->rhs_engine() << '\n';
   const mb::SimulationDefaults& d = p.lm.simulation;
   mb::RunOptions& o = p.options;
   o.t_end = a.t_end.value_or(d.t_end.value_or(1.0));

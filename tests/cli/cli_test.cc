@@ -1,5 +1,6 @@
 // The command line as users and scripts see it: exit codes, files written (or not), messages.
 
+#include <stdlib.h>
 #include <sys/wait.h>
 
 #include <cstdio>
@@ -402,6 +403,15 @@ TEST_F(CliTest, OptionConflictsExit64AndAnEmptyPlotSaysSo) {
   EXPECT_EQ(plot.code, 74) << plot.out;
   EXPECT_THAT(plot.out, HasSubstr("error: no figure drawn"));
   EXPECT_FALSE(fs::exists(other / "index.html"));
+}
+
+// Without a working compiler, --jit auto runs on the interpreter and says so on the terminal.
+TEST_F(CliTest, AFailedCodeGenerationIsSaid) {
+  setenv("MULTIBOND_CXX", "false", 1);
+  const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -q --t-end 0.01 -o " + dir_.string());
+  unsetenv("MULTIBOND_CXX");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("warning: running on the interpreter"));
 }
 
 // --- compare (issue 7, item 4) -----------------------------------------------------------------

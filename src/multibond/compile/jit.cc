@@ -62,7 +62,8 @@ JitResult CompileAndLoad(const std::string& source, const std::string& symbol) {
     return r;
   }
   const fs::path so = dir / (stem + ".so");
-  if (!fs::exists(so)) {
+  // Compiles the source into `so`; returns why not ("" once it is there).
+  auto build = [&]() -> std::string {
     // Unique temporary names: parallel runs of the same model may compile at the same time.
     const std::string tag = fmt::format("{}.{}", getpid(), reinterpret_cast<std::uintptr_t>(&r));
     const fs::path cc = dir / (stem + ".cc"), tmp = dir / (stem + "." + tag + ".so.tmp"), log = dir / (stem + "." + tag + ".log");
@@ -76,29 +77,45 @@ JitResult CompileAndLoad(const std::string& source, const std::string& symbol) {
     argv.insert(argv.end(), {cc.string(), "-o", tmp.string()});
     const std::string failure = RunProcess(argv, "", log.string(), /*merge_stdout=*/true, 400);
     if (!failure.empty()) {
-      r.description = "compiling the generated code: " + failure;
       fs::remove(tmp, ec);
       fs::remove(log, ec);
-      return r;
+      return "compiling the generated code: " + failure;
     }
     fs::remove(log, ec);
     fs::rename(tmp, so, ec);
-    if (ec) {
-      r.description = fmt::format("cannot store {}: {}", so.string(), ec.message());
+    if (ec) return fmt::format("cannot store {}: {}", so.string(), ec.message());
+    return "";
+  };
+  const bool cached = fs::exists(so);
+  if (!cached) {
+    if (std::string failure = build(); !failure.empty()) {
+      r.description = std::move(failure);
       return r;
     }
   }
-  void* handle = dlopen(so.c_str(), RTLD_NOW | RTLD_LOCAL);
-  if (!handle) {
-    r.description = fmt::format("cannot load {}: {}", so.string(), dlerror());
-    return r;
-  }
-  r.library = std::shared_ptr<void>(handle, [](void* h) { dlclose(h); });
-  r.symbol = dlsym(handle, symbol.c_str());
-  if (!r.symbol) {
-    r.description = fmt::format("{} has no symbol {}", so.string(), symbol);
+  for (int attempt = 0;; ++attempt) {
+    std::string problem;
+    if (void* handle = dlopen(so.c_str(), RTLD_NOW | RTLD_LOCAL); !handle) {
+      problem = fmt::format("cannot load {}: {}", so.string(), dlerror());
+    } else {
+      r.library = std::shared_ptr<void>(handle, [](void* h) { dlclose(h); });
+      r.symbol = dlsym(handle, symbol.c_str());
+      if (!r.symbol) problem = fmt::format("{} has no symbol {}", so.string(), symbol);
+    }
+    if (problem.empty()) break;
+    r.symbol = nullptr;
     r.library.reset();
-    return r;
+    // A cached library that does not load (cut short by a full disk, or damaged) would otherwise
+    // send every later run to the interpreter: it is built again, once.
+    if (!cached || attempt > 0) {
+      r.description = std::move(problem);
+      return r;
+    }
+    fs::remove(so, ec);
+    if (std::string failure = build(); !failure.empty()) {
+      r.description = problem + "; building it again: " + failure;
+      return r;
+    }
   }
   r.description = so.string();
   return r;
