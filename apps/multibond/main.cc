@@ -347,7 +347,10 @@ int Graph(const std::string& path, const std::string& out) {
   const mb::CausalAssignment c = mb::AssignCausality(view, s);
   const std::string dot = mb::MakeDot(lm.graph, &s, &c, mb::LinkGrouping(lm));
   const fs::path outp(out);
-  const std::string ext = outp.extension().string();
+  std::string ext = outp.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+  if (outp.stem().empty() || (ext != ".dot" && ext != ".gv" && ext != ".svg" && ext != ".png"))
+    throw CliExit{kExitUsage, fmt::format("the drawing's file name must end in .dot, .gv, .svg or .png (got '{}')", out)};
   const fs::path dot_path = ext == ".dot" || ext == ".gv" ? outp : fs::path(outp).replace_extension(".dot");
   if (dot_path.has_parent_path()) fs::create_directories(dot_path.parent_path());
   mb::WriteFileAtomic(dot_path.string(), dot);
@@ -660,7 +663,7 @@ int main(int argc, char** argv) {
 
   auto* graph = app.add_subcommand("graph", "Draw the bond graph with causal strokes (Graphviz DOT, and SVG/PNG when dot is installed)");
   graph->add_option("MODEL", model, "model file (YAML)")->required();
-  graph->add_option("-o,--output", out, "output file: .dot, .svg or .png")->required();
+  graph->add_option("-o,--output", out, "output file: .dot (or .gv), .svg or .png; an image gets its .dot source next to it")->required();
 
   RunCommand rc;
   auto* run = app.add_subcommand("run", "Simulate and write DIR/results.csv and DIR/run.json");

@@ -216,6 +216,16 @@ TEST_F(CliTest, GraphWritesDotAndSvg) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_THAT(Read(dir_ / "g.dot"), HasSubstr("digraph"));
   EXPECT_THAT(Read(dir_ / "g.svg"), HasSubstr("<svg"));
+  // The extension in any case; anything else is a usage error that writes nothing.
+  EXPECT_EQ(Cli("graph " + Example("compliant_gear_pair.yaml") + " -o " + (dir_ / "h.SVG").string()).code, 0);
+  EXPECT_THAT(Read(dir_ / "h.svg"), HasSubstr("<svg"));
+  for (const std::string bad : {"p.pdf", "notes.txt", ".dot"}) {
+    const Result b = Cli("graph " + Example("compliant_gear_pair.yaml") + " -o " + (dir_ / bad).string());
+    EXPECT_EQ(b.code, 64) << bad << ": " << b.out;
+    EXPECT_THAT(b.out, HasSubstr("must end in .dot, .gv, .svg or .png")) << bad;
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "p.dot"));
+  EXPECT_FALSE(fs::exists(dir_ / "notes.dot"));
 }
 
 TEST_F(CliTest, Version) {
