@@ -94,8 +94,8 @@ void CompiledModel::PrepareConstraintGraph() {
     if (!causality_.derivative.empty() && !options_.ideal_constraints)
       for (Diagnostic& dg : causality_.diagnostics)
         if (dg.code == "causality.derivative")
-          dg.details.push_back("or keep the ideal mechanism: run with --constraints ideal (or 'constraints: ideal' in the "
-                               "model's options) and the dependent storage is handled exactly by constraint efforts");
+          dg.details.push_back("or keep the ideal mechanism: run with --constraints ideal (or 'constraints: ideal' at the top "
+                               "of the model file) and the dependent storage is handled exactly by constraint efforts");
     throw ModelError(causality_.diagnostics);
   }
   for (const Pending& p : pending) {
