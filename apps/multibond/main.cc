@@ -637,7 +637,7 @@ int Compare(const CompareCommand& c) {
 int main(int argc, char** argv) {
   CLI::App app{"multibond: model and simulate mechanisms as multibond graphs", "multibond"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", std::string(mb::kVersion));
+  app.set_version_flag("--version", "multibond " + std::string(mb::kVersion));  // as `multibond version` prints it
 
   std::string model, format = "text", out;
   CheckArgs ca;
