@@ -421,7 +421,7 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a) {
     throw CliExit{p.model->algebraic_loops().empty() ? kExitIo : kExitUsage, "--jit on, but " + p.model->rhs_engine()};
   // --jit auto falls back to the interpreter when the compiler fails: same numbers, slower; said
   // here, not only in run.json.
-  if (a.jit == "auto" && p.model->rhs_engine().find("failed") != std::string::npos)
+  if (a.jit == "auto" && !p.model->uses_generated_code() && p.model->rhs_engine().find("code generation") != std::string::npos)
     std::cerr << "warning: running on the interpreter: " << p.model->rhs_engine() << '\n';
   const mb::SimulationDefaults& d = p.lm.simulation;
   mb::RunOptions& o = p.options;
@@ -436,6 +436,10 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a) {
   o.integrator.rtol = a.rtol.value_or(d.rtol.value_or(1e-8));
   o.integrator.atol = a.atol.value_or(d.atol.value_or(1e-10));
   o.integrator.fixed_step = a.step.value_or(d.step.value_or(0.0));
+  // The file's fixed step belongs to the file's solver: a step-choosing solver asked for on the
+  // command line leaves it (only a --step given with it is refused).
+  if (!a.step && a.solver && (o.integrator.method == mb::Method::kBdf || o.integrator.method == mb::Method::kAdams))
+    o.integrator.fixed_step = 0.0;
   o.integrator.max_step = a.max_step.value_or(d.max_step.value_or(0.0));
   o.all_variables = a.all_variables;
   o.integrator.project = !a.no_projection;
@@ -521,14 +525,6 @@ struct CompareCommand {
   std::string sort = "diff";
   std::optional<int> top;
 };
-
-/// A CSV cell: quoted when it holds a comma, a quote or a line break.
-std::string CsvCell(const std::string& s) {
-  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
-  std::string q = "\"";
-  for (char ch : s) q += ch == '"' ? std::string("\"\"") : std::string(1, ch);
-  return q + "\"";
-}
 
 std::string RunSettings(const PreparedRun& p) {
   const mb::IntegratorOptions& i = p.options.integrator;
@@ -620,7 +616,7 @@ int Compare(const CompareCommand& c) {
     csv += "column,unit,max_abs_diff,time,scale,relative_diff\n";
     for (size_t k = 0; k < shown; ++k) {
       const mb::ColumnComparison& col = report.columns[k];
-      csv += fmt::format("{},{},{},{},{},{}\n", CsvCell(col.name), CsvCell(col.unit), col.max_abs_diff, col.time, col.scale, col.relative);
+      csv += fmt::format("{},{},{},{},{},{}\n", mb::CsvCell(col.name), mb::CsvCell(col.unit), col.max_abs_diff, col.time, col.scale, col.relative);
     }
     try {
       mb::WriteFileAtomic(c.out, csv);

@@ -154,6 +154,21 @@ TEST_F(CliTest, RefusedOptionsCreateNothingAndSayWhatIsExpected) {
   }
 }
 
+// A model file's fixed step belongs to its solver: --solver bdf on the command line leaves it.
+TEST_F(CliTest, TheFilesFixedStepDoesNotFollowAnotherSolver) {
+  fs::create_directories(dir_);
+  std::string text = Read(Example("mass_spring_damper.yaml"));
+  const std::string settings = "simulation: {t_end: 5, dt: 0.001, solver: bdf, rtol: 1.0e-10, atol: 1.0e-12}";
+  ASSERT_NE(text.find(settings), std::string::npos);
+  text.replace(text.find(settings), settings.size(), "simulation: {solver: rk4, step: 1.0e-3, t_end: 0.05}");
+  const fs::path model = dir_ / "rk4.yaml";
+  std::ofstream(model) << text;
+  EXPECT_EQ(Cli("run " + model.string() + " -q -o " + (dir_ / "a").string()).code, 0);
+  const Result bdf = Cli("run " + model.string() + " -q --solver bdf -o " + (dir_ / "b").string());
+  EXPECT_EQ(bdf.code, 0) << bdf.out;
+  EXPECT_EQ(Cli("run " + model.string() + " -q --solver bdf --step 1e-3 -o " + (dir_ / "c").string()).code, 64);
+}
+
 // The output grid is 0, dt, 2 dt, ... and t_end, also when t_end is not a multiple of dt.
 TEST_F(CliTest, OutputGridEndsExactlyAtTheEndTime) {
   const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --t-end 1 --dt 0.3");
@@ -417,9 +432,12 @@ TEST_F(CliTest, OptionConflictsExit64AndAnEmptyPlotSaysSo) {
 
 // Without a working compiler, --jit auto runs on the interpreter and says so on the terminal.
 TEST_F(CliTest, AFailedCodeGenerationIsSaid) {
+  const char* before = std::getenv("MULTIBOND_CXX");
+  const std::string saved = before ? before : "";
   setenv("MULTIBOND_CXX", "false", 1);
   const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -q --t-end 0.01 -o " + dir_.string());
-  unsetenv("MULTIBOND_CXX");
+  if (before) setenv("MULTIBOND_CXX", saved.c_str(), 1);
+  else unsetenv("MULTIBOND_CXX");
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_THAT(r.out, HasSubstr("warning: running on the interpreter"));
 }

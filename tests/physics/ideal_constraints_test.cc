@@ -345,6 +345,31 @@ TEST(IdealConstraints, RedundantSupportsWithoutCompliancesSplitByTheirMobility) 
   }
 }
 
+// Rigid mechanism parts share a load by the K they were declared with (the loader used to drop a
+// rigid part's K, and the split fell back to the constraints' mobilities: half and half here).
+// A disc held about z by two rigid couplings of stiffness 1e3 and 1e5 against a torque of 1 N m:
+// the stiffer one takes 100/101 of it.
+TEST(IdealConstraints, RigidJointsShareALoadByTheirDeclaredStiffness) {
+  const char* text = R"(
+model: two_holds
+rigid: all
+bodies:
+  D: {shape: {disc: {diameter: 0.2, thickness: 0.01, axis: z}}, density: 2700, position: [0, 0, 0]}
+joints:
+  soft:  {parent: ground, child: D, translation: {K: 1.0e6, R: 1}, rotation: {axes: [x, y, z], K: 1.0e3, R: 1}}
+  stiff: {parent: ground, child: D, translation: {K: 1.0e6, R: 1}, rotation: {axes: [x, y, z], K: 1.0e5, R: 1}}
+drives:
+  t: {type: torque, body: D, axis: z, value: 1.0}
+)";
+  const RecordingObserver rec = testing::RunModelText(text, 0.1, 0.01, Method::kDormandPrince, 1e-10, 1e-12);
+  ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
+  for (double t : {0.0, 0.05, 0.1}) {
+    EXPECT_NEAR(std::abs(rec.At("soft.M.z", t)), 1.0 / 101.0, 1e-9) << t;
+    EXPECT_NEAR(std::abs(rec.At("stiff.M.z", t)), 100.0 / 101.0, 1e-9) << t;
+    EXPECT_NEAR(std::abs(rec.At("soft.M.z", t) + rec.At("stiff.M.z", t)), 1.0, 1e-9) << t;  // equilibrium
+  }
+}
+
 TEST(IdealConstraints, ComplianceNeedsAConstraintAndAPositiveValue) {
   for (const char* bad : {"{type: Sf, flow: 0, compliance: 1e-4}", "{type: Sf, flow: 0, constraint: true, compliance: -1}"}) {
     try {

@@ -38,6 +38,16 @@ fs::path CacheDir() {
   return fs::temp_directory_path() / fmt::format("multibond-cache-{}", getuid());
 }
 
+/// An ELF file at least as long as its header: what a compiled library always is, and what a
+/// file cut short or overwritten is not.
+bool LooksLikeASharedObject(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  char head[64] = {};
+  in.read(head, sizeof head);
+  return in.gcount() == static_cast<std::streamsize>(sizeof head) && head[0] == 0x7f && head[1] == 'E' && head[2] == 'L' &&
+         head[3] == 'F';
+}
+
 }  // namespace
 
 JitResult CompileAndLoad(const std::string& source, const std::string& symbol) {
@@ -93,29 +103,29 @@ JitResult CompileAndLoad(const std::string& source, const std::string& symbol) {
       return r;
     }
   }
-  for (int attempt = 0;; ++attempt) {
-    std::string problem;
-    if (void* handle = dlopen(so.c_str(), RTLD_NOW | RTLD_LOCAL); !handle) {
-      problem = fmt::format("cannot load {}: {}", so.string(), dlerror());
-    } else {
-      r.library = std::shared_ptr<void>(handle, [](void* h) { dlclose(h); });
-      r.symbol = dlsym(handle, symbol.c_str());
-      if (!r.symbol) problem = fmt::format("{} has no symbol {}", so.string(), symbol);
-    }
-    if (problem.empty()) break;
-    r.symbol = nullptr;
-    r.library.reset();
-    // A cached library that does not load (cut short by a full disk, or damaged) would otherwise
-    // send every later run to the interpreter: it is built again, once.
-    if (!cached || attempt > 0) {
-      r.description = std::move(problem);
-      return r;
-    }
+  void* handle = dlopen(so.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (!handle && cached && !LooksLikeASharedObject(so)) {
+    // A cached library cut short (a full disk, an interrupted copy) would otherwise send every
+    // later run to the interpreter: it is built again, once. (One that is whole but does not
+    // load, e.g. from a noexec folder, is left alone: building it again would not help.)
+    const std::string problem = fmt::format("cannot load {}: {}", so.string(), dlerror());
     fs::remove(so, ec);
     if (std::string failure = build(); !failure.empty()) {
       r.description = problem + "; building it again: " + failure;
       return r;
     }
+    handle = dlopen(so.c_str(), RTLD_NOW | RTLD_LOCAL);
+  }
+  if (!handle) {
+    r.description = fmt::format("cannot load {}: {}", so.string(), dlerror());
+    return r;
+  }
+  r.library = std::shared_ptr<void>(handle, [](void* h) { dlclose(h); });
+  r.symbol = dlsym(handle, symbol.c_str());
+  if (!r.symbol) {
+    r.description = fmt::format("{} has no symbol {}", so.string(), symbol);
+    r.library.reset();
+    return r;
   }
   r.description = so.string();
   return r;

@@ -950,7 +950,9 @@ class Loader {
   }
 
   /// K and R of a coupling: scalars (every direction) or one per direction.
-  void Gains(const YAML::Node& n, const std::string& element, int k, Eigen::VectorXd* stiff, Eigen::VectorXd* damp) {
+  /// K (required unless `rigid`) and R of a coupling, one value or one per direction.
+  void Gains(const YAML::Node& n, const std::string& element, int k, Eigen::VectorXd* stiff, Eigen::VectorXd* damp,
+             bool rigid = false) {
     auto read = [&](const char* a, const char* b, Eigen::VectorXd* out, bool required) {
       const YAML::Node v = n[a] ? n[a] : n[b];
       if (!v) {
@@ -966,7 +968,7 @@ class Loader {
         *out = Eigen::VectorXd::Constant(k, 1.0);
       }
     };
-    read("K", "stiffness", stiff, true);
+    read("K", "stiffness", stiff, !rigid);
     read("R", "damping", damp, false);
   }
 
@@ -1005,12 +1007,10 @@ class Loader {
       c.components = {"x", "y", "z"};
     c.frame = frame;
     c.rigid = (n["rigid"] && Bool(n["rigid"], element)) || rigid_joint_;
-    if (c.rigid) {
-      // K and R, if given, are the compliant variant's: kept in the file, unused while rigid.
-      c.stiffness = c.damping = Eigen::VectorXd::Zero(c.directions.rows());
-    } else {
-      Gains(n, element, static_cast<int>(c.directions.rows()), &c.stiffness, &c.damping);
-    }
+    // A rigid coupling's K and R, if given, are the compliant variant's: R is unused, K only
+    // decides how redundant constraints share a load (CompiledModel::ShareRedundantEfforts).
+    Gains(n, element, static_cast<int>(c.directions.rows()), &c.stiffness, &c.damping, c.rigid);
+    if (c.rigid) c.damping = Eigen::VectorXd::Zero(c.directions.rows());
     return c;
   }
 
@@ -1256,11 +1256,11 @@ class Loader {
         };
         side("a", &gm.body_a, &gm.axis_a, &gm.teeth_a);
         side("b", &gm.body_b, &gm.axis_b, &gm.teeth_b);
-        if (!gm.rigid) {  // a rigid mesh ignores K and R (kept for the compliant variant)
+        {  // a rigid mesh uses K, if given, only to share a load with redundant constraints
           Eigen::VectorXd k, r;
-          Gains(g, name, 1, &k, &r);
+          Gains(g, name, 1, &k, &r, gm.rigid);
           gm.stiffness = k[0];
-          gm.damping = r[0];
+          gm.damping = gm.rigid ? 0.0 : r[0];
         }
         m.AddGear(gm);
       }

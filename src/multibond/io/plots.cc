@@ -1,6 +1,7 @@
 #include "multibond/io/plots.h"
 
 #include "multibond/core/process.h"
+#include "multibond/io/results_reader.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -74,12 +75,14 @@ class Table {
       return true;
     };
     std::string_view line;
-    if (!next_line(&line) || line.empty()) throw std::runtime_error(fmt::format("'{}' has no header line", path.string()));
-    size_t start = 0;
-    while (start <= line.size()) {
-      size_t comma = line.find(',', start);
-      if (comma == std::string_view::npos) comma = line.size();
-      std::string field(line.substr(start, comma - start));
+    if (text.empty() || text[0] == '\n') throw std::runtime_error(fmt::format("'{}' has no header line", path.string()));
+    // The header as the writer quotes it (a name may hold a comma), then the rows from where it ends.
+    std::istringstream header(text);
+    int lineno = 0;
+    const std::vector<std::string> cells = ReadHeaderCells(header, path.string(), lineno);
+    pos = header.tellg() < 0 ? text.size() : static_cast<size_t>(header.tellg());
+    for (std::string field : cells) {
+      if (!field.empty() && field.back() == '\r') field.pop_back();
       std::string unit;
       const size_t open = field.rfind(" [");
       if (open != std::string::npos && field.back() == ']') {
@@ -89,7 +92,6 @@ class Table {
       t.index_.emplace(field, static_cast<int>(t.names_.size()));
       t.names_.push_back(field);
       t.units_.push_back(unit);
-      start = comma + 1;
     }
     t.cols_.resize(t.names_.size());
     while (next_line(&line)) {

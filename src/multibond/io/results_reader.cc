@@ -32,19 +32,13 @@ ResultsTable ReadResults(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(fmt::format("cannot read '{}'", path));
   ResultsTable t;
-  std::string line;
-  if (!std::getline(in, line)) throw std::runtime_error(fmt::format("{}: empty file", path));
-  size_t start = 0;
-  while (start <= line.size()) {
-    const size_t comma = line.find(',', start);
-    const std::string cell = line.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+  int lineno = 0;
+  for (const std::string& cell : ReadHeaderCells(in, path, lineno)) {
     const size_t bracket = cell.rfind(" [");
     t.names.push_back(bracket == std::string::npos ? cell : cell.substr(0, bracket));
     t.units.push_back(bracket == std::string::npos ? "" : cell.substr(bracket + 2, cell.size() - bracket - 3));
-    if (comma == std::string::npos) break;
-    start = comma + 1;
   }
-  int lineno = 1;
+  std::string line;
   while (std::getline(in, line)) {
     ++lineno;
     if (line.empty()) continue;
@@ -63,5 +57,46 @@ ResultsTable ReadResults(const std::string& path) {
   }
   return t;
 }
+
+/// The header's cells, as CsvCell writes them: a cell opening with a double quote runs to the
+/// matching quote ("" is one quote) across commas and line breaks (further lines are read, counted
+/// in `lineno`); a quote elsewhere is kept as it is, as files written before names were quoted have.
+std::vector<std::string> ReadHeaderCells(std::istream& in, const std::string& path, int& lineno) {
+  std::string line;
+  if (!std::getline(in, line)) throw std::runtime_error(fmt::format("{}: empty file", path));
+  lineno = 1;
+  std::vector<std::string> cells(1);
+  bool cell_start = true, quoted = false;
+  int quote_line = 0;
+  size_t i = 0;
+  while (true) {
+    if (i == line.size()) {
+      if (!quoted) break;
+      if (!std::getline(in, line)) throw std::runtime_error(fmt::format("{}:{}: a quoted column name is not closed", path, quote_line));
+      ++lineno;
+      cells.back() += '\n';
+      i = 0;
+      continue;
+    }
+    const char c = line[i++];
+    const bool at_start = cell_start;
+    cell_start = false;
+    if (quoted) {
+      if (c != '"') cells.back() += c;
+      else if (i < line.size() && line[i] == '"') cells.back() += '"', ++i;
+      else quoted = false;
+    } else if (c == ',') {
+      cells.emplace_back();
+      cell_start = true;
+    } else if (c == '"' && at_start) {
+      quoted = true;
+      quote_line = lineno;
+    } else {
+      cells.back() += c;
+    }
+  }
+  return cells;
+}
+
 
 }  // namespace multibond

@@ -1,7 +1,9 @@
 #pragma once
 /// \file
-/// Reading a results.csv back (header "name [unit]", one row per output time).
+/// Reading a results.csv back (header "name [unit]", one row per output time). Header cells may be
+/// CSV-quoted (RFC 4180), as CsvWriter writes names holding a comma, a quote or a line break.
 
+#include <istream>
 #include <string>
 #include <vector>
 
@@ -21,5 +23,9 @@ struct ResultsTable {
 
 /// Reads `path`; throws std::runtime_error with the file, line and what is wrong.
 ResultsTable ReadResults(const std::string& path);
+
+/// The cells of a CSV header line read from `in` (a quoted cell may span lines; `lineno` is set
+/// to the last line read); `path` is for messages. Throws std::runtime_error.
+std::vector<std::string> ReadHeaderCells(std::istream& in, const std::string& path, int& lineno);
 
 }  // namespace multibond

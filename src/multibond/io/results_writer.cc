@@ -13,16 +13,47 @@
 
 namespace multibond {
 
+namespace {
+
+/// Removes the temporary file `tmp` (it can be large, and nothing would ever read it) and throws
+/// the error for `path`, the file the user asked for.
+[[noreturn]] void Abandon(const std::string& tmp, const std::string& path, const std::string& why) {
+  std::error_code ignored;
+  std::filesystem::remove(tmp, ignored);
+  throw std::runtime_error(fmt::format("cannot write '{}': {}", path, why));
+}
+
+/// Renames the complete `tmp` to `path`, or abandons it.
+void Commit(const std::string& tmp, const std::string& path) {
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (!ec) return;
+  // rename(2) says "Is a directory" without saying which of the two names is one.
+  std::error_code ignored;
+  Abandon(tmp, path, std::filesystem::is_directory(path, ignored) ? "it is a directory" : ec.message());
+}
+
+}  // namespace
+
 void WriteFileAtomic(const std::string& path, const std::string& content) {
   const std::string tmp = path + ".partial";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error(fmt::format("cannot write '{}': {}", tmp, std::strerror(errno)));
-    out << content;
-    out.flush();
-    if (!out) throw std::runtime_error(fmt::format("cannot write '{}': {}", tmp, std::strerror(errno)));
+  std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+  if (!out) throw std::runtime_error(fmt::format("cannot write '{}': {}", tmp, std::strerror(errno)));
+  errno = 0;
+  out << content;
+  out.close();  // flushes: a full disk shows here
+  if (!out) Abandon(tmp, path, errno ? std::strerror(errno) : "write error");
+  Commit(tmp, path);
+}
+
+std::string CsvCell(const std::string& text) {
+  if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+  std::string cell = "\"";
+  for (char c : text) {
+    if (c == '"') cell += '"';
+    cell += c;
   }
-  std::filesystem::rename(tmp, path);
+  return cell + '"';
 }
 
 std::string Sha256Hex(const std::string& data) {
@@ -41,12 +72,16 @@ CsvWriter::~CsvWriter() {
 }
 
 void CsvWriter::OnStart(const std::vector<Column>& columns) {
+  // Known now, it is reported before the run rather than after it (the rename would fail).
+  std::error_code ignored;
+  if (std::filesystem::is_directory(path_, ignored))
+    throw std::runtime_error(fmt::format("cannot write '{}': it is a directory", path_));
   file_ = std::fopen(partial_.c_str(), "wb");
   if (!file_) throw std::runtime_error(fmt::format("cannot write '{}': {}", partial_, std::strerror(errno)));
   line_.clear();
   for (size_t i = 0; i < columns.size(); ++i) {
     if (i) line_ += ',';
-    line_ += columns[i].Header();
+    line_ += CsvCell(columns[i].Header());
   }
   line_ += '\n';
   std::fputs(line_.c_str(), file_);
@@ -65,11 +100,14 @@ void CsvWriter::OnSample(const std::vector<double>& row) {
 
 void CsvWriter::OnFinish(const RunSummary&) {
   if (!file_) return;
-  const bool ok = std::fflush(file_) == 0;
-  std::fclose(file_);
+  // A row that could not be written (full disk) left the error flag set; the file lacks it.
+  errno = 0;
+  bool ok = std::fflush(file_) == 0 && !std::ferror(file_);
+  ok = std::fclose(file_) == 0 && ok;
+  const int err = errno;
   file_ = nullptr;
-  if (!ok) throw std::runtime_error(fmt::format("cannot write '{}': {}", partial_, std::strerror(errno)));
-  std::filesystem::rename(partial_, path_);
+  if (!ok) Abandon(partial_, path_, err ? std::strerror(err) : "write error");
+  Commit(partial_, path_);
 }
 
 nlohmann::json MakeRunRecord(const std::string& model_file, const std::string& model_text, const std::string& model_name,

@@ -3,7 +3,8 @@
 /// Writing results: results.csv (header "name [unit]", one row per output time) and run.json
 /// (provenance: model file and hash, options, solver statistics, wall time, version, status).
 /// Files are written under a temporary name and renamed when complete, so a file called
-/// results.csv or run.json is never half-written.
+/// results.csv or run.json is never half-written; when the write or the rename fails, the
+/// temporary file is removed and std::runtime_error says "cannot write '<file>': <why>".
 
 #include <cstdio>
 #include <memory>
@@ -18,11 +19,17 @@ namespace multibond {
 /// Writes `content` to `path` through a temporary file in the same folder and a rename.
 void WriteFileAtomic(const std::string& path, const std::string& content);
 
+/// `text` as one CSV cell (RFC 4180): in double quotes, each quote doubled, when it holds a comma,
+/// a quote or a line break; as it is otherwise, so plain names read the same as ever.
+std::string CsvCell(const std::string& text);
+
 /// SHA-256 of `data`, as 64 lowercase hex digits.
 std::string Sha256Hex(const std::string& data);
 
 /// Streams samples to `path`.partial and renames it to `path` when the run finishes (also when
 /// it failed or was interrupted: the rows computed are kept; run.json says how the run ended).
+/// If the run never finishes (an exception passed through Simulate), `path`.partial is left as it
+/// is. Header cells are CSV-quoted when needed (CsvCell).
 class CsvWriter : public Observer {
  public:
   explicit CsvWriter(std::string path);
