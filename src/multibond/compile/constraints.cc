@@ -515,6 +515,11 @@ void CompiledModel::ShareRedundantEfforts(Workspace& ws) const {
       if (!(c[j] > 0.0)) continue;  // a constraint that acts on nothing: its effort stays 0
       double* n = nsp + static_cast<size_t>(d) * m;
       SolveFactored(wm + static_cast<size_t>(j) * m, n, ws);  // W's row j = its column j
+      // Redundant here too? b_j's part outside span(B_I) is W_jj - W_jI c_j (a Schur complement);
+      // if it is not ~0, n_j would move something: the split is then left as the solve made it.
+      double schur = c[j];
+      for (int i = 0; i < m; ++i) schur -= wm[static_cast<size_t>(j) * m + i] * n[i];
+      if (schur > 1e-8 * c[j]) continue;
       for (int i = 0; i < m; ++i) n[i] = -n[i];
       n[j] = 1.0;
       ++d;
