@@ -370,6 +370,46 @@ drives:
   }
 }
 
+// A guide that turns: C is held in x and y by a slot (world frame), and along B's x axis by a
+// guide on the disc B, which a torque turns by 90 degrees in 1 s; B's centre is held by a pivot.
+// Three constraints on C's 2-D velocity, one redundant at every angle, so the null space turns
+// with B. The load (1, 0.5) N is shared as supports of K 2e4 and 4e4 (slot) and, for the guide,
+// 1e4 in series with the pivot's 1e6 (the guide's reaction goes to the ground through B) would
+// share it: lambda_i = K_i n_i . mu with (sum K_i n_i n_i^T) mu = F.
+TEST(IdealConstraints, RedundantSharingFollowsATurningGuideWithItsSeriesCompliance) {
+  const double mass = 2700 * std::numbers::pi * 0.1 * 0.1 * 0.01, izz = mass * 0.1 * 0.1 / 2;
+  const double tau = std::numbers::pi * izz;  // theta = tau / izz t^2 / 2: pi / 2 at t = 1
+  const std::string text = fmt::format(R"(
+model: turning_guide
+rigid: all
+bodies:
+  B: {{shape: {{disc: {{diameter: 0.2, thickness: 0.01, axis: z}}}}, density: 2700, position: [0, 0, 0]}}
+  C: {{mass: 1.0, inertia: [0.01, 0.01, 0.01], position: [0, 0, 0]}}
+joints:
+  guide: {{parent: B, child: C, translation: {{axes: [x], frame: parent, K: 1.0e4}}}}
+  slot:  {{parent: ground, child: C, translation: {{axes: [x, y], frame: world, K: [2.0e4, 4.0e4]}}}}
+  pivot: {{type: revolute, parent: ground, child: B, axis: z, translation: {{K: 1.0e6}}, rotation: {{K: 1.0e6}}}}
+drives:
+  spin:   {{type: torque, body: B, axis: z, value: {:.17g}}}
+  push_x: {{type: force, body: C, axis: x, value: 1.0}}
+  push_y: {{type: force, body: C, axis: y, value: 0.5}}
+)", tau);
+  const RecordingObserver rec = testing::RunModelText(text, 1.0, 0.25, Method::kDormandPrince, 1e-12, 1e-14);
+  ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
+  const double k[3] = {1.0 / (1.0 / 1e4 + 1.0 / 1e6), 2e4, 4e4};
+  for (const auto& row : rec.rows()) {
+    const double t = row[0], theta = std::numbers::pi / 2 * t * t;
+    const Eigen::Vector2d n[3] = {{std::cos(theta), std::sin(theta)}, {1, 0}, {0, 1}};
+    Eigen::Matrix2d a = Eigen::Matrix2d::Zero();
+    for (int i = 0; i < 3; ++i) a += k[i] * n[i] * n[i].transpose();
+    const Eigen::Vector2d mu = a.inverse() * Eigen::Vector2d(1.0, 0.5);
+    EXPECT_NEAR(std::hypot(row[rec.Index("guide.F.x")], row[rec.Index("guide.F.y")]), std::abs(k[0] * n[0].dot(mu)), 1e-8) << t;
+    EXPECT_NEAR(std::abs(row[rec.Index("slot.F.x")]), std::abs(k[1] * n[1].dot(mu)), 1e-8) << t;
+    EXPECT_NEAR(std::abs(row[rec.Index("slot.F.y")]), std::abs(k[2] * n[2].dot(mu)), 1e-8) << t;
+  }
+  EXPECT_NEAR(rec.Last("B.R.21"), 1.0, 1e-9);  // B's x axis is along y at the end
+}
+
 TEST(IdealConstraints, ComplianceNeedsAConstraintAndAPositiveValue) {
   for (const char* bad : {"{type: Sf, flow: 0, compliance: 1e-4}", "{type: Sf, flow: 0, constraint: true, compliance: -1}"}) {
     try {
