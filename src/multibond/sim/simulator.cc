@@ -231,7 +231,7 @@ void CheckRunOptions(const CompiledModel& model, const RunOptions& options) {
     throw std::invalid_argument(fmt::format("{:g} s of run at an output interval of {:g} s is {:.3g} output rows, more than {:g}; "
                                             "use a larger output interval (--dt)", options.t_end - options.t_start, options.dt, ratio,
                                             kMaxOutputIntervals));
-  CheckIntegratorOptions(ModelSystem(model), options.integrator);
+  CheckIntegratorOptions(model.num_states(), model.jacobian_pattern(), options.integrator);
   if (options.integrator.fixed_step > options.dt * (1.0 + 1e-12))
     throw std::invalid_argument(fmt::format("the fixed step ({:g} s) is longer than the output interval ({:g} s): the steps end "
                                             "at every output time; use a step no longer than --dt",

@@ -104,8 +104,7 @@ const char* MethodName(Method m) {
   return "unknown";
 }
 
-void CheckIntegratorOptions(const OdeSystem& system, const IntegratorOptions& options) {
-  const int n = system.num_states();
+void CheckIntegratorOptions(int n, const JacobianPattern* pattern, const IntegratorOptions& options) {
   MB_ASSERT(n >= 0, "negative number of states");
   Validate(options, n);
   if (n == 0) return;
@@ -113,14 +112,14 @@ void CheckIntegratorOptions(const OdeSystem& system, const IntegratorOptions& op
   Require(!(cvode && options.fixed_step > 0),
           fmt::format("a fixed step (--step) is for rk4, dopri5 and bs3; {} chooses its own steps (bound them with "
                       "--max-step)", MethodName(options.method)));
-  Require(options.jacobian != JacobianKind::kSparse || system.jacobian_pattern() != nullptr || !cvode,
+  Require(options.jacobian != JacobianKind::kSparse || pattern != nullptr || !cvode,
           "a sparse Jacobian needs the model's Jacobian pattern, and this model has none (a model with ideal "
           "constraints, whose multipliers couple the states they reach, or with solved algebraic loops, whose "
           "unknowns couple what their loops read); use the dense or automatic Jacobian");
 }
 
 std::unique_ptr<Integrator> MakeIntegrator(OdeSystem& system, const IntegratorOptions& options) {
-  CheckIntegratorOptions(system, options);
+  CheckIntegratorOptions(system.num_states(), system.jacobian_pattern(), options);
   if (system.num_states() == 0) return std::make_unique<StatelessIntegrator>(options);
   switch (options.method) {
     case Method::kBdf:

@@ -99,7 +99,8 @@ class Integrator {
 /// Throws std::invalid_argument for inconsistent options (e.g. rk4 without a step).
 /// Throws std::invalid_argument, saying what is wrong, for options the integrator would refuse
 /// (MakeIntegrator checks them too): so that a front end can check them before it writes anything.
-void CheckIntegratorOptions(const OdeSystem& system, const IntegratorOptions& options);
+/// `pattern`: the system's Jacobian pattern (OdeSystem::jacobian_pattern), or null.
+void CheckIntegratorOptions(int num_states, const JacobianPattern* pattern, const IntegratorOptions& options);
 std::unique_ptr<Integrator> MakeIntegrator(OdeSystem& system, const IntegratorOptions& options);
 
 }  // namespace multibond
