@@ -88,7 +88,15 @@ void PrintDiagnostics(const std::vector<mb::Diagnostic>& ds) {
 int ModelFailure(const mb::ModelError& e, bool wrote_nothing) {
   PrintDiagnostics(e.diagnostics());
   int errors = 0;
-  for (const auto& d : e.diagnostics()) errors += d.severity == mb::Diagnostic::Severity::kError;
+  bool unreadable = false;  // a model file that cannot be read is an I/O failure (74), not a model error
+  for (const auto& d : e.diagnostics()) {
+    errors += d.severity == mb::Diagnostic::Severity::kError;
+    unreadable = unreadable || d.code.rfind("io.", 0) == 0;
+  }
+  if (unreadable) {
+    if (wrote_nothing) std::cerr << "nothing was written\n";
+    return kExitIo;
+  }
   std::cerr << fmt::format("{} error{} in the model{}\n", errors, errors == 1 ? "" : "s", wrote_nothing ? "; nothing was written" : "");
   return kExitModel;
 }
@@ -357,7 +365,8 @@ int Graph(const std::string& path, const std::string& out) {
   std::cout << "wrote " << dot_path.string() << '\n';
   const std::vector<std::string> formats = ext == ".png" ? std::vector<std::string>{"png"} : std::vector<std::string>{"svg"};
   for (const auto& f : formats) {
-    const fs::path img = fs::path(dot_path).replace_extension("." + f);
+    // The picture keeps the name asked for (h.SVG stays h.SVG); a .dot/.gv request gets an .svg beside it.
+    const fs::path img = ext == ".dot" || ext == ".gv" ? fs::path(dot_path).replace_extension("." + f) : outp;
     std::string err;
     if (mb::RenderWithGraphviz(dot_path.string(), img.string(), f, &err)) std::cout << "wrote " << img.string() << '\n';
     else std::cerr << "note: " << err << " (the DOT file is there; install graphviz to render it)\n";

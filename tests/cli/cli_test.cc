@@ -18,6 +18,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 struct Result {
   int code;
@@ -123,6 +124,18 @@ TEST_F(CliTest, ModelErrorExitsOneAndCreatesNothing) {
   EXPECT_EQ(r.code, 1);
   EXPECT_THAT(r.out, HasSubstr(":2:3: error: m: inertia must be > 0 (got -1)"));
   EXPECT_THAT(r.out, HasSubstr("nothing was written"));
+  EXPECT_FALSE(fs::exists(dir_));
+}
+
+TEST_F(CliTest, UnreadableModelFileExits74AndCreatesNothing) {
+  // A model file that cannot be read is an input/output failure (README: 74), not a model error.
+  for (const std::string cmd : {"check", "run", "graph", "equations"}) {
+    const std::string out = cmd == "run" ? " -o " + dir_.string() : cmd == "graph" ? " -o " + (dir_ / "g.svg").string() : "";
+    const Result r = Cli(cmd + " " + (dir_.string() + "_no_such_model.yaml") + out);
+    EXPECT_EQ(r.code, 74) << cmd << ": " << r.out;
+    EXPECT_THAT(r.out, HasSubstr("cannot open the model file")) << cmd;
+    EXPECT_THAT(r.out, Not(HasSubstr("error in the model"))) << cmd;
+  }
   EXPECT_FALSE(fs::exists(dir_));
 }
 
@@ -233,7 +246,8 @@ TEST_F(CliTest, GraphWritesDotAndSvg) {
   EXPECT_THAT(Read(dir_ / "g.svg"), HasSubstr("<svg"));
   // The extension in any case; anything else is a usage error that writes nothing.
   EXPECT_EQ(Cli("graph " + Example("compliant_gear_pair.yaml") + " -o " + (dir_ / "h.SVG").string()).code, 0);
-  EXPECT_THAT(Read(dir_ / "h.svg"), HasSubstr("<svg"));
+  EXPECT_THAT(Read(dir_ / "h.SVG"), HasSubstr("<svg"));  // the name asked for, not h.svg
+  EXPECT_FALSE(fs::exists(dir_ / "h.svg"));
   for (const std::string bad : {"p.pdf", "notes.txt", ".dot"}) {
     const Result b = Cli("graph " + Example("compliant_gear_pair.yaml") + " -o " + (dir_ / bad).string());
     EXPECT_EQ(b.code, 64) << bad << ": " << b.out;

@@ -422,5 +422,25 @@ TEST(IdealConstraints, ComplianceNeedsAConstraintAndAPositiveValue) {
   }
 }
 
+// Compliances on some constraints only are not used (the split needs them all): the loader warns,
+// naming a constraint without one, and the split is the one without compliances.
+TEST(IdealConstraints, CompliancesOnSomeConstraintsOnlyAreReportedAsUnused) {
+  std::string text = BeamOnThreeSupports("{type: Sf, flow: 0, constraint: true, compliance: {c}}", {0, 1, 2});
+  const size_t at = text.find("  c2: ");
+  text.replace(at, text.find('\n', at) - at, "  c2: {type: Sf, flow: 0, constraint: true}");
+  const LoadedModel lm = LoadModelString(text, "<test>");
+  ASSERT_EQ(lm.warnings.size(), 1u);
+  EXPECT_EQ(lm.warnings[0].code, "constraint.compliance_ignored");
+  EXPECT_THAT(lm.warnings[0].message, ::testing::HasSubstr("constraint 'c2' has none"));
+  const RecordingObserver partial = RunText(text, 0.5);
+  const RecordingObserver none = RunText(BeamOnThreeSupports("{type: Sf, flow: 0, constraint: true}", {0, 1, 2}), 0.5);
+  for (int i = 0; i < 3; ++i)
+    EXPECT_EQ(partial.At(fmt::format("e{}", i), 0.5), none.At(fmt::format("e{}", i), 0.5)) << "support " << i;
+  // Every constraint with one, or none with one: no warning.
+  EXPECT_TRUE(LoadModelString(BeamOnThreeSupports("{type: Sf, flow: 0, constraint: true, compliance: {c}}", {0, 1, 2}), "<test>")
+                  .warnings.empty());
+  EXPECT_TRUE(LoadModelString(BeamOnThreeSupports("{type: Sf, flow: 0, constraint: true}", {0, 1, 2}), "<test>").warnings.empty());
+}
+
 }  // namespace
 }  // namespace multibond

@@ -78,6 +78,7 @@ class Loader {
     for (const char* key : {"joints", "gears", "drives", "points", "gravity"})
       if (root[key] && !mechanism) sink_.Error(Loc(root[key]), key, fmt::format("'{}' needs a 'bodies' section", key), "declare the bodies first");
     ReadScope(root, "", Env{}, 0);
+    WarnIfSomeCompliancesAreIgnored();
     if (root["outputs"]) ReadOutputs(root["outputs"]);
     if (root["simulation"]) ReadSimulation(root["simulation"], out.simulation);
     if (sink_.has_errors()) {
@@ -97,6 +98,31 @@ class Loader {
   }
 
  private:
+  /// Redundant reactions are shared by compliances only when every constraint has one
+  /// (CompiledModel::ShareRedundantEfforts); a partial set is ignored, and the user is told.
+  void WarnIfSomeCompliancesAreIgnored() {
+    const Element* with = nullptr;
+    const Element* without = nullptr;
+    for (int i = 0; i < graph_.num_elements(); ++i) {
+      const Element& e = graph_.element(i);
+      if (e.kind != ElementKind::kSf || !e.constraint) continue;
+      if (e.compliance.size() > 0 && !with) with = &e;
+      if (e.compliance.size() == 0 && !without) without = &e;
+    }
+    if (!with || !without) return;
+    Diagnostic d;
+    d.severity = Diagnostic::Severity::kWarning;
+    d.where = with->where;
+    d.element = with->name;
+    d.code = "constraint.compliance_ignored";
+    d.message = fmt::format("the compliance is not used: constraint '{}' has none, and redundant reactions are "
+                            "shared by compliances only when every constraint has one (else by the constraints' mobilities)",
+                            without->name);
+    d.hint = fmt::format("give '{}' (and every other constraint) a compliance (a rigid joint or mesh: its K), or remove them all",
+                         without->name);
+    sink_.Add(d);
+  }
+
   struct SubmodelDef {
     YAML::Node node;
     Env defaults;
@@ -1375,7 +1401,7 @@ void ExplainInMechanismTerms(const mech::Mechanism& m, std::vector<Diagnostic>& 
       const size_t close = path.find('\'', open + 1);
       if (close == std::string::npos) break;
       std::string part = m.DescribePart(path.substr(open + 1, close - open - 1));
-      if (part.empty()) part = "'" + path.substr(open + 1, close - open - 1) + "' (not a mechanism part)";
+      if (part.empty()) part = fmt::format("'{}' (not a mechanism part)", path.substr(open + 1, close - open - 1));
       if (parts.empty() || parts.back() != part) parts.push_back(part);
       open = path.find('\'', close + 1);
     }
@@ -1413,6 +1439,7 @@ LoadedModel LoadModelFile(const std::string& path) {
     d.where.file = path;
     d.message = "cannot open the model file";
     d.hint = "check the path and the file's permissions";
+    d.code = "io.unreadable";  // the CLI exits 74 for it, as for any file it cannot read
     throw ModelError(d);
   }
   std::ostringstream ss;
