@@ -54,6 +54,20 @@ TEST(CsvCell, QuotesOnlyCellsThatNeedIt) {
   EXPECT_EQ(CsvCell("cr\r"), "\"cr\r\"");
 }
 
+TEST(ResultsIo, HeaderCellSplitsIntoNameAndUnit) {
+  const auto check = [](const std::string& cell, const std::string& name, const std::string& unit) {
+    const NameAndUnit nu = SplitNameAndUnit(cell);
+    EXPECT_EQ(nu.name, name) << cell;
+    EXPECT_EQ(nu.unit, unit) << cell;
+  };
+  check("A.omega.z [rad/s]", "A.omega.z", "rad/s");
+  check("t [s]\r", "t", "s");                  // a CRLF file's last cell
+  check("G.R.23 []", "G.R.23", "");             // dimensionless
+  check("energy.residual", "energy.residual", "");
+  check("a [b] c", "a [b] c", "");              // brackets inside a name, no unit
+  check("x [m] [N]", "x [m]", "N");             // the last bracket is the unit
+}
+
 TEST(ResultsIo, NamesWithCommaAndQuoteRoundTrip) {
   TempDir dir;
   const fs::path path = dir.path() / "results.csv";

@@ -81,17 +81,11 @@ class Table {
     int lineno = 0;
     const std::vector<std::string> cells = ReadHeaderCells(header, path.string(), lineno);
     pos = header.tellg() < 0 ? text.size() : static_cast<size_t>(header.tellg());
-    for (std::string field : cells) {
-      if (!field.empty() && field.back() == '\r') field.pop_back();
-      std::string unit;
-      const size_t open = field.rfind(" [");
-      if (open != std::string::npos && field.back() == ']') {
-        unit = field.substr(open + 2, field.size() - open - 3);
-        field = field.substr(0, open);
-      }
-      t.index_.emplace(field, static_cast<int>(t.names_.size()));
-      t.names_.push_back(field);
-      t.units_.push_back(unit);
+    for (const std::string& cell : cells) {
+      NameAndUnit nu = SplitNameAndUnit(cell);
+      t.index_.emplace(nu.name, static_cast<int>(t.names_.size()));
+      t.names_.push_back(std::move(nu.name));
+      t.units_.push_back(std::move(nu.unit));
     }
     t.cols_.resize(t.names_.size());
     while (next_line(&line)) {

@@ -28,15 +28,22 @@ std::vector<double> ResultsTable::Column(const std::string& name) const {
   return out;
 }
 
+NameAndUnit SplitNameAndUnit(std::string cell) {
+  if (!cell.empty() && cell.back() == '\r') cell.pop_back();
+  const size_t open = cell.rfind(" [");
+  if (open == std::string::npos || cell.back() != ']') return {std::move(cell), ""};
+  return {cell.substr(0, open), cell.substr(open + 2, cell.size() - open - 3)};
+}
+
 ResultsTable ReadResults(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(fmt::format("cannot read '{}'", path));
   ResultsTable t;
   int lineno = 0;
   for (const std::string& cell : ReadHeaderCells(in, path, lineno)) {
-    const size_t bracket = cell.rfind(" [");
-    t.names.push_back(bracket == std::string::npos ? cell : cell.substr(0, bracket));
-    t.units.push_back(bracket == std::string::npos ? "" : cell.substr(bracket + 2, cell.size() - bracket - 3));
+    NameAndUnit nu = SplitNameAndUnit(cell);
+    t.names.push_back(std::move(nu.name));
+    t.units.push_back(std::move(nu.unit));
   }
   std::string line;
   while (std::getline(in, line)) {

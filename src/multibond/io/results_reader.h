@@ -28,4 +28,10 @@ ResultsTable ReadResults(const std::string& path);
 /// to the last line read); `path` is for messages. Throws std::runtime_error.
 std::vector<std::string> ReadHeaderCells(std::istream& in, const std::string& path, int& lineno);
 
+/// A header cell "name [unit]" split into its name and unit ("" when the cell has no unit).
+struct NameAndUnit {
+  std::string name, unit;
+};
+NameAndUnit SplitNameAndUnit(std::string cell);
+
 }  // namespace multibond
