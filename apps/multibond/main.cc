@@ -453,6 +453,10 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a) {
   o.all_variables = a.all_variables;
   o.integrator.project = !a.no_projection;
   o.integrator.jacobian = mb::ParseJacobianKind(a.jacobian);
+  // An explicit method forms no Newton matrix: a --jacobian for it is recorded but changes nothing.
+  if (a.jacobian != "auto" && o.integrator.method != mb::Method::kBdf && o.integrator.method != mb::Method::kAdams)
+    std::cerr << fmt::format("warning: --jacobian {} has no effect with the explicit solver '{}' (only bdf and adams form a "
+                             "Newton matrix)\n", a.jacobian, p.solver);
   o.stop = &g_stop;
   (void)mb::MakeColumns(*p.model, o.all_variables);  // a bad output is a model error: before any file is touched
   try {

@@ -211,6 +211,13 @@ TEST_F(CliTest, JacobianOptionIsRecordedAndCheckedAgainstTheModel) {
   EXPECT_EQ(ideal.code, 64) << ideal.out;
   EXPECT_THAT(ideal.out, HasSubstr("ideal constraints"));
   fs::remove_all(dir_.string() + "_ideal");
+  // With an explicit solver it changes nothing, and the run says so.
+  const Result rk = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() +
+                        " --t-end 0.1 --solver dopri5 --jacobian dense");
+  EXPECT_EQ(rk.code, 0) << rk.out;
+  EXPECT_THAT(rk.out, HasSubstr("warning: --jacobian dense has no effect with the explicit solver 'dopri5'"));
+  EXPECT_THAT(Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --t-end 0.1").out,
+              Not(HasSubstr("--jacobian")));
 }
 
 TEST_F(CliTest, DivergingRunExitsTwoKeepsResultsAndMarksThemFailed) {
