@@ -102,6 +102,26 @@ TEST(CompiledModel, JunctionsShareSlotsAndPlanIsSmall) {
   EXPECT_EQ(model->MakeWorkspace().slots.size(), 5u);  // 4 efforts + 1 shared flow
 }
 
+TEST(CompiledModel, NamesInGeneratedCodeStayInsideTheirComments) {
+  // The C++ API takes any name (the loader refuses these): a line break would end the comment
+  // the name is written in and run the rest as code, a final backslash would splice the next
+  // line of code into the comment.
+  const std::string injected = "m\nint injected_marker = 1;\n//";
+  BondGraph g("model\n#error injected");
+  g.AddSe("f", {{TimeFunction::Constant(1)}});
+  g.AddI(injected, Param::Scalar(1));
+  g.AddC("k\\", Param::Scalar(1));
+  g.AddJunction("j", ElementKind::kOne);
+  for (const std::string e : {injected, std::string("k\\")}) g.Connect("j", e);
+  g.Connect("f", "j");
+  const std::string src = CompiledModel::Compile(std::move(g))->GenerateSource();
+  EXPECT_THAT(src, ::testing::Not(::testing::HasSubstr("\nint injected_marker")));
+  EXPECT_THAT(src, ::testing::Not(::testing::HasSubstr("\n#error")));
+  EXPECT_THAT(src, ::testing::HasSubstr("// m?int injected_marker = 1;?//\n"));
+  EXPECT_THAT(src, ::testing::HasSubstr("// k?\n"));
+  EXPECT_THAT(src, ::testing::Not(::testing::HasSubstr("\\\n")));  // no line ends in a backslash
+}
+
 }  // namespace
 }  // namespace multibond
 

@@ -50,6 +50,7 @@ class Loader {
     CheckKeys(root, kTopKeys, "");
     std::string name = "model";
     if (root["model"]) name = Str(root["model"], "model");
+    if (root["model"] && !CheckName(name, Loc(root["model"]), "the model's")) name = "model";
     graph_ = BondGraph(name);
     graph_.set_source_file(file_);
     if (root["domain"]) out.compile.default_domain = Domain(root["domain"], "domain");
@@ -98,6 +99,23 @@ class Loader {
   }
 
  private:
+  /// Names become column headers, file names of figures and comments in generated code: a name
+  /// must not be empty nor hold a control character (a line break), a quote or a backslash.
+  /// Reports the problem at `where` and returns false.
+  bool CheckName(const std::string& name, const SourceLocation& where, const char* what) {
+    std::string bad;
+    for (const char ch : name)
+      if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) bad = "a control character (a line break, a tab)";
+      else if (ch == '"' || ch == '\\') bad = fmt::format("'{}'", ch);
+    if (!name.empty() && bad.empty()) return true;
+    std::string shown;
+    for (const char ch : name) shown += static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f ? '?' : ch;
+    sink_.Error("name.invalid", where, shown,
+                name.empty() ? fmt::format("{} name is empty", what) : fmt::format("{} name holds {}", what, bad),
+                "use letters, digits, '_' and '.'");
+    return false;
+  }
+
   /// Redundant reactions are shared by compliances only when every constraint has one
   /// (CompiledModel::ShareRedundantEfforts); a partial set is ignored, and the user is told.
   void WarnIfSomeCompliancesAreIgnored() {
@@ -507,6 +525,7 @@ class Loader {
     for (const auto& kv : n) {
       const std::string name = kv.first.Scalar();
       const YAML::Node def = kv.second;
+      if (!CheckName(name, Loc(kv.first), "a submodel's")) continue;
       if (!def.IsMap()) {
         sink_.Error(Loc(def), name, "a submodel definition is a mapping with parameters, ports, elements and bonds");
         continue;
@@ -551,7 +570,8 @@ class Loader {
           continue;
         }
         seen[local] = Loc(kv.first);
-        if (local.empty() || local.find_first_of(" \t>") != std::string::npos || local.find("->") != std::string::npos) {
+        if (!CheckName(local, Loc(kv.first), "an element's")) continue;
+        if (local.find_first_of(" \t>") != std::string::npos || local.find("->") != std::string::npos) {
           sink_.Error(Loc(kv.first), local, "element names may not contain spaces or '->'", "use letters, digits, '_' and '.'");
           continue;
         }
@@ -752,6 +772,11 @@ class Loader {
       };
       from = trim(s.substr(0, arrow));
       to = trim(s.substr(arrow + 2));
+      if (from.empty() || to.empty()) {
+        sink_.Error(Loc(b), s, fmt::format("the bond has no '{}' end", from.empty() ? "from" : "to"),
+                    "write it 'from -> to', e.g. '- force -> j1'");
+        return;
+      }
     } else if (b.IsSequence() && b.size() == 2) {
       from = b[0].Scalar();
       to = b[1].Scalar();
@@ -763,7 +788,28 @@ class Loader {
       }
       from = b["from"].Scalar();
       to = b["to"].Scalar();
-      if (b["name"]) name = Qualify(prefix, b["name"].Scalar());
+      if (b["name"]) {
+        if (!CheckName(b["name"].Scalar(), Loc(b["name"]), "a bond's")) return;
+        name = Qualify(prefix, b["name"].Scalar());
+        // Its variables (name.e, name.f) must name one thing: not another bond, not an element.
+        if (const auto it = bond_names_.find(name); it != bond_names_.end()) {
+          Diagnostic d;
+          d.where = Loc(b["name"]);
+          d.element = name;
+          d.code = "name.duplicate";
+          d.message = "duplicate bond name";
+          d.details.push_back("first given at " + it->second.ToString());
+          d.hint = "give every named bond a unique name";
+          sink_.Add(d);
+          return;
+        }
+        if (graph_.Find(name) >= 0) {
+          sink_.Error("name.duplicate", Loc(b["name"]), name, "a bond may not be named like an element",
+                      "rename the bond: its variables would read like the element's");
+          return;
+        }
+        bond_names_[name] = Loc(b["name"]);
+      }
       if (b["dim"]) {
         const double d = Number(b["dim"], "bond", env);
         if (d < 1 || d > 64 || d != std::floor(d))
@@ -802,6 +848,7 @@ class Loader {
     for (const auto& kv : n) {
       const std::string name = Qualify(prefix, kv.first.Scalar());
       const YAML::Node s = kv.second;
+      if (!CheckName(kv.first.Scalar(), Loc(kv.first), "a state's")) continue;
       AuxState a;
       a.name = name;
       a.where = Loc(kv.first);
@@ -863,6 +910,7 @@ class Loader {
         }
         d.variable = o["variable"].Scalar();
         d.name = o["name"] ? o["name"].Scalar() : d.variable;
+        if (o["name"] && !CheckName(d.name, Loc(o["name"]), "an output's")) continue;
       } else {
         sink_.Error(d.where, "output", "an output is a variable name or {name: ..., variable: ...}");
         continue;
@@ -1135,6 +1183,7 @@ class Loader {
     std::map<std::string, YAML::Node> spec;
     std::vector<std::string> order;
     for (const auto& kv : bodies) {
+      if (!CheckName(kv.first.Scalar(), Loc(kv.first), "a body's")) continue;
       spec[kv.first.Scalar()] = kv.second;
       order.push_back(kv.first.Scalar());
     }
@@ -1191,6 +1240,7 @@ class Loader {
       for (const auto& kv : joints) {
         const std::string name = kv.first.Scalar();
         const YAML::Node j = kv.second;
+        if (!CheckName(name, Loc(kv.first), "a joint's")) continue;
         mech::Joint joint;
         joint.name = name;
         joint.where = Loc(kv.first);
@@ -1260,6 +1310,7 @@ class Loader {
       for (const auto& kv : gears) {
         const std::string name = kv.first.Scalar();
         const YAML::Node g = kv.second;
+        if (!CheckName(name, Loc(kv.first), "a gear mesh's")) continue;
         mech::GearMesh gm;
         gm.name = name;
         gm.where = Loc(kv.first);
@@ -1295,6 +1346,7 @@ class Loader {
       for (const auto& kv : drives) {
         const std::string name = kv.first.Scalar();
         const YAML::Node d = kv.second;
+        if (!CheckName(name, Loc(kv.first), "a drive's")) continue;
         mech::Drive drive;
         drive.name = name;
         drive.where = Loc(kv.first);
@@ -1336,6 +1388,7 @@ class Loader {
         mech::Point p;
         p.name = kv.first.Scalar();
         p.where = Loc(kv.first);
+        if (!CheckName(p.name, p.where, "a point's")) continue;
         CheckKeys(kv.second, {"body", "at", "description"}, p.name);
         if (kv.second["body"]) p.body = kv.second["body"].Scalar();
         else sink_.Error(p.where, p.name, "a point needs a 'body'");
@@ -1358,6 +1411,7 @@ class Loader {
   std::map<std::string, SubmodelDef> submodels_;
   std::map<std::string, std::set<std::string>> instance_ports_;
   std::map<std::string, SourceLocation> instance_where_;
+  std::map<std::string, SourceLocation> bond_names_;  ///< the bonds named in the file, where
   std::vector<std::string> instantiating_;  ///< the submodel types being expanded, outermost first
 };
 
