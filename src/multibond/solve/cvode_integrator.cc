@@ -62,31 +62,54 @@ std::string Explain(int flag, const IntegratorOptions& options) {
   }
 }
 
-/// CallbackState plus what the sparse difference-quotient Jacobian needs.
+/// CallbackState plus what the difference-quotient Jacobian needs.
 struct CvodeCallbackState : sun::CallbackState {
   using CallbackState::CallbackState;
   void* mem = nullptr;  ///< CVODE's, for the step and the error weights
-  const JacobianPattern* pattern = nullptr;
+  const JacobianPattern* pattern = nullptr;  ///< null: dense (every column its own group, every row)
   ColumnGroups groups;
   std::vector<double> increment;  ///< per state, for the group being evaluated
-  long evaluations = 0;           ///< of f, by SparseJacobian
+  std::vector<char> unresolved;   ///< per state: its column has a quotient lost in rounding
+  long evaluations = 0;           ///< of f, by DifferenceQuotientJacobian
 };
 
-/// J = df/dy on the system's pattern by difference quotients, one evaluation of f per group of
-/// columns that share no row. Each increment is CVODE's own (cvLsDenseDQJac): max(sqrt(u) |y_j|,
-/// minInc / w_j), minInc = 1000 |h| u n |f|_wrms, w the error weights; so a sparse Jacobian holds
-/// the same quotients as CVODE's dense one, column by column.
-int SparseJacobian(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix jac, void* user_data, N_Vector tmp1,
-                   N_Vector tmp2, N_Vector tmp3) noexcept {
+/// J = df/dy by difference quotients: dense (one evaluation of f per column) or on the system's
+/// pattern (one per group of columns that share no row, into a CSC matrix for KLU).
+///
+/// Each increment is first CVODE's own (cvLsDenseDQJac): max(sqrt(u) |y_j|, minInc / w_j),
+/// minInc = 1000 |h| u n |f|_wrms, w the error weights. That increment shrinks with h, and a
+/// quotient whose difference f_i(y + d e_j) - f_i(y) is a few roundings of f_i is noise of size
+/// u |f_i| / d: starting from rest with a large force (1e5 N on a 10 kg mass and a 100 N/m
+/// spring, atol 1e-10), the first step is 2e-15 s, d ~ 1e-21, and CVODE's own dense Jacobian held
+/// +1.9e10 where -100 belongs. CVODE keeps a Jacobian for up to 51 steps: as h grew a
+/// thousandfold, that entry dominated the Newton matrix, each correction came out tiny, the
+/// iteration "converged" at the predictor and BDF went on with the spring ignored (spring.q 2e4
+/// instead of 0.86 at 2 s, status ok); the noise there was CVODE's f(y) at the first step, off
+/// by one rounding from what f returns (h f / h). So a nonzero difference below 64 roundings
+/// of f_i is not taken: the column is evaluated again with its increment times 1000 (up to three
+/// times, while the increment stays below sqrt(u) max(|y_j|, 1)), and the entry takes the first
+/// resolved quotient, else 0: a zero entry only slows Newton's convergence (CVODE then renews
+/// the Jacobian at the step it has reached), a noise entry of any size can stop it from
+/// converging to the right answer. A difference of exactly zero is a zero entry.
+int DifferenceQuotientJacobian(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix jac, void* user_data, N_Vector tmp1,
+                               N_Vector tmp2, N_Vector tmp3) noexcept {
   auto* state = static_cast<CvodeCallbackState*>(user_data);
   try {
-    const JacobianPattern& p = *state->pattern;
+    const JacobianPattern* p = state->pattern;
     const sunindextype n = N_VGetLength(y);
-    sunindextype* col_start = SUNSparseMatrix_IndexPointers(jac);
-    sunindextype* row = SUNSparseMatrix_IndexValues(jac);
-    sunrealtype* data = SUNSparseMatrix_Data(jac);
-    std::copy(p.col_start.begin(), p.col_start.end(), col_start);  // CVODE zeroes the matrix first
-    std::copy(p.row_index.begin(), p.row_index.end(), row);
+    if (p) {
+      std::copy(p->col_start.begin(), p->col_start.end(), SUNSparseMatrix_IndexPointers(jac));  // CVODE zeroes the matrix first
+      std::copy(p->row_index.begin(), p->row_index.end(), SUNSparseMatrix_IndexValues(jac));
+    }
+    sunrealtype* data = p ? SUNSparseMatrix_Data(jac) : SUNDenseMatrix_Data(jac);
+    // Column j's entries: data[first + k] for the rows row(k), k in [0, count).
+    auto entries = [&](int j, auto&& visit) {
+      if (p) {
+        for (int e = p->col_start[j]; e < p->col_start[j + 1]; ++e) visit(p->row_index[e], data + e);
+      } else {
+        for (sunindextype i = 0; i < n; ++i) visit(static_cast<int>(i), data + static_cast<size_t>(j) * n + i);
+      }
+    };
 
     N_Vector ewt = tmp3;
     sunrealtype h = 0.0;
@@ -96,26 +119,46 @@ int SparseJacobian(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix jac, void* 
     const double srur = std::sqrt(uround);
     const double fnorm = N_VWrmsNorm(fy, ewt);
     const double min_inc = fnorm != 0.0 ? 1000.0 * std::abs(h) * uround * static_cast<double>(n) * fnorm : 1.0;
+    constexpr double kResolved = 64.0;  // roundings of f_i a difference must exceed (a few: noise)
+    constexpr int kRetries = 3;
     const sunrealtype* yv = N_VGetArrayPointer(y);
     const sunrealtype* f0 = N_VGetArrayPointer(fy);
     const sunrealtype* w = N_VGetArrayPointer(ewt);
     sunrealtype* yp = N_VGetArrayPointer(tmp1);
     sunrealtype* f1 = N_VGetArrayPointer(tmp2);
     std::copy_n(yv, n, yp);
-    const ColumnGroups& groups = state->groups;
-    for (int g = 0; g < groups.count(); ++g) {
-      for (int k = groups.start[g]; k < groups.start[g + 1]; ++k) {
-        const int j = groups.column[k];
-        yp[j] = yv[j] + std::max(srur * std::abs(yv[j]), min_inc / w[j]);
-        state->increment[j] = yp[j] - yv[j];  // the step as represented
-      }
-      state->system->CalcDerivatives(t, yp, f1);
-      ++state->evaluations;
-      for (int k = groups.start[g]; k < groups.start[g + 1]; ++k) {
-        const int j = groups.column[k];
-        const double inv = 1.0 / state->increment[j];
-        for (int e = p.col_start[j]; e < p.col_start[j + 1]; ++e) data[e] = (f1[p.row_index[e]] - f0[p.row_index[e]]) * inv;
-        yp[j] = yv[j];
+    std::vector<char>& unresolved = state->unresolved;
+    unresolved.assign(n, 0);
+    std::vector<int> columns;  // this pass's columns of the group (no two share a row)
+    const int groups = p ? state->groups.count() : static_cast<int>(n);
+    for (int g = 0; g < groups; ++g) {
+      columns.clear();
+      if (p) columns.assign(state->groups.column.begin() + state->groups.start[g], state->groups.column.begin() + state->groups.start[g + 1]);
+      else columns.push_back(g);
+      for (int pass = 0; pass <= kRetries && !columns.empty(); ++pass) {
+        for (const int j : columns) {
+          const double d = pass == 0 ? std::max(srur * std::abs(yv[j]), min_inc / w[j]) : state->increment[j] * 1000.0;
+          yp[j] = yv[j] + d;
+          state->increment[j] = yp[j] - yv[j];  // the step as represented
+        }
+        state->system->CalcDerivatives(t, yp, f1);
+        ++state->evaluations;
+        for (const int j : columns) {
+          const double inv = 1.0 / state->increment[j];
+          const bool last = pass == kRetries || state->increment[j] * 1000.0 > srur * std::max(std::abs(yv[j]), 1.0);
+          bool noisy = false;
+          entries(j, [&](int i, double* out) {
+            if (pass > 0 && !(std::isnan(*out))) return;  // resolved at an earlier pass
+            const double diff = f1[i] - f0[i];
+            const bool lost = diff != 0.0 && std::abs(diff) <= kResolved * uround * std::max(std::abs(f0[i]), std::abs(f1[i]));
+            // NaN: to be done again; at the last increment, noise is no information: 0.
+            *out = !lost ? diff * inv : last ? 0.0 : std::numeric_limits<double>::quiet_NaN();
+            noisy = noisy || (lost && !last);
+          });
+          unresolved[j] = noisy;
+          yp[j] = yv[j];
+        }
+        columns.erase(std::remove_if(columns.begin(), columns.end(), [&](int j) { return !unresolved[j]; }), columns.end());
       }
     }
     return 0;
@@ -175,6 +218,7 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<CvodeCallbackState>
     CVodeGetNumJacEvals(mem, &s.jac_evals);
     s.rhs_evals = nfe + nfe_ls + callbacks_.evaluations;
     s.sparse_jacobian = callbacks_.pattern != nullptr;
+    // Without the rounding check's repeats (they are in rhs_evals).
     s.evals_per_jacobian = s.sparse_jacobian ? callbacks_.groups.count() : n_;
     return s;
   }
@@ -217,12 +261,14 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<CvodeCallbackState>
       jacobian_.reset(sun::NonNull(SUNSparseMatrix(n_, n_, pattern->nonzeros(), CSC_MAT, ctx_.get())));
       linear_solver_.reset(sun::NonNull(SUNLinSol_KLU(y_.get(), jacobian_.get(), ctx_.get())));
       Check(CVodeSetLinearSolver(mem, linear_solver_.get(), jacobian_.get()), t0);
-      Check(CVodeSetJacFn(mem, SparseJacobian), t0);
     } else {
+      callbacks_.pattern = nullptr;
+      callbacks_.increment.assign(n_, 0.0);
       jacobian_.reset(sun::NonNull(SUNDenseMatrix(n_, n_, ctx_.get())));
       linear_solver_.reset(sun::NonNull(sun::MakeEigenDenseSolver(n_, ctx_.get())));
       Check(CVodeSetLinearSolver(mem, linear_solver_.get(), jacobian_.get()), t0);
     }
+    Check(CVodeSetJacFn(mem, DifferenceQuotientJacobian), t0);
     if (options_.max_step > 0) Check(CVodeSetMaxStep(mem, options_.max_step), t0);
     if (options_.initial_step > 0) Check(CVodeSetInitStep(mem, options_.initial_step), t0);
     Check(CVodeSetMaxNumSteps(mem, options_.max_steps_per_output), t0);
