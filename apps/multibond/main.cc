@@ -517,6 +517,7 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
                                summary.energy_stored, summary.energy_dissipated, summary.energy_residual);
     std::cout << fmt::format("wrote {}/results.csv and {}/run.json\n", a.out, a.out);
   }
+  for (const std::string& w : summary.warnings) std::cerr << "warning: " << w << '\n';  // also in run.json
   if (summary.status == mb::RunStatus::kFailed) {
     std::cerr << "error: the simulation failed " << summary.message << "\n  the results up to then are kept; run.json marks the run as failed\n"
               << "  hint: " << FailureHint(o, summary.message) << '\n';

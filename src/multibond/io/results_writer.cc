@@ -138,6 +138,7 @@ nlohmann::json MakeRunRecord(const std::string& model_file, const std::string& m
   j["energy"] = {{"work", summary.energy_work}, {"stored", summary.energy_stored},
                  {"dissipated", summary.energy_dissipated}, {"residual", summary.energy_residual},
                  {"max_abs_residual", summary.max_abs_energy_residual}};
+  j["warnings"] = summary.warnings;
   return j;
 }
 

@@ -365,6 +365,13 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   }
   summary.stats = integrator->stats();
   summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  if (model.has_energy_account() && summary.samples > 1 && std::abs(summary.energy_residual) > kEnergyResidualWarning)
+    summary.warnings.push_back(fmt::format(
+        "the energy balance does not close: at t = {:.9g} s, work - stored - dissipated is {:.3g} of the energy that flowed "
+        "(energy.residual); the results are not accurate: {}",
+        summary.t_reached, summary.energy_residual,
+        options.integrator.fixed_step > 0 ? "take a smaller fixed step"
+                                          : "lower rtol and atol (atol below the smallest state that matters), or try another solver"));
   observer.OnFinish(summary);
   return summary;
 }

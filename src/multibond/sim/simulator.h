@@ -63,7 +63,14 @@ struct RunSummary {
   double wall_seconds = 0.0;
   double energy_work = 0.0, energy_stored = 0.0, energy_dissipated = 0.0, energy_residual = 0.0;
   double max_abs_energy_residual = 0.0;
+  /// What a user must know about results that were computed (status ok): e.g. an energy balance
+  /// that does not close, which no correct solution of the model can give.
+  std::vector<std::string> warnings;
 };
+
+/// The energy residual at the end of a run above which the run is reported as inaccurate: a
+/// thousandth of the energy that flowed (a correct run is at the level of its tolerances).
+inline constexpr double kEnergyResidualWarning = 1e-3;
 
 /// Receives the samples of a run as they are computed.
 class Observer {
