@@ -154,6 +154,10 @@ TEST_F(CliTest, UnreadableModelFileExits74AndCreatesNothing) {
     EXPECT_THAT(r.out, Not(HasSubstr("error in the model"))) << cmd;
   }
   EXPECT_FALSE(fs::exists(dir_));
+  // A folder given as the model file.
+  const Result folder = Cli("check " + std::string(MULTIBOND_SOURCE_DIR) + "/examples");
+  EXPECT_EQ(folder.code, 74) << folder.out;
+  EXPECT_THAT(folder.out, HasSubstr("cannot read the model file: it is a directory"));
 }
 
 TEST_F(CliTest, UsageErrorsExit64) {

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <numbers>
@@ -1166,7 +1167,10 @@ class Loader {
       if (r.IsScalar() && (r.Scalar() == "all" || r.Scalar() == "true")) {
         rigid_all_ = true;
       } else if (r.IsSequence()) {
-        for (const auto& n : r) rigid_names_.push_back(n.Scalar());
+        for (const auto& n : r) {
+          rigid_names_.push_back(n.Scalar());
+          rigid_where_.push_back(Loc(n));
+        }
       } else {
         sink_.Error(Loc(r), "rigid", "'rigid' is 'all' or a list of joint and gear mesh names",
                     "write e.g. 'rigid: all' or 'rigid: [G_bearing, mesh_GA]'");
@@ -1396,6 +1400,17 @@ class Loader {
         m.AddPoint(p);
       }
     }
+    // Every name in 'rigid: [...]' must be a joint or a gear mesh (a misspelt one would leave
+    // that part compliant without a word).
+    std::vector<std::string> parts;
+    for (const auto& j : m.joints()) parts.push_back(j.name);
+    for (const auto& g : m.gears()) parts.push_back(g.name);
+    for (size_t k = 0; k < rigid_names_.size(); ++k)
+      if (std::find(parts.begin(), parts.end(), rigid_names_[k]) == parts.end()) {
+        const std::string guess = DidYouMean(rigid_names_[k], parts);
+        sink_.Error("mech.reference", rigid_where_[k], rigid_names_[k], "'rigid' names no joint or gear mesh of that name",
+                    guess.empty() ? "list the joints and gear meshes to make rigid" : fmt::format("did you mean '{}'?", guess));
+      }
     if (sink_.has_errors()) return;
     m.ExpandInto(graph_, sink_);
     mechanism_ = std::make_shared<mech::Mechanism>(std::move(m));
@@ -1412,6 +1427,7 @@ class Loader {
   std::map<std::string, std::set<std::string>> instance_ports_;
   std::map<std::string, SourceLocation> instance_where_;
   std::map<std::string, SourceLocation> bond_names_;  ///< the bonds named in the file, where
+  std::vector<SourceLocation> rigid_where_;            ///< where each of rigid_names_ is written
   std::vector<std::string> instantiating_;  ///< the submodel types being expanded, outermost first
 };
 
@@ -1487,11 +1503,12 @@ LoadedModel LoadModelString(const std::string& yaml, const std::string& file) {
 }
 
 LoadedModel LoadModelFile(const std::string& path) {
+  std::error_code ec;
   std::ifstream in(path, std::ios::binary);
-  if (!in) {
+  if (!in || std::filesystem::is_directory(path, ec)) {
     Diagnostic d;
     d.where.file = path;
-    d.message = "cannot open the model file";
+    d.message = std::filesystem::is_directory(path, ec) ? "cannot read the model file: it is a directory" : "cannot open the model file";
     d.hint = "check the path and the file's permissions";
     d.code = "io.unreadable";  // the CLI exits 74 for it, as for any file it cannot read
     throw ModelError(d);

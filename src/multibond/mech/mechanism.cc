@@ -123,12 +123,23 @@ class Expander {
                     "give the mesh a stiffness, or make it an ideal constraint with 'rigid: true'");
       if (!gm.rigid && !(gm.damping >= 0)) sink_.Error("param.range", gm.where, gm.name, "mesh damping must be >= 0");
       if (gm.axis_a.norm() < 1e-12 || gm.axis_b.norm() < 1e-12) sink_.Error("param.range", gm.where, gm.name, "gear axes must be non-zero vectors");
+      // The mesh relates the two gears' spins relative to the carrier: each a different body.
+      if (gm.body_a == gm.body_b)
+        sink_.Error("mech.reference", gm.where, gm.name, fmt::format("a gear mesh needs two different gears ('{}' meshes with itself)", gm.body_a),
+                    "give 'a' and 'b' the two bodies whose teeth mesh");
+      else if (gm.carrier == gm.body_a || gm.carrier == gm.body_b)
+        sink_.Error("mech.reference", gm.where, gm.name,
+                    fmt::format("the carrier '{}' is one of the meshing gears (its spin relative to itself is always 0)", gm.carrier),
+                    "the carrier is the body that holds both gears' axes (the ground, a housing, a planet carrier)");
     }
     for (const Drive& d : m_.drives()) {
       unique(d.name, d.where);
       const bool angular = d.kind == Drive::Kind::kAngularVelocity || d.kind == Drive::Kind::kTorque;
       body_ref(d.body, d.where, d.name, false, angular || !d.point.isZero());
       if (d.kind == Drive::Kind::kAngularVelocity) body_ref(d.reference, d.where, d.name, true, true);
+      if (d.kind == Drive::Kind::kAngularVelocity && d.reference == d.body)
+        sink_.Error("mech.reference", d.where, d.name, fmt::format("the drive turns '{}' relative to itself", d.body),
+                    "'reference' is the body the drive is mounted on (default: the ground)");
       if (d.kind == Drive::Kind::kVelocity && !IsGround(d.reference))
         sink_.Error("mech.reference", d.where, d.name, "a velocity drive acts relative to the ground", "remove 'reference'");
       const bool velocity = d.kind == Drive::Kind::kAngularVelocity || d.kind == Drive::Kind::kVelocity;
