@@ -447,14 +447,14 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a) {
   o.integrator.fixed_step = a.step.value_or(d.step.value_or(0.0));
   // The file's fixed step belongs to the file's solver: a step-choosing solver asked for on the
   // command line leaves it (only a --step given with it is refused).
-  if (!a.step && a.solver && (o.integrator.method == mb::Method::kBdf || o.integrator.method == mb::Method::kAdams))
+  if (!a.step && a.solver && mb::UsesNewtonMatrix(o.integrator.method))
     o.integrator.fixed_step = 0.0;
   o.integrator.max_step = a.max_step.value_or(d.max_step.value_or(0.0));
   o.all_variables = a.all_variables;
   o.integrator.project = !a.no_projection;
   o.integrator.jacobian = mb::ParseJacobianKind(a.jacobian);
   // An explicit method forms no Newton matrix: a --jacobian for it is recorded but changes nothing.
-  if (a.jacobian != "auto" && o.integrator.method != mb::Method::kBdf && o.integrator.method != mb::Method::kAdams)
+  if (a.jacobian != "auto" && !mb::UsesNewtonMatrix(o.integrator.method))
     std::cerr << fmt::format("warning: --jacobian {} has no effect with the explicit solver '{}' (only bdf and adams form a "
                              "Newton matrix)\n", a.jacobian, p.solver);
   o.stop = &g_stop;

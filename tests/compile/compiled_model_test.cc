@@ -112,7 +112,7 @@ TEST(CompiledModel, NamesInGeneratedCodeStayInsideTheirComments) {
   g.AddI(injected, Param::Scalar(1));
   g.AddC("k\\", Param::Scalar(1));
   g.AddJunction("j", ElementKind::kOne);
-  for (const std::string e : {injected, std::string("k\\")}) g.Connect("j", e);
+  for (const std::string& e : {injected, std::string("k\\")}) g.Connect("j", e);
   g.Connect("f", "j");
   const std::string src = CompiledModel::Compile(std::move(g))->GenerateSource();
   EXPECT_THAT(src, ::testing::Not(::testing::HasSubstr("\nint injected_marker")));

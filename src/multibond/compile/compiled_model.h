@@ -441,6 +441,8 @@ class CompiledModel {
   std::vector<int> flow_instr_of_block_;  ///< per momentum gather: its I-flow instruction in plan_
   struct WPair { int i, j, begin, end; };  ///< a nonzero of W and its range in w_terms_
   std::vector<WPair> w_pairs_;
+  /// W's entry for `pr`: the products of B's and V's entries over the rows its columns share.
+  double WEntry(const WPair& pr, const double* b, const double* v) const;
   /// Redundancy at t = 0 (FindIndependentConstraints): the multipliers outside the factor's
   /// independent set, and the w_pairs_ that ShareRedundantEfforts needs on the factored path (W's
   /// diagonal and every entry in a redundant multiplier's row or column).

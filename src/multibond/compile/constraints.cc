@@ -415,11 +415,13 @@ void CompiledModel::FormFullW(Workspace& ws) const {
   const double* v = ws.con.v.data();
   double* wm = ws.con.w.data();
   std::fill(ws.con.w.begin(), ws.con.w.end(), 0.0);
-  for (const WPair& pr : w_pairs_) {
-    double sum = 0.0;
-    for (int k = pr.begin; k < pr.end; ++k) sum += b[w_terms_[k].first] * v[w_terms_[k].second];
-    wm[pr.i * m + pr.j] = wm[pr.j * m + pr.i] = sum;
-  }
+  for (const WPair& pr : w_pairs_) wm[pr.i * m + pr.j] = wm[pr.j * m + pr.i] = WEntry(pr, b, v);
+}
+
+double CompiledModel::WEntry(const WPair& pr, const double* b, const double* v) const {
+  double sum = 0.0;
+  for (int k = pr.begin; k < pr.end; ++k) sum += b[w_terms_[k].first] * v[w_terms_[k].second];
+  return sum;
 }
 
 bool CompiledModel::FactorIndependent(Workspace& ws) const {
@@ -506,8 +508,7 @@ void CompiledModel::ShareRedundantEfforts(Workspace& ws) const {
     std::fill(c, c + m, 0.0);
     for (int k : share_pairs_) {
       const WPair& pr = w_pairs_[k];
-      double sum = 0.0;
-      for (int q = pr.begin; q < pr.end; ++q) sum += b[w_terms_[q].first] * v[w_terms_[q].second];
+      const double sum = WEntry(pr, b, v);
       wm[pr.i * m + pr.j] = wm[pr.j * m + pr.i] = sum;
       if (pr.i == pr.j) c[pr.i] = sum;  // W_ii
     }

@@ -105,5 +105,4 @@ std::vector<std::string> ReadHeaderCells(std::istream& in, const std::string& pa
   return cells;
 }
 
-
 }  // namespace multibond

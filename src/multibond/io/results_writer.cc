@@ -131,7 +131,7 @@ nlohmann::json MakeRunRecord(const std::string& model_file, const std::string& m
                        {"jac_evals", summary.stats.jac_evals}, {"linear_setups", summary.stats.linear_setups},
                        {"error_test_failures", summary.stats.error_test_failures},
                        {"nonlinear_failures", summary.stats.nonlinear_failures}, {"last_step", summary.stats.last_step}};
-  if (io.method == Method::kBdf || io.method == Method::kAdams) {
+  if (UsesNewtonMatrix(io.method)) {
     j["solver_stats"]["jacobian"] = summary.stats.sparse_jacobian ? "sparse" : "dense";
     j["solver_stats"]["evals_per_jacobian"] = summary.stats.evals_per_jacobian;
   }

@@ -70,6 +70,7 @@ struct CvodeCallbackState : sun::CallbackState {
   ColumnGroups groups;
   std::vector<double> increment;  ///< per state, for the group being evaluated
   std::vector<char> unresolved;   ///< per state: its column has a quotient lost in rounding
+  std::vector<int> columns;       ///< the columns of the pass being evaluated (no two share a row)
   long evaluations = 0;           ///< of f, by DifferenceQuotientJacobian
 };
 
@@ -129,7 +130,7 @@ int DifferenceQuotientJacobian(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix
     std::copy_n(yv, n, yp);
     std::vector<char>& unresolved = state->unresolved;
     unresolved.assign(n, 0);
-    std::vector<int> columns;  // this pass's columns of the group (no two share a row)
+    std::vector<int>& columns = state->columns;
     const int groups = p ? state->groups.count() : static_cast<int>(n);
     for (int g = 0; g < groups; ++g) {
       columns.clear();

@@ -108,7 +108,7 @@ void CheckIntegratorOptions(int n, const JacobianPattern* pattern, const Integra
   MB_ASSERT(n >= 0, "negative number of states");
   Validate(options, n);
   if (n == 0) return;
-  const bool cvode = options.method == Method::kBdf || options.method == Method::kAdams;
+  const bool cvode = UsesNewtonMatrix(options.method);
   Require(!(cvode && options.fixed_step > 0),
           fmt::format("a fixed step (--step) is for rk4, dopri5 and bs3; {} chooses its own steps (bound them with "
                       "--max-step)", MethodName(options.method)));

@@ -95,12 +95,17 @@ class Integrator {
   virtual const IntegratorOptions& options() const = 0;
 };
 
-/// Makes the integrator the options ask for. The system must outlive the integrator.
-/// Throws std::invalid_argument for inconsistent options (e.g. rk4 without a step).
+/// BDF and Adams (CVODE): they choose their own steps and solve a Newton system with a Jacobian
+/// (IntegratorOptions::jacobian); the others are explicit Runge-Kutta methods.
+inline bool UsesNewtonMatrix(Method m) { return m == Method::kBdf || m == Method::kAdams; }
+
 /// Throws std::invalid_argument, saying what is wrong, for options the integrator would refuse
 /// (MakeIntegrator checks them too): so that a front end can check them before it writes anything.
 /// `pattern`: the system's Jacobian pattern (OdeSystem::jacobian_pattern), or null.
 void CheckIntegratorOptions(int num_states, const JacobianPattern* pattern, const IntegratorOptions& options);
+
+/// Makes the integrator the options ask for. The system must outlive the integrator.
+/// Throws std::invalid_argument for inconsistent options (e.g. rk4 without a step).
 std::unique_ptr<Integrator> MakeIntegrator(OdeSystem& system, const IntegratorOptions& options);
 
 }  // namespace multibond
