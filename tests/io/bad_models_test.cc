@@ -3,6 +3,7 @@
 //   # expect: <substring of the diagnostic, as Diagnostic::ToString() prints it>
 //   # line: <line the diagnostic points at, 0 = any/none>
 //   # code: <diagnostic code>          (optional; only when the diagnostic has one)
+//   # errors: <how many errors in all> (optional; for mistakes that used to bring follow-on errors)
 // Loading, compiling and laying out the outputs (as `multibond run` does) must throw a
 // ModelError, one of whose diagnostics contains the text, at that line, with that code.
 
@@ -38,6 +39,7 @@ struct Expectation {
   std::string expect;
   int line = -1;
   std::string code;
+  int errors = -1;  ///< how many errors in all, when the header says (-1: not checked)
 };
 
 std::string Trim(const std::string& s) {
@@ -58,6 +60,7 @@ Expectation ReadHeader(const fs::path& file) {
     if (key == "expect") x.expect = value;
     else if (key == "line") x.line = std::stoi(value);
     else if (key == "code") x.code = value;
+    else if (key == "errors") x.errors = std::stoi(value);
   }
   return x;
 }
@@ -92,6 +95,11 @@ TEST_P(BadModel, IsRejectedWithTheExpectedDiagnostic) {
   }
   if (!x.code.empty()) {
     EXPECT_EQ(it->code, x.code) << it->ToString();
+  }
+  // One mistake, one error: no follow-on errors from what the first one refused.
+  if (x.errors >= 0) {
+    const auto errors = std::count_if(diagnostics.begin(), diagnostics.end(), [](const Diagnostic& d) { return d.severity == Diagnostic::Severity::kError; });
+    EXPECT_EQ(errors, x.errors) << all;
   }
 }
 

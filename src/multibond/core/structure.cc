@@ -48,13 +48,6 @@ class ValueUnion {
 
 bool AllFinite(const Eigen::MatrixXd& m) { return m.allFinite(); }
 
-bool IsPositiveDefinite(const Eigen::MatrixXd& m) {
-  if (m.rows() != m.cols()) return false;
-  if (!m.isApprox(m.transpose(), 1e-12 * (1.0 + m.norm()))) return false;
-  Eigen::LLT<Eigen::MatrixXd> llt(m);
-  return llt.info() == Eigen::Success;
-}
-
 bool IsPositiveSemiDefinite(const Eigen::MatrixXd& m) {
   if (m.rows() != m.cols()) return false;
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (m + m.transpose()));
@@ -74,6 +67,13 @@ int OwnDim(const Element& e) {
 }
 
 }  // namespace
+
+bool IsPositiveDefinite(const Eigen::MatrixXd& m) {
+  if (m.rows() != m.cols()) return false;
+  if (!m.isApprox(m.transpose(), 1e-12 * (1.0 + m.norm()))) return false;
+  Eigen::LLT<Eigen::MatrixXd> llt(m);
+  return llt.info() == Eigen::Success;
+}
 
 DomainUnits UnitsOf(const std::string& domain) {
   if (domain == "translation") return {"N", "m/s", "N s", "m"};

@@ -21,6 +21,10 @@ DomainUnits UnitsOf(const std::string& domain);
 /// The domains multibond knows units for.
 const std::vector<std::string>& KnownDomains();
 
+/// Square, symmetric (to 1e-12 relative) and with a Cholesky factor: what an inertia, a stiffness
+/// or a compliance matrix must be.
+bool IsPositiveDefinite(const Eigen::MatrixXd& m);
+
 struct Structure {
   std::vector<int> bond_dim;              ///< per bond
   std::vector<std::string> bond_domain;   ///< per bond ("" = generic)

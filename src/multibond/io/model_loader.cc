@@ -2,6 +2,7 @@
 
 #include "multibond/core/structure.h"
 #include "multibond/mech/mechanism.h"
+#include "multibond/sim/simulator.h"
 
 #include <algorithm>
 #include <cmath>
@@ -36,7 +37,16 @@ class Loader {
     LoadedModel out{BondGraph("model"), {}, {}, file_, text_, {}, nullptr};
     YAML::Node root;
     try {
-      root = YAML::Load(text_);
+      // A second document (after '---') would be ignored by YAML::Load: a model file holds one.
+      const std::vector<YAML::Node> documents = YAML::LoadAll(text_);
+      if (documents.size() > 1) {
+        const YAML::Mark m = documents[1].Mark();
+        sink_.Error({file_, m.line >= 0 ? m.line + 1 : 0, m.column >= 0 ? m.column + 1 : 0}, "",
+                    fmt::format("the file holds {} YAML documents; a model file is one", documents.size()),
+                    "remove the '---' line (and what follows it, or merge it into the first document)");
+        sink_.ThrowIfErrors();
+      }
+      if (!documents.empty()) root = documents.front();
     } catch (const YAML::Exception& e) {
       sink_.Add(ExplainSyntaxError(e));
       sink_.ThrowIfErrors();
@@ -108,6 +118,14 @@ class Loader {
     for (const char ch : name)
       if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) bad = "a control character (a line break, a tab)";
       else if (ch == '"' || ch == '\\') bad = fmt::format("'{}'", ch);
+    const bool names_columns = std::string_view(what) != "the model's";
+    if (names_columns && (name == "time" || name == "energy")) {
+      // The results' own columns: time, and the energy account energy.work, energy.stored, ...
+      sink_.Error("name.invalid", where, name, fmt::format("{} name '{}' is reserved for the results' {} column{}", what, name, name,
+                                                          name == "energy" ? "s (energy.work, energy.stored, ...)" : ""),
+                  "choose another name");
+      return false;
+    }
     if (!name.empty() && bad.empty()) return true;
     std::string shown;
     for (const char ch : name) shown += static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f ? '?' : ch;
@@ -146,6 +164,7 @@ class Loader {
     YAML::Node node;
     Env defaults;
     std::set<std::string> ports;
+    bool ports_in_error = false;  ///< a port names no element (said at the definition, not at every use)
   };
 
   /// yaml-cpp reports a syntax error where it noticed it, often a line after the cause (an
@@ -284,6 +303,14 @@ class Loader {
     }
   }
 
+  /// What a node is, for messages: "a number", "a list", "nothing"...
+  static std::string Describe(const YAML::Node& n) {
+    if (n.IsNull()) return "nothing";
+    if (n.IsSequence()) return "a list";
+    if (n.IsMap()) return "a mapping";
+    return fmt::format("'{}'", n.Scalar());
+  }
+
   /// A list of words (component names, ports); anything else is reported.
   std::vector<std::string> Words(const YAML::Node& n, const std::string& element, const char* what) {
     std::vector<std::string> out;
@@ -395,16 +422,26 @@ class Loader {
     const std::string kind = n.begin()->first.Scalar();
     const YAML::Node v = n.begin()->second;
     auto get = [&](const char* key, double dflt) { return v[key] ? Number(v[key], element, env) : dflt; };
+    // step, ramp and sine take a mapping of settings ({} keeps every default); step also a number.
+    auto settings = [&](const char* example) {
+      if (v.IsMap()) return true;
+      sink_.Error(Loc(v), element, fmt::format("'{}' takes a mapping of settings, not {}", kind, Describe(v)),
+                  fmt::format("write e.g. {{{}: {}}}", kind, example));
+      return false;
+    };
     if (kind == "step") {
       if (v.IsScalar()) return TimeFunction::Step(Number(v, element, env));
+      if (!settings("{value: 5, at: 1}")) return {};
       CheckKeys(v, {"value", "at", "before"}, element);
       return TimeFunction::Step(get("value", 1.0), get("at", 0.0), get("before", 0.0));
     }
     if (kind == "ramp") {
+      if (!settings("{slope: 2, start: 1}")) return {};
       CheckKeys(v, {"slope", "start", "offset"}, element);
       return TimeFunction::Ramp(get("slope", 1.0), get("start", 0.0), get("offset", 0.0));
     }
     if (kind == "sine") {
+      if (!settings("{amplitude: 0.1, frequency: 50}")) return {};
       CheckKeys(v, {"amplitude", "frequency", "phase", "offset"}, element);
       return TimeFunction::Sine(get("amplitude", 1.0), get("frequency", 1.0), get("phase", 0.0), get("offset", 0.0));
     }
@@ -542,6 +579,18 @@ class Loader {
       }
       if (def["ports"])
         for (const auto& p : Words(def["ports"], name, "ports")) sd.ports.insert(p);
+      // A port names one of the definition's elements: said here, once, not at every use.
+      if (def["ports"] && def["ports"].IsSequence() && def["elements"] && def["elements"].IsMap()) {
+        std::vector<std::string> locals;
+        for (const auto& e : def["elements"]) locals.push_back(e.first.Scalar());
+        for (const auto& p : def["ports"]) {
+          if (!p.IsScalar() || std::find(locals.begin(), locals.end(), p.Scalar()) != locals.end()) continue;
+          sd.ports_in_error = true;
+          const std::string guess = DidYouMean(p.Scalar(), locals);
+          sink_.Error(Loc(p), name, fmt::format("port '{}' is not one of the submodel's elements", p.Scalar()),
+                      guess.empty() ? "a port names an element under the submodel's 'elements'" : fmt::format("did you mean '{}'?", guess));
+        }
+      }
       submodels_[name] = sd;
     }
   }
@@ -571,12 +620,19 @@ class Loader {
           continue;
         }
         seen[local] = Loc(kv.first);
-        if (!CheckName(local, Loc(kv.first), "an element's")) continue;
-        if (local.find_first_of(" \t>") != std::string::npos || local.find("->") != std::string::npos) {
-          sink_.Error(Loc(kv.first), local, "element names may not contain spaces or '->'", "use letters, digits, '_' and '.'");
+        // An element refused here has had its error: the bonds that name it do not add another.
+        const std::string qualified = Qualify(prefix, local);
+        if (!CheckName(local, Loc(kv.first), "an element's")) {
+          refused_elements_.insert(qualified);
           continue;
         }
-        ReadElement(Qualify(prefix, local), kv.second, Loc(kv.first), prefix, env, depth);
+        if (local.find_first_of(" \t>") != std::string::npos || local.find("->") != std::string::npos) {
+          sink_.Error(Loc(kv.first), local, "element names may not contain spaces or '->'", "use letters, digits, '_' and '.'");
+          refused_elements_.insert(qualified);
+          continue;
+        }
+        ReadElement(qualified, kv.second, Loc(kv.first), prefix, env, depth);
+        if (graph_.Find(qualified) < 0 && !instance_where_.count(qualified)) refused_elements_.insert(qualified);
       }
     }
     if (scope["states"]) ReadStates(scope["states"], prefix, env);
@@ -658,13 +714,22 @@ class Loader {
         if (spec["stiffness"] && spec["compliance"]) sink_.Error(where, name, "give either 'stiffness' or 'compliance', not both");
         if (spec["compliance"]) {
           Param c = ReadParam(spec["compliance"], name, env);
+          // The stiffness is its inverse; a bad compliance is said once, here, and leaves a stiffness of 1.
           if (c.is_scalar) {
-            if (!(c.scalar > 0))
+            const bool ok = c.scalar > 0;
+            if (!ok)
               sink_.Error("param.range", Loc(spec["compliance"]), name, fmt::format("compliance must be > 0 (got {:g})", c.scalar),
                           "a compliance stores energy only when positive");
-            e.param = Param::Scalar(1.0 / c.scalar);
+            e.param = Param::Scalar(ok ? 1.0 / c.scalar : 1.0);
           } else {
-            e.param = Param::Matrix(c.matrix.inverse());
+            const bool ok = c.matrix.allFinite() && IsPositiveDefinite(c.matrix);
+            if (!ok && c.matrix.size() > 0)
+              sink_.Error("param.range", Loc(spec["compliance"]), name, "compliance matrix must be symmetric positive definite",
+                          "a compliance stores energy in every direction only when positive definite (a singular one "
+                          "has no stiffness: an ideal constraint is an Sf with constraint: true)");
+            const bool square = c.matrix.rows() == c.matrix.cols();
+            e.param = ok ? Param::Matrix(c.matrix.inverse())
+                         : square ? Param::Matrix(Eigen::MatrixXd::Identity(c.matrix.rows(), c.matrix.cols())) : c;
           }
         } else if (require("stiffness", "e.g. stiffness: 100 (N/m, N m/rad, 1/F, ...)")) {
           e.param = ReadParam(spec["stiffness"], name, env);
@@ -734,7 +799,7 @@ class Loader {
       const std::string key = kv.first.Scalar();
       if (key != "type" && key != "description" && def.defaults.count(key)) env[key] = Number(kv.second, name, outer);
     }
-    instance_ports_[name] = def.ports;
+    if (!def.ports_in_error) instance_ports_[name] = def.ports;
     instance_where_[name] = where;
     ReadScope(def.node, name, env, depth + 1);
   }
@@ -827,6 +892,7 @@ class Loader {
     for (const auto& [end, local] : {std::pair{f, from}, std::pair{t, to}}) {
       if (graph_.Find(end) >= 0) continue;
       ok = false;
+      if (refused_elements_.count(end)) continue;
       std::vector<std::string> names;
       for (const auto& e : graph_.elements()) names.push_back(e.name);
       const std::string guess = DidYouMean(end, names);
@@ -939,11 +1005,28 @@ class Loader {
     positive("atol", s.atol);
     positive("step", s.step);
     positive("max_step", s.max_step);
+    if (s.rtol && *s.rtol >= 1.0)
+      sink_.Error(Loc(n["rtol"]), "simulation", fmt::format("rtol is a relative tolerance and must be below 1 (got {:g})", *s.rtol),
+                  "typical values are 1e-6 to 1e-10");
+    // What the run would refuse of these settings together is an error of the file, here, not at 'run'.
+    auto check_together = [&](const char* key, auto&& check) {
+      try {
+        check();
+      } catch (const std::invalid_argument& e) {
+        sink_.Error(Loc(n[key]), "simulation", e.what());
+      }
+    };
+    if (s.t_end && s.dt && *s.t_end > 0 && *s.dt > 0) check_together("dt", [&] { CheckOutputGrid(0.0, *s.t_end, *s.dt); });
+    if (s.step && s.dt) check_together("step", [&] { CheckFixedStep(*s.step, *s.dt); });
     if (n["solver"]) {
       s.solver = n["solver"].Scalar();
       try {
-        if (ParseMethod(*s.solver) == Method::kRk4 && !s.step)
+        const Method method = ParseMethod(*s.solver);
+        if (method == Method::kRk4 && !s.step)
           sink_.Error(Loc(n["solver"]), "simulation", "rk4 is a fixed-step method and needs 'step'", "add step: 1.0e-4 (or use dopri5)");
+        if (UsesNewtonMatrix(method) && s.step)
+          sink_.Error(Loc(n["step"]), "simulation", fmt::format("{} chooses its own steps: a fixed 'step' is for rk4, dopri5 and bs3", *s.solver),
+                      "bound its steps with max_step instead");
       } catch (const std::invalid_argument& e) {
         sink_.Error(Loc(n["solver"]), "simulation", e.what());
       }
@@ -1092,6 +1175,10 @@ class Loader {
   mech::MassProperties Mass(const YAML::Node& b, const std::string& name) {
     if (b["shape"]) {
       const YAML::Node sh = b["shape"];
+      for (const char* key : {"mass", "inertia"})
+        if (b[key])
+          sink_.Error(Loc(b[key]), name, fmt::format("a body with a shape takes its {} from the shape and density", key),
+                      fmt::format("give either shape and density, or mass and inertia: remove '{}' or 'shape'", key));
       if (!b["density"]) sink_.Error(Loc(sh), name, "a shape needs a 'density' [kg/m^3]");
       const double rho = b["density"] ? Number(b["density"], name, Env{}) : 1.0;
       if (!(rho > 0)) sink_.Error("param.range", Loc(b["density"]), name, fmt::format("density must be > 0 (got {:g})", rho));
@@ -1153,6 +1240,9 @@ class Loader {
     if (ip.is_scalar) inertia *= ip.scalar;
     else if (ip.matrix.rows() == 3 && ip.matrix.cols() == 3) inertia = ip.matrix;
     else sink_.Error(Loc(b["inertia"]), name, "inertia is a number, 3 principal moments or a 3x3 matrix");
+    // A zero tensor would make a point mass and drop the body's rotation (and its omega columns) silently.
+    if (inertia.isZero(0.0))
+      sink_.Error("param.range", Loc(b["inertia"]), name, "inertia must be positive definite (got 0)", "leave 'inertia' out for a point mass");
     return mech::MassProperties::Given(m, inertia);
   }
 
@@ -1425,6 +1515,8 @@ class Loader {
   std::vector<std::string> rigid_names_;  ///< the model's 'rigid: [names]' 
   std::map<std::string, SubmodelDef> submodels_;
   std::map<std::string, std::set<std::string>> instance_ports_;
+  /// Elements the file defines but the loader refused (qualified names), with their error given.
+  std::set<std::string> refused_elements_;
   std::map<std::string, SourceLocation> instance_where_;
   std::map<std::string, SourceLocation> bond_names_;  ///< the bonds named in the file, where
   std::vector<SourceLocation> rigid_where_;            ///< where each of rigid_names_ is written

@@ -2,6 +2,9 @@
 
 #include <map>
 
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+
 #include <fmt/format.h>
 
 namespace multibond::mech {
@@ -57,9 +60,18 @@ class Expander {
         sink_.Error("param.range", b.where, b.name, fmt::format("mass must be > 0 (got {:g})", b.mass.mass), "give a density and shape, or a positive mass");
       if (b.mass.has_rotation()) {
         Eigen::LLT<Eigen::Matrix3d> llt(b.mass.inertia);
-        if (!b.mass.inertia.isApprox(b.mass.inertia.transpose(), 1e-12) || llt.info() != Eigen::Success)
+        if (!b.mass.inertia.isApprox(b.mass.inertia.transpose(), 1e-12) || llt.info() != Eigen::Success) {
           sink_.Error("param.range", b.where, b.name, "inertia tensor must be symmetric positive definite",
                       "check the principal moments (each below the sum of the other two)");
+        } else {
+          // Every rigid body's principal moments satisfy I_k <= I_i + I_j (a thin plate at equality).
+          const Eigen::Vector3d I = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(b.mass.inertia, Eigen::EigenvaluesOnly).eigenvalues();
+          if (I[2] > (I[0] + I[1]) * (1.0 + 1e-9))
+            sink_.Error("param.range", b.where, b.name,
+                        fmt::format("no rigid body has the principal moments of inertia {:g}, {:g}, {:g}: the largest exceeds "
+                                    "the sum of the other two", I[0], I[1], I[2]),
+                        "check the inertia (each principal moment is at most the sum of the other two)");
+        }
       }
       if (!(b.orientation.transpose() * b.orientation).isApprox(Eigen::Matrix3d::Identity(), 1e-9) || b.orientation.determinant() < 0)
         sink_.Error("param.range", b.where, b.name, "initial orientation is not a rotation matrix", "give an orthonormal matrix with det +1, or an axis and angle");

@@ -218,24 +218,30 @@ long NumOutputIntervals(const RunOptions& options) {
   return std::max(1L, static_cast<long>(std::ceil(ratio - 1e-9 * ratio)));
 }
 
-void CheckRunOptions(const CompiledModel& model, const RunOptions& options) {
-  if (!(std::isfinite(options.dt) && options.dt > 0.0))
-    throw std::invalid_argument(fmt::format("the output interval must be a finite number > 0 (got {})", options.dt));
-  if (!std::isfinite(options.t_start) || !std::isfinite(options.t_end) || !(options.t_end > options.t_start))
-    throw std::invalid_argument(fmt::format("the end time ({}) must be a finite time after the start time ({})", options.t_end, options.t_start));
+void CheckOutputGrid(double t_start, double t_end, double dt) {
+  if (!(std::isfinite(dt) && dt > 0.0))
+    throw std::invalid_argument(fmt::format("the output interval must be a finite number > 0 (got {})", dt));
+  if (!std::isfinite(t_start) || !std::isfinite(t_end) || !(t_end > t_start))
+    throw std::invalid_argument(fmt::format("the end time ({}) must be a finite time after the start time ({})", t_end, t_start));
   // Beyond this many rows the grid is a mistake (a billion 8-byte numbers per column), and the
   // count itself would overflow a long further on.
   constexpr double kMaxOutputIntervals = 1e8;
-  const double ratio = (options.t_end - options.t_start) / options.dt;
+  const double ratio = (t_end - t_start) / dt;
   if (!(ratio <= kMaxOutputIntervals))
     throw std::invalid_argument(fmt::format("{:g} s of run at an output interval of {:g} s is {:.3g} output rows, more than {:g}; "
-                                            "use a larger output interval (--dt)", options.t_end - options.t_start, options.dt, ratio,
-                                            kMaxOutputIntervals));
-  CheckIntegratorOptions(model.num_states(), model.jacobian_pattern(), options.integrator);
-  if (options.integrator.fixed_step > options.dt * (1.0 + 1e-12))
+                                            "use a larger output interval (--dt)", t_end - t_start, dt, ratio, kMaxOutputIntervals));
+}
+
+void CheckFixedStep(double fixed_step, double dt) {
+  if (fixed_step > dt * (1.0 + 1e-12))
     throw std::invalid_argument(fmt::format("the fixed step ({:g} s) is longer than the output interval ({:g} s): the steps end "
-                                            "at every output time; use a step no longer than --dt",
-                                            options.integrator.fixed_step, options.dt));
+                                            "at every output time; use a step no longer than --dt", fixed_step, dt));
+}
+
+void CheckRunOptions(const CompiledModel& model, const RunOptions& options) {
+  CheckOutputGrid(options.t_start, options.t_end, options.dt);
+  CheckIntegratorOptions(model.num_states(), model.jacobian_pattern(), options.integrator);
+  CheckFixedStep(options.integrator.fixed_step, options.dt);
 }
 
 RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Observer& observer) {

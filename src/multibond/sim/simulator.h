@@ -118,6 +118,11 @@ std::vector<Column> MakeColumns(const CompiledModel& model, bool all_variables);
 /// t_end itself (a last interval shorter than a billionth of the run is merged into the one
 /// before). Returns the number of times after t_start.
 long NumOutputIntervals(const RunOptions& options);
+/// The parts of CheckRunOptions that need no model, for a loader to report at the file's keys:
+/// the output grid (a finite end after the start, a positive interval, at most 1e8 rows) and a
+/// fixed step no longer than the output interval (0: none). Throw std::invalid_argument.
+void CheckOutputGrid(double t_start, double t_end, double dt);
+void CheckFixedStep(double fixed_step, double dt);
 /// Throws std::invalid_argument, saying what is wrong, for options that Simulate would refuse
 /// (times, output interval, integrator options): a front end checks them before writing anything.
 void CheckRunOptions(const CompiledModel& model, const RunOptions& options);
