@@ -275,6 +275,11 @@ class Loader {
       if (!kv.first.IsScalar()) continue;
       const std::string key = kv.first.Scalar();
       const std::string where = path.empty() ? key : path + "." + key;
+      if (key == "<<") {  // yaml-cpp reads a merge key as an ordinary key
+        sink_.Error(Loc(kv.first), path, "YAML merge keys ('<<: *anchor') are not supported",
+                    "write the keys out (an anchor and alias of a whole value, '&a' and '*a', do work)");
+        continue;
+      }
       const auto [first, fresh] = seen.emplace(key, Loc(kv.first));
       if (!fresh && !element_names) {
         Diagnostic d;
@@ -295,6 +300,7 @@ class Loader {
     for (const auto& kv : map) {
       const std::string key = kv.first.Scalar();
       if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
+      if (key == "<<") continue;  // said by CheckDuplicateKeys
       const std::string guess = DidYouMean(key, allowed);
       std::string allowed_list;
       for (const auto& a : allowed) allowed_list += (allowed_list.empty() ? "" : ", ") + a;
