@@ -410,6 +410,54 @@ drives:
   EXPECT_NEAR(rec.Last("B.R.21"), 1.0, 1e-9);  // B's x axis is along y at the end
 }
 
+// The run-time fallback to the pivoted solve. C is held along x by a slot (world frame) and along
+// B's x axis by a guide on the disc B, which turns. Compiled with B turned by 30 degrees, both
+// constraints are independent and the sparse L D L^T solves them without pivoting. At 0 degrees
+// the guide is parallel to the slot: W on that set is singular, the evaluation must take the
+// pivoted solve over all constraints, and its answer must be the one of the same model compiled
+// at 0 degrees (where the set chosen is one constraint, solved without pivoting): the motion is
+// unique, and so is the split of the reaction. At 60 degrees the set stays independent.
+TEST(IdealConstraints, ConfigurationsWhereTheIndependentSetDegeneratesTakeThePivotedSolve) {
+  auto compile = [](double degrees) {
+    const std::string text = fmt::format(R"(
+model: turning_guide
+rigid: all
+bodies:
+  B: {{shape: {{disc: {{diameter: 0.2, thickness: 0.01, axis: z}}}}, density: 2700, position: [0, 0, 0],
+      orientation: {{axis: z, degrees: {}}}, omega: [0, 0, 2.0]}}
+  C: {{mass: 1.0, inertia: [0.01, 0.01, 0.01], position: [0, 0, 0]}}
+joints:
+  guide: {{parent: B, child: C, translation: {{axes: [x], frame: parent, K: 1.0e4}}}}
+  slot:  {{parent: ground, child: C, translation: {{axes: [x], frame: world, K: 2.0e4}}}}
+  pivot: {{type: revolute, parent: ground, child: B, axis: z, translation: {{K: 1.0e6}}, rotation: {{K: 1.0e6}}}}
+drives:
+  spin:   {{type: torque, body: B, axis: z, value: 0.3}}
+  push_x: {{type: force, body: C, axis: x, value: 1.0}}
+  push_y: {{type: force, body: C, axis: y, value: 0.5}}
+)", degrees);
+    const LoadedModel lm = LoadModelString(text, "<test>");
+    return CompiledModel::Compile(lm.graph, lm.compile);
+  };
+  const auto at30 = compile(30.0);
+  Workspace ws30 = at30->MakeWorkspace();
+  for (const double degrees : {0.0, 60.0}) {
+    const auto there = compile(degrees);
+    Workspace ws = there->MakeWorkspace();
+    Eigen::VectorXd x = there->MakeInitialState();
+    there->Project(0.0, x.data(), ws);
+    Eigen::VectorXd expected(x.size()), got(x.size());
+    there->CalcDerivatives(0.0, x.data(), expected.data(), ws);
+    EXPECT_TRUE(ws.con.factored) << degrees << " degrees: compiled there, the set chosen there is independent";
+    at30->CalcDerivatives(0.0, x.data(), got.data(), ws30);
+    EXPECT_EQ(ws30.con.factored, degrees != 0.0) << degrees << " degrees: the set chosen at 30 degrees "
+                                                 << (degrees == 0.0 ? "is dependent here" : "is still independent");
+    EXPECT_LT((got - expected).cwiseAbs().maxCoeff(), 1e-10 * (1.0 + expected.cwiseAbs().maxCoeff())) << degrees << " degrees";
+    ASSERT_EQ(ws30.lambda.size(), ws.lambda.size());
+    for (size_t i = 0; i < ws.lambda.size(); ++i)
+      EXPECT_NEAR(ws30.lambda[i], ws.lambda[i], 1e-10 * (1.0 + std::abs(ws.lambda[i]))) << degrees << " degrees, multiplier " << i;
+  }
+}
+
 TEST(IdealConstraints, ComplianceNeedsAConstraintAndAPositiveValue) {
   for (const char* bad : {"{type: Sf, flow: 0, compliance: 1e-4}", "{type: Sf, flow: 0, constraint: true, compliance: -1}"}) {
     try {
