@@ -68,6 +68,8 @@ std::string FailureHint(const mb::RunOptions& o, const std::string& message) {
   const mb::IntegratorOptions& i = o.integrator;
   const auto has = [&](const char* text) { return message.find(text) != std::string::npos; };
   if (has("evaluating the outputs failed")) return "check the model's parameters (an output could not be evaluated there)";
+  if (has("derivatives of the initial state are not finite"))
+    return "check the parameters and initial values of those states' elements (no solver or tolerance can help)";
   if (has("beyond machine precision")) return "loosen the tolerances (--rtol, --atol): double precision cannot resolve them";
   if (i.fixed_step > 0)
     return fmt::format("try a smaller fixed step (--step, now {:g} s): beyond its stability limit a fixed step blows up; or an adaptive "

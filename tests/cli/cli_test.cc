@@ -257,6 +257,27 @@ TEST_F(CliTest, DivergingRunExitsTwoKeepsResultsAndMarksThemFailed) {
   EXPECT_GT(std::count(csv.begin(), csv.end(), '\n'), 2);  // the samples up to the failure are kept
 }
 
+TEST_F(CliTest, DerivativesThatOverflowAtTheStartAreSaidByStateName) {
+  // m's flow p / I = 1e308 / 1e-10 overflows: the spring's rate and the source's power are infinite
+  // at t = 0. Said as such, before any step (the solvers failed at h = 0, or at t = NaN).
+  fs::create_directories(dir_);
+  std::ofstream(dir_ / "huge.yaml") << R"(model: huge
+elements:
+  f: {type: Se, effort: 1.0}
+  v: {type: "1"}
+  m: {type: I, inertia: 1.0e-10, p0: 1.0e308}
+  c: {type: C, stiffness: 1.0}
+bonds: [f -> v, v -> m, v -> c]
+)";
+  for (const char* solver : {"bdf", "dopri5"}) {
+    const Result r = Cli("run " + (dir_ / "huge.yaml").string() + " -o " + (dir_ / solver).string() + " --jit off --solver " + solver);
+    EXPECT_EQ(r.code, 2) << r.out;
+    EXPECT_THAT(r.out, HasSubstr("at t = 0 s: the derivatives of the initial state are not finite (infinite or NaN): c.q, f.work"));
+    EXPECT_THAT(r.out, HasSubstr("hint: check the parameters and initial values"));
+    EXPECT_EQ(nlohmann::json::parse(Read(dir_ / solver / "run.json"))["status"], "failed");
+  }
+}
+
 TEST_F(CliTest, EquationsTextAndLatex) {
   Result r = Cli("equations " + Example("mass_spring_damper.yaml"));
   EXPECT_EQ(r.code, 0);

@@ -180,6 +180,15 @@ class EnergyBalance {
   double stored0_, scale_;
 };
 
+/// The first five states whose entries in v are infinite or NaN, by name.
+std::string NonFiniteNames(const CompiledModel& model, const Eigen::VectorXd& v) {
+  std::string names;
+  int shown = 0;
+  for (int i = 0; i < v.size() && shown < 5; ++i)
+    if (!std::isfinite(v[i])) names += (shown++ ? ", " : "") + model.state_names()[i];
+  return names;
+}
+
 }  // namespace
 
 const char* RunStatusName(RunStatus s) {
@@ -324,7 +333,17 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
       return false;
     }
   };
-  const bool started = sample_or_fail(options.t_start);
+  bool started = sample_or_fail(options.t_start);
+  // Derivatives that are already infinite or NaN at the start (parameters or initial values that
+  // overflow) would only make the solver fail at a step size of zero, or at t = NaN, with its own
+  // words: said here by name.
+  if (started && !xdot.allFinite()) {
+    summary.status = RunStatus::kFailed;
+    summary.message = fmt::format("at t = {:.9g} s: the derivatives of the initial state are not finite (infinite or NaN): {}; "
+                                  "the model's parameters or initial values overflow double precision",
+                                  options.t_start, NonFiniteNames(model, xdot));
+    started = false;
+  }
   const long n_out = NumOutputIntervals(options);
   auto last_progress = wall_start;
   for (long k = 1; started && k <= n_out; ++k) {
@@ -347,12 +366,8 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
       break;
     }
     if (!x.allFinite()) {
-      std::string names;
-      int shown = 0;
-      for (int i = 0; i < x.size() && shown < 5; ++i)
-        if (!std::isfinite(x[i])) names += (shown++ ? ", " : "") + model.state_names()[i];
       summary.status = RunStatus::kFailed;
-      summary.message = fmt::format("at t = {:.9g} s: the state is no longer finite ({})", tout, names);
+      summary.message = fmt::format("at t = {:.9g} s: the state is no longer finite ({})", tout, NonFiniteNames(model, x));
       break;
     }
     if (!sample_or_fail(tout)) break;

@@ -441,7 +441,8 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
     const sun::CString name(ERKStepGetReturnFlagName(flag));
     std::string text = Explain(flag, options_);
     if (!callbacks_.message().empty()) text += "; ARKODE: " + callbacks_.message();
-    SolverError error(t, name ? name.get() : fmt::format("ARKODE flag {}", flag), std::move(text));
+    // A step that met infinities leaves ERKStep's own time NaN: the failure is after the last good time.
+    SolverError error(std::isfinite(t) ? t : time_, name ? name.get() : fmt::format("ARKODE flag {}", flag), std::move(text));
     if (mem_) {
       sun::VectorPtr ele = sun::MakeVector(n_, ctx_.get()), ewt = sun::MakeVector(n_, ctx_.get());
       if (ERKStepGetEstLocalErrors(mem_.get(), ele.get()) == ARK_SUCCESS && ERKStepGetErrWeights(mem_.get(), ewt.get()) == ARK_SUCCESS)
