@@ -74,8 +74,14 @@ std::string FailureHint(const mb::RunOptions& o, const std::string& message) {
   if (i.fixed_step > 0)
     return fmt::format("try a smaller fixed step (--step, now {:g} s): beyond its stability limit a fixed step blows up; or an adaptive "
                        "solver (--solver bs3, dopri5 or bdf without --step)", i.fixed_step);
-  if (has("max_steps_per_output") && i.max_step > 0)
-    return fmt::format("try a larger --max-step (now {:g} s), a stiff solver (--solver bdf) or a shorter output interval (--dt)", i.max_step);
+  if (has("max_steps_per_output")) {
+    // Too many steps in one output interval: a shorter interval lets them be taken; what else
+    // helps depends on what held the steps short.
+    std::string hint = fmt::format("a shorter output interval (--dt, now {:g} s) lets the solver take more steps", o.dt);
+    if (i.max_step > 0) hint += fmt::format("; or a larger --max-step (now {:g} s)", i.max_step);
+    if (!mb::UsesNewtonMatrix(i.method)) hint += "; or, if the model is stiff, --solver bdf";
+    return hint + "; or looser tolerances (--rtol, --atol), if the accuracy allows";
+  }
   if (i.method == mb::Method::kBdf) return "try a tighter tolerance (--rtol), or check the model's parameters (is the solution blowing up?)";
   return "try a stiff solver (--solver bdf), a tighter tolerance (--rtol), or check the model's parameters";
 }

@@ -180,7 +180,8 @@ TEST_F(CliTest, RefusedOptionsCreateNothingAndSayWhatIsExpected) {
            {" --solver bdf --step 0.01", "chooses its own steps"},
            {" --t-end 1e16", "output rows"},
            {" --t-end 0", "must be > 0 (got 0)"},
-           {" --t-end 1s", "'1s' is not a number"}}) {
+           {" --t-end 1s", "'1s' is not a number"},
+           {" --rtol 1", "rtol is a relative tolerance and must be below 1"}}) {
     const Result r = Cli(base + args);
     EXPECT_EQ(r.code, 64) << args << ": " << r.out;
     EXPECT_THAT(r.out, HasSubstr(expected)) << args;
@@ -276,6 +277,40 @@ bonds: [f -> v, v -> m, v -> c]
     EXPECT_THAT(r.out, HasSubstr("hint: check the parameters and initial values"));
     EXPECT_EQ(nlohmann::json::parse(Read(dir_ / solver / "run.json"))["status"], "failed");
   }
+}
+
+// Ctrl-C stops a run within a step, not at the end of an output interval (here 50 s of model time
+// at steps of at most 1e-5 s: the solver would have gone on to its step limit and reported a
+// failure, exit 2); the rows written until then are kept.
+TEST_F(CliTest, AnInterruptIsHonouredWithinAnOutputInterval) {
+  const std::string cmd = std::string(MULTIBOND_CLI) + " run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() +
+                          " --t-end 100 --dt 50 --max-step 1e-5 --jit off -q > /dev/null 2>&1 & pid=$!; for i in $(seq 600); do "
+                          "[ -f " + (dir_ / "results.csv.partial").string() + " ] && break; sleep 0.1; done; sleep 0.3; "
+                          "kill -INT $pid; wait $pid; echo $?";
+  FILE* p = popen(cmd.c_str(), "r");
+  char buf[64] = {0};
+  const size_t n = fread(buf, 1, sizeof buf - 1, p);
+  pclose(p);
+  EXPECT_EQ(std::atoi(std::string(buf, n).c_str()), 130);
+  const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  EXPECT_EQ(run["status"], "interrupted");
+  EXPECT_EQ(run["t_reached"].get<double>(), 0.0);
+}
+
+// A step-choosing solver that needs more than max_steps_per_output steps in one output interval is
+// told to shorten the interval (and, with --max-step, to raise it), not to tighten the tolerance or
+// to use the solver it already uses; no state "failed first". A fixed step takes its dt / step steps
+// per interval, however many (2e6 here).
+TEST_F(CliTest, TooManyStepsPerOutputIntervalGetsItsOwnAdvice) {
+  const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + (dir_ / "bdf").string() +
+                       " --t-end 40 --dt 20 --max-step 1e-5 --jit off -q");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("hint: a shorter output interval (--dt, now 20 s) lets the solver take more steps; or a larger --max-step (now 1e-05 s)"));
+  EXPECT_THAT(r.out, Not(HasSubstr("--solver bdf")));
+  EXPECT_THAT(r.out, Not(HasSubstr("failed first")));
+  const Result fixed = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + (dir_ / "rk4").string() +
+                           " --t-end 2 --dt 2 --solver rk4 --step 1e-6 --jit off -q");
+  EXPECT_EQ(fixed.code, 0) << fixed.out;
 }
 
 TEST_F(CliTest, EquationsTextAndLatex) {

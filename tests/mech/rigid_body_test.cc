@@ -75,6 +75,23 @@ TEST(MassProperties, ShapesMatchTextbookFormulas) {
   EXPECT_FALSE(MassProperties::PointMass(1).has_rotation());
 }
 
+// A revolute or prismatic joint couples the two directions perpendicular to its axis: along a
+// coordinate axis they are the other two, positive (their columns are named .x/.y/.z); along any
+// axis, an orthonormal pair orthogonal to it.
+TEST(Joints, PerpendicularDirectionsOfACoordinateAxisAreTheOtherTwoAxes) {
+  for (int axis = 0; axis < 3; ++axis) {
+    const Eigen::Matrix<double, 2, 3> p = Perpendicular(Eigen::Vector3d::Unit(axis));
+    for (int r = 0; r < 2; ++r) {
+      EXPECT_NEAR(p.row(r).maxCoeff(), 1.0, 1e-15) << "axis " << axis << ", row " << r << ": " << p.row(r);
+      EXPECT_NEAR(p(r, axis), 0.0, 1e-15);
+    }
+  }
+  const Eigen::Vector3d a = Eigen::Vector3d(1.0, -2.0, 0.5).normalized();
+  const Eigen::Matrix<double, 2, 3> p = Perpendicular(a);
+  EXPECT_LT((p * p.transpose() - Eigen::Matrix2d::Identity()).norm(), 1e-14);
+  EXPECT_LT((p * a).norm(), 1e-14);
+}
+
 TEST(RigidBody, TorqueFreeFlipConservesEnergyAndMomentumAndHasTheEllipticPeriod) {
   // An asymmetric body (I1 < I2 < I3) spun near its intermediate axis: the Dzhanibekov flip.
   const double i1 = 1, i2 = 2, i3 = 3;

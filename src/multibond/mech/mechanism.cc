@@ -571,7 +571,10 @@ Eigen::Matrix<double, 2, 3> Perpendicular(const Eigen::Vector3d& axis) {
   for (int i = 1; i < 3; ++i)
     if (std::abs(a[i]) < std::abs(a[k])) k = i;
   const Eigen::Vector3d u = (Eigen::Vector3d::Unit(k) - a * a[k]).normalized();
-  const Eigen::Vector3d v = a.cross(u);
+  Eigen::Vector3d v = a.cross(u);
+  // Along a coordinate axis the pair is the other two axes, both positive, so that the coupling's
+  // columns are named .x/.z (about y, a x u is -z: it was named '.2', with its sign flipped).
+  if (v.minCoeff() < -1.0 + 1e-12) v = -v;
   Eigen::Matrix<double, 2, 3> m;
   m.row(0) = u.transpose();
   m.row(1) = v.transpose();

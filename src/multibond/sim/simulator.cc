@@ -257,13 +257,19 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   CheckRunOptions(model, options);
   const auto wall_start = std::chrono::steady_clock::now();
   const Layout layout = MakeLayout(model, options.all_variables);
-  ModelSystem system(model);
+  ModelSystem system(model, options.stop);
   Workspace& ws = system.workspace();
   Eigen::VectorXd x = model.MakeInitialState();
   Eigen::VectorXd xdot(x.size());
   // Ideal constraints start satisfied: initial momenta are projected onto them.
   if (model.has_constraints()) model.Project(options.t_start, x.data(), ws);
-  auto integrator = MakeIntegrator(system, options.integrator);
+  // A fixed step takes dt / step steps per output interval, whatever their number: the cap on
+  // steps per interval is for step-choosing methods that stall.
+  IntegratorOptions integrator_options = options.integrator;
+  if (integrator_options.fixed_step > 0)
+    integrator_options.max_steps_per_output =
+        std::max(integrator_options.max_steps_per_output, static_cast<long>(std::ceil(options.dt / integrator_options.fixed_step)) + 16);
+  auto integrator = MakeIntegrator(system, integrator_options);
   integrator->Reset(options.t_start, x.data());
   EnergyBalance balance(model.KineticEnergy(x.data()) + model.PotentialEnergy(x.data()));
 
@@ -360,6 +366,10 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
         summary.message += "; the states that failed first: " + names;
       }
       break;
+    } catch (const RunInterrupted&) {
+      summary.status = RunStatus::kInterrupted;
+      summary.message = fmt::format("interrupted at t = {:.9g} s", summary.t_reached);
+      break;
     } catch (const std::exception& e) {
       summary.status = RunStatus::kFailed;
       summary.message = fmt::format("at t = {:.9g} s: the right-hand side failed: {}", integrator->time(), e.what());
@@ -371,7 +381,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
       break;
     }
     if (!sample_or_fail(tout)) break;
-    if (options.stop && options.stop->load()) {
+    if (k < n_out && options.stop && options.stop->load()) {  // a run that reached t_end is complete
       summary.status = RunStatus::kInterrupted;
       summary.message = fmt::format("interrupted at t = {:.9g} s", tout);
       break;

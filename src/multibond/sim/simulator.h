@@ -8,6 +8,7 @@
 #include <atomic>
 #include <functional>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -16,12 +17,23 @@
 
 namespace multibond {
 
-/// The compiled model as an OdeSystem, with its own workspace (one per simulation).
+/// Thrown from inside an integration when the run's stop flag is set (RunOptions::stop).
+struct RunInterrupted : std::runtime_error {
+  RunInterrupted() : std::runtime_error("interrupted") {}
+};
+
+/// The compiled model as an OdeSystem, with its own workspace (one per simulation). With a stop
+/// flag, every evaluation looks at it and throws RunInterrupted once it is set, so that a run
+/// stops within a step, not at the end of an output interval that may take minutes.
 class ModelSystem : public OdeSystem {
  public:
-  explicit ModelSystem(const CompiledModel& model) : model_(model), ws_(model.MakeWorkspace()) {}
+  explicit ModelSystem(const CompiledModel& model, const std::atomic<bool>* stop = nullptr)
+      : model_(model), ws_(model.MakeWorkspace()), stop_(stop) {}
   int num_states() const override { return model_.num_states(); }
-  void CalcDerivatives(double t, const double* x, double* xdot) override { model_.CalcStateDerivatives(t, x, xdot, ws_); }
+  void CalcDerivatives(double t, const double* x, double* xdot) override {
+    if (stop_ && stop_->load(std::memory_order_relaxed)) throw RunInterrupted();
+    model_.CalcStateDerivatives(t, x, xdot, ws_);
+  }
   bool has_invariants() const override { return model_.has_invariants(); }
   /// Orientations onto SO(3) and, with ideal constraints, momenta onto the constraints at t.
   void Project(double t, double* x) override { model_.Project(t, x, ws_); }
@@ -31,6 +43,7 @@ class ModelSystem : public OdeSystem {
  private:
   const CompiledModel& model_;
   Workspace ws_;
+  const std::atomic<bool>* stop_;
 };
 
 struct RunOptions {
@@ -39,7 +52,8 @@ struct RunOptions {
   double dt = 1e-3;  ///< output interval
   IntegratorOptions integrator;
   bool all_variables = false;  ///< a column for every element's effort and flow
-  /// Set from another thread or a signal handler to stop the run after the current output.
+  /// Set from another thread or a signal handler to stop the run: at the next evaluation of the
+  /// model, keeping the rows written until then.
   const std::atomic<bool>* stop = nullptr;
   /// Called with the fraction done, at most a few times per second.
   std::function<void(double)> progress;

@@ -443,7 +443,7 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
     if (!callbacks_.message().empty()) text += "; ARKODE: " + callbacks_.message();
     // A step that met infinities leaves ERKStep's own time NaN: the failure is after the last good time.
     SolverError error(std::isfinite(t) ? t : time_, name ? name.get() : fmt::format("ARKODE flag {}", flag), std::move(text));
-    if (mem_) {
+    if (mem_ && flag != ARK_TOO_MUCH_WORK) {  // too many steps: no state failed a test
       sun::VectorPtr ele = sun::MakeVector(n_, ctx_.get()), ewt = sun::MakeVector(n_, ctx_.get());
       if (ERKStepGetEstLocalErrors(mem_.get(), ele.get()) == ARK_SUCCESS && ERKStepGetErrWeights(mem_.get(), ewt.get()) == ARK_SUCCESS)
         error.set_states(sun::WorstComponents(ele.get(), ewt.get()));

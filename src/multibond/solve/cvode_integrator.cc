@@ -296,7 +296,7 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<CvodeCallbackState>
     std::string text = Explain(flag, options_);
     if (!callbacks_.message().empty()) text += "; CVODE: " + callbacks_.message();
     SolverError error(t, name ? name.get() : fmt::format("CVODE flag {}", flag), std::move(text));
-    if (mem_) {
+    if (mem_ && flag != CV_TOO_MUCH_WORK) {  // too many steps: no state failed a test
       // Which states failed the error test: the weighted local error estimates of the last step.
       sun::VectorPtr ele = sun::MakeVector(n_, ctx_.get()), ewt = sun::MakeVector(n_, ctx_.get());
       if (CVodeGetEstLocalErrors(mem_.get(), ele.get()) == CV_SUCCESS && CVodeGetErrWeights(mem_.get(), ewt.get()) == CV_SUCCESS)

@@ -42,6 +42,7 @@ void Validate(const IntegratorOptions& o, int num_states) {
           fmt::format("the fixed step must be positive (got {})", o.fixed_step));
   Require(std::isfinite(o.rtol) && o.rtol >= 0,
           fmt::format("rtol must be a finite number >= 0 (got {})", o.rtol));
+  Require(o.rtol < 1, fmt::format("rtol is a relative tolerance and must be below 1 (got {}); typical values are 1e-6 to 1e-10", o.rtol));
   Require(std::isfinite(o.atol) && o.atol >= 0,
           fmt::format("atol must be a finite number >= 0 (got {})", o.atol));
   if (!o.atol_per_state.empty()) {
