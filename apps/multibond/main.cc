@@ -496,6 +496,11 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
     std::cerr << fmt::format("error: cannot create output folder '{}': {}\n", a.out, ec.message());
     return kExitIo;
   }
+  // run.json is written after the run: a name it cannot take is said before the run, as for results.csv.
+  if (fs::is_directory(fs::path(a.out) / "run.json", ec)) {
+    std::cerr << fmt::format("error: cannot write '{}': it is a directory\n", (fs::path(a.out) / "run.json").string());
+    return kExitIo;
+  }
   mb::CsvWriter csv((fs::path(a.out) / "results.csv").string());
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
@@ -570,6 +575,7 @@ int Compare(const CompareCommand& c) {
     const fs::path out(c.out);
     if (out.has_parent_path() && !fs::is_directory(out.parent_path()))
       throw CliExit{kExitIo, fmt::format("cannot write '{}': no folder '{}'", c.out, out.parent_path().string())};
+    if (fs::is_directory(out)) throw CliExit{kExitIo, fmt::format("cannot write '{}': it is a directory", c.out)};  // before both runs
   }
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
@@ -590,6 +596,7 @@ int Compare(const CompareCommand& c) {
       std::cerr << summary.message << "; nothing was written\n";
       return kExitInterrupted;
     }
+    for (const std::string& w : summary.warnings) std::cerr << fmt::format("warning: {} ({}): {}\n", name, p->lm.file, w);
   }
   mb::ComparisonReport report;
   try {

@@ -313,6 +313,25 @@ TEST_F(CliTest, TooManyStepsPerOutputIntervalGetsItsOwnAdvice) {
   EXPECT_EQ(fixed.code, 0) << fixed.out;
 }
 
+// Output names that cannot be taken are said before any run (run.json is written after it), and
+// compare passes on what its runs warn about.
+TEST_F(CliTest, OutputClashesAreSaidBeforeRunningAndCompareRepeatsWarnings) {
+  fs::create_directories(dir_ / "out" / "run.json");
+  const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + (dir_ / "out").string() + " --jit off");
+  EXPECT_EQ(r.code, 74) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("run.json': it is a directory"));
+  EXPECT_FALSE(fs::exists(dir_ / "out" / "results.csv"));
+  const Result c = Cli("compare " + Example("mass_spring_damper.yaml") + " " + Example("mass_spring_damper.yaml") + " -o " +
+                       (dir_ / "out").string() + " --jit off");
+  EXPECT_EQ(c.code, 74) << c.out;
+  EXPECT_THAT(c.out, HasSubstr("it is a directory"));
+  const Result w = Cli("compare " + Example("mass_spring_damper.yaml") + " " + Example("mass_spring_damper.yaml") +
+                       " --rtol 0.9 --atol 1e-2 --jit off");
+  EXPECT_EQ(w.code, 0) << w.out;
+  EXPECT_THAT(w.out, HasSubstr("warning: A ("));
+  EXPECT_THAT(w.out, HasSubstr("the energy balance does not close"));
+}
+
 TEST_F(CliTest, EquationsTextAndLatex) {
   Result r = Cli("equations " + Example("mass_spring_damper.yaml"));
   EXPECT_EQ(r.code, 0);

@@ -396,7 +396,9 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   }
   summary.stats = integrator->stats();
   summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  if (model.has_energy_account() && summary.samples > 1 && std::abs(summary.energy_residual) > kEnergyResidualWarning)
+  // A failed run has its own message; a NaN residual is a balance that does not close too.
+  if (model.has_energy_account() && summary.samples > 1 && summary.status != RunStatus::kFailed &&
+      !(std::abs(summary.energy_residual) <= kEnergyResidualWarning))
     summary.warnings.push_back(fmt::format(
         "the energy balance does not close: at t = {:.9g} s, work - stored - dissipated is {:.3g} of the energy that flowed "
         "(energy.residual); the results are not accurate: {}",
