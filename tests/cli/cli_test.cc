@@ -51,6 +51,19 @@ class CliTest : public ::testing::Test {
     fs::remove_all(dir_);
   }
   void TearDown() override { fs::remove_all(dir_); }
+  /// Runs `multibond run ARGS -o dir_ -q --jit off` in the background and sends it SIGINT `delay`
+  /// seconds after the shell test `ready` holds (polled every 0.1 s, at most `polls` times).
+  /// Returns its exit code.
+  int RunAndInterrupt(const std::string& args, const std::string& ready, int polls, double delay) const {
+    const std::string cmd = std::string(MULTIBOND_CLI) + " run " + args + " -o " + dir_.string() +
+                            " -q --jit off > /dev/null 2>&1 & pid=$!; for i in $(seq " + std::to_string(polls) + "); do " + ready +
+                            " && break; sleep 0.1; done; sleep " + std::to_string(delay) + "; kill -INT $pid; wait $pid; echo $?";
+    FILE* p = popen(cmd.c_str(), "r");
+    char buf[64] = {0};
+    const size_t n = fread(buf, 1, sizeof buf - 1, p);
+    pclose(p);
+    return std::atoi(std::string(buf, n).c_str());
+  }
   fs::path dir_;
 };
 
@@ -283,15 +296,9 @@ bonds: [f -> v, v -> m, v -> c]
 // at steps of at most 1e-5 s: the solver would have gone on to its step limit and reported a
 // failure, exit 2); the rows written until then are kept.
 TEST_F(CliTest, AnInterruptIsHonouredWithinAnOutputInterval) {
-  const std::string cmd = std::string(MULTIBOND_CLI) + " run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() +
-                          " --t-end 100 --dt 50 --max-step 1e-5 --jit off -q > /dev/null 2>&1 & pid=$!; for i in $(seq 600); do "
-                          "[ -f " + (dir_ / "results.csv.partial").string() + " ] && break; sleep 0.1; done; sleep 0.3; "
-                          "kill -INT $pid; wait $pid; echo $?";
-  FILE* p = popen(cmd.c_str(), "r");
-  char buf[64] = {0};
-  const size_t n = fread(buf, 1, sizeof buf - 1, p);
-  pclose(p);
-  EXPECT_EQ(std::atoi(std::string(buf, n).c_str()), 130);
+  const std::string partial = (dir_ / "results.csv.partial").string();
+  EXPECT_EQ(RunAndInterrupt(Example("mass_spring_damper.yaml") + " --t-end 100 --dt 50 --max-step 1e-5", "[ -f " + partial + " ]", 600, 0.3),
+            130);
   const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "interrupted");
   EXPECT_EQ(run["t_reached"].get<double>(), 0.0);
@@ -374,15 +381,9 @@ TEST_F(CliTest, InterruptStopsCleanlyAndKeepsWhatWasComputed) {
   // A long run of the differential, interrupted with SIGINT once it has written some rows (polled,
   // not a fixed delay: under the sanitizers on a loaded machine 1.5 s gave only 6 rows).
   const std::string partial = (dir_ / "results.csv.partial").string();
-  const std::string cmd = std::string(MULTIBOND_CLI) + " run " + Example("differential.yaml") + " -o " + dir_.string() +
-                          " --t-end 1000 -q --jit off > /dev/null 2>&1 & pid=$!; for i in $(seq 1200); do "
-                          "[ -f " + partial + " ] && [ $(wc -l < " + partial + ") -gt 20 ] && break; sleep 0.1; done; "
-                          "kill -INT $pid; wait $pid; echo $?";
-  FILE* p = popen(cmd.c_str(), "r");
-  char buf[64] = {0};
-  const size_t n = fread(buf, 1, sizeof buf - 1, p);
-  pclose(p);
-  EXPECT_EQ(std::atoi(std::string(buf, n).c_str()), 130);
+  EXPECT_EQ(RunAndInterrupt(Example("differential.yaml") + " --t-end 1000", "[ -f " + partial + " ] && [ $(wc -l < " + partial + ") -gt 20 ]",
+                            1200, 0.0),
+            130);
   const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "interrupted");
   EXPECT_GT(run["t_reached"].get<double>(), 0.0);
