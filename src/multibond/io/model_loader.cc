@@ -61,7 +61,7 @@ class Loader {
     CheckKeys(root, kTopKeys, "");
     std::string name = "model";
     if (root["model"]) name = Str(root["model"], "model");
-    if (root["model"] && !CheckName(name, Loc(root["model"]), "the model's")) name = "model";
+    if (root["model"] && !CheckName(name, Loc(root["model"]), "the model's", false)) name = "model";
     graph_ = BondGraph(name);
     graph_.set_source_file(file_);
     if (root["domain"]) out.compile.default_domain = Domain(root["domain"], "domain");
@@ -113,12 +113,12 @@ class Loader {
   /// Names become column headers, file names of figures and comments in generated code: a name
   /// must not be empty nor hold a control character (a line break), a quote or a backslash.
   /// Reports the problem at `where` and returns false.
-  bool CheckName(const std::string& name, const SourceLocation& where, const char* what) {
+  /// `names_columns`: the name heads result columns (all but the model's), so 'time' and 'energy' are taken.
+  bool CheckName(const std::string& name, const SourceLocation& where, const char* what, bool names_columns = true) {
     std::string bad;
     for (const char ch : name)
       if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) bad = "a control character (a line break, a tab)";
       else if (ch == '"' || ch == '\\') bad = fmt::format("'{}'", ch);
-    const bool names_columns = std::string_view(what) != "the model's";
     if (names_columns && (name == "time" || name == "energy")) {
       // The results' own columns: time, and the energy account energy.work, energy.stored, ...
       sink_.Error("name.invalid", where, name, fmt::format("{} name '{}' is reserved for the results' {} column{}", what, name, name,
@@ -1011,10 +1011,7 @@ class Loader {
     positive("atol", s.atol);
     positive("step", s.step);
     positive("max_step", s.max_step);
-    if (s.rtol && *s.rtol >= 1.0)
-      sink_.Error(Loc(n["rtol"]), "simulation", fmt::format("rtol is a relative tolerance and must be below 1 (got {:g})", *s.rtol),
-                  "typical values are 1e-6 to 1e-10");
-    // What the run would refuse of these settings together is an error of the file, here, not at 'run'.
+    // What the run would refuse of these settings is an error of the file, here, not at 'run'.
     auto check_together = [&](const char* key, auto&& check) {
       try {
         check();
@@ -1022,6 +1019,7 @@ class Loader {
         sink_.Error(Loc(n[key]), "simulation", e.what());
       }
     };
+    if (s.rtol && *s.rtol > 0) check_together("rtol", [&] { CheckRelativeTolerance(*s.rtol); });
     if (s.t_end && s.dt && *s.t_end > 0 && *s.dt > 0) check_together("dt", [&] { CheckOutputGrid(0.0, *s.t_end, *s.dt); });
     if (s.step && s.dt) check_together("step", [&] { CheckFixedStep(*s.step, *s.dt); });
     if (n["solver"]) {
@@ -1113,7 +1111,6 @@ class Loader {
     return m;
   }
 
-  /// K and R of a coupling: scalars (every direction) or one per direction.
   /// K (required unless `rigid`) and R of a coupling, one value or one per direction.
   void Gains(const YAML::Node& n, const std::string& element, int k, Eigen::VectorXd* stiff, Eigen::VectorXd* damp,
              bool rigid = false) {

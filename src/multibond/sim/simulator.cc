@@ -263,13 +263,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   Eigen::VectorXd xdot(x.size());
   // Ideal constraints start satisfied: initial momenta are projected onto them.
   if (model.has_constraints()) model.Project(options.t_start, x.data(), ws);
-  // A fixed step takes dt / step steps per output interval, whatever their number: the cap on
-  // steps per interval is for step-choosing methods that stall.
-  IntegratorOptions integrator_options = options.integrator;
-  if (integrator_options.fixed_step > 0)
-    integrator_options.max_steps_per_output =
-        std::max(integrator_options.max_steps_per_output, static_cast<long>(std::ceil(options.dt / integrator_options.fixed_step)) + 16);
-  auto integrator = MakeIntegrator(system, integrator_options);
+  auto integrator = MakeIntegrator(system, options.integrator);
   integrator->Reset(options.t_start, x.data());
   EnergyBalance balance(model.KineticEnergy(x.data()) + model.PotentialEnergy(x.data()));
 

@@ -305,6 +305,9 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
   /// shortened) and the post-step hook (projection, and the finiteness check a fixed step needs).
   void AdvanceFixed(double tout) {
     Check(ERKStepSetStopTime(mem_.get(), tout), time_);
+    // A fixed step takes (tout - t) / step steps, however many: the cap is for step-choosing methods that stall.
+    const long needed = static_cast<long>(std::ceil((tout - time_) / options_.fixed_step)) + 16;
+    Check(ERKStepSetMaxNumSteps(mem_.get(), std::max(options_.max_steps_per_output, needed)), time_);
     sunrealtype reached = time_;
     const int flag = ERKStepEvolve(mem_.get(), tout, y_.get(), &reached, ARK_NORMAL);
     sun::RethrowPending(callbacks_);

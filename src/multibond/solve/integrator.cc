@@ -40,9 +40,7 @@ void Validate(const IntegratorOptions& o, int num_states) {
   Require(o.method != Method::kRk4 || o.fixed_step > 0, "rk4 needs a fixed step (--step)");
   Require(std::isfinite(o.fixed_step) && o.fixed_step >= 0,
           fmt::format("the fixed step must be positive (got {})", o.fixed_step));
-  Require(std::isfinite(o.rtol) && o.rtol >= 0,
-          fmt::format("rtol must be a finite number >= 0 (got {})", o.rtol));
-  Require(o.rtol < 1, fmt::format("rtol is a relative tolerance and must be below 1 (got {}); typical values are 1e-6 to 1e-10", o.rtol));
+  CheckRelativeTolerance(o.rtol);
   Require(std::isfinite(o.atol) && o.atol >= 0,
           fmt::format("atol must be a finite number >= 0 (got {})", o.atol));
   if (!o.atol_per_state.empty()) {
@@ -103,6 +101,11 @@ const char* MethodName(Method m) {
       return "bs3";
   }
   return "unknown";
+}
+
+void CheckRelativeTolerance(double rtol) {
+  Require(std::isfinite(rtol) && rtol >= 0, fmt::format("rtol must be a finite number >= 0 (got {})", rtol));
+  Require(rtol < 1, fmt::format("rtol is a relative tolerance and must be below 1 (got {:g}); typical values are 1e-6 to 1e-10", rtol));
 }
 
 void CheckIntegratorOptions(int n, const JacobianPattern* pattern, const IntegratorOptions& options) {

@@ -102,6 +102,9 @@ inline bool UsesNewtonMatrix(Method m) { return m == Method::kBdf || m == Method
 /// Throws std::invalid_argument, saying what is wrong, for options the integrator would refuse
 /// (MakeIntegrator checks them too): so that a front end can check them before it writes anything.
 /// `pattern`: the system's Jacobian pattern (OdeSystem::jacobian_pattern), or null.
+/// Throws std::invalid_argument unless 0 <= rtol < 1 (a relative tolerance): for front ends that
+/// report it where it was given.
+void CheckRelativeTolerance(double rtol);
 void CheckIntegratorOptions(int num_states, const JacobianPattern* pattern, const IntegratorOptions& options);
 
 /// Makes the integrator the options ask for. The system must outlive the integrator.
