@@ -13,8 +13,12 @@ namespace mb = multibond;
 
 namespace {
 
+mb::LoadedModel LoadIdeal() {
+  return mb::LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential_ideal.yaml");
+}
+
 std::shared_ptr<const mb::CompiledModel> IdealDifferential() {
-  const mb::LoadedModel lm = mb::LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential_ideal.yaml");
+  const mb::LoadedModel lm = LoadIdeal();
   mb::CompileOptions co = lm.compile;
   co.generate_code = true;  // as the CLI does (--jit auto)
   return mb::CompiledModel::Compile(lm.graph, co);
@@ -42,13 +46,16 @@ void BM_IdealDifferentialRhs(benchmark::State& state) {
 }
 BENCHMARK(BM_IdealDifferentialRhs);
 
-/// range(0): 0 = dopri5, 1 = bdf; range(1): -log10(rtol).
+/// range(0): 0 = dopri5, 1 = bdf; range(1): -log10(rtol); range(2): 1 = joint coordinates (the
+/// example's), 0 = inertial; range(3): output rows (5,000: the example's 1 ms; 1: t_end only,
+/// the integration alone; each row evaluates the model with its reactions).
 void BM_IdealDifferentialRun(benchmark::State& state) {
   const auto model = IdealDifferential();
   if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
   mb::RunOptions o;
   o.t_end = 5.0;
-  o.dt = 1e-3;
+  o.dt = o.t_end / static_cast<double>(state.range(3));
+  if (state.range(2) == 1) o.joint_coordinates = LoadIdeal().mechanism->MakeJointTree();
   o.integrator.method = state.range(0) == 0 ? mb::Method::kDormandPrince : mb::Method::kBdf;
   o.integrator.rtol = std::pow(10.0, -static_cast<double>(state.range(1)));
   o.integrator.atol = o.integrator.rtol * 1e-2;
@@ -57,14 +64,17 @@ void BM_IdealDifferentialRun(benchmark::State& state) {
     mb::NullObserver obs;
     s = mb::Simulate(*model, o, obs);
   }
-  state.SetLabel(state.range(0) == 0 ? "dopri5" : "bdf");
+  state.SetLabel(std::string(state.range(0) == 0 ? "dopri5" : "bdf") + (state.range(2) == 1 ? " joint" : " inertial") +
+                 (state.range(3) == 1 ? " t_end only" : " 1 ms rows"));
   state.counters["steps"] = static_cast<double>(s.stats.steps);
   state.counters["rhs_evals"] = static_cast<double>(s.stats.rhs_evals);
   state.counters["jac_evals"] = static_cast<double>(s.stats.jac_evals);
   state.counters["energy_residual"] = s.energy_residual;
 }
 BENCHMARK(BM_IdealDifferentialRun)
-    ->Args({0, 8})->Args({0, 10})->Args({1, 8})->Args({1, 10})
+    ->Args({0, 8, 1, 5000})->Args({0, 8, 1, 1})->Args({1, 8, 1, 5000})->Args({1, 8, 1, 1})
+    ->Args({0, 10, 1, 5000})->Args({1, 10, 1, 5000})
+    ->Args({0, 8, 0, 5000})->Args({0, 8, 0, 1})->Args({1, 8, 0, 5000})
     ->Unit(benchmark::kMillisecond)->Iterations(1);
 
 }  // namespace

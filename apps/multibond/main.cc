@@ -387,7 +387,7 @@ int Graph(const std::string& path, const std::string& out) {
 
 struct RunArgs {
   std::optional<double> t_end, dt, rtol, atol, step, max_step;
-  std::optional<std::string> solver, constraints, loops;
+  std::optional<std::string> solver, constraints, loops, coordinates;
   bool all_variables = false, no_projection = false;
   std::string jit = "auto";
   std::string jacobian = "auto";
@@ -413,6 +413,11 @@ void AddRunOptions(CLI::App* cmd, RunArgs& a) {
                   "evaluation per group of columns sharing no row, KLU; dense: one evaluation per state, dense LU; auto: "
                   "sparse from 50 states when at most a quarter of the Jacobian can be nonzero)")
       ->check(CLI::IsMember({"auto", "dense", "sparse"}));
+  cmd->add_option("--coordinates", a.coordinates,
+                  "joint: integrate a mechanism's motion relative to its joints (each body's angle in its bearing and "
+                  "its rate; steady rotation does not bound the step), inertial: the model's own states (default: the "
+                  "model's 'coordinates:', else inertial); the output columns are the same")
+      ->check(CLI::IsMember({"joint", "inertial"}));
   AddConstraintsOption(cmd, a.constraints);
   AddLoopsOption(cmd, a.loops);
 }
@@ -424,6 +429,7 @@ struct PreparedRun {
   std::shared_ptr<const mb::CompiledModel> model;
   mb::RunOptions options;
   std::string solver;
+  std::string coordinates;  ///< "joint" or "inertial"
 };
 
 /// Throws ModelError (bad model, bad output), CliExit 64 (unknown solver) or 74 (--jit on
@@ -459,6 +465,12 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a) {
     o.integrator.fixed_step = 0.0;
   o.integrator.max_step = a.max_step.value_or(d.max_step.value_or(0.0));
   o.all_variables = a.all_variables;
+  p.coordinates = a.coordinates.value_or(d.coordinates.value_or("inertial"));
+  if (p.coordinates == "joint") {
+    if (!p.lm.mechanism || p.lm.mechanism->empty())
+      throw CliExit{kExitUsage, "--coordinates joint is for mechanisms: the model has no bodies"};
+    o.joint_coordinates = p.lm.mechanism->MakeJointTree();
+  }
   o.integrator.project = !a.no_projection;
   o.integrator.jacobian = mb::ParseJacobianKind(a.jacobian);
   // An explicit method forms no Newton matrix: a --jacobian for it is recorded but changes nothing.
@@ -515,6 +527,7 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   nlohmann::json record = mb::MakeRunRecord(a.model, lm.text, lm.graph.name(), o, summary, argv);
   record["rhs_engine"] = model->rhs_engine();
   record["options"]["jit"] = a.run.jit;
+  record["options"]["coordinates"] = p.coordinates;
   record["options"]["ideal_constraints"] = lm.compile.ideal_constraints;  // derivative causality solved by constraints
   record["options"]["algebraic_loops"] = lm.compile.solve_algebraic_loops ? "solve" : "error";
   // What the compiled model has, whichever way (rigid parts, Sf constraints, cut inertias).

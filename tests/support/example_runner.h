@@ -12,9 +12,11 @@ namespace multibond::testing {
 inline std::string ExamplePath(const std::string& name) { return std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + name; }
 
 /// Loads examples/<name>, compiles it and simulates it with the file's simulation settings,
-/// overridden by `t_end` and `dt` when they are > 0.
+/// overridden by `t_end` and `dt` when they are > 0, and by `coordinates` ("joint" or
+/// "inertial") when given.
 inline RecordingObserver RunExample(const std::string& name, double t_end = 0.0, double dt = 0.0,
-                                    Method method = Method::kBdf, bool generate_code = false) {
+                                    Method method = Method::kBdf, bool generate_code = false,
+                                    const std::string& coordinates = "") {
   const LoadedModel lm = LoadModelFile(ExamplePath(name));
   CompileOptions co = lm.compile;
   co.generate_code = generate_code;
@@ -28,6 +30,8 @@ inline RecordingObserver RunExample(const std::string& name, double t_end = 0.0,
   o.integrator.method = method;
   o.integrator.rtol = lm.simulation.rtol.value_or(1e-10);
   o.integrator.atol = lm.simulation.atol.value_or(1e-12);
+  if ((coordinates.empty() ? lm.simulation.coordinates.value_or("inertial") : coordinates) == "joint")
+    o.joint_coordinates = lm.mechanism->MakeJointTree();
   RecordingObserver rec;
   Simulate(*model, o, rec);
   return rec;

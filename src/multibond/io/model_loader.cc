@@ -82,6 +82,7 @@ class Loader {
     }
     if (root["submodels"]) ReadSubmodelDefs(root["submodels"]);
     const bool mechanism = root["bodies"].IsDefined();
+    root_has_bodies_ = mechanism;
     if (mechanism) ReadMechanism(root);
     if (!root["elements"] && !mechanism)
       sink_.Error({file_, 1, 1}, "", "the model has no 'elements' section (nor 'bodies')", "list the elements under 'elements:'");
@@ -992,12 +993,14 @@ class Loader {
     }
   }
 
+  bool root_has_bodies_ = false;  ///< the model has a 'bodies' section (joint coordinates need one)
+
   void ReadSimulation(const YAML::Node& n, SimulationDefaults& s) {
     if (!n.IsMap()) {
       sink_.Error(Loc(n), "simulation", "'simulation' is a mapping of settings", "write e.g. simulation: {t_end: 5, dt: 0.001}");
       return;
     }
-    CheckKeys(n, {"t_end", "dt", "solver", "rtol", "atol", "step", "max_step"}, "simulation");
+    CheckKeys(n, {"t_end", "dt", "solver", "rtol", "atol", "step", "max_step", "coordinates"}, "simulation");
     const Env none;
     auto positive = [&](const char* key, std::optional<double>& out) {
       if (!n[key]) return;
@@ -1022,6 +1025,15 @@ class Loader {
     if (s.rtol && *s.rtol > 0) check_together("rtol", [&] { CheckRelativeTolerance(*s.rtol); });
     if (s.t_end && s.dt && *s.t_end > 0 && *s.dt > 0) check_together("dt", [&] { CheckOutputGrid(0.0, *s.t_end, *s.dt); });
     if (s.step && s.dt) check_together("step", [&] { CheckFixedStep(*s.step, *s.dt); });
+    if (const YAML::Node c = n["coordinates"]) {
+      if (!c.IsScalar() || (c.Scalar() != "joint" && c.Scalar() != "inertial"))
+        sink_.Error(Loc(c), "simulation", "'coordinates' is joint or inertial",
+                    "joint: the integrator advances each body relative to its tree joint; inertial: the model's own states");
+      else if (c.Scalar() == "joint" && !root_has_bodies_)
+        sink_.Error(Loc(c), "simulation", "joint coordinates are for mechanisms: the model has no bodies", "remove 'coordinates'");
+      else
+        s.coordinates = c.Scalar();
+    }
     if (n["solver"]) {
       s.solver = n["solver"].Scalar();
       try {

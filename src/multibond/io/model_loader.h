@@ -19,6 +19,7 @@ namespace multibond {
 struct SimulationDefaults {
   std::optional<double> t_end, dt, rtol, atol, step, max_step;
   std::optional<std::string> solver;
+  std::optional<std::string> coordinates;  ///< "joint" or "inertial" (RunOptions::joint_coordinates)
 };
 
 struct LoadedModel {

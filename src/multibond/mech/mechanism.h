@@ -24,6 +24,7 @@
 #include <Eigen/Dense>
 
 #include "multibond/core/graph.h"
+#include "multibond/core/joint_tree.h"
 #include "multibond/mech/mass_properties.h"
 
 namespace multibond::mech {
@@ -142,6 +143,12 @@ class Mechanism {
   /// The part an expanded element belongs to, e.g. "body 'G'" for "G.inertia", "joint 'G_bearing'"
   /// for "G_bearing.r.K", "the relative rotation of 'P1' and 'A'" for "P1~A.w"; "" if none.
   std::string DescribePart(const std::string& element) const;
+
+  /// A spanning tree of the bodies for joint coordinates: from the ground outwards, each body hangs
+  /// from the joint that couples the most rotation directions, then translation directions, to a
+  /// body already in the tree (the first declared among equals); its axis is that joint's free
+  /// rotation axis when it couples two. Bodies that no joint reaches hang from the ground.
+  JointTree MakeJointTree() const;
 
   /// Checks the mechanism (unknown bodies, bad parameters, couplings deflected at t = 0) into
   /// `sink`, then adds its expansion to `g`. Nothing is added if there are errors.

@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "multibond/sim/joint_coordinates.h"
+
 namespace multibond {
 
 namespace {
@@ -249,7 +251,15 @@ void CheckFixedStep(double fixed_step, double dt) {
 
 void CheckRunOptions(const CompiledModel& model, const RunOptions& options) {
   CheckOutputGrid(options.t_start, options.t_end, options.dt);
-  CheckIntegratorOptions(model.num_states(), model.jacobian_pattern(), options.integrator);
+  if (options.joint_coordinates.empty()) {
+    CheckIntegratorOptions(model.num_states(), model.jacobian_pattern(), options.integrator);
+  } else {
+    // The integrator sees the joint-coordinate state: its own size, no known pattern.
+    const JointCoordinateSystem chart(model, options.joint_coordinates);
+    if (!options.integrator.atol_per_state.empty())
+      throw std::invalid_argument("per-state absolute tolerances name the model's states, which joint coordinates replace");
+    CheckIntegratorOptions(chart.num_states(), nullptr, options.integrator);
+  }
   CheckFixedStep(options.integrator.fixed_step, options.dt);
 }
 
@@ -263,8 +273,18 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   Eigen::VectorXd xdot(x.size());
   // Ideal constraints start satisfied: initial momenta are projected onto them.
   if (model.has_constraints()) model.Project(options.t_start, x.data(), ws);
-  auto integrator = MakeIntegrator(system, options.integrator);
-  integrator->Reset(options.t_start, x.data());
+  // In joint coordinates the integrator advances y, and every output time maps it back to x.
+  std::optional<JointCoordinateSystem> chart;
+  Eigen::VectorXd y;
+  if (!options.joint_coordinates.empty()) {
+    chart.emplace(model, options.joint_coordinates, options.stop);
+    y.resize(chart->num_states());
+    chart->FromModel(x.data(), y.data());
+  }
+  Eigen::VectorXd& advanced = chart ? y : x;
+  const std::vector<std::string>& advanced_names = chart ? chart->state_names() : model.state_names();
+  auto integrator = chart ? MakeIntegrator(*chart, options.integrator) : MakeIntegrator(system, options.integrator);
+  integrator->Reset(options.t_start, advanced.data());
   EnergyBalance balance(model.KineticEnergy(x.data()) + model.PotentialEnergy(x.data()));
 
   RunSummary summary;
@@ -345,18 +365,27 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
     started = false;
   }
   const long n_out = NumOutputIntervals(options);
+  IntegratorStats carried;
   auto last_progress = wall_start;
   for (long k = 1; started && k <= n_out; ++k) {
     const double tout = k == n_out ? options.t_end : options.t_start + static_cast<double>(k) * options.dt;
     try {
-      integrator->AdvanceTo(tout, x.data());
+      integrator->AdvanceTo(tout, advanced.data());
+      if (chart) {
+        chart->ToModel(y.data(), x.data());
+        if (chart->Rechart(y.data())) {  // a restart zeroes the integrator's counters: carried over
+          carried.AddCounts(integrator->stats());
+          ++summary.recharts;
+          integrator->Reset(tout, y.data());
+        }
+      }
     } catch (const SolverError& e) {
       summary.status = RunStatus::kFailed;
       summary.message = e.what();
       if (!e.states().empty()) {
         std::string names;
         for (int i : e.states())
-          if (i >= 0 && i < model.num_states()) names += (names.empty() ? "" : ", ") + model.state_names()[i];
+          if (i >= 0 && i < static_cast<int>(advanced_names.size())) names += (names.empty() ? "" : ", ") + advanced_names[i];
         summary.message += "; the states that failed first: " + names;
       }
       break;
@@ -389,6 +418,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
     }
   }
   summary.stats = integrator->stats();
+  summary.stats.AddCounts(carried);
   summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   // A failed run has its own message; a NaN residual is a balance that does not close too.
   if (model.has_energy_account() && summary.samples > 1 && summary.status != RunStatus::kFailed &&

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/core/joint_tree.h"
 #include "multibond/solve/integrator.h"
 
 namespace multibond {
@@ -52,6 +53,10 @@ struct RunOptions {
   double dt = 1e-3;  ///< output interval
   IntegratorOptions integrator;
   bool all_variables = false;  ///< a column for every element's effort and flow
+  /// Non-empty: the integrator integrates the motion in joint coordinates over this tree
+  /// (JointCoordinateSystem), a change of variables that lets it step over steady rotation. The
+  /// output columns are the model's, the same as without.
+  JointTree joint_coordinates;
   /// Set from another thread or a signal handler to stop the run: at the next evaluation of the
   /// model, keeping the rows written until then.
   const std::atomic<bool>* stop = nullptr;
@@ -74,6 +79,9 @@ struct RunSummary {
   double t_reached = 0.0;
   long samples = 0;
   IntegratorStats stats;
+  /// Joint coordinates: how often a body's rotation had left its axis and the coordinates were
+  /// charted anew (the integrator restarted).
+  long recharts = 0;
   double wall_seconds = 0.0;
   double energy_work = 0.0, energy_stored = 0.0, energy_dissipated = 0.0, energy_residual = 0.0;
   double max_abs_energy_residual = 0.0;

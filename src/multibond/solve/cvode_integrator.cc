@@ -265,7 +265,7 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<CvodeCallbackState>
     } else {
       callbacks_.pattern = nullptr;
       callbacks_.increment.assign(n_, 0.0);
-      jacobian_.reset(sun::NonNull(SUNDenseMatrix(n_, n_, ctx_.get())));
+      jacobian_ = sun::MakeDenseMatrix(n_, n_, ctx_.get());
       linear_solver_.reset(sun::NonNull(sun::MakeEigenDenseSolver(n_, ctx_.get())));
       Check(CVodeSetLinearSolver(mem, linear_solver_.get(), jacobian_.get()), t0);
     }

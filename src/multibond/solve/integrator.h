@@ -79,6 +79,16 @@ struct IntegratorStats {
   long evals_per_jacobian = 0;
   bool sparse_jacobian = false;
   double last_step = 0.0;
+  /// Adds the counters of `o` (those of a run before a restart, which zeroes them).
+  void AddCounts(const IntegratorStats& o) {
+    steps += o.steps;
+    rhs_evals += o.rhs_evals;
+    jac_evals += o.jac_evals;
+    linear_setups += o.linear_setups;
+    error_test_failures += o.error_test_failures;
+    nonlinear_failures += o.nonlinear_failures;
+    projections += o.projections;
+  }
 };
 
 class Integrator {

@@ -1,0 +1,276 @@
+#include "multibond/sim/joint_coordinates.h"
+
+#include <cmath>
+#include <map>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "multibond/sim/simulator.h"
+
+namespace multibond {
+
+namespace {
+
+using Mat3 = Eigen::Matrix3d;
+using Vec3 = Eigen::Vector3d;
+using RowMajor3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+
+Mat3 Hat(const Vec3& v) {
+  Mat3 m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
+/// A 3-vector stored in a state array (a function: `Map<Vec3>(p) = v;` declares a variable p).
+Eigen::Map<Vec3> Out(double* p) { return Eigen::Map<Vec3>(p); }
+
+/// sin(f)/f, (1 - cos f)/f^2 and (f - sin f)/f^3 for f = |v|, by their series near 0.
+void RodriguesCoefficients(double f, double& c1, double& c2, double& c3) {
+  const double f2 = f * f;
+  if (f < 1e-3) {
+    c1 = 1.0 - f2 / 6.0 + f2 * f2 / 120.0;
+    c2 = 0.5 - f2 / 24.0 + f2 * f2 / 720.0;
+    c3 = 1.0 / 6.0 - f2 / 120.0 + f2 * f2 / 5040.0;
+  } else {
+    const double s = std::sin(f), c = std::cos(f);
+    c1 = s / f;
+    c2 = (1.0 - c) / f2;
+    c3 = (f - s) / (f2 * f);
+  }
+}
+
+/// Rotation about the unit vector n by theta.
+Mat3 AxisRotation(const Vec3& n, double theta) {
+  const Mat3 k = Hat(n);
+  return Mat3::Identity() + std::sin(theta) * k + (1.0 - std::cos(theta)) * (k * k);
+}
+
+}  // namespace
+
+JointCoordinateSystem::JointCoordinateSystem(const CompiledModel& model, const JointTree& tree, const std::atomic<bool>* stop)
+    : model_(model), ws_(model.MakeWorkspace()), stop_(stop) {
+  const int nx = model.num_states();
+  std::vector<bool> covered(nx, false);
+  std::map<std::string, int> index;
+  auto state = [&](const std::string& name, int size, bool required) {
+    const auto v = model.FindVariable(name);
+    if (!v || v->in != VariableRef::In::kState || v->size != size) {
+      if (!required) return -1;
+      throw std::invalid_argument(fmt::format("joint coordinates: the model has no {}-component state '{}'", size, name));
+    }
+    for (int k = 0; k < size; ++k) {
+      if (covered[v->offset + k]) throw std::invalid_argument(fmt::format("joint coordinates: state '{}' belongs to two bodies", name));
+      covered[v->offset + k] = true;
+    }
+    return v->offset;
+  };
+  const BondGraph& g = model.graph();
+  for (const TreeBody& tb : tree) {
+    if (index.count(tb.name)) throw std::invalid_argument(fmt::format("joint coordinates: body '{}' is in the tree twice", tb.name));
+    Body b;
+    if (!tb.parent.empty()) {
+      const auto it = index.find(tb.parent);
+      if (it == index.end())
+        throw std::invalid_argument(fmt::format("joint coordinates: the parent '{}' of body '{}' is not before it in the tree", tb.parent, tb.name));
+      b.parent = it->second;
+    }
+    b.r = state(tb.name + ".r", 3, true);
+    b.p = state(tb.name + ".p", 3, true);
+    b.R = state(tb.name + ".R", 9, false);
+    if (b.R >= 0) b.h = state(tb.name + ".h", 3, true);
+    const int mass = g.Find(tb.name + ".mass");
+    if (mass < 0 || !g.element(mass).param.is_scalar || !(g.element(mass).param.scalar > 0.0))
+      throw std::invalid_argument(fmt::format("joint coordinates: body '{}' has no mass element '{}.mass'", tb.name, tb.name));
+    b.mass = g.element(mass).param.scalar;
+    if (b.rotates()) {
+      const int inertia = g.Find(tb.name + ".inertia");
+      if (inertia < 0) throw std::invalid_argument(fmt::format("joint coordinates: body '{}' has no element '{}.inertia'", tb.name, tb.name));
+      b.inertia = g.element(inertia).param.AsMatrix(3, 3);
+      b.inertia_inv = b.inertia.inverse();
+      b.anchor = tb.anchor;
+      const double norm = tb.axis.norm();
+      if (!(norm > 0.0)) throw std::invalid_argument(fmt::format("joint coordinates: body '{}' has a zero axis", tb.name));
+      b.n = tb.axis / norm;
+      // e1, e2: completing n to a right-handed orthonormal basis.
+      int smallest = 0;
+      b.n.cwiseAbs().minCoeff(&smallest);
+      Vec3 helper = Vec3::Zero();
+      helper[smallest] = 1.0;
+      b.e1 = b.n.cross(helper).normalized();
+      b.e2 = b.n.cross(b.e1);
+    }
+    b.y = n_;
+    const std::string& nm = tb.name;
+    if (b.rotates()) {
+      for (const char* s : {".tilt.1", ".tilt.2", ".angle"}) names_.push_back(nm + s);
+    }
+    for (const char* part : {".offset", ".omega_rel", ".offset_rate"}) {
+      if (!b.rotates() && std::string(part) == ".omega_rel") continue;
+      for (const char* c : {".x", ".y", ".z"}) names_.push_back(nm + part + c);
+    }
+    n_ += b.rotates() ? 12 : 6;
+    index[tb.name] = static_cast<int>(bodies_.size());
+    bodies_.push_back(b);
+  }
+  for (int i = 0; i < nx; ++i) {
+    if (covered[i]) continue;
+    others_.emplace_back(i, n_++);
+    names_.push_back(model.state_names()[i]);
+  }
+  x_ = model.MakeInitialState();
+  xdot_ = Eigen::VectorXd::Zero(nx);
+}
+
+void JointCoordinateSystem::FromModel(const double* x, double* y) {
+  for (Body& b : bodies_) {
+    const Body* p = b.parent >= 0 ? &bodies_[b.parent] : nullptr;
+    const Mat3 Rp = p ? p->Rw : Mat3::Identity();
+    const Vec3 rp = p ? p->rw : Vec3::Zero(), vp = p ? p->vw : Vec3::Zero(), wp = p ? p->ww : Vec3::Zero();
+    b.rw = Eigen::Map<const Vec3>(x + b.r);
+    b.vw = Eigen::Map<const Vec3>(x + b.p) / b.mass;
+    double* yb = y + b.y;
+    Vec3 arm = Vec3::Zero();
+    if (b.rotates()) {
+      b.Rw = Eigen::Map<const RowMajor3>(x + b.R);
+      b.ww = b.Rw * b.inertia_inv * b.Rw.transpose() * Eigen::Map<const Vec3>(x + b.h);
+      b.chart = Rp.transpose() * b.Rw;
+      yb[0] = yb[1] = yb[2] = 0.0;
+      yb += 3;
+      arm = b.Rw * b.anchor;
+    } else {
+      b.Rw = Mat3::Identity();
+      b.ww = Vec3::Zero();
+    }
+    const Vec3 rel = b.rw + arm - rp;
+    const Vec3 rel_dot = b.vw + b.ww.cross(arm) - vp;
+    Out(yb) = Rp.transpose() * rel;
+    if (b.rotates()) {
+      Out(yb + 3) = Rp.transpose() * (b.ww - wp);
+      Out(yb + 6) = Rp.transpose() * (rel_dot - wp.cross(rel));
+    } else {
+      Out(yb + 3) = Rp.transpose() * (rel_dot - wp.cross(rel));
+    }
+  }
+  for (const auto& [ix, iy] : others_) y[iy] = x[ix];
+}
+
+void JointCoordinateSystem::ToModel(const double* y, double* x) {
+  for (Body& b : bodies_) {
+    const Body* p = b.parent >= 0 ? &bodies_[b.parent] : nullptr;
+    const Mat3 Rp = p ? p->Rw : Mat3::Identity();
+    const Vec3 rp = p ? p->rw : Vec3::Zero(), vp = p ? p->vw : Vec3::Zero(), wp = p ? p->ww : Vec3::Zero();
+    const double* yb = y + b.y;
+    Vec3 arm = Vec3::Zero();
+    if (b.rotates()) {
+      const Vec3 psi = yb[0] * b.e1 + yb[1] * b.e2;
+      double c1, c2, c3;
+      RodriguesCoefficients(psi.norm(), c1, c2, c3);
+      const Mat3 k = Hat(psi), k2 = k * k;
+      const Mat3 exp_psi = Mat3::Identity() + c1 * k + c2 * k2;
+      b.Rw = Rp * exp_psi * AxisRotation(b.n, yb[2]) * b.chart;
+      yb += 3;
+      b.ww = wp + Rp * Eigen::Map<const Vec3>(yb + 3);
+      arm = b.Rw * b.anchor;
+      Eigen::Map<RowMajor3>(x + b.R) = b.Rw;
+      Out(x + b.h) = b.Rw * b.inertia * b.Rw.transpose() * b.ww;
+    } else {
+      b.Rw = Mat3::Identity();
+      b.ww = Vec3::Zero();
+    }
+    const Vec3 rel = Rp * Eigen::Map<const Vec3>(yb);
+    const Vec3 rate = Rp * Eigen::Map<const Vec3>(yb + (b.rotates() ? 6 : 3));
+    b.rw = rp + rel - arm;
+    b.vw = vp + wp.cross(rel) + rate - b.ww.cross(arm);
+    Out(x + b.r) = b.rw;
+    Out(x + b.p) = b.mass * b.vw;
+  }
+  for (const auto& [ix, iy] : others_) x[ix] = y[iy];
+}
+
+void JointCoordinateSystem::CalcDerivatives(double t, const double* y, double* ydot) {
+  if (stop_ && stop_->load(std::memory_order_relaxed)) throw RunInterrupted();
+  ToModel(y, x_.data());
+  model_.CalcStateDerivatives(t, x_.data(), xdot_.data(), ws_);
+  for (Body& b : bodies_) {
+    const Body* p = b.parent >= 0 ? &bodies_[b.parent] : nullptr;
+    const Mat3 Rp = p ? p->Rw : Mat3::Identity();
+    const Vec3 rp = p ? p->rw : Vec3::Zero(), vp = p ? p->vw : Vec3::Zero(), wp = p ? p->ww : Vec3::Zero();
+    const Vec3 vdp = p ? p->vdot : Vec3::Zero(), wdp = p ? p->wdot : Vec3::Zero();
+    const double* yb = y + b.y;
+    double* yd = ydot + b.y;
+    b.vdot = Eigen::Map<const Vec3>(xdot_.data() + b.p) / b.mass;
+    Vec3 arm = Vec3::Zero();
+    if (b.rotates()) {
+      const Vec3 h = Eigen::Map<const Vec3>(x_.data() + b.h);
+      b.wdot = b.Rw * b.inertia_inv * b.Rw.transpose() * (Eigen::Map<const Vec3>(xdot_.data() + b.h) - b.ww.cross(h));
+      // u = J_l(psi) psi' + Exp(psi) n theta', psi' = a' e1 + b' e2.
+      const Vec3 psi = yb[0] * b.e1 + yb[1] * b.e2;
+      double c1, c2, c3;
+      RodriguesCoefficients(psi.norm(), c1, c2, c3);
+      const Mat3 k = Hat(psi), k2 = k * k;
+      const Mat3 jl = Mat3::Identity() + c2 * k + c3 * k2;
+      Mat3 m;
+      m.col(0) = jl * b.e1;
+      m.col(1) = jl * b.e2;
+      m.col(2) = (Mat3::Identity() + c1 * k + c2 * k2) * b.n;
+      Out(yd) = m.inverse() * Eigen::Map<const Vec3>(yb + 6);
+      yb += 3;
+      yd += 3;
+      arm = b.Rw * b.anchor;
+      // u = R_P^T (w - w_P):  u' = R_P^T (w' - w_P' - w_P x (w - w_P)).
+      Out(yd + 3) = Rp.transpose() * (b.wdot - wdp - wp.cross(b.ww - wp));
+    } else {
+      b.wdot = Vec3::Zero();
+    }
+    // d = R_P^T rel, rel = r + R anchor - r_P;  d' = R_P^T s, s = rel' - w_P x rel.
+    const Vec3 rel = b.rw + arm - rp;
+    const Vec3 rel_dot = b.vw + b.ww.cross(arm) - vp;
+    const Vec3 s = rel_dot - wp.cross(rel);
+    const Vec3 rel_ddot = b.vdot + b.wdot.cross(arm) + b.ww.cross(b.ww.cross(arm)) - vdp;
+    const Vec3 s_dot = rel_ddot - wdp.cross(rel) - wp.cross(rel_dot);
+    const int rate = b.rotates() ? 6 : 3;
+    Out(yd) = Eigen::Map<const Vec3>(yb + rate);
+    Out(yd + rate) = Rp.transpose() * (s_dot - wp.cross(s));
+  }
+  for (const auto& [ix, iy] : others_) ydot[iy] = xdot_[ix];
+}
+
+void JointCoordinateSystem::VelocitiesFromModel(const double* x, double* y) {
+  for (Body& b : bodies_) {
+    const Body* p = b.parent >= 0 ? &bodies_[b.parent] : nullptr;
+    const Mat3 Rp = p ? p->Rw : Mat3::Identity();
+    const Vec3 rp = p ? p->rw : Vec3::Zero(), vp = p ? p->vw : Vec3::Zero(), wp = p ? p->ww : Vec3::Zero();
+    double* yb = y + b.y;
+    Vec3 arm = Vec3::Zero();
+    b.vw = Eigen::Map<const Vec3>(x + b.p) / b.mass;
+    if (b.rotates()) {
+      b.ww = b.Rw * b.inertia_inv * b.Rw.transpose() * Eigen::Map<const Vec3>(x + b.h);
+      arm = b.Rw * b.anchor;
+      yb += 3;
+      Out(yb + 3) = Rp.transpose() * (b.ww - wp);
+    }
+    const Vec3 rel = b.rw + arm - rp;
+    const Vec3 rel_dot = b.vw + b.ww.cross(arm) - vp;
+    Eigen::Map<Vec3>(yb + (b.rotates() ? 6 : 3)) = Rp.transpose() * (rel_dot - wp.cross(rel));
+  }
+  for (const auto& [ix, iy] : others_) y[iy] = x[ix];
+}
+
+void JointCoordinateSystem::Project(double t, double* y) {
+  ToModel(y, x_.data());
+  model_.Project(t, x_.data(), ws_);
+  VelocitiesFromModel(x_.data(), y);
+}
+
+bool JointCoordinateSystem::Rechart(double* y) {
+  bool needed = false;
+  for (const Body& b : bodies_)
+    if (b.rotates() && std::hypot(y[b.y], y[b.y + 1]) > 0.5) needed = true;
+  if (!needed) return false;
+  ToModel(y, x_.data());
+  FromModel(x_.data(), y);
+  return true;
+}
+
+}  // namespace multibond

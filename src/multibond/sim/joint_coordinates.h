@@ -1,0 +1,84 @@
+#pragma once
+/// \file
+/// The compiled model's ODE in joint (relative) coordinates: a change of variables, not another
+/// model. Every evaluation maps the joint-coordinate state y to the model's own state x (every
+/// body's orientation R, position r and inertial momenta p, h; the other states as they are),
+/// evaluates the model's right-hand side there (the plan generated from the graph, with the ideal
+/// constraints' efforts), and maps dx/dt back to dy/dt by the kinematics of the tree.
+///
+/// Per body, relative to its tree parent P (JointTree): the relative orientation
+/// Q = R_P^T R = Exp(psi) Rot(n, theta) C (C its value at the start, n the tree joint's axis in
+/// P's frame, psi = a e1 + b e2 a small rotation off n), the anchor's position in P's frame
+/// d = R_P^T (r + R anchor - r_P), the relative angular velocity in P's frame u = R_P^T (w - w_P)
+/// and the anchor's relative velocity in P's frame d'. A body turning steadily in its bearing has
+/// theta growing linearly and every other state constant, where its inertial-frame states
+/// oscillate: the integrator's step is then no longer bounded by the rotation. docs/design.md,
+/// "Joint coordinates".
+
+#include <atomic>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "multibond/compile/compiled_model.h"
+#include "multibond/core/joint_tree.h"
+#include "multibond/core/ode_system.h"
+
+namespace multibond {
+
+class JointCoordinateSystem : public OdeSystem {
+ public:
+  /// Throws std::invalid_argument if the tree does not fit the model (a body without the states
+  /// <name>.r and <name>.p, a parent after its child, a body twice).
+  JointCoordinateSystem(const CompiledModel& model, const JointTree& tree, const std::atomic<bool>* stop = nullptr);
+
+  int num_states() const override { return n_; }
+  void CalcDerivatives(double t, const double* y, double* ydot) override;
+  bool has_invariants() const override { return model_.has_invariants(); }
+  /// The momenta onto the ideal constraints (the model's projection), the velocities read back.
+  void Project(double t, double* y) override;
+
+  /// y from the model's state x: charts at x's orientations (psi = theta = 0), so that ToModel
+  /// gives x back. Used at the start and to re-chart.
+  void FromModel(const double* x, double* y);
+  /// The model's state at y. No allocation.
+  void ToModel(const double* y, double* x);
+  /// When a body's rotation off its axis has grown past half a radian (a body with no bearing
+  /// about the chosen axis), charts again at y's configuration and returns true: the integrator
+  /// must then restart from the new y. Integrators see no jump in the motion, only in y.
+  bool Rechart(double* y);
+
+  const std::vector<std::string>& state_names() const { return names_; }
+  Workspace& workspace() { return ws_; }
+
+ private:
+  struct Body {
+    int parent = -1;  ///< index into bodies_, -1 for the ground
+    int R = -1, r = -1, p = -1, h = -1;  ///< offsets in x (R, h: -1 for a point mass)
+    int y = 0;        ///< offset in y: [a, b, theta, d(3), u(3), d'(3)] or, point mass, [d(3), d'(3)]
+    double mass = 0.0;
+    Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero(), inertia_inv = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d anchor = Eigen::Vector3d::Zero();
+    Eigen::Vector3d n = Eigen::Vector3d::UnitZ(), e1 = Eigen::Vector3d::UnitX(), e2 = Eigen::Vector3d::UnitY();
+    Eigen::Matrix3d chart = Eigen::Matrix3d::Identity();  ///< C
+    // Kinematics at the current y (ToModel), inertial frame.
+    Eigen::Matrix3d Rw = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d rw = Eigen::Vector3d::Zero(), vw = Eigen::Vector3d::Zero(), ww = Eigen::Vector3d::Zero();
+    Eigen::Vector3d vdot = Eigen::Vector3d::Zero(), wdot = Eigen::Vector3d::Zero();
+    bool rotates() const { return R >= 0; }
+  };
+  /// Velocities (u, d') of y from the momenta in x, with the configuration already in bodies_.
+  void VelocitiesFromModel(const double* x, double* y);
+
+  const CompiledModel& model_;
+  Workspace ws_;
+  const std::atomic<bool>* stop_;
+  std::vector<Body> bodies_;
+  std::vector<std::pair<int, int>> others_;  ///< (offset in x, offset in y) of the other states
+  std::vector<std::string> names_;
+  int n_ = 0;
+  Eigen::VectorXd x_, xdot_;
+};
+
+}  // namespace multibond
