@@ -7,6 +7,7 @@
 #include <benchmark/benchmark.h>
 
 #include "multibond/io/model_loader.h"
+#include "multibond/sim/joint_coordinates.h"
 #include "multibond/sim/simulator.h"
 
 namespace mb = multibond;
@@ -45,6 +46,30 @@ void BM_IdealDifferentialRhs(benchmark::State& state) {
   state.counters["multipliers"] = static_cast<double>(model->num_multipliers());
 }
 BENCHMARK(BM_IdealDifferentialRhs);
+
+// The same right-hand side in joint coordinates (JointCoordinateSystem): the model's, plus the
+// map from joint coordinates to the model's state and the derivatives back.
+void BM_IdealDifferentialJointRhs(benchmark::State& state) {
+  const auto model = IdealDifferential();
+  if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
+  mb::JointCoordinateSystem jc(*model, LoadIdeal().mechanism->MakeJointTree());
+  Eigen::VectorXd x = model->MakeInitialState();
+  Eigen::VectorXd ys[2] = {Eigen::VectorXd(jc.num_states()), Eigen::VectorXd(jc.num_states())};
+  jc.FromModel(x.data(), ys[0].data());
+  ys[1] = ys[0];
+  ys[1][2] += 1e-9;  // G's angle: a stage never evaluates at the state of the one before
+  Eigen::VectorXd ydot(jc.num_states());
+  double t = 0.0;
+  int k = 0;
+  for (auto _ : state) {
+    jc.CalcDerivatives(t, ys[k].data(), ydot.data());
+    benchmark::DoNotOptimize(ydot.data());
+    t += 1e-9;
+    k ^= 1;
+  }
+  state.counters["states"] = static_cast<double>(jc.num_states());
+}
+BENCHMARK(BM_IdealDifferentialJointRhs);
 
 /// range(0): 0 = dopri5, 1 = bdf; range(1): -log10(rtol); range(2): 1 = joint coordinates (the
 /// example's), 0 = inertial; range(3): output rows (5,000: the example's 1 ms; 1: t_end only,

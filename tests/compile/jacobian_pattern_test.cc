@@ -127,10 +127,21 @@ TEST(JacobianPattern, GrowsLinearlyAlongAChain) {
   EXPECT_NEAR(per_state_large, per_state_small, 0.5);
 }
 
-TEST(JacobianPattern, NoneWithIdealConstraints) {
+TEST(JacobianPattern, DenseWithIdealConstraintsButTheEnergyIntegrals) {
   // Each multiplier depends on every state that reaches its constraint, and feeds back into every
-  // momentum it reaches: BDF keeps the dense Jacobian there.
-  EXPECT_EQ(CompileExample("differential_ideal.yaml")->jacobian_pattern(), nullptr);
+  // momentum it reaches: every column is full, but those of the energy account's integrals (the
+  // constraints' and the drive's work), which nothing reads.
+  const auto m = CompileExample("differential_ideal.yaml");
+  ExpectPatternCoversTheNumbers(m.get());
+  const JacobianPattern* p = m->jacobian_pattern();
+  int alone = 0;
+  for (int j = 0; j < p->n; ++j) {
+    const int rows = p->col_start[j + 1] - p->col_start[j];
+    const bool work = m->state_names()[j].ends_with(".work") || m->state_names()[j].ends_with(".dissipated");
+    EXPECT_EQ(rows, work ? 1 : p->n) << m->state_names()[j];
+    alone += rows == 1;
+  }
+  EXPECT_EQ(alone, 23);  // 21 constraints (16 rigid couplings, 5 meshes), the drive's source and its damper
 }
 
 }  // namespace

@@ -32,11 +32,31 @@ Deps Range(int first, int count) {
 
 void CompiledModel::BuildJacobianPattern() {
   jacobian_pattern_ = JacobianPattern{};
-  // A multiplier's value depends on the whole constrained system: no useful structure.
-  if (!constraints_.empty()) return;
-  // A torn variable depends on everything its loop's linear system reads: left dense too.
-  if (!tears_.empty()) return;
   const int n = num_states();
+  // A multiplier's value depends on the whole constrained system, and a torn variable on
+  // everything its loop's linear system reads: no structure worth tracing, every state may depend
+  // on every other, except the energy account's integrals (a source's work, a resistor's
+  // dissipation), which the plan writes and never reads: their columns are their diagonal alone
+  // (a dense Jacobian then evaluates them all at once, and the linear solver leaves them out of
+  // its factorisation). Without such integrals there is no pattern.
+  if (!constraints_.empty() || !tears_.empty()) {
+    std::vector<bool> alone(n, false);
+    bool any = false;
+    for (const StateBlock& b : blocks_)
+      if (b.kind == StateBlock::Kind::kWork || b.kind == StateBlock::Kind::kDissipation)
+        for (int k = 0; k < b.size; ++k) alone[b.offset + k] = any = true;
+    if (!any) return;
+    JacobianPattern& p = jacobian_pattern_;
+    p.n = n;
+    p.col_start.assign(1, 0);
+    for (int j = 0; j < n; ++j) {
+      if (alone[j]) p.row_index.push_back(j);
+      else
+        for (int i = 0; i < n; ++i) p.row_index.push_back(i);
+      p.col_start.push_back(static_cast<int>(p.row_index.size()));
+    }
+    return;
+  }
   std::vector<Deps> slot(num_slots_);  // what each slot depends on, once written
   auto slots = [&](int first, int count) {
     Deps d;

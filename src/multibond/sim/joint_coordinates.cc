@@ -1,6 +1,7 @@
 #include "multibond/sim/joint_coordinates.h"
 
 #include <cmath>
+#include <algorithm>
 #include <map>
 #include <stdexcept>
 
@@ -120,6 +121,38 @@ JointCoordinateSystem::JointCoordinateSystem(const CompiledModel& model, const J
   }
   x_ = model.MakeInitialState();
   xdot_ = Eigen::VectorXd::Zero(nx);
+  if (const JacobianPattern* mp = model.jacobian_pattern()) {
+    // y index of each other state, -1 for body states; a column's rows as a set.
+    std::vector<int> y_of(nx, -1);
+    for (const auto& [ix, iy] : others_) y_of[ix] = iy;
+    const int body_states = others_.empty() ? n_ : others_.front().second;
+    auto rows_of = [&](auto&& x_columns) {  // the y rows reached from a set of x columns
+      std::vector<bool> rows(n_, false);
+      for (const int c : x_columns)
+        for (int e = mp->col_start[c]; e < mp->col_start[c + 1]; ++e) {
+          const int r = mp->row_index[e];
+          if (y_of[r] >= 0) rows[y_of[r]] = true;
+          else std::fill(rows.begin(), rows.begin() + body_states, true);
+        }
+      return rows;
+    };
+    std::vector<int> body_columns;
+    for (int i = 0; i < nx; ++i)
+      if (covered[i]) body_columns.push_back(i);
+    std::vector<bool> body_rows = rows_of(body_columns);
+    std::fill(body_rows.begin(), body_rows.begin() + body_states, true);
+    pattern_.n = n_;
+    pattern_.col_start.assign(1, 0);
+    std::vector<int> y_col_x(n_, -1);
+    for (const auto& [ix, iy] : others_) y_col_x[iy] = ix;
+    for (int j = 0; j < n_; ++j) {
+      std::vector<bool> rows = y_col_x[j] < 0 ? body_rows : rows_of(std::vector<int>{y_col_x[j]});
+      rows[j] = true;
+      for (int r = 0; r < n_; ++r)
+        if (rows[r]) pattern_.row_index.push_back(r);
+      pattern_.col_start.push_back(static_cast<int>(pattern_.row_index.size()));
+    }
+  }
 }
 
 void JointCoordinateSystem::FromModel(const double* x, double* y) {
@@ -133,7 +166,7 @@ void JointCoordinateSystem::FromModel(const double* x, double* y) {
     Vec3 arm = Vec3::Zero();
     if (b.rotates()) {
       b.Rw = Eigen::Map<const RowMajor3>(x + b.R);
-      b.ww = b.Rw * b.inertia_inv * b.Rw.transpose() * Eigen::Map<const Vec3>(x + b.h);
+      b.ww = b.Rw * (b.inertia_inv * (b.Rw.transpose() * Eigen::Map<const Vec3>(x + b.h)));
       b.chart = Rp.transpose() * b.Rw;
       yb[0] = yb[1] = yb[2] = 0.0;
       yb += 3;
@@ -169,11 +202,18 @@ void JointCoordinateSystem::ToModel(const double* y, double* x) {
       const Mat3 k = Hat(psi), k2 = k * k;
       const Mat3 exp_psi = Mat3::Identity() + c1 * k + c2 * k2;
       b.Rw = Rp * exp_psi * AxisRotation(b.n, yb[2]) * b.chart;
+      // u = J_l(psi) psi' + Exp(psi) n theta', psi' = a' e1 + b' e2 (for CalcDerivatives).
+      const Mat3 jl = Mat3::Identity() + c2 * k + c3 * k2;
+      Mat3 m;
+      m.col(0) = jl * b.e1;
+      m.col(1) = jl * b.e2;
+      m.col(2) = exp_psi * b.n;
+      b.rates_from_u = m.inverse();
       yb += 3;
       b.ww = wp + Rp * Eigen::Map<const Vec3>(yb + 3);
       arm = b.Rw * b.anchor;
       Eigen::Map<RowMajor3>(x + b.R) = b.Rw;
-      Out(x + b.h) = b.Rw * b.inertia * b.Rw.transpose() * b.ww;
+      Out(x + b.h) = b.Rw * (b.inertia * (b.Rw.transpose() * b.ww));
     } else {
       b.Rw = Mat3::Identity();
       b.ww = Vec3::Zero();
@@ -203,18 +243,8 @@ void JointCoordinateSystem::CalcDerivatives(double t, const double* y, double* y
     Vec3 arm = Vec3::Zero();
     if (b.rotates()) {
       const Vec3 h = Eigen::Map<const Vec3>(x_.data() + b.h);
-      b.wdot = b.Rw * b.inertia_inv * b.Rw.transpose() * (Eigen::Map<const Vec3>(xdot_.data() + b.h) - b.ww.cross(h));
-      // u = J_l(psi) psi' + Exp(psi) n theta', psi' = a' e1 + b' e2.
-      const Vec3 psi = yb[0] * b.e1 + yb[1] * b.e2;
-      double c1, c2, c3;
-      RodriguesCoefficients(psi.norm(), c1, c2, c3);
-      const Mat3 k = Hat(psi), k2 = k * k;
-      const Mat3 jl = Mat3::Identity() + c2 * k + c3 * k2;
-      Mat3 m;
-      m.col(0) = jl * b.e1;
-      m.col(1) = jl * b.e2;
-      m.col(2) = (Mat3::Identity() + c1 * k + c2 * k2) * b.n;
-      Out(yd) = m.inverse() * Eigen::Map<const Vec3>(yb + 6);
+      b.wdot = b.Rw * (b.inertia_inv * (b.Rw.transpose() * (Eigen::Map<const Vec3>(xdot_.data() + b.h) - b.ww.cross(h))));
+      Out(yd) = b.rates_from_u * Eigen::Map<const Vec3>(yb + 6);
       yb += 3;
       yd += 3;
       arm = b.Rw * b.anchor;
@@ -245,7 +275,7 @@ void JointCoordinateSystem::VelocitiesFromModel(const double* x, double* y) {
     Vec3 arm = Vec3::Zero();
     b.vw = Eigen::Map<const Vec3>(x + b.p) / b.mass;
     if (b.rotates()) {
-      b.ww = b.Rw * b.inertia_inv * b.Rw.transpose() * Eigen::Map<const Vec3>(x + b.h);
+      b.ww = b.Rw * (b.inertia_inv * (b.Rw.transpose() * Eigen::Map<const Vec3>(x + b.h)));
       arm = b.Rw * b.anchor;
       yb += 3;
       Out(yb + 3) = Rp.transpose() * (b.ww - wp);

@@ -38,6 +38,9 @@ class JointCoordinateSystem : public OdeSystem {
   bool has_invariants() const override { return model_.has_invariants(); }
   /// The momenta onto the ideal constraints (the model's projection), the velocities read back.
   void Project(double t, double* y) override;
+  /// From the model's: every body state may depend on every other (the tree couples them), and
+  /// the other states keep the model's structure (a quadrature that nothing reads stays alone).
+  const JacobianPattern* jacobian_pattern() const override { return pattern_.n > 0 ? &pattern_ : nullptr; }
 
   /// y from the model's state x: charts at x's orientations (psi = theta = 0), so that ToModel
   /// gives x back. Used at the start and to re-chart.
@@ -66,6 +69,8 @@ class JointCoordinateSystem : public OdeSystem {
     Eigen::Matrix3d Rw = Eigen::Matrix3d::Identity();
     Eigen::Vector3d rw = Eigen::Vector3d::Zero(), vw = Eigen::Vector3d::Zero(), ww = Eigen::Vector3d::Zero();
     Eigen::Vector3d vdot = Eigen::Vector3d::Zero(), wdot = Eigen::Vector3d::Zero();
+    /// [J_l(psi) e1, J_l(psi) e2, Exp(psi) n]^-1 at the current y: (a', b', theta') from u.
+    Eigen::Matrix3d rates_from_u = Eigen::Matrix3d::Identity();
     bool rotates() const { return R >= 0; }
   };
   /// Velocities (u, d') of y from the momenta in x, with the configuration already in bodies_.
@@ -79,6 +84,7 @@ class JointCoordinateSystem : public OdeSystem {
   std::vector<std::string> names_;
   int n_ = 0;
   Eigen::VectorXd x_, xdot_;
+  JacobianPattern pattern_;
 };
 
 }  // namespace multibond

@@ -254,11 +254,11 @@ void CheckRunOptions(const CompiledModel& model, const RunOptions& options) {
   if (options.joint_coordinates.empty()) {
     CheckIntegratorOptions(model.num_states(), model.jacobian_pattern(), options.integrator);
   } else {
-    // The integrator sees the joint-coordinate state: its own size, no known pattern.
+    // The integrator sees the joint-coordinate state: its own size and pattern.
     const JointCoordinateSystem chart(model, options.joint_coordinates);
     if (!options.integrator.atol_per_state.empty())
       throw std::invalid_argument("per-state absolute tolerances name the model's states, which joint coordinates replace");
-    CheckIntegratorOptions(chart.num_states(), nullptr, options.integrator);
+    CheckIntegratorOptions(chart.num_states(), chart.jacobian_pattern(), options.integrator);
   }
   CheckFixedStep(options.integrator.fixed_step, options.dt);
 }

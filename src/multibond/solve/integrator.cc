@@ -119,7 +119,8 @@ void CheckIntegratorOptions(int n, const JacobianPattern* pattern, const Integra
   Require(options.jacobian != JacobianKind::kSparse || pattern != nullptr || !cvode,
           "a sparse Jacobian needs the model's Jacobian pattern, and this model has none (a model with ideal "
           "constraints, whose multipliers couple the states they reach, or with solved algebraic loops, whose "
-          "unknowns couple what their loops read); use the dense or automatic Jacobian");
+          "unknowns couple what their loops read, and no energy integrals to leave out); use the dense or automatic "
+          "Jacobian");
 }
 
 std::unique_ptr<Integrator> MakeIntegrator(OdeSystem& system, const IntegratorOptions& options) {
