@@ -232,6 +232,36 @@ TEST_F(CliTest, OutputGridEndsExactlyAtTheEndTime) {
   for (size_t k = 0; k < times.size(); ++k) EXPECT_NEAR(times[k], expected[k], 1e-12) << k;
 }
 
+// --coordinates: the integrator's variables. The same model and columns; recorded in run.json;
+// refused for a model without bodies and for an unknown choice (exit 64, nothing written).
+TEST_F(CliTest, CoordinatesOptionChangesTheVariablesNotTheResults) {
+  const std::string model = Example("differential_ideal.yaml");
+  const std::string common = " --t-end 0.2 --dt 0.01 --solver bdf --rtol 1e-10 --atol 1e-12";
+  const Result joint = Cli("run " + model + " -o " + dir_.string() + "_joint" + common);  // the file's: joint
+  const Result inertial = Cli("run " + model + " -o " + dir_.string() + "_inertial --coordinates inertial" + common);
+  ASSERT_EQ(joint.code, 0) << joint.out;
+  ASSERT_EQ(inertial.code, 0) << inertial.out;
+  EXPECT_EQ(nlohmann::json::parse(Read(fs::path(dir_.string() + "_joint") / "run.json"))["options"]["coordinates"], "joint");
+  EXPECT_EQ(nlohmann::json::parse(Read(fs::path(dir_.string() + "_inertial") / "run.json"))["options"]["coordinates"], "inertial");
+  const std::string a = Read(fs::path(dir_.string() + "_joint") / "results.csv");
+  const std::string b = Read(fs::path(dir_.string() + "_inertial") / "results.csv");
+  auto header = [](const std::string& csv) {
+    const size_t at = csv.find("time [s]");
+    return at == std::string::npos ? std::string() : csv.substr(at, csv.find('\n', at) - at);
+  };
+  EXPECT_FALSE(header(a).empty());
+  EXPECT_EQ(header(a), header(b));  // the same columns
+  const Result c = Cli("compare " + model + " " + model + " --coordinates inertial" + common);
+  ASSERT_EQ(c.code, 0) << c.out;
+  fs::remove_all(dir_.string() + "_joint");
+  fs::remove_all(dir_.string() + "_inertial");
+  const Result none = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --coordinates joint");
+  EXPECT_EQ(none.code, 64) << none.out;
+  EXPECT_THAT(none.out, HasSubstr("no bodies"));
+  EXPECT_FALSE(fs::exists(dir_ / "results.csv"));
+  EXPECT_EQ(Cli("run " + model + " -o " + dir_.string() + " --coordinates polar").code, 64);
+}
+
 TEST_F(CliTest, JacobianOptionIsRecordedAndCheckedAgainstTheModel) {
   const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --t-end 0.1 --jacobian sparse");
   ASSERT_EQ(r.code, 0) << r.out;
