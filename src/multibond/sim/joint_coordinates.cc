@@ -156,43 +156,28 @@ JointCoordinateSystem::JointCoordinateSystem(const CompiledModel& model, const J
 }
 
 void JointCoordinateSystem::FromModel(const double* x, double* y) {
-  for (Body& b : bodies_) {
-    const Body* p = b.parent >= 0 ? &bodies_[b.parent] : nullptr;
-    const Mat3 Rp = p ? p->Rw : Mat3::Identity();
-    const Vec3 rp = p ? p->rw : Vec3::Zero(), vp = p ? p->vw : Vec3::Zero(), wp = p ? p->ww : Vec3::Zero();
+  for (Body& b : bodies_) {  // the configuration, charted at x: psi = theta = 0
+    const Body& pb = Parent(b);
     b.rw = Eigen::Map<const Vec3>(x + b.r);
-    b.vw = Eigen::Map<const Vec3>(x + b.p) / b.mass;
     double* yb = y + b.y;
     Vec3 arm = Vec3::Zero();
     if (b.rotates()) {
       b.Rw = Eigen::Map<const RowMajor3>(x + b.R);
-      b.ww = b.Rw * (b.inertia_inv * (b.Rw.transpose() * Eigen::Map<const Vec3>(x + b.h)));
-      b.chart = Rp.transpose() * b.Rw;
+      b.chart = pb.Rw.transpose() * b.Rw;
       yb[0] = yb[1] = yb[2] = 0.0;
       yb += 3;
       arm = b.Rw * b.anchor;
-    } else {
-      b.Rw = Mat3::Identity();
-      b.ww = Vec3::Zero();
     }
-    const Vec3 rel = b.rw + arm - rp;
-    const Vec3 rel_dot = b.vw + b.ww.cross(arm) - vp;
-    Out(yb) = Rp.transpose() * rel;
-    if (b.rotates()) {
-      Out(yb + 3) = Rp.transpose() * (b.ww - wp);
-      Out(yb + 6) = Rp.transpose() * (rel_dot - wp.cross(rel));
-    } else {
-      Out(yb + 3) = Rp.transpose() * (rel_dot - wp.cross(rel));
-    }
+    Out(yb) = pb.Rw.transpose() * (b.rw + arm - pb.rw);
   }
-  for (const auto& [ix, iy] : others_) y[iy] = x[ix];
+  VelocitiesFromModel(x, y);
 }
 
 void JointCoordinateSystem::ToModel(const double* y, double* x) {
   for (Body& b : bodies_) {
-    const Body* p = b.parent >= 0 ? &bodies_[b.parent] : nullptr;
-    const Mat3 Rp = p ? p->Rw : Mat3::Identity();
-    const Vec3 rp = p ? p->rw : Vec3::Zero(), vp = p ? p->vw : Vec3::Zero(), wp = p ? p->ww : Vec3::Zero();
+    const Body& pb = Parent(b);
+    const Mat3& Rp = pb.Rw;
+    const Vec3 &rp = pb.rw, &vp = pb.vw, &wp = pb.ww;
     const double* yb = y + b.y;
     Vec3 arm = Vec3::Zero();
     if (b.rotates()) {
@@ -233,10 +218,9 @@ void JointCoordinateSystem::CalcDerivatives(double t, const double* y, double* y
   ToModel(y, x_.data());
   model_.CalcStateDerivatives(t, x_.data(), xdot_.data(), ws_);
   for (Body& b : bodies_) {
-    const Body* p = b.parent >= 0 ? &bodies_[b.parent] : nullptr;
-    const Mat3 Rp = p ? p->Rw : Mat3::Identity();
-    const Vec3 rp = p ? p->rw : Vec3::Zero(), vp = p ? p->vw : Vec3::Zero(), wp = p ? p->ww : Vec3::Zero();
-    const Vec3 vdp = p ? p->vdot : Vec3::Zero(), wdp = p ? p->wdot : Vec3::Zero();
+    const Body& pb = Parent(b);
+    const Mat3& Rp = pb.Rw;
+    const Vec3 &rp = pb.rw, &vp = pb.vw, &wp = pb.ww, &vdp = pb.vdot, &wdp = pb.wdot;
     const double* yb = y + b.y;
     double* yd = ydot + b.y;
     b.vdot = Eigen::Map<const Vec3>(xdot_.data() + b.p) / b.mass;
@@ -268,9 +252,9 @@ void JointCoordinateSystem::CalcDerivatives(double t, const double* y, double* y
 
 void JointCoordinateSystem::VelocitiesFromModel(const double* x, double* y) {
   for (Body& b : bodies_) {
-    const Body* p = b.parent >= 0 ? &bodies_[b.parent] : nullptr;
-    const Mat3 Rp = p ? p->Rw : Mat3::Identity();
-    const Vec3 rp = p ? p->rw : Vec3::Zero(), vp = p ? p->vw : Vec3::Zero(), wp = p ? p->ww : Vec3::Zero();
+    const Body& pb = Parent(b);
+    const Mat3& Rp = pb.Rw;
+    const Vec3 &rp = pb.rw, &vp = pb.vw, &wp = pb.ww;
     double* yb = y + b.y;
     Vec3 arm = Vec3::Zero();
     b.vw = Eigen::Map<const Vec3>(x + b.p) / b.mass;

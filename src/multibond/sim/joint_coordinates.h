@@ -75,11 +75,14 @@ class JointCoordinateSystem : public OdeSystem {
   };
   /// Velocities (u, d') of y from the momenta in x, with the configuration already in bodies_.
   void VelocitiesFromModel(const double* x, double* y);
+  /// The body's tree parent, or the ground (at rest at the origin).
+  const Body& Parent(const Body& b) const { return b.parent >= 0 ? bodies_[b.parent] : ground_; }
 
   const CompiledModel& model_;
   Workspace ws_;
   const std::atomic<bool>* stop_;
   std::vector<Body> bodies_;
+  Body ground_;  ///< identity orientation, at rest at the origin
   std::vector<std::pair<int, int>> others_;  ///< (offset in x, offset in y) of the other states
   std::vector<std::string> names_;
   int n_ = 0;
