@@ -52,7 +52,8 @@ BENCHMARK(BM_IdealDifferentialRhs);
 void BM_IdealDifferentialJointRhs(benchmark::State& state) {
   const auto model = IdealDifferential();
   if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
-  mb::JointCoordinateSystem jc(*model, LoadIdeal().mechanism->MakeJointTree());
+  mb::ModelSystem system(*model);
+  mb::JointCoordinateSystem jc(*model, LoadIdeal().mechanism->MakeJointTree(), &system);
   Eigen::VectorXd x = model->MakeInitialState();
   Eigen::VectorXd ys[2] = {Eigen::VectorXd(jc.num_states()), Eigen::VectorXd(jc.num_states())};
   jc.FromModel(x.data(), ys[0].data());

@@ -72,7 +72,8 @@ Eigen::VectorXd SomeState(JointCoordinateSystem& jc, const CompiledModel& model)
 // ToModel(FromModel(x)) = x: charting anew at any state changes the coordinates, not the motion.
 TEST(JointCoordinates, ChartingAgainKeepsTheState) {
   Fixture f;
-  JointCoordinateSystem jc(*f.model, f.tree);
+  ModelSystem system(*f.model);
+  JointCoordinateSystem jc(*f.model, f.tree, &system);
   const Eigen::VectorXd y = SomeState(jc, *f.model);
   Eigen::VectorXd x1(f.model->num_states()), x2(f.model->num_states()), y2(jc.num_states());
   jc.ToModel(y.data(), x1.data());
@@ -87,7 +88,8 @@ TEST(JointCoordinates, ChartingAgainKeepsTheState) {
 // differences along dy/dt, at a state where nothing is at rest.
 TEST(JointCoordinates, DerivativesAreTheModelsThroughTheChainRule) {
   Fixture f;
-  JointCoordinateSystem jc(*f.model, f.tree);
+  ModelSystem system(*f.model);
+  JointCoordinateSystem jc(*f.model, f.tree, &system);
   const Eigen::VectorXd y = SomeState(jc, *f.model);
   const int nx = f.model->num_states();
   Eigen::VectorXd ydot(jc.num_states()), x(nx), xdot(nx), xp(nx), xm(nx);

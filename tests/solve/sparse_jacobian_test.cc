@@ -128,13 +128,17 @@ struct HeatRun {
   IntegratorStats stats;
 };
 
-HeatRun RunHeat(HeatEquation& sys, int n, JacobianKind kind, Method method = Method::kBdf) {
+IntegratorOptions Options(Method method, JacobianKind kind, double rtol, double atol) {
   IntegratorOptions o;
   o.method = method;
-  o.rtol = 1e-9;
-  o.atol = 1e-12;
+  o.rtol = rtol;
+  o.atol = atol;
   o.jacobian = kind;
-  auto integ = MakeIntegrator(sys, o);
+  return o;
+}
+
+HeatRun RunHeat(HeatEquation& sys, int n, JacobianKind kind, Method method = Method::kBdf) {
+  auto integ = MakeIntegrator(sys, Options(method, kind, 1e-9, 1e-12));
   std::vector<double> x(n);
   for (int i = 0; i < n; ++i) x[i] = sys.Mode(1, i) + 0.5 * sys.Mode(7, i);
   integ->Reset(0.0, x.data());
@@ -201,12 +205,7 @@ TEST(DifferenceQuotientJacobian, ForcedSpringFromRestFollowsTheClosedForm) {
   for (const Method method : {Method::kBdf, Method::kAdams})
     for (const JacobianKind kind : {JacobianKind::kDense, JacobianKind::kSparse}) {
       ForcedSpring sys(kind == JacobianKind::kSparse);
-      IntegratorOptions o;
-      o.method = method;
-      o.rtol = 1e-8;
-      o.atol = 1e-10;
-      o.jacobian = kind;
-      auto integ = MakeIntegrator(sys, o);
+      auto integ = MakeIntegrator(sys, Options(method, kind, 1e-8, 1e-10));
       double x[2] = {0.0, 0.0};
       integ->Reset(0.0, x);
       double max_p = 0.0, max_q = 0.0;

@@ -82,7 +82,6 @@ class Loader {
     }
     if (root["submodels"]) ReadSubmodelDefs(root["submodels"]);
     const bool mechanism = root["bodies"].IsDefined();
-    root_has_bodies_ = mechanism;
     if (mechanism) ReadMechanism(root);
     if (!root["elements"] && !mechanism)
       sink_.Error({file_, 1, 1}, "", "the model has no 'elements' section (nor 'bodies')", "list the elements under 'elements:'");
@@ -93,7 +92,7 @@ class Loader {
     ReadScope(root, "", Env{}, 0);
     WarnIfSomeCompliancesAreIgnored();
     if (root["outputs"]) ReadOutputs(root["outputs"]);
-    if (root["simulation"]) ReadSimulation(root["simulation"], out.simulation);
+    if (root["simulation"]) ReadSimulation(root["simulation"], out.simulation, mechanism);
     if (sink_.has_errors()) {
       // Report the parameter problems of what could be read too, so that one pass shows them all.
       // (Structural problems of a partly read graph would mostly be echoes of the errors above.)
@@ -993,9 +992,8 @@ class Loader {
     }
   }
 
-  bool root_has_bodies_ = false;  ///< the model has a 'bodies' section (joint coordinates need one)
-
-  void ReadSimulation(const YAML::Node& n, SimulationDefaults& s) {
+  /// `mechanism`: the model has bodies (joint coordinates need them).
+  void ReadSimulation(const YAML::Node& n, SimulationDefaults& s, bool mechanism) {
     if (!n.IsMap()) {
       sink_.Error(Loc(n), "simulation", "'simulation' is a mapping of settings", "write e.g. simulation: {t_end: 5, dt: 0.001}");
       return;
@@ -1029,7 +1027,7 @@ class Loader {
       if (!c.IsScalar() || (c.Scalar() != "joint" && c.Scalar() != "inertial"))
         sink_.Error(Loc(c), "simulation", "'coordinates' is joint or inertial",
                     "joint: the integrator advances each body relative to its tree joint; inertial: the model's own states");
-      else if (c.Scalar() == "joint" && !root_has_bodies_)
+      else if (c.Scalar() == "joint" && !mechanism)
         sink_.Error(Loc(c), "simulation", "joint coordinates are for mechanisms: the model has no bodies", "remove 'coordinates'");
       else
         s.coordinates = c.Scalar();

@@ -1,7 +1,7 @@
 #include "multibond/sim/joint_coordinates.h"
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <stdexcept>
 
@@ -49,8 +49,8 @@ Mat3 AxisRotation(const Vec3& n, double theta) {
 
 }  // namespace
 
-JointCoordinateSystem::JointCoordinateSystem(const CompiledModel& model, const JointTree& tree, const std::atomic<bool>* stop)
-    : model_(model), ws_(model.MakeWorkspace()), stop_(stop) {
+JointCoordinateSystem::JointCoordinateSystem(const CompiledModel& model, const JointTree& tree, ModelSystem* system)
+    : model_(model), system_(system) {
   const int nx = model.num_states();
   std::vector<bool> covered(nx, false);
   std::map<std::string, int> index;
@@ -214,9 +214,9 @@ void JointCoordinateSystem::ToModel(const double* y, double* x) {
 }
 
 void JointCoordinateSystem::CalcDerivatives(double t, const double* y, double* ydot) {
-  if (stop_ && stop_->load(std::memory_order_relaxed)) throw RunInterrupted();
+  MB_ASSERT(system_ != nullptr, "JointCoordinateSystem evaluated without the model's system");
   ToModel(y, x_.data());
-  model_.CalcStateDerivatives(t, x_.data(), xdot_.data(), ws_);
+  system_->CalcDerivatives(t, x_.data(), xdot_.data());  // looks at the stop flag
   for (Body& b : bodies_) {
     const Body& pb = Parent(b);
     const Mat3& Rp = pb.Rw;
@@ -273,17 +273,17 @@ void JointCoordinateSystem::VelocitiesFromModel(const double* x, double* y) {
 
 void JointCoordinateSystem::Project(double t, double* y) {
   ToModel(y, x_.data());
-  model_.Project(t, x_.data(), ws_);
+  MB_ASSERT(system_ != nullptr, "JointCoordinateSystem projected without the model's system");
+  system_->Project(t, x_.data());
   VelocitiesFromModel(x_.data(), y);
 }
 
-bool JointCoordinateSystem::Rechart(double* y) {
+bool JointCoordinateSystem::Rechart(const double* x, double* y) {
   bool needed = false;
   for (const Body& b : bodies_)
     if (b.rotates() && std::hypot(y[b.y], y[b.y + 1]) > 0.5) needed = true;
   if (!needed) return false;
-  ToModel(y, x_.data());
-  FromModel(x_.data(), y);
+  FromModel(x, y);
   return true;
 }
 

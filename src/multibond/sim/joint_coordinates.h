@@ -15,7 +15,6 @@
 /// oscillate: the integrator's step is then no longer bounded by the rotation. docs/design.md,
 /// "Joint coordinates".
 
-#include <atomic>
 #include <string>
 #include <vector>
 
@@ -27,11 +26,16 @@
 
 namespace multibond {
 
+class ModelSystem;
+
 class JointCoordinateSystem : public OdeSystem {
  public:
   /// Throws std::invalid_argument if the tree does not fit the model (a body without the states
-  /// <name>.r and <name>.p, a parent after its child, a body twice).
-  JointCoordinateSystem(const CompiledModel& model, const JointTree& tree, const std::atomic<bool>* stop = nullptr);
+  /// <name>.r and <name>.p, a parent after its child, a body twice). `system` is the model as an
+  /// OdeSystem, whose variables this one changes: its evaluations (with its workspace and stop
+  /// flag) and projection serve CalcDerivatives and Project. Without one, only the map and the
+  /// layout (num_states, jacobian_pattern, FromModel, ToModel): what checking options needs.
+  JointCoordinateSystem(const CompiledModel& model, const JointTree& tree, ModelSystem* system = nullptr);
 
   int num_states() const override { return n_; }
   void CalcDerivatives(double t, const double* y, double* ydot) override;
@@ -48,12 +52,12 @@ class JointCoordinateSystem : public OdeSystem {
   /// The model's state at y. No allocation.
   void ToModel(const double* y, double* x);
   /// When a body's rotation off its axis has grown past half a radian (a body with no bearing
-  /// about the chosen axis), charts again at y's configuration and returns true: the integrator
-  /// must then restart from the new y. Integrators see no jump in the motion, only in y.
-  bool Rechart(double* y);
+  /// about the chosen axis), charts again at x = ToModel(y) (just computed by the caller) and
+  /// returns true: the integrator must then restart from the new y. Integrators see no jump in
+  /// the motion, only in y.
+  bool Rechart(const double* x, double* y);
 
   const std::vector<std::string>& state_names() const { return names_; }
-  Workspace& workspace() { return ws_; }
 
  private:
   struct Body {
@@ -79,8 +83,7 @@ class JointCoordinateSystem : public OdeSystem {
   const Body& Parent(const Body& b) const { return b.parent >= 0 ? bodies_[b.parent] : ground_; }
 
   const CompiledModel& model_;
-  Workspace ws_;
-  const std::atomic<bool>* stop_;
+  ModelSystem* system_;
   std::vector<Body> bodies_;
   Body ground_;  ///< identity orientation, at rest at the origin
   std::vector<std::pair<int, int>> others_;  ///< (offset in x, offset in y) of the other states

@@ -277,7 +277,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   std::optional<JointCoordinateSystem> chart;
   Eigen::VectorXd y;
   if (!options.joint_coordinates.empty()) {
-    chart.emplace(model, options.joint_coordinates, options.stop);
+    chart.emplace(model, options.joint_coordinates, &system);  // its evaluations, workspace and stop flag
     y.resize(chart->num_states());
     chart->FromModel(x.data(), y.data());
   }
@@ -373,7 +373,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
       integrator->AdvanceTo(tout, advanced.data());
       if (chart) {
         chart->ToModel(y.data(), x.data());
-        if (chart->Rechart(y.data())) {  // a restart zeroes the integrator's counters: carried over
+        if (chart->Rechart(x.data(), y.data())) {  // a restart zeroes the integrator's counters: carried over
           carried.AddCounts(integrator->stats());
           ++summary.recharts;
           integrator->Reset(tout, y.data());
