@@ -1,17 +1,19 @@
 // The paper's differential (issue 4): ns per right-hand side (plan interpreter and generated
 // code) and the whole 0-5 s run, at the example's settings (examples/differential.yaml:
-// bs3, rtol 1e-8, atol 1e-10) and with Dormand-Prince at the same tolerances for comparison.
+// srk3, rtol 1e-8, atol 1e-10) and with Dormand-Prince at the same tolerances for comparison.
 // Run: build/release/bench/multibond_bench --benchmark_filter=Differential
 //
 // Measured on the 2-core development machine (AMD EPYC, shared with other builds: medians of
-// 7 interleaved runs; generated code compiled by GCC 12):
+// 7 interleaved runs; generated code compiled by GCC 12). Sessions 2-10, then session 11 (a
+// slower day of the VM: the RK4 reference loop took 438-608 ms):
 //
-//                                              before (dopri5)        now
-//   right-hand side, integrator entry          213 ns                 172 ns (best 153)
-//   right-hand side, filling the workspace     391 ns                 255 ns
-//   whole run, the example's settings          593 ms (dopri5)        272 ms (bs3)
-//     steps / right-hand sides / rejected      129,889 / 914,232 / 1  160,185 / 486,178 / 0
-//     right-hand sides per step                7.04                   3.04 (5,125 projections)
+//                                              before (dopri5)        bs3 (session 2)        srk3 (session 11)
+//   right-hand side, integrator entry          213 ns                 172 ns (best 153)      235-245 ns
+//   right-hand side, filling the workspace     391 ns                 255 ns                 367-381 ns
+//   whole run, the example's settings          593 ms (dopri5)        272 ms                 164-225 ms
+//     steps / right-hand sides / rejected      129,889 / 914,232 / 1  160,185 / 486,178 / 0  73,451 / 298,590 / 34
+//     right-hand sides per step                7.04                   3.04 (5,125 projections) 4.07 (4,413)
+//   BM_DifferentialRunVsReference median ratio                        0.58-0.75 (session 11) 0.36-0.39 (target 0.568)
 //   whole run, dopri5 at the same tolerances                          352 ms (784,343 rhs, 6.04/step)
 //   the CLI with 5,001 rows of CSV (wall)      0.84 s                 0.53 s
 

@@ -73,7 +73,7 @@ std::string FailureHint(const mb::RunOptions& o, const std::string& message) {
   if (has("beyond machine precision")) return "loosen the tolerances (--rtol, --atol): double precision cannot resolve them";
   if (i.fixed_step > 0)
     return fmt::format("try a smaller fixed step (--step, now {:g} s): beyond its stability limit a fixed step blows up; or an adaptive "
-                       "solver (--solver bs3, dopri5 or bdf without --step)", i.fixed_step);
+                       "solver (--solver srk3, bs3, dopri5 or bdf without --step)", i.fixed_step);
   if (has("max_steps_per_output")) {
     // Too many steps in one output interval: a shorter interval lets them be taken; what else
     // helps depends on what held the steps short.
@@ -396,7 +396,7 @@ struct RunArgs {
 void AddRunOptions(CLI::App* cmd, RunArgs& a) {
   cmd->add_option("--t-end", a.t_end, "end time [s] (default: the model's, else 1)")->check(kPositive);
   cmd->add_option("--dt", a.dt, "output interval [s] (default: the model's, else 1e-3)")->check(kPositive);
-  cmd->add_option("--solver", a.solver, "bdf, adams, dopri5, bs3 (Bogacki-Shampine 3(2)) or rk4 (default: the model's, else bdf)");
+  cmd->add_option("--solver", a.solver, "bdf, adams, dopri5, bs3 (Bogacki-Shampine 3(2)), srk3 (stabilised RK 3(2), for stiff explicit runs) or rk4 (default: the model's, else bdf)");
   cmd->add_option("--rtol", a.rtol, "relative tolerance (default: the model's, else 1e-8)")->check(kPositive);
   cmd->add_option("--atol", a.atol, "absolute tolerance (default: the model's, else 1e-10)")->check(kPositive);
   cmd->add_option("--step", a.step, "fixed step [s] for rk4 (or a fixed-step dopri5)")->check(kPositive);

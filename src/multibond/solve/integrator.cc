@@ -11,7 +11,7 @@
 namespace multibond {
 namespace {
 
-constexpr const char* kValidNames = "bdf, adams, dopri5 (or dormand-prince), bs3 (or bogacki-shampine), rk4";
+constexpr const char* kValidNames = "bdf, adams, dopri5 (or dormand-prince), bs3 (or bogacki-shampine), srk3 (or stabilized-rk3), rk4";
 
 /// For a model without states (purely algebraic): time just advances, nothing to integrate.
 /// SUNDIALS cannot be given zero-length vectors.
@@ -82,6 +82,7 @@ Method ParseMethod(const std::string& name) {
   if (name == "adams") return Method::kAdams;
   if (name == "dopri5" || name == "dormand-prince") return Method::kDormandPrince;
   if (name == "bs3" || name == "bogacki-shampine") return Method::kBogackiShampine;
+  if (name == "srk3" || name == "stabilized-rk3") return Method::kStabilizedRk3;
   if (name == "rk4") return Method::kRk4;
   throw std::invalid_argument(
       fmt::format("unknown integration method '{}'; valid methods: {}", name, kValidNames));
@@ -99,6 +100,8 @@ const char* MethodName(Method m) {
       return "rk4";
     case Method::kBogackiShampine:
       return "bs3";
+    case Method::kStabilizedRk3:
+      return "srk3";
   }
   return "unknown";
 }
@@ -114,7 +117,7 @@ void CheckIntegratorOptions(int n, const JacobianPattern* pattern, const Integra
   if (n == 0) return;
   const bool cvode = UsesNewtonMatrix(options.method);
   Require(!(cvode && options.fixed_step > 0),
-          fmt::format("a fixed step (--step) is for rk4, dopri5 and bs3; {} chooses its own steps (bound them with "
+          fmt::format("a fixed step (--step) is for rk4, dopri5, bs3 and srk3; {} chooses its own steps (bound them with "
                       "--max-step)", MethodName(options.method)));
   Require(options.jacobian != JacobianKind::kSparse || pattern != nullptr || !cvode,
           "a sparse Jacobian needs the model's Jacobian pattern, and this model has none (a model with ideal "
@@ -132,6 +135,7 @@ std::unique_ptr<Integrator> MakeIntegrator(OdeSystem& system, const IntegratorOp
       return MakeCvodeIntegrator(system, options);
     case Method::kDormandPrince:
     case Method::kBogackiShampine:
+    case Method::kStabilizedRk3:
     case Method::kRk4:
       return MakeArkodeIntegrator(system, options);
   }
