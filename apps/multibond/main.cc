@@ -62,6 +62,11 @@ CLI::Validator NumberAbove(double low, bool inclusive) {
 }
 const CLI::Validator kPositive = NumberAbove(0.0, false), kNonNegative = NumberAbove(0.0, true);
 
+/// An output path: "" names nothing (a usage error, 64, not a failed write, 74).
+const CLI::Validator kPathName(
+    [](std::string& text) -> std::string { return text.empty() ? "must name a file or folder (got an empty string)" : ""; },
+    "PATH");
+
 /// What to try after a failed run, from what failed and with which settings (the same advice
 /// for every failure sent users of rk4 to --rtol, which it ignores, and users of bdf to bdf).
 std::string FailureHint(const mb::RunOptions& o, const std::string& message) {
@@ -368,7 +373,13 @@ int Graph(const std::string& path, const std::string& out) {
   if (outp.stem().empty() || (ext != ".dot" && ext != ".gv" && ext != ".svg" && ext != ".png"))
     throw CliExit{kExitUsage, fmt::format("the drawing's file name must end in .dot, .gv, .svg or .png (got '{}')", out)};
   const fs::path dot_path = ext == ".dot" || ext == ".gv" ? outp : fs::path(outp).replace_extension(".dot");
-  if (dot_path.has_parent_path()) fs::create_directories(dot_path.parent_path());
+  if (dot_path.has_parent_path()) {
+    std::error_code ec;
+    fs::create_directories(dot_path.parent_path(), ec);
+    if (ec)  // e.g. a path through a file: afile/g.dot
+      throw CliExit{kExitIo, fmt::format("cannot write '{}': cannot create the folder '{}' ({})", out,
+                                         dot_path.parent_path().string(), ec.message())};
+  }
   mb::WriteFileAtomic(dot_path.string(), dot);
   std::cout << "wrote " << dot_path.string() << '\n';
   const std::vector<std::string> formats = ext == ".png" ? std::vector<std::string>{"png"} : std::vector<std::string>{"svg"};
@@ -690,7 +701,7 @@ int main(int argc, char** argv) {
       ->check(kPositive);
   check->add_option("--damping-ratio", ca.damping_ratio, "--suggest: target damping ratio of each coupling (default 0.7)")
       ->check(kNonNegative);
-  check->add_option("--write", ca.write, "--suggest: write the repaired model file to FILE (implies --suggest)")->type_name("FILE");
+  check->add_option("--write", ca.write, "--suggest: write the repaired model file to FILE (implies --suggest)")->type_name("FILE")->check(kPathName);
 
   auto* eq = app.add_subcommand("equations", "Print the state equations generated from the graph, with their causal paths");
   eq->add_option("MODEL", model, "model file (YAML)")->required();
@@ -701,12 +712,12 @@ int main(int argc, char** argv) {
 
   auto* graph = app.add_subcommand("graph", "Draw the bond graph with causal strokes (Graphviz DOT, and SVG/PNG when dot is installed)");
   graph->add_option("MODEL", model, "model file (YAML)")->required();
-  graph->add_option("-o,--output", out, "output file: .dot (or .gv), .svg or .png; an image gets its .dot source next to it")->required();
+  graph->add_option("-o,--output", out, "output file: .dot (or .gv), .svg or .png; an image gets its .dot source next to it")->required()->check(kPathName);
 
   RunCommand rc;
   auto* run = app.add_subcommand("run", "Simulate and write DIR/results.csv and DIR/run.json");
   run->add_option("MODEL", rc.model, "model file (YAML)")->required();
-  run->add_option("-o,--output", rc.out, "output folder")->required();
+  run->add_option("-o,--output", rc.out, "output folder")->required()->check(kPathName);
   AddRunOptions(run, rc.run);
   run->add_flag("-q,--quiet", rc.quiet, "no progress and no summary");
 
@@ -715,7 +726,7 @@ int main(int argc, char** argv) {
       "compare", "Run two models on one output grid and report, per result column, the largest difference over time");
   compare->add_option("A", cc.a, "model file (YAML); its values give each column's scale")->required();
   compare->add_option("B", cc.b, "model file (YAML)")->required();
-  compare->add_option("-o,--output", cc.out, "also write the report as CSV to FILE")->type_name("FILE");
+  compare->add_option("-o,--output", cc.out, "also write the report as CSV to FILE")->type_name("FILE")->check(kPathName);
   compare->add_option("--sort", cc.sort, "diff: largest relative difference first (default); name: by column name")
       ->check(CLI::IsMember({"diff", "name"}));
   compare->add_option("--top", cc.top, "report only the first N columns")->check(kPositive);

@@ -181,6 +181,23 @@ TEST_F(CliTest, UsageErrorsExit64) {
   const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --solver euler");
   EXPECT_EQ(r.code, 64);
   EXPECT_THAT(r.out, HasSubstr("bdf"));
+  // An empty output name names nothing: a usage error, said before anything runs.
+  for (const std::string& cmd : {"run " + Example("mass_spring_damper.yaml") + " -o ''",
+                                 "graph " + Example("mass_spring_damper.yaml") + " -o ''"}) {
+    const Result empty = Cli(cmd);
+    EXPECT_EQ(empty.code, 64) << cmd << "\n" << empty.out;
+    EXPECT_THAT(empty.out, HasSubstr("empty string")) << cmd;
+  }
+}
+
+TEST_F(CliTest, GraphIntoAFolderThatIsAFileSaysSoAndExits74) {
+  fs::create_directories(dir_);
+  const fs::path file = dir_ / "afile";
+  std::ofstream(file) << "not a folder\n";
+  const Result r = Cli("graph " + Example("mass_spring_damper.yaml") + " -o " + (file / "g.dot").string());
+  EXPECT_EQ(r.code, 74) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("cannot create the folder '" + file.string() + "'")) << r.out;
+  EXPECT_FALSE(fs::exists(file / "g.dot"));
 }
 
 // Options a run would refuse are refused before anything is written (the output folder is not

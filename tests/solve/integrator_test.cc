@@ -471,14 +471,14 @@ TEST(AdaptiveErk, MaxStepsPerOutputIsEnforced) {
   }
 }
 
-TEST(AdaptiveErk, BogackiShampineStepsJustInsideItsStabilityLimit) {
-  // x' = -1e4 (x - sin t): stiff, so an explicit method is limited by stability, not accuracy
-  // (rtol 1e-6). Bogacki-Shampine's steps sit at 95% of its limit 2.5127 / 1e4 (the spectral
-  // radius estimated by power iteration) instead of hunting for it by rejected steps
-  // (Dormand-Prince, which has no such bound, is rejected 105 times here).
+/// x' = -1e4 (x - sin t): stiff, so an explicit method is limited by stability, not accuracy
+/// (rtol 1e-6). The steps of `method` must sit at 95% of its limit interval / 1e4 (the spectral
+/// radius estimated by power iteration) instead of hunting for it by rejected steps
+/// (Dormand-Prince, which has no such bound, is rejected 105 times here).
+void ExpectStepsJustInsideTheStabilityLimit(Method method, double interval) {
   auto system = MakeSystem(1, [](double t, const double* x, double* xdot) { xdot[0] = -1e4 * (x[0] - std::sin(t)); });
   IntegratorOptions o;
-  o.method = Method::kBogackiShampine;
+  o.method = method;
   o.rtol = 1e-6;
   o.atol = 1e-9;
   auto integrator = MakeIntegrator(system, o);
@@ -486,12 +486,21 @@ TEST(AdaptiveErk, BogackiShampineStepsJustInsideItsStabilityLimit) {
   integrator->Reset(0.0, &x);
   for (int k = 1; k <= 100; ++k) integrator->AdvanceTo(0.01 * k, &x);
   const IntegratorStats s = integrator->stats();
-  const double at_the_limit = 1e4 / (0.95 * 2.5127);  // steps over 0..1 s
+  const double at_the_limit = 1e4 / (0.95 * interval);  // steps over 0..1 s
   EXPECT_GT(s.steps, 0.97 * at_the_limit);
   EXPECT_LT(s.steps, 1.05 * at_the_limit);
   EXPECT_LE(s.error_test_failures, 5);
   // x = sin t - 1e-4 cos t + O(1e-8) once the initial layer has died out.
   EXPECT_NEAR(x, std::sin(1.0) - 1e-4 * std::cos(1.0), 1e-6);
+}
+
+TEST(AdaptiveErk, BogackiShampineStepsJustInsideItsStabilityLimit) {
+  ExpectStepsJustInsideTheStabilityLimit(Method::kBogackiShampine, 2.5127);
+}
+
+TEST(AdaptiveErk, StabilizedRk3StepsJustInsideItsStabilityLimit) {
+  // 2.3 times longer steps than Bogacki-Shampine's, for 4 evaluations each instead of 3.
+  ExpectStepsJustInsideTheStabilityLimit(Method::kStabilizedRk3, 5.8378);
 }
 
 TEST(StabilizedRk3, HalvingTheStepDividesTheErrorByEight) {
@@ -540,26 +549,6 @@ TEST(StabilizedRk3, RealStabilityIntervalIs5_84AndStiffModesAreDampedInsideIt) {
   EXPECT_NEAR(after(-5.88, 1), 1.1223, 1e-3);
   EXPECT_GT(std::abs(after(-5.88, 300)), 1e10);  // 1.122^300 = 1e15
   EXPECT_NEAR(after(-0.95 * 5.8379, 1), 0.2869, 1e-3);
-}
-
-TEST(AdaptiveErk, StabilizedRk3StepsJustInsideItsStabilityLimit) {
-  // As Bogacki-Shampine's test above: the steps sit at 95% of 5.8378 / 1e4, 2.3 times longer,
-  // for 4 evaluations each instead of 3 (0.57 times the evaluations).
-  auto system = MakeSystem(1, [](double t, const double* x, double* xdot) { xdot[0] = -1e4 * (x[0] - std::sin(t)); });
-  IntegratorOptions o;
-  o.method = Method::kStabilizedRk3;
-  o.rtol = 1e-6;
-  o.atol = 1e-9;
-  auto integrator = MakeIntegrator(system, o);
-  double x = 0.0;
-  integrator->Reset(0.0, &x);
-  for (int k = 1; k <= 100; ++k) integrator->AdvanceTo(0.01 * k, &x);
-  const IntegratorStats s = integrator->stats();
-  const double at_the_limit = 1e4 / (0.95 * 5.8378);  // steps over 0..1 s
-  EXPECT_GT(s.steps, 0.97 * at_the_limit);
-  EXPECT_LT(s.steps, 1.05 * at_the_limit);
-  EXPECT_LE(s.error_test_failures, 5);
-  EXPECT_NEAR(x, std::sin(1.0) - 1e-4 * std::cos(1.0), 1e-6);
 }
 
 TEST(MakeIntegrator, Rk4WithoutAStepIsRejected) {
