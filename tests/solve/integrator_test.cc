@@ -288,23 +288,26 @@ TEST(Bdf, RobertsonStiffKineticsMatchesReference) {
   EXPECT_GE(s.rhs_evals, s.steps + 3 * s.jac_evals);
 }
 
+/// |x(1) - exact| after fixed steps h of `method` on `system` from x(0) = x0.
+template <typename System>
+double FixedStepErrorAt1(System& system, Method method, double h, double x0, double exact) {
+  IntegratorOptions o;
+  o.method = method;
+  o.fixed_step = h;
+  auto integrator = MakeIntegrator(system, o);
+  double x = x0;
+  integrator->Reset(0.0, &x);
+  integrator->AdvanceTo(1.0, &x);
+  return std::abs(x - exact);
+}
+
 TEST(Rk4, HalvingTheStepDividesTheErrorBySixteen) {
   // Non-autonomous on purpose, so the stage times (the c column of the table) matter.
   auto system = MakeSystem(1, [](double t, const double* x, double* xdot) {
     xdot[0] = x[0] * std::cos(t);  // x = exp(sin t)
   });
-  auto error_at_1 = [&](double h) {
-    IntegratorOptions o;
-    o.method = Method::kRk4;
-    o.fixed_step = h;
-    auto integrator = MakeIntegrator(system, o);
-    double x = 1.0;
-    integrator->Reset(0.0, &x);
-    integrator->AdvanceTo(1.0, &x);
-    return std::abs(x - std::exp(std::sin(1.0)));
-  };
-  const double coarse = error_at_1(0.1);
-  const double fine = error_at_1(0.05);
+  const double coarse = FixedStepErrorAt1(system, Method::kRk4, 0.1, 1.0, std::exp(std::sin(1.0)));
+  const double fine = FixedStepErrorAt1(system, Method::kRk4, 0.05, 1.0, std::exp(std::sin(1.0)));
   ASSERT_GT(fine, 0.0);
   EXPECT_GT(coarse / fine, 12.0) << coarse << " / " << fine;
   EXPECT_LT(coarse / fine, 20.0) << coarse << " / " << fine;
@@ -512,14 +515,7 @@ TEST(StabilizedRk3, HalvingTheStepDividesTheErrorByEight) {
     xdot[0] = x[0] * x[0] * std::cos(t);  // x = 1 / (2 - sin t), from x(0) = 1/2
   });
   auto error_at_1 = [&](double h) {
-    IntegratorOptions o;
-    o.method = Method::kStabilizedRk3;
-    o.fixed_step = h;
-    auto integrator = MakeIntegrator(system, o);
-    double x = 0.5;
-    integrator->Reset(0.0, &x);
-    integrator->AdvanceTo(1.0, &x);
-    return std::abs(x - 1.0 / (2.0 - std::sin(1.0)));
+    return FixedStepErrorAt1(system, Method::kStabilizedRk3, h, 0.5, 1.0 / (2.0 - std::sin(1.0)));
   };
   const double coarse = error_at_1(0.1), fine = error_at_1(0.05), finer = error_at_1(0.025);
   ASSERT_GT(finer, 0.0);
