@@ -410,7 +410,7 @@ void AddRunOptions(CLI::App* cmd, RunArgs& a) {
   cmd->add_option("--solver", a.solver, "bdf, adams, dopri5, bs3 (Bogacki-Shampine 3(2)), srk3 (stabilised RK 3(2), for stiff explicit runs) or rk4 (default: the model's, else bdf)");
   cmd->add_option("--rtol", a.rtol, "relative tolerance (default: the model's, else 1e-8)")->check(kPositive);
   cmd->add_option("--atol", a.atol, "absolute tolerance (default: the model's, else 1e-10)")->check(kPositive);
-  cmd->add_option("--step", a.step, "fixed step [s] for rk4 (or a fixed-step dopri5)")->check(kPositive);
+  cmd->add_option("--step", a.step, fmt::format("fixed step [s] for {} (required for rk4)", mb::kFixedStepMethodNames))->check(kPositive);
   cmd->add_option("--max-step", a.max_step, "largest step [s] of the adaptive methods")->check(kPositive);
   cmd->add_flag("--all-variables", a.all_variables, "add a column for every effort and flow");
   cmd->add_option("--jit", a.jit,

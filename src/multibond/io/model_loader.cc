@@ -1039,7 +1039,7 @@ class Loader {
         if (method == Method::kRk4 && !s.step)
           sink_.Error(Loc(n["solver"]), "simulation", "rk4 is a fixed-step method and needs 'step'", "add step: 1.0e-4 (or use dopri5)");
         if (UsesNewtonMatrix(method) && s.step)
-          sink_.Error(Loc(n["step"]), "simulation", fmt::format("{} chooses its own steps: a fixed 'step' is for rk4, dopri5, bs3 and srk3", *s.solver),
+          sink_.Error(Loc(n["step"]), "simulation", fmt::format("{} chooses its own steps: a fixed 'step' is for {}", *s.solver, kFixedStepMethodNames),
                       "bound its steps with max_step instead");
       } catch (const std::invalid_argument& e) {
         sink_.Error(Loc(n["solver"]), "simulation", e.what());

@@ -84,6 +84,13 @@ ButcherTablePtr MakeStabilizedRk3Table() {
   return ButcherTablePtr(sun::NonNull(ARKodeButcherTable_Create(5, 3, 2, c, a, b, d)));
 }
 
+/// The tables of ours (classical RK4, srk3), given to ERKStep; null for the ones SUNDIALS has.
+ButcherTablePtr OwnTable(Method m) {
+  if (m == Method::kRk4) return MakeRk4Table();
+  if (m == Method::kStabilizedRk3) return MakeStabilizedRk3Table();
+  return nullptr;
+}
+
 /// Real stability interval of each adaptive explicit method that bounds its steps (0: none).
 double StabilityInterval(Method m) {
   switch (m) {
@@ -446,8 +453,7 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
                                     ? *std::min_element(options_.atol_per_state.begin(), options_.atol_per_state.end()) <= 0.0
                                     : options_.atol <= 0.0;
     Check(ERKStepWFtolerances(mem, ErrorWeights), t0);  // receives the user data (set above)
-    if (options_.method == Method::kRk4 || options_.method == Method::kStabilizedRk3) {
-      const ButcherTablePtr table = options_.method == Method::kRk4 ? MakeRk4Table() : MakeStabilizedRk3Table();
+    if (const ButcherTablePtr table = OwnTable(options_.method)) {
       Check(ERKStepSetTable(mem, table.get()), t0);  // ERKStep keeps a copy
     } else {
       // Both tables (and srk3's above) are truly "first same as last" (last row of A = b), which

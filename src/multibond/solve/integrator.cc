@@ -117,8 +117,8 @@ void CheckIntegratorOptions(int n, const JacobianPattern* pattern, const Integra
   if (n == 0) return;
   const bool cvode = UsesNewtonMatrix(options.method);
   Require(!(cvode && options.fixed_step > 0),
-          fmt::format("a fixed step (--step) is for rk4, dopri5, bs3 and srk3; {} chooses its own steps (bound them with "
-                      "--max-step)", MethodName(options.method)));
+          fmt::format("a fixed step (--step) is for {}; {} chooses its own steps (bound them with --max-step)",
+                      kFixedStepMethodNames, MethodName(options.method)));
   Require(options.jacobian != JacobianKind::kSparse || pattern != nullptr || !cvode,
           "a sparse Jacobian needs the model's Jacobian pattern, and this model has none (a model with ideal "
           "constraints, whose multipliers couple the states they reach, or with solved algebraic loops, whose "

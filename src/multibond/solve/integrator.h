@@ -48,6 +48,9 @@ constexpr double kSparseMaxDensity = 0.25;
 JacobianKind ParseJacobianKind(const std::string& name);  ///< "auto", "dense", "sparse"
 const char* JacobianKindName(JacobianKind k);
 
+/// The methods that take a fixed step (IntegratorOptions::fixed_step, --step), for messages.
+constexpr const char* kFixedStepMethodNames = "rk4, dopri5, bs3 and srk3";
+
 /// Parses "bdf", "adams", "dopri5"/"dormand-prince", "bs3"/"bogacki-shampine",
 /// "srk3"/"stabilized-rk3", "rk4"; throws
 /// std::invalid_argument.
