@@ -19,10 +19,13 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/equations.h"
+#include "multibond/core/interrupt.h"
 #include "multibond/causality/repair.h"
 #include "multibond/io/dot_writer.h"
+#include "multibond/io/limits.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/io/model_repair.h"
+#include "multibond/io/output_folder.h"
 #include "multibond/io/plots.h"
 #include "multibond/io/results_writer.h"
 #include "multibond/sim/compare.h"
@@ -33,7 +36,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr int kExitOk = 0, kExitModel = 1, kExitSolver = 2, kExitUsage = 64, kExitIo = 74, kExitInterrupted = 130;
+constexpr int kExitOk = 0, kExitModel = 1, kExitSolver = 2, kExitUsage = 64, kExitIo = 74;
 
 /// Leaves a command with an exit code and a message (printed as "error: <message>").
 struct CliExit {
@@ -51,6 +54,8 @@ CLI::Validator NumberAbove(double low, bool inclusive) {
           size_t used = 0;
           v = std::stod(text, &used);
           if (used != text.size()) throw std::invalid_argument(text);
+        } catch (const std::out_of_range&) {
+          return fmt::format("'{}' is beyond the range of normal double-precision numbers (2.2e-308 to 1.8e308 in magnitude)", text);
         } catch (const std::exception&) {
           return fmt::format("'{}' is not a number", text);
         }
@@ -91,8 +96,6 @@ std::string FailureHint(const mb::RunOptions& o, const std::string& message) {
   return "try a stiff solver (--solver bdf), a tighter tolerance (--rtol), or check the model's parameters";
 }
 
-std::atomic<bool> g_stop{false};
-extern "C" void OnSignal(int) { g_stop.store(true); }
 
 void PrintDiagnostics(const std::vector<mb::Diagnostic>& ds) {
   for (const auto& d : ds) std::cerr << d.ToString() << '\n';
@@ -114,6 +117,28 @@ int ModelFailure(const mb::ModelError& e, bool wrote_nothing) {
   return kExitModel;
 }
 
+/// 128 + the signal that stopped the command (130 for SIGINT, 143 for SIGTERM, 129 for SIGHUP).
+int InterruptedExitCode() { return 128 + (mb::StopSignal() ? mb::StopSignal() : SIGINT); }
+
+/// The command line as one line of text (the lock file names the command that holds a folder).
+std::string CommandLine(const std::vector<std::string>& argv) {
+  std::string s;
+  for (const std::string& a : argv) s += (s.empty() ? "" : " ") + a;
+  return s;
+}
+
+/// Refuses (exit 64) an output that is one of the command's input files, e.g. compare -o B.yaml,
+/// which would replace the model by the report.
+void RefuseWritingOnto(const std::vector<fs::path>& outputs, const std::vector<std::string>& inputs) {
+  for (const fs::path& out : outputs)
+    for (const std::string& in : inputs) {
+      std::error_code ec;
+      if (fs::equivalent(out, in, ec))
+        throw CliExit{kExitUsage, fmt::format("'{}' is '{}', an input of this command: writing there would replace it; choose "
+                                              "another output name", out.string(), in)};
+    }
+}
+
 std::string Stroke(const mb::BondGraph& g, const mb::CausalAssignment& c, int b) {
   const mb::Bond& bond = g.bond(b);
   const int effort_from = c.stroke_at_head[b] ? bond.from : bond.to;
@@ -130,6 +155,30 @@ mb::LoadedModel Load(const std::string& path, const std::optional<std::string>& 
   if (constraints) lm.compile.ideal_constraints = *constraints == "ideal";
   if (loops) lm.compile.solve_algebraic_loops = *loops == "solve";
   return lm;
+}
+
+/// --limit NAME=VALUE (repeatable): raises or lowers a bound on the input (io/limits.h).
+void AddLimitOption(CLI::App* cmd, std::vector<std::string>& limits) {
+  std::string names;
+  for (const std::string& n : mb::LimitNames()) names += (names.empty() ? "" : ", ") + n;
+  cmd->add_option("--limit", limits,
+                  "NAME=VALUE: change a bound on the input (repeatable; VALUE a whole number, k/M/G suffixes allowed); "
+                  "names: " + names + " (docs/security.md)")
+      ->type_name("NAME=VALUE")
+      ->take_all();
+}
+
+/// The limits given with --limit over the defaults; a bad one is a usage error.
+mb::InputLimits ParseLimits(const std::vector<std::string>& assignments) {
+  mb::InputLimits limits;
+  for (const std::string& a : assignments) {
+    try {
+      mb::SetLimit(limits, a);
+    } catch (const std::invalid_argument& e) {
+      throw CliExit{kExitUsage, e.what()};
+    }
+  }
+  return limits;
 }
 
 void AddConstraintsOption(CLI::App* cmd, std::optional<std::string>& constraints) {
@@ -373,6 +422,7 @@ int Graph(const std::string& path, const std::string& out) {
   if (outp.stem().empty() || (ext != ".dot" && ext != ".gv" && ext != ".svg" && ext != ".png"))
     throw CliExit{kExitUsage, fmt::format("the drawing's file name must end in .dot, .gv, .svg or .png (got '{}')", out)};
   const fs::path dot_path = ext == ".dot" || ext == ".gv" ? outp : fs::path(outp).replace_extension(".dot");
+  RefuseWritingOnto({dot_path, outp}, {path});
   if (dot_path.has_parent_path()) {
     std::error_code ec;
     fs::create_directories(dot_path.parent_path(), ec);
@@ -402,6 +452,7 @@ struct RunArgs {
   bool all_variables = false, no_projection = false;
   std::string jit = "auto";
   std::string jacobian = "auto";
+  std::vector<std::string> limits;
 };
 
 void AddRunOptions(CLI::App* cmd, RunArgs& a) {
@@ -431,6 +482,7 @@ void AddRunOptions(CLI::App* cmd, RunArgs& a) {
       ->check(CLI::IsMember({"joint", "inertial"}));
   AddConstraintsOption(cmd, a.constraints);
   AddLoopsOption(cmd, a.loops);
+  AddLimitOption(cmd, a.limits);
 }
 
 /// A model loaded and compiled, with its run options resolved: the command line over the model
@@ -483,12 +535,13 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a) {
     o.joint_coordinates = p.lm.mechanism->MakeJointTree();
   }
   o.integrator.project = !a.no_projection;
+  o.max_forced_steps = static_cast<double>(ParseLimits(a.limits).steps);
   o.integrator.jacobian = mb::ParseJacobianKind(a.jacobian);
   // An explicit method forms no Newton matrix: a --jacobian for it is recorded but changes nothing.
   if (a.jacobian != "auto" && !mb::UsesNewtonMatrix(o.integrator.method))
     std::cerr << fmt::format("warning: --jacobian {} has no effect with the explicit solver '{}' (only bdf and adams form a "
                              "Newton matrix)\n", a.jacobian, p.solver);
-  o.stop = &g_stop;
+  o.stop = &mb::StopFlag();
   (void)mb::MakeColumns(*p.model, o.all_variables);  // a bad output is a model error: before any file is touched
   try {
     mb::CheckRunOptions(*p.model, o);  // and so are options the run would refuse
@@ -513,20 +566,13 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   if (tty) o.progress = [&](double f) { std::fprintf(stderr, "\r  t = %-10.4g s  %3.0f%%", o.t_start + f * (o.t_end - o.t_start), 100 * f); };
 
   // The model compiled: only now is the output folder touched.
-  std::error_code ec;
-  fs::create_directories(a.out, ec);
-  if (ec) {
-    std::cerr << fmt::format("error: cannot create output folder '{}': {}\n", a.out, ec.message());
-    return kExitIo;
-  }
-  // run.json is written after the run: a name it cannot take is said before the run, as for results.csv.
-  if (fs::is_directory(fs::path(a.out) / "run.json", ec)) {
-    std::cerr << fmt::format("error: cannot write '{}': it is a directory\n", (fs::path(a.out) / "run.json").string());
-    return kExitIo;
-  }
-  mb::CsvWriter csv((fs::path(a.out) / "results.csv").string());
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
+  mb::ThrowIfStopRequested("loading and compiling the model");
+  RefuseWritingOnto({fs::path(a.out) / "results.csv", fs::path(a.out) / "run.json"}, {a.model});
+  const mb::OutputFolder folder(a.out, CommandLine(argv));
+  for (const std::string& stale : folder.removed_stale())
+    std::cerr << fmt::format("note: removed '{}', a temporary file of an earlier command that did not finish\n", folder.File(stale));
+  mb::CsvWriter csv(folder.File("results.csv"), /*publish=*/false);
+  mb::AtomicFile run_json(folder.File("run.json"));  // a name it cannot take is said before the run
   mb::RunSummary summary;
   try {
     summary = mb::Simulate(*model, o, csv);
@@ -544,7 +590,15 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   // What the compiled model has, whichever way (rigid parts, Sf constraints, cut inertias).
   record["constraint_efforts"] = model->num_multipliers();
   record["algebraic_loops_solved"] = model->algebraic_loops().size();
-  mb::WriteFileAtomic((fs::path(a.out) / "run.json").string(), record.dump(2) + "\n");
+  // Published together, run.json last: it records the size and hash of the results.csv it goes
+  // with, and a results.csv without a run.json beside it is from a command that did not finish.
+  record["results"] = mb::DataFileRecord("results.csv", csv.bytes(), csv.sha256());
+  run_json.Write(mb::DumpRecord(record));
+  run_json.Finish();  // a full disk shows here, before anything is published
+  std::error_code ignored;
+  fs::remove(folder.File("run.json"), ignored);  // an earlier run's record never describes these results
+  csv.Publish();
+  run_json.Publish();
   if (!a.quiet || summary.status != mb::RunStatus::kOk) {
     std::cout << fmt::format("{}: {} to t = {:g} s with {} ({} steps, {} right-hand sides, {:.3f} s wall)\n",
                              lm.graph.name(), mb::RunStatusName(summary.status), summary.t_reached, p.solver, summary.stats.steps,
@@ -562,7 +616,7 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   }
   if (summary.status == mb::RunStatus::kInterrupted) {
     std::cerr << summary.message << "; the results up to then are kept\n";
-    return kExitInterrupted;
+    return InterruptedExitCode();
   }
   return kExitOk;
 }
@@ -596,13 +650,12 @@ int Compare(const CompareCommand& c) {
                                           "give --t-end and --dt",
                                           pa.options.t_end, pa.options.dt, pb.options.t_end, pb.options.dt)};
   if (!c.out.empty()) {
+    RefuseWritingOnto({c.out}, {c.a, c.b});
     const fs::path out(c.out);
     if (out.has_parent_path() && !fs::is_directory(out.parent_path()))
       throw CliExit{kExitIo, fmt::format("cannot write '{}': no folder '{}'", c.out, out.parent_path().string())};
     if (fs::is_directory(out)) throw CliExit{kExitIo, fmt::format("cannot write '{}': it is a directory", c.out)};  // before both runs
   }
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
   mb::RecordingObserver ra, rb;
   for (auto [p, rec, name] : {std::tuple{&pa, &ra, "A"}, std::tuple{&pb, &rb, "B"}}) {
     mb::RunSummary summary;
@@ -618,7 +671,7 @@ int Compare(const CompareCommand& c) {
     }
     if (summary.status == mb::RunStatus::kInterrupted) {
       std::cerr << summary.message << "; nothing was written\n";
-      return kExitInterrupted;
+      return InterruptedExitCode();
     }
     for (const std::string& w : summary.warnings) std::cerr << fmt::format("warning: {} ({}): {}\n", name, p->lm.file, w);
   }
@@ -684,6 +737,9 @@ int Compare(const CompareCommand& c) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // One way to stop in every phase: loading, compiling (the compiler is ended), integrating (the
+  // rows so far are kept), writing (temporaries removed); exit 128 + the signal.
+  mb::InstallStopHandlers();
   CLI::App app{"multibond: model and simulate mechanisms as multibond graphs", "multibond"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "multibond " + std::string(mb::kVersion));  // as `multibond version` prints it
@@ -760,6 +816,9 @@ int main(int argc, char** argv) {
     if (*run) return Run(rc, args);
     if (*compare) return Compare(cc);
     if (*plot) {
+      const mb::OutputFolder folder(plot_dir, CommandLine(args), /*create=*/false);  // one command at a time
+      for (const std::string& stale : folder.removed_stale())
+        std::cerr << fmt::format("note: removed '{}', a temporary file of an earlier command that did not finish\n", folder.File(stale));
       mb::PlotOptions po;
       po.model_path = plot_model;
       const mb::PlotReport report = mb::MakePaperFigures(plot_dir, po);
@@ -775,6 +834,9 @@ int main(int argc, char** argv) {
   } catch (const CliExit& e) {
     std::cerr << "error: " << e.message << '\n';
     return e.code;
+  } catch (const mb::Interrupted& e) {
+    std::cerr << "error: " << e.what() << "; nothing was written\n";
+    return e.ExitCode();
   } catch (const mb::ModelError& e) {
     return ModelFailure(e, *run || *graph || *compare || (*check && ca.write));
   } catch (const mb::SolverError& e) {

@@ -10,6 +10,8 @@
 #include <utility>
 #include <vector>
 
+#include <algorithm>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -25,14 +27,32 @@ struct Result {
   std::string out;  // stdout and stderr together
 };
 
-Result Cli(const std::string& args) {
-  const std::string cmd = std::string(MULTIBOND_CLI) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
+/// Runs a shell command line; stdout and stderr together.
+Result Shell(const std::string& command) {
+  FILE* p = popen(("{ " + command + "\n} 2>&1").c_str(), "r");
   std::string out;
   char buf[4096];
   while (size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
   const int status = pclose(p);
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+Result Cli(const std::string& args) { return Shell(std::string(MULTIBOND_CLI) + " " + args); }
+
+/// Every name in `dir`, hidden ones included, sorted.
+std::vector<std::string> Names(const fs::path& dir) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+/// A shell test that holds once process $pid has a file open that has no name yet (the results
+/// being written, O_TMPFILE) with more than `rows` lines in it (-1: as soon as it is open).
+std::string WritingMoreRowsThan(int rows) {
+  return "( for f in /proc/$pid/fd/*; do case $(readlink $f) in *'(deleted)'*) [ $(wc -l < $f) -gt " + std::to_string(rows) +
+         " ] && exit 0;; esac; done; exit 1 )";
 }
 
 std::string Example(const std::string& name) { return std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + name; }
@@ -111,7 +131,7 @@ TEST_F(CliTest, RunWritesResultsWithUnitsAndRunRecord) {
   EXPECT_THAT(header, HasSubstr("time [s],mass.p [N s],spring.q [m]"));
   EXPECT_THAT(header, HasSubstr("energy.residual [-]"));
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 102);  // header + 101 samples
-  EXPECT_FALSE(fs::exists(dir_ / "results.csv.partial"));
+  EXPECT_EQ(Names(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
   const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "ok");
   EXPECT_EQ(run["options"]["t_end"], 1.0);
@@ -344,8 +364,7 @@ bonds: [f -> v, v -> m, v -> c]
 // at steps of at most 1e-5 s: the solver would have gone on to its step limit and reported a
 // failure, exit 2); the rows written until then are kept.
 TEST_F(CliTest, AnInterruptIsHonouredWithinAnOutputInterval) {
-  const std::string partial = (dir_ / "results.csv.partial").string();
-  EXPECT_EQ(RunAndInterrupt(Example("mass_spring_damper.yaml") + " --t-end 100 --dt 50 --max-step 1e-5", "[ -f " + partial + " ]", 600, 0.3),
+  EXPECT_EQ(RunAndInterrupt(Example("mass_spring_damper.yaml") + " --t-end 100 --dt 50 --max-step 1e-5", WritingMoreRowsThan(-1), 600, 0.3),
             130);
   const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "interrupted");
@@ -428,16 +447,12 @@ namespace {
 TEST_F(CliTest, InterruptStopsCleanlyAndKeepsWhatWasComputed) {
   // A long run of the differential, interrupted with SIGINT once it has written some rows (polled,
   // not a fixed delay: under the sanitizers on a loaded machine 1.5 s gave only 6 rows).
-  const std::string partial = (dir_ / "results.csv.partial").string();
-  EXPECT_EQ(RunAndInterrupt(Example("differential.yaml") + " --t-end 1000", "[ -f " + partial + " ] && [ $(wc -l < " + partial + ") -gt 20 ]",
-                            1200, 0.0),
-            130);
+  EXPECT_EQ(RunAndInterrupt(Example("differential.yaml") + " --t-end 1000", WritingMoreRowsThan(20), 1200, 0.0), 130);
   const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "interrupted");
   EXPECT_GT(run["t_reached"].get<double>(), 0.0);
   EXPECT_LT(run["t_reached"].get<double>(), 1000.0);
-  EXPECT_TRUE(fs::exists(dir_ / "results.csv"));
-  EXPECT_FALSE(fs::exists(dir_ / "results.csv.partial"));
+  EXPECT_EQ(Names(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
   const std::string csv = Read(dir_ / "results.csv");
   EXPECT_GT(std::count(csv.begin(), csv.end(), '\n'), 10);
 }
@@ -501,7 +516,7 @@ TEST_F(CliTest, CheckSuggestWriteGivesAModelThatChecksAndRuns) {
   Result r = Cli("check " + Example("rigid_gear_pair.yaml") + " --suggest --write " + fixed.string());
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_THAT(r.out, HasSubstr("wrote " + fixed.string()));
-  EXPECT_FALSE(fs::exists(fixed.string() + ".partial"));
+  EXPECT_EQ(Names(dir_), std::vector<std::string>{"fixed.yaml"});
   const std::string text = Read(fixed);
   EXPECT_THAT(text, HasSubstr("# Two inertias joined by a rigid gear (TF)"));  // the user's comments are kept
   EXPECT_THAT(text, HasSubstr("  - j2 -> J2_coupling\n  - J2_coupling -> J2\n"));
@@ -639,7 +654,7 @@ TEST_F(CompareTest, ReportsEachColumnsLargestDifferenceAndWritesCsv) {
   EXPECT_THAT(r.out, HasSubstr("only in A (1): spring_force"));
   EXPECT_THAT(r.out, HasSubstr("only in B (1): force_in_spring"));
   EXPECT_THAT(r.out, HasSubstr("largest relative difference: 0.743 in "));
-  EXPECT_FALSE(fs::exists(csv + ".partial"));
+  EXPECT_EQ(Names(dir_), (std::vector<std::string>{"report.csv", "stiffer.yaml"}));
   const std::vector<std::string> lines = Lines(Read(csv));
   ASSERT_EQ(lines.size(), 4u + 12u);
   EXPECT_THAT(lines[0], HasSubstr("# multibond compare; A: " + Example("mass_spring_damper.yaml") + " (solver bdf, rtol 1e-10"));
@@ -731,6 +746,159 @@ TEST_F(CliTest, CheckWithIdealConstraintsAcceptsDerivativeCausality) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_THAT(r.out, HasSubstr("ideal constraints: 1 storage element in derivative causality, solved exactly: I 'J2'"));
   EXPECT_THAT(r.out, HasSubstr("causal with ideal constraints (1 constraint effort)"));
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Output folders on a shared machine: one command at a time, nothing half-written, never onto an
+// input (issue: hostile files and a shared machine).
+
+namespace {
+
+TEST_F(CliTest, RunJsonRecordsTheSizeAndHashOfItsResults) {
+  const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " -q --t-end 0.1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  const std::string csv = Read(dir_ / "results.csv");
+  EXPECT_EQ(run["results"]["file"], "results.csv");
+  EXPECT_EQ(run["results"]["bytes"].get<size_t>(), csv.size());
+  const Result sum = Shell("sha256sum " + (dir_ / "results.csv").string());
+  EXPECT_THAT(sum.out, HasSubstr(run["results"]["sha256"].get<std::string>()));
+}
+
+TEST_F(CliTest, ASecondRunIntoABusyFolderIsRefusedNamingTheFirst) {
+  // The first run holds the folder while it integrates; the second is told who holds it (exit 74)
+  // and the first's results come out whole, with no rows of the second model in them.
+  const std::string first = std::string(MULTIBOND_CLI) + " run " + Example("differential.yaml") + " -o " + dir_.string() +
+                            " -q --jit off --t-end 3 > /dev/null 2>&1 & pid=$!; for i in $(seq 600); do [ -s " +
+                            (dir_ / ".multibond.lock").string() + " ] && break; sleep 0.05; done; ";
+  const std::string second = std::string(MULTIBOND_CLI) + " run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() +
+                             " -q; echo \"second exit $?\"; wait $pid; echo \"first exit $?\"";
+  const std::string out = Shell(first + second).out;
+  EXPECT_THAT(out, HasSubstr("another multibond command is writing into it (pid "));
+  EXPECT_THAT(out, HasSubstr("differential.yaml -o " + dir_.string()));
+  EXPECT_THAT(out, HasSubstr("second exit 74"));
+  EXPECT_THAT(out, HasSubstr("first exit 0"));
+  const std::string csv = Read(dir_ / "results.csv");
+  EXPECT_THAT(csv.substr(0, csv.find('\n')), HasSubstr("G.p.x"));
+  EXPECT_THAT(csv, Not(HasSubstr("mass.p")));
+  EXPECT_EQ(csv.find('\0'), std::string::npos);
+  EXPECT_EQ(nlohmann::json::parse(Read(dir_ / "run.json"))["results"]["bytes"].get<size_t>(), csv.size());
+}
+
+TEST_F(CliTest, AKilledRunLeavesNothingAndTheNextOneCleansUpAfterOlderVersions) {
+  const std::string cmd = std::string(MULTIBOND_CLI) + " run " + Example("differential.yaml") + " -o " + dir_.string() +
+                          " -q --jit off --t-end 1000 > /dev/null 2>&1 & pid=$!; for i in $(seq 1200); do " + WritingMoreRowsThan(5) +
+                          " && break; sleep 0.05; done; kill -9 $pid; wait $pid";
+  ASSERT_EQ(std::system(cmd.c_str()) == -1, false);
+  EXPECT_EQ(Names(dir_), std::vector<std::string>{".multibond.lock"});
+  // A temporary left by an earlier version (fixed name) or by a file system without unnamed files.
+  std::ofstream(dir_ / "results.csv.partial") << "time [s]\n0\n";
+  std::ofstream(dir_ / ".run.json.123.abcd.multibond-tmp") << "{";
+  const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " -q --t-end 0.1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("note: removed '" + (dir_ / "results.csv.partial").string() + "', a temporary file of an earlier command"));
+  EXPECT_EQ(Names(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
+}
+
+TEST_F(CliTest, AFullDiskLeavesNothingThatLooksComplete) {
+  // A file size limit stands in for a full disk: writes past it fail (EFBIG) as they would (ENOSPC).
+  const Result r = Shell("trap '' XFSZ; ulimit -f 64; " + std::string(MULTIBOND_CLI) + " run " + Example("mass_spring_damper.yaml") +
+                         " -o " + dir_.string() + " -q");
+  EXPECT_EQ(r.code, 74) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("cannot write '" + (dir_ / "results.csv").string() + "': File too large"));
+  EXPECT_EQ(Names(dir_), std::vector<std::string>{".multibond.lock"});
+}
+
+// The disk fills between the two files: results.csv (29,308 bytes, 8 pages) fits on a 9-page file
+// system beside the lock file's page, run.json does not. Neither is published: a results.csv
+// without its run.json, or beside an older run's, would look complete.
+TEST_F(CliTest, ADiskThatFillsBetweenTheTwoFilesPublishesNeither) {
+  const fs::path mnt = fs::temp_directory_path() / "multibond_cli_full_disk";
+  fs::create_directories(mnt);
+  // A private mount namespace: the small file system exists for this one command line.
+  const Result r = Shell("unshare -rm sh -c 'mount -t tmpfs -o size=36k tmpfs " + mnt.string() + " && " + MULTIBOND_CLI + " run " +
+                         Example("mass_spring_damper.yaml") + " -o " + (mnt / "out").string() +
+                         " -q --t-end 0.1; echo \"exit $?\"; ls -A " + (mnt / "out").string() + "'");
+  if (r.out.find("exit ") == std::string::npos) GTEST_SKIP() << "no private tmpfs here: " << r.out;
+  EXPECT_THAT(r.out, HasSubstr("cannot write '" + (mnt / "out" / "run.json").string() + "': No space left on device"));
+  EXPECT_THAT(r.out, HasSubstr("exit 74"));
+  EXPECT_THAT(r.out, Not(HasSubstr("results.csv\n")));
+  EXPECT_THAT(r.out, HasSubstr(".multibond.lock\n"));
+}
+
+TEST_F(CliTest, APlantedLinkAtAnOutputNameIsReplacedNotFollowed) {
+  fs::create_directories(dir_);
+  const fs::path victim = dir_ / "victim.txt";
+  std::ofstream(victim) << "precious";
+  fs::create_symlink(victim, dir_ / "results.csv");
+  fs::create_symlink(victim, dir_ / "results.csv.partial");  // the fixed temporary name of earlier versions
+  const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " -q --t-end 0.1");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(Read(victim), "precious");
+  EXPECT_FALSE(fs::is_symlink(dir_ / "results.csv"));
+  EXPECT_THAT(Read(dir_ / "results.csv"), HasSubstr("time [s]"));
+}
+
+TEST_F(CliTest, ACommandNeverWritesOntoItsOwnInput) {
+  fs::create_directories(dir_);
+  const fs::path b = dir_ / "b.yaml";
+  fs::copy_file(Example("mass_spring_damper.yaml"), b);
+  const std::string before = Read(b);
+  Result r = Cli("compare " + Example("mass_spring_damper.yaml") + " " + b.string() + " --t-end 0.1 -o " + b.string());
+  EXPECT_EQ(r.code, 64) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("an input of this command"));
+  EXPECT_EQ(Read(b), before);
+  // A model called results.csv run into its own folder.
+  fs::copy_file(b, dir_ / "results.csv");
+  r = Cli("run " + (dir_ / "results.csv").string() + " -o " + dir_.string() + " -q");
+  EXPECT_EQ(r.code, 64) << r.out;
+  EXPECT_EQ(Read(dir_ / "results.csv"), before);
+  // A drawing over the model.
+  fs::copy_file(b, dir_ / "m.dot");
+  r = Cli("graph " + (dir_ / "m.dot").string() + " -o " + (dir_ / "m.dot").string());
+  EXPECT_EQ(r.code, 64) << r.out;
+  EXPECT_EQ(Read(dir_ / "m.dot"), before);
+}
+
+TEST_F(CliTest, ImpossibleRequestsAreRefusedUpFrontWithTheEstimate) {
+  Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --solver rk4 --step 1e-12");
+  EXPECT_EQ(r.code, 64) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("is 5e+12 steps, more than the limit of 1e+08"));
+  EXPECT_THAT(r.out, HasSubstr("--limit steps=N"));
+  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --max-step 1e-11");
+  EXPECT_EQ(r.code, 64) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("largest step (--max-step) of 1e-11 s is 5e+11 steps"));
+  // The limit is the user's: lowered, an ordinary request goes over it.
+  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --solver rk4 --step 1e-3 --limit steps=100");
+  EXPECT_EQ(r.code, 64) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("is 5e+03 steps, more than the limit of 100"));
+  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --limit step=100");
+  EXPECT_EQ(r.code, 64) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("unknown limit 'step' (did you mean 'steps'?)"));
+  // Denormal and unresolvable times.
+  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --dt 1e-310");
+  EXPECT_EQ(r.code, 64) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("beyond the range of normal double-precision numbers"));
+  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --t-end 1e9 --dt 10 --solver rk4 --step 1e-8");
+  EXPECT_EQ(r.code, 64) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("fixed step (--step) of 1e-08 s is below what time near 1e+09 s can resolve"));
+  EXPECT_FALSE(fs::exists(dir_));
+}
+
+TEST_F(CliTest, SigtermDuringARunKeepsTheRowsAndExits143) {
+  const std::string cmd = std::string(MULTIBOND_CLI) + " run " + Example("differential.yaml") + " -o " + dir_.string() +
+                          " -q --jit off --t-end 1000 > /dev/null 2>&1 & pid=$!; for i in $(seq 1200); do " + WritingMoreRowsThan(5) +
+                          " && break; sleep 0.05; done; kill -TERM $pid; wait $pid; echo $?";
+  FILE* p = popen(cmd.c_str(), "r");
+  char buf[64] = {0};
+  const size_t n = fread(buf, 1, sizeof buf - 1, p);
+  pclose(p);
+  EXPECT_EQ(std::atoi(std::string(buf, n).c_str()), 143);
+  const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  EXPECT_EQ(run["status"], "interrupted");
+  EXPECT_EQ(Names(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
 }
 
 }  // namespace

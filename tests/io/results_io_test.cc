@@ -1,13 +1,15 @@
-// CsvWriter, WriteFileAtomic and ReadResults without a simulation: header cells quoted only when
-// a name needs it and read back as written, and a write that cannot complete leaves no temporary
-// file behind and names the file the user asked for.
+// CsvWriter and ReadResults without a simulation: header cells quoted only when a name needs it
+// and read back as written, and a write that cannot complete leaves no temporary file behind and
+// names the file the user asked for.
 #include "support/temp_dir.h"
 #include "multibond/io/results_reader.h"
 #include "multibond/io/results_writer.h"
+#include "multibond/core/sha256.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
@@ -118,14 +120,12 @@ TEST(ResultsIo, UnclosedQuoteInHeaderIsReported) {
               HasSubstr(path.string() + ":1: a quoted column name is not closed"));
 }
 
-TEST(WriteFileAtomic, DestinationThatIsADirectoryThrowsAndLeavesNoPartialFile) {
-  TempDir dir;
-  const fs::path dest = dir.path() / "run.json";
-  fs::create_directory(dest);
-  const std::string message = RuntimeErrorOf([&] { WriteFileAtomic(dest.string(), std::string(1 << 20, 'x')); });
-  EXPECT_EQ(message, "cannot write '" + dest.string() + "': it is a directory");
-  EXPECT_FALSE(fs::exists(dest.string() + ".partial"));
-  EXPECT_TRUE(fs::is_directory(dest));
+/// Every name in `dir` (hidden ones included).
+std::vector<std::string> Names(const fs::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
 }
 
 TEST(CsvWriter, DestinationThatIsADirectoryIsReportedBeforeTheRun) {
@@ -134,23 +134,25 @@ TEST(CsvWriter, DestinationThatIsADirectoryIsReportedBeforeTheRun) {
   fs::create_directory(dest);
   CsvWriter csv(dest.string());
   EXPECT_EQ(RuntimeErrorOf([&] { csv.OnStart({{"time", "s"}}); }), "cannot write '" + dest.string() + "': it is a directory");
-  EXPECT_FALSE(fs::exists(dest.string() + ".partial"));
+  EXPECT_EQ(Names(dir.path()), std::vector<std::string>{"results.csv"});
 }
 
-TEST(CsvWriter, RenameFailingAtTheEndThrowsAndLeavesNoPartialFile) {
+TEST(CsvWriter, RenameFailingAtTheEndThrowsAndLeavesNoTemporary) {
   TempDir dir;
   const fs::path dest = dir.path() / "results.csv";
   CsvWriter csv(dest.string());
   csv.OnStart({{"time", "s"}});
   csv.OnSample({0.0});
-  fs::create_directory(dest);  // appears while the run goes on
+  fs::create_directory(dest);
+  fs::create_directory(dest / "full");  // appears while the run goes on (a non-empty folder: rename cannot replace it)
   EXPECT_EQ(RuntimeErrorOf([&] { csv.OnFinish(RunSummary{}); }), "cannot write '" + dest.string() + "': it is a directory");
-  EXPECT_FALSE(fs::exists(dest.string() + ".partial"));
-  EXPECT_TRUE(fs::is_directory(dest));
+  EXPECT_EQ(Names(dir.path()), std::vector<std::string>{"results.csv"});
+  EXPECT_TRUE(fs::is_directory(dest / "full"));
 }
 
-// Not a fix: what a run that never finished (an exception through Simulate) keeps stays as it was.
-TEST(CsvWriter, WriterDestroyedBeforeTheRunFinishedKeepsThePartialFile) {
+// A run that never finished (an exception through Simulate, a kill) leaves nothing: no file that
+// looks complete, and no temporary of hundreds of megabytes.
+TEST(CsvWriter, WriterDestroyedBeforeTheRunFinishedLeavesNothing) {
   TempDir dir;
   const fs::path dest = dir.path() / "results.csv";
   {
@@ -158,8 +160,31 @@ TEST(CsvWriter, WriterDestroyedBeforeTheRunFinishedKeepsThePartialFile) {
     csv.OnStart({{"time", "s"}});
     csv.OnSample({0.0});
   }
+  EXPECT_TRUE(Names(dir.path()).empty());
+}
+
+TEST(CsvWriter, DeferredPublicationKnowsSizeAndHashBeforeTheFileHasItsName) {
+  TempDir dir;
+  const fs::path dest = dir.path() / "results.csv";
+  CsvWriter csv(dest.string(), /*publish=*/false);
+  csv.OnStart({{"time", "s"}});
+  csv.OnSample({0.25});
+  csv.OnFinish(RunSummary{});
   EXPECT_FALSE(fs::exists(dest));
-  EXPECT_EQ(ReadFile(dest.string() + ".partial"), "time [s]\n0\n");
+  EXPECT_EQ(csv.bytes(), 14u);  // "time [s]\n0.25\n"
+  // sha256 of "time [s]\n0.25\n" (sha256sum)
+  const std::string hash = csv.sha256();
+  csv.Publish();
+  EXPECT_EQ(ReadFile(dest), "time [s]\n0.25\n");
+  EXPECT_EQ(hash, Sha256Hex(ReadFile(dest)));
+}
+
+TEST(RunRecord, InvalidUtf8IsReplacedNotThrown) {
+  nlohmann::json j;
+  j["model"] = std::string("caf\xe9.yaml");  // Latin-1 bytes in a path
+  std::string text;
+  EXPECT_NO_THROW(text = DumpRecord(j));
+  EXPECT_THAT(text, HasSubstr("caf\xef\xbf\xbd.yaml"));  // U+FFFD
 }
 
 }  // namespace

@@ -1,50 +1,13 @@
 #include "multibond/io/results_writer.h"
 
-#include <cerrno>
-#include <cstring>
-#include <filesystem>
-#include <fstream>
 #include <stdexcept>
 
 #include <fmt/format.h>
-#include <openssl/evp.h>
 
+#include "multibond/core/sha256.h"
 #include "multibond/version.h"
 
 namespace multibond {
-
-namespace {
-
-/// Removes the temporary file `tmp` (it can be large, and nothing would ever read it) and throws
-/// the error for `path`, the file the user asked for.
-[[noreturn]] void Abandon(const std::string& tmp, const std::string& path, const std::string& why) {
-  std::error_code ignored;
-  std::filesystem::remove(tmp, ignored);
-  throw std::runtime_error(fmt::format("cannot write '{}': {}", path, why));
-}
-
-/// Renames the complete `tmp` to `path`, or abandons it.
-void Commit(const std::string& tmp, const std::string& path) {
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (!ec) return;
-  // rename(2) says "Is a directory" without saying which of the two names is one.
-  std::error_code ignored;
-  Abandon(tmp, path, std::filesystem::is_directory(path, ignored) ? "it is a directory" : ec.message());
-}
-
-}  // namespace
-
-void WriteFileAtomic(const std::string& path, const std::string& content) {
-  const std::string tmp = path + ".partial";
-  std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-  if (!out) throw std::runtime_error(fmt::format("cannot write '{}': {}", tmp, std::strerror(errno)));
-  errno = 0;
-  out << content;
-  out.close();  // flushes: a full disk shows here
-  if (!out) Abandon(tmp, path, errno ? std::strerror(errno) : "write error");
-  Commit(tmp, path);
-}
 
 std::string CsvCell(const std::string& text) {
   if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
@@ -56,35 +19,17 @@ std::string CsvCell(const std::string& text) {
   return cell + '"';
 }
 
-std::string Sha256Hex(const std::string& data) {
-  unsigned char digest[EVP_MAX_MD_SIZE];
-  unsigned int len = 0;
-  EVP_Digest(data.data(), data.size(), digest, &len, EVP_sha256(), nullptr);
-  std::string hex;
-  for (unsigned int i = 0; i < len; ++i) hex += fmt::format("{:02x}", digest[i]);
-  return hex;
-}
-
-CsvWriter::CsvWriter(std::string path) : path_(std::move(path)), partial_(path_ + ".partial") {}
-
-CsvWriter::~CsvWriter() {
-  if (file_) std::fclose(file_);
-}
+CsvWriter::CsvWriter(std::string path, bool publish) : path_(std::move(path)), publish_(publish) {}
 
 void CsvWriter::OnStart(const std::vector<Column>& columns) {
-  // Known now, it is reported before the run rather than after it (the rename would fail).
-  std::error_code ignored;
-  if (std::filesystem::is_directory(path_, ignored))
-    throw std::runtime_error(fmt::format("cannot write '{}': it is a directory", path_));
-  file_ = std::fopen(partial_.c_str(), "wb");
-  if (!file_) throw std::runtime_error(fmt::format("cannot write '{}': {}", partial_, std::strerror(errno)));
+  file_ = std::make_unique<AtomicFile>(path_);  // a folder in the way is reported before the run
   line_.clear();
   for (size_t i = 0; i < columns.size(); ++i) {
     if (i) line_ += ',';
     line_ += CsvCell(columns[i].Header());
   }
   line_ += '\n';
-  std::fputs(line_.c_str(), file_);
+  file_->Write(line_);
 }
 
 void CsvWriter::OnSample(const std::vector<double>& row) {
@@ -95,19 +40,19 @@ void CsvWriter::OnSample(const std::vector<double>& row) {
     fmt::format_to(std::back_inserter(line_), "{}", row[i]);
   }
   line_ += '\n';
-  std::fputs(line_.c_str(), file_);
+  file_->Write(line_);
 }
 
 void CsvWriter::OnFinish(const RunSummary&) {
   if (!file_) return;
-  // A row that could not be written (full disk) left the error flag set; the file lacks it.
-  errno = 0;
-  bool ok = std::fflush(file_) == 0 && !std::ferror(file_);
-  ok = std::fclose(file_) == 0 && ok;
-  const int err = errno;
-  file_ = nullptr;
-  if (!ok) Abandon(partial_, path_, err ? std::strerror(err) : "write error");
-  Commit(partial_, path_);
+  file_->Finish();  // a row that could not be written (full disk) is said here
+  if (publish_) file_->Publish();
+}
+
+std::uint64_t CsvWriter::bytes() const { return file_ ? file_->bytes() : 0; }
+std::string CsvWriter::sha256() const { return file_ ? file_->sha256() : std::string(); }
+void CsvWriter::Publish() {
+  if (file_) file_->Publish();
 }
 
 nlohmann::json MakeRunRecord(const std::string& model_file, const std::string& model_text, const std::string& model_name,
@@ -140,6 +85,14 @@ nlohmann::json MakeRunRecord(const std::string& model_file, const std::string& m
                  {"max_abs_residual", summary.max_abs_energy_residual}};
   j["warnings"] = summary.warnings;
   return j;
+}
+
+nlohmann::json DataFileRecord(const std::string& name, std::uint64_t bytes, const std::string& sha256) {
+  return {{"file", name}, {"bytes", bytes}, {"sha256", sha256}};
+}
+
+std::string DumpRecord(const nlohmann::json& record) {
+  return record.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
 }  // namespace multibond

@@ -1,7 +1,11 @@
 #include "multibond/sim/simulator.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
+#include <string>
+#include <utility>
 #include <map>
 #include <optional>
 
@@ -241,6 +245,28 @@ void CheckOutputGrid(double t_start, double t_end, double dt) {
   if (!(ratio <= kMaxOutputIntervals))
     throw std::invalid_argument(fmt::format("{:g} s of run at an output interval of {:g} s is {:.3g} output rows, more than {:g}; "
                                             "use a larger output interval (--dt)", t_end - t_start, dt, ratio, kMaxOutputIntervals));
+  CheckResolvableStep(dt, t_start, t_end, "the output interval (dt)");
+}
+
+namespace {
+
+/// "3.2 hours", "12 days": how long a number of seconds is, for a person.
+std::string HumanDuration(double seconds) {
+  if (seconds < 120) return fmt::format("{:.3g} seconds", seconds);
+  if (seconds < 7200) return fmt::format("{:.3g} minutes", seconds / 60);
+  if (seconds < 2 * 86400) return fmt::format("{:.3g} hours", seconds / 3600);
+  if (seconds < 730 * 86400) return fmt::format("{:.3g} days", seconds / 86400);
+  return fmt::format("{:.3g} years", seconds / (365.25 * 86400));
+}
+
+}  // namespace
+
+void CheckResolvableStep(double h, double t_start, double t_end, const char* what) {
+  const double t = std::max(std::abs(t_start), std::abs(t_end));
+  const double smallest = std::max(std::numeric_limits<double>::min(), 64 * std::numeric_limits<double>::epsilon() * t);
+  if (!(h >= smallest))
+    throw std::invalid_argument(fmt::format("{} of {:g} s is below what time near {:g} s can resolve ({:.3g} s): use a larger one", what,
+                                            h, t, smallest));
 }
 
 void CheckFixedStep(double fixed_step, double dt) {
@@ -261,6 +287,20 @@ void CheckRunOptions(const CompiledModel& model, const RunOptions& options) {
     CheckIntegratorOptions(chart.num_states(), chart.jacobian_pattern(), options.integrator);
   }
   CheckFixedStep(options.integrator.fixed_step, options.dt);
+  // Steps a request forces, estimated before anything runs: --solver rk4 --step 1e-12 over 5 s
+  // would be 5e12 steps (weeks); the same for a --max-step that small.
+  const double span = options.t_end - options.t_start;
+  for (const auto& [h, what] : {std::pair{options.integrator.fixed_step, "fixed step (--step)"},
+                                std::pair{options.integrator.max_step, "largest step (--max-step)"}}) {
+    if (h <= 0) continue;
+    CheckResolvableStep(h, options.t_start, options.t_end, fmt::format("the {}", what).c_str());
+    const double steps = span / h;
+    if (steps > options.max_forced_steps)
+      throw std::invalid_argument(fmt::format(
+          "{:g} s of run with a {} of {:g} s is {:.3g} steps, more than the limit of {:.3g} (at 1 microsecond a step, {}); use a "
+          "larger step, or raise the limit with --limit steps=N",
+          span, what, h, steps, options.max_forced_steps, HumanDuration(steps * 1e-6)));
+  }
 }
 
 RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Observer& observer) {

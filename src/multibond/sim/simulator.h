@@ -62,6 +62,10 @@ struct RunOptions {
   const std::atomic<bool>* stop = nullptr;
   /// Called with the fraction done, at most a few times per second.
   std::function<void(double)> progress;
+  /// The most steps a run may be made to take: fixed steps ((t_end - t_start) / step), or the
+  /// fewest steps a --max-step forces. A request beyond it is refused before it starts, with the
+  /// estimate (InputLimits::steps, `--limit steps=N`).
+  double max_forced_steps = 1e8;
 };
 
 struct Column {
@@ -145,6 +149,9 @@ long NumOutputIntervals(const RunOptions& options);
 /// fixed step no longer than the output interval (0: none). Throw std::invalid_argument.
 void CheckOutputGrid(double t_start, double t_end, double dt);
 void CheckFixedStep(double fixed_step, double dt);
+/// A step or interval `h` that time near `t` can resolve: a normal number (no denormal) of at least
+/// 64 roundings of t. Throws std::invalid_argument naming `what` ("the output interval (--dt)").
+void CheckResolvableStep(double h, double t_start, double t_end, const char* what);
 /// Throws std::invalid_argument, saying what is wrong, for options that Simulate would refuse
 /// (times, output interval, integrator options): a front end checks them before writing anything.
 void CheckRunOptions(const CompiledModel& model, const RunOptions& options);

@@ -1,0 +1,118 @@
+#include "multibond/io/atomic_file.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <random>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace multibond {
+
+namespace {
+
+std::string UniqueTag() {
+  static std::random_device device;
+  return fmt::format("{}.{:08x}", getpid(), device());
+}
+
+}  // namespace
+
+AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
+  const std::filesystem::path p(path_);
+  name_ = p.filename().string();
+  dir_ = p.has_parent_path() ? p.parent_path().string() : ".";
+  if (name_.empty() || name_ == "." || name_ == "..") Fail("it names a folder, not a file");
+  dir_fd_ = open(dir_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir_fd_ < 0) Fail(errno == ENOENT ? fmt::format("no folder '{}'", dir_) : std::strerror(errno));
+  struct stat st {};
+  if (fstatat(dir_fd_, name_.c_str(), &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISDIR(st.st_mode)) Fail("it is a directory");
+  // No name until complete; where the file system cannot, a unique name nobody else can take.
+  fd_ = openat(dir_fd_, ".", O_TMPFILE | O_WRONLY | O_CLOEXEC, 0644);
+  if (fd_ < 0) {
+    for (int attempt = 0; attempt < 16 && fd_ < 0; ++attempt) {
+      temp_name_ = fmt::format(".{}.{}{}", name_, UniqueTag(), kTemporarySuffix);
+      fd_ = openat(dir_fd_, temp_name_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+      if (fd_ < 0 && errno != EEXIST) break;
+    }
+    if (fd_ < 0) {
+      temp_name_.clear();
+      Fail(std::strerror(errno));
+    }
+  }
+  file_ = fdopen(fd_, "wb");
+  if (!file_) Fail(std::strerror(errno));
+}
+
+AtomicFile::~AtomicFile() {
+  if (!published_) Discard();
+  if (dir_fd_ >= 0) close(dir_fd_);
+}
+
+void AtomicFile::Discard() {
+  if (file_) std::fclose(file_);
+  else if (fd_ >= 0) close(fd_);
+  file_ = nullptr;
+  fd_ = -1;
+  if (!temp_name_.empty() && dir_fd_ >= 0) unlinkat(dir_fd_, temp_name_.c_str(), 0);
+  temp_name_.clear();
+}
+
+void AtomicFile::Fail(const std::string& why) {
+  Discard();
+  throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, why));
+}
+
+void AtomicFile::Write(std::string_view data) {
+  if (!file_ || finished_) return;
+  std::fwrite(data.data(), 1, data.size(), file_);
+  hash_.Update(data);
+  bytes_ += data.size();
+}
+
+void AtomicFile::Finish() {
+  if (finished_) return;
+  if (!file_) Fail("the file is not open");
+  errno = 0;
+  if (std::fflush(file_) != 0 || std::ferror(file_)) Fail(errno ? std::strerror(errno) : "write error");
+  if (fsync(fd_) != 0) Fail(std::strerror(errno));
+  finished_ = true;
+}
+
+void AtomicFile::Publish() {
+  if (published_) return;
+  if (!finished_) Finish();
+  if (temp_name_.empty()) {
+    // An O_TMPFILE file gets a unique hidden name (linkat cannot replace), then the real one.
+    const std::string proc = fmt::format("/proc/self/fd/{}", fd_);
+    for (int attempt = 0; attempt < 16 && temp_name_.empty(); ++attempt) {
+      const std::string candidate = fmt::format(".{}.{}{}", name_, UniqueTag(), kTemporarySuffix);
+      if (linkat(AT_FDCWD, proc.c_str(), dir_fd_, candidate.c_str(), AT_SYMLINK_FOLLOW) == 0) temp_name_ = candidate;
+      else if (errno != EEXIST) Fail(std::strerror(errno));
+    }
+    if (temp_name_.empty()) Fail("no unique temporary name");
+  }
+  if (renameat(dir_fd_, temp_name_.c_str(), dir_fd_, name_.c_str()) != 0) {
+    struct stat st {};
+    const bool is_dir = fstatat(dir_fd_, name_.c_str(), &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISDIR(st.st_mode);
+    Fail(is_dir ? "it is a directory" : std::strerror(errno));
+  }
+  temp_name_.clear();
+  std::fclose(file_);
+  file_ = nullptr;
+  fd_ = -1;
+  published_ = true;
+}
+
+void WriteFileAtomic(const std::string& path, const std::string& content) {
+  AtomicFile f(path);
+  f.Write(content);
+  f.Commit();
+}
+
+}  // namespace multibond
