@@ -179,6 +179,13 @@ TEST(CsvWriter, DeferredPublicationKnowsSizeAndHashBeforeTheFileHasItsName) {
   EXPECT_EQ(hash, Sha256Hex(ReadFile(dest)));
 }
 
+TEST(RunRecord, PathsThatAreNotUtf8AreRecordedEscaped) {
+  const nlohmann::json j = MakeRunRecord("mod\xE8le.yaml", "text", "m", RunOptions{}, RunSummary{}, {"multibond", "run", "mod\xE8le.yaml"});
+  const std::string text = DumpRecord(j);
+  EXPECT_THAT(text, HasSubstr("\"file\": \"mod\\\\xE8le.yaml\""));  // JSON of mod\xE8le.yaml
+  EXPECT_EQ(j["command_line"][2], "mod\\xE8le.yaml");
+}
+
 TEST(RunRecord, InvalidUtf8IsReplacedNotThrown) {
   nlohmann::json j;
   j["model"] = std::string("caf\xe9.yaml");  // Latin-1 bytes in a path

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "multibond/core/sha256.h"
+#include "multibond/core/utf8.h"
 #include "multibond/version.h"
 
 namespace multibond {
@@ -61,8 +62,11 @@ nlohmann::json MakeRunRecord(const std::string& model_file, const std::string& m
   const IntegratorOptions& io = options.integrator;
   json j;
   j["multibond_version"] = kVersion;
-  j["command_line"] = command_line;
-  j["model"] = {{"file", model_file}, {"name", model_name}, {"sha256", Sha256Hex(model_text)}};
+  // Paths and arguments are bytes: what is not UTF-8 is recorded escaped (\xNN), recoverably.
+  std::vector<std::string> command;
+  for (const std::string& a : command_line) command.push_back(EscapeInvalidUtf8(a));
+  j["command_line"] = command;
+  j["model"] = {{"file", EscapeInvalidUtf8(model_file)}, {"name", EscapeInvalidUtf8(model_name)}, {"sha256", Sha256Hex(model_text)}};
   j["options"] = {{"t_start", options.t_start}, {"t_end", options.t_end}, {"dt", options.dt},
                   {"solver", MethodName(io.method)}, {"rtol", io.rtol}, {"atol", io.atol},
                   {"step", io.fixed_step}, {"max_step", io.max_step}, {"all_variables", options.all_variables},
