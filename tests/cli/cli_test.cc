@@ -16,11 +16,14 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "support/temp_dir.h"
+
 namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::Not;
+using multibond::testing::ListNames;
 
 struct Result {
   int code;
@@ -39,14 +42,6 @@ Result Shell(const std::string& command) {
 
 Result Cli(const std::string& args) { return Shell(std::string(MULTIBOND_CLI) + " " + args); }
 
-/// Every name in `dir`, hidden ones included, sorted.
-std::vector<std::string> Names(const fs::path& dir) {
-  std::vector<std::string> names;
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(dir, ec)) names.push_back(entry.path().filename().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
 
 /// A shell test that holds once process $pid has a file open that has no name yet (the results
 /// being written, O_TMPFILE) with more than `rows` lines in it (-1: as soon as it is open).
@@ -131,7 +126,7 @@ TEST_F(CliTest, RunWritesResultsWithUnitsAndRunRecord) {
   EXPECT_THAT(header, HasSubstr("time [s],mass.p [N s],spring.q [m]"));
   EXPECT_THAT(header, HasSubstr("energy.residual [-]"));
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 102);  // header + 101 samples
-  EXPECT_EQ(Names(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
+  EXPECT_EQ(ListNames(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
   const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "ok");
   EXPECT_EQ(run["options"]["t_end"], 1.0);
@@ -452,7 +447,7 @@ TEST_F(CliTest, InterruptStopsCleanlyAndKeepsWhatWasComputed) {
   EXPECT_EQ(run["status"], "interrupted");
   EXPECT_GT(run["t_reached"].get<double>(), 0.0);
   EXPECT_LT(run["t_reached"].get<double>(), 1000.0);
-  EXPECT_EQ(Names(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
+  EXPECT_EQ(ListNames(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
   const std::string csv = Read(dir_ / "results.csv");
   EXPECT_GT(std::count(csv.begin(), csv.end(), '\n'), 10);
 }
@@ -516,7 +511,7 @@ TEST_F(CliTest, CheckSuggestWriteGivesAModelThatChecksAndRuns) {
   Result r = Cli("check " + Example("rigid_gear_pair.yaml") + " --suggest --write " + fixed.string());
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_THAT(r.out, HasSubstr("wrote " + fixed.string()));
-  EXPECT_EQ(Names(dir_), std::vector<std::string>{"fixed.yaml"});
+  EXPECT_EQ(ListNames(dir_), std::vector<std::string>{"fixed.yaml"});
   const std::string text = Read(fixed);
   EXPECT_THAT(text, HasSubstr("# Two inertias joined by a rigid gear (TF)"));  // the user's comments are kept
   EXPECT_THAT(text, HasSubstr("  - j2 -> J2_coupling\n  - J2_coupling -> J2\n"));
@@ -654,7 +649,7 @@ TEST_F(CompareTest, ReportsEachColumnsLargestDifferenceAndWritesCsv) {
   EXPECT_THAT(r.out, HasSubstr("only in A (1): spring_force"));
   EXPECT_THAT(r.out, HasSubstr("only in B (1): force_in_spring"));
   EXPECT_THAT(r.out, HasSubstr("largest relative difference: 0.743 in "));
-  EXPECT_EQ(Names(dir_), (std::vector<std::string>{"report.csv", "stiffer.yaml"}));
+  EXPECT_EQ(ListNames(dir_), (std::vector<std::string>{"report.csv", "stiffer.yaml"}));
   const std::vector<std::string> lines = Lines(Read(csv));
   ASSERT_EQ(lines.size(), 4u + 12u);
   EXPECT_THAT(lines[0], HasSubstr("# multibond compare; A: " + Example("mass_spring_damper.yaml") + " (solver bdf, rtol 1e-10"));
@@ -792,14 +787,14 @@ TEST_F(CliTest, AKilledRunLeavesNothingAndTheNextOneCleansUpAfterOlderVersions) 
                           " -q --jit off --t-end 1000 > /dev/null 2>&1 & pid=$!; for i in $(seq 1200); do " + WritingMoreRowsThan(5) +
                           " && break; sleep 0.05; done; kill -9 $pid; wait $pid";
   ASSERT_EQ(std::system(cmd.c_str()) == -1, false);
-  EXPECT_EQ(Names(dir_), std::vector<std::string>{".multibond.lock"});
+  EXPECT_EQ(ListNames(dir_), std::vector<std::string>{".multibond.lock"});
   // A temporary left by an earlier version (fixed name) or by a file system without unnamed files.
   std::ofstream(dir_ / "results.csv.partial") << "time [s]\n0\n";
   std::ofstream(dir_ / ".run.json.123.abcd.multibond-tmp") << "{";
   const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " -q --t-end 0.1");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_THAT(r.out, HasSubstr("note: removed '" + (dir_ / "results.csv.partial").string() + "', a temporary file of an earlier command"));
-  EXPECT_EQ(Names(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
+  EXPECT_EQ(ListNames(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
 }
 
 TEST_F(CliTest, AFullDiskLeavesNothingThatLooksComplete) {
@@ -808,7 +803,7 @@ TEST_F(CliTest, AFullDiskLeavesNothingThatLooksComplete) {
                          " -o " + dir_.string() + " -q");
   EXPECT_EQ(r.code, 74) << r.out;
   EXPECT_THAT(r.out, HasSubstr("cannot write '" + (dir_ / "results.csv").string() + "': File too large"));
-  EXPECT_EQ(Names(dir_), std::vector<std::string>{".multibond.lock"});
+  EXPECT_EQ(ListNames(dir_), std::vector<std::string>{".multibond.lock"});
 }
 
 // The disk fills between the two files: results.csv (29,308 bytes, 8 pages) fits on a 9-page file
@@ -898,7 +893,7 @@ TEST_F(CliTest, SigtermDuringARunKeepsTheRowsAndExits143) {
   EXPECT_EQ(std::atoi(std::string(buf, n).c_str()), 143);
   const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "interrupted");
-  EXPECT_EQ(Names(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
+  EXPECT_EQ(ListNames(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
 }
 
 }  // namespace

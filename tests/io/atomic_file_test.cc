@@ -25,14 +25,9 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using testing::ReadFile;
+using testing::ListNames;
 using testing::TempDir;
 
-std::vector<std::string> Names(const fs::path& dir) {
-  std::vector<std::string> names;
-  for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
 
 TEST(AtomicFile, HasNoNameUntilPublishedAndThenTheWholeContent) {
   TempDir dir;
@@ -40,14 +35,14 @@ TEST(AtomicFile, HasNoNameUntilPublishedAndThenTheWholeContent) {
   AtomicFile f(dest.string());
   f.Write("{\"a\": ");
   f.Write("1}\n");
-  EXPECT_TRUE(Names(dir.path()).empty());
+  EXPECT_TRUE(ListNames(dir.path()).empty());
   f.Finish();
   EXPECT_EQ(f.bytes(), 9u);
   EXPECT_EQ(f.sha256(), Sha256Hex("{\"a\": 1}\n"));
-  EXPECT_TRUE(Names(dir.path()).empty());
+  EXPECT_TRUE(ListNames(dir.path()).empty());
   f.Publish();
   EXPECT_EQ(ReadFile(dest), "{\"a\": 1}\n");
-  EXPECT_EQ(Names(dir.path()), std::vector<std::string>{"run.json"});
+  EXPECT_EQ(ListNames(dir.path()), std::vector<std::string>{"run.json"});
 }
 
 TEST(AtomicFile, APlantedLinkAtTheNameIsReplacedAndItsTargetUntouched) {
@@ -73,7 +68,7 @@ TEST(AtomicFile, TwoWritersOfOneNameDoNotMix) {
   EXPECT_EQ(ReadFile(dest), std::string(100000, 'a'));
   b.Commit();
   EXPECT_EQ(ReadFile(dest), std::string(50, 'b'));
-  EXPECT_EQ(Names(dir.path()), std::vector<std::string>{"results.csv"});
+  EXPECT_EQ(ListNames(dir.path()), std::vector<std::string>{"results.csv"});
 }
 
 TEST(AtomicFile, DestinationThatIsADirectoryThrowsAndLeavesNothing) {
@@ -86,7 +81,7 @@ TEST(AtomicFile, DestinationThatIsADirectoryThrowsAndLeavesNothing) {
   } catch (const std::runtime_error& e) {
     EXPECT_EQ(std::string(e.what()), "cannot write '" + dest.string() + "': it is a directory");
   }
-  EXPECT_EQ(Names(dir.path()), std::vector<std::string>{"run.json"});
+  EXPECT_EQ(ListNames(dir.path()), std::vector<std::string>{"run.json"});
 }
 
 TEST(AtomicFile, NoFolderIsSaid) {
@@ -139,7 +134,7 @@ TEST(AtomicFile, AFullDiskIsSaidAtFinishAndLeavesNothing) {
     }
   }
   EXPECT_EQ(message, "cannot write '" + dest.string() + "': File too large");
-  EXPECT_TRUE(Names(dir.path()).empty());
+  EXPECT_TRUE(ListNames(dir.path()).empty());
 }
 
 }  // namespace

@@ -22,6 +22,7 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using testing::ReadFile;
+using testing::ListNames;
 using testing::TempDir;
 
 /// The message of the std::runtime_error that `f` throws ("" if it throws none).
@@ -120,13 +121,6 @@ TEST(ResultsIo, UnclosedQuoteInHeaderIsReported) {
               HasSubstr(path.string() + ":1: a quoted column name is not closed"));
 }
 
-/// Every name in `dir` (hidden ones included).
-std::vector<std::string> Names(const fs::path& dir) {
-  std::vector<std::string> names;
-  for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
 
 TEST(CsvWriter, DestinationThatIsADirectoryIsReportedBeforeTheRun) {
   TempDir dir;
@@ -134,7 +128,7 @@ TEST(CsvWriter, DestinationThatIsADirectoryIsReportedBeforeTheRun) {
   fs::create_directory(dest);
   CsvWriter csv(dest.string());
   EXPECT_EQ(RuntimeErrorOf([&] { csv.OnStart({{"time", "s"}}); }), "cannot write '" + dest.string() + "': it is a directory");
-  EXPECT_EQ(Names(dir.path()), std::vector<std::string>{"results.csv"});
+  EXPECT_EQ(ListNames(dir.path()), std::vector<std::string>{"results.csv"});
 }
 
 TEST(CsvWriter, RenameFailingAtTheEndThrowsAndLeavesNoTemporary) {
@@ -146,7 +140,7 @@ TEST(CsvWriter, RenameFailingAtTheEndThrowsAndLeavesNoTemporary) {
   fs::create_directory(dest);
   fs::create_directory(dest / "full");  // appears while the run goes on (a non-empty folder: rename cannot replace it)
   EXPECT_EQ(RuntimeErrorOf([&] { csv.OnFinish(RunSummary{}); }), "cannot write '" + dest.string() + "': it is a directory");
-  EXPECT_EQ(Names(dir.path()), std::vector<std::string>{"results.csv"});
+  EXPECT_EQ(ListNames(dir.path()), std::vector<std::string>{"results.csv"});
   EXPECT_TRUE(fs::is_directory(dest / "full"));
 }
 
@@ -160,7 +154,7 @@ TEST(CsvWriter, WriterDestroyedBeforeTheRunFinishedLeavesNothing) {
     csv.OnStart({{"time", "s"}});
     csv.OnSample({0.0});
   }
-  EXPECT_TRUE(Names(dir.path()).empty());
+  EXPECT_TRUE(ListNames(dir.path()).empty());
 }
 
 TEST(CsvWriter, DeferredPublicationKnowsSizeAndHashBeforeTheFileHasItsName) {
