@@ -51,7 +51,7 @@ std::string ProductProblem(std::string_view product, bool one_ok) {
   for (size_t i = 0; i <= product.size(); ++i) {
     if (i < product.size() && product[i] != ' ' && product[i] != '*') continue;
     const std::string_view factor = product.substr(start, i - start);
-    if (factor.empty()) return "two separators in a row, or one at an end";
+    if (factor.empty()) return "it has two separators in a row, or one at an end";
     if (std::string why = FactorProblem(factor); !why.empty()) return why;
     start = i + 1;
   }
@@ -61,19 +61,19 @@ std::string ProductProblem(std::string_view product, bool one_ok) {
 }  // namespace
 
 std::string UnitProblem(const std::string& unit) {
-  if (unit.empty()) return "is empty (write '-' for a quantity without unit)";
-  if (unit.size() > kMaxUnitLength) return fmt::format("is {} bytes long (at most {})", unit.size(), kMaxUnitLength);
+  if (unit.empty()) return "it is empty (write '-' for a quantity without unit)";
+  if (unit.size() > kMaxUnitLength) return fmt::format("it is {} bytes long (at most {})", unit.size(), kMaxUnitLength);
   if (unit == "-" || unit == "1") return "";
   for (const char c : unit) {
     const auto u = static_cast<unsigned char>(c);
-    if (u < 0x20 || u == 0x7f) return fmt::format("holds a control character (byte 0x{:02x}, e.g. a line break)", u);
+    if (u < 0x20 || u == 0x7f) return fmt::format("it holds a control character (byte 0x{:02x}, e.g. a line break)", u);
     if (c == '`' || c == '"' || c == '\'' || c == '\\' || c == '$' || c == '<' || c == '>' || c == '&' || c == ';' || c == '(' || c == ')')
-      return fmt::format("holds '{}', which no unit has", c);
+      return fmt::format("it holds '{}', which no unit has", c);
   }
   const std::string_view u = unit;
   const auto slash = u.find('/');
   if (slash == std::string_view::npos) return ProductProblem(u, false);
-  if (u.find('/', slash + 1) != std::string_view::npos) return "holds more than one '/' (everything after the '/' is the denominator: N/(m s) is N/m s)";
+  if (u.find('/', slash + 1) != std::string_view::npos) return "it holds more than one '/' (everything after the '/' is the denominator: N/(m s) is N/m s)";
   if (std::string why = ProductProblem(u.substr(0, slash), true); !why.empty()) return why;
   return ProductProblem(u.substr(slash + 1), false);
 }

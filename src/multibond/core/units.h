@@ -19,8 +19,8 @@ namespace multibond {
 /// The longest unit accepted, in bytes.
 constexpr std::size_t kMaxUnitLength = 64;
 
-/// "" when `unit` follows the grammar above; otherwise what is wrong, naming the first part that
-/// is not understood.
+/// "" when `unit` follows the grammar above; otherwise what is wrong, as a clause naming the first
+/// part that is not understood ("'furlong' is not a unit symbol ...", "it holds '`' ...").
 std::string UnitProblem(const std::string& unit);
 
 }  // namespace multibond

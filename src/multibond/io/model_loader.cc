@@ -259,7 +259,7 @@ class Loader {
     const Expansion x = Expand(root, memo, visiting);
     const SourceLocation where = root["elements"] ? Loc(root["elements"]) : SourceLocation{file_, 1, 1};
     bool ok = true;
-    if (x.instances > limits_.instances) ok = false, LimitError("instances", where, x.instances, limits_.instances, "submodel instances, nested ones counted,");
+    if (x.instances > limits_.instances) ok = false, LimitError("instances", where, x.instances, limits_.instances, "submodel instances, nested ones included");
     if (x.depth > limits_.depth) ok = false, LimitError("depth", where, x.depth, limits_.depth, "submodels nested in submodels");
     if (x.elements > limits_.elements) ok = false, LimitError("elements", where, x.elements, limits_.elements, "elements once the submodels are expanded");
     if (x.bonds > limits_.bonds) ok = false, LimitError("bonds", where, x.bonds, limits_.bonds, "bonds once the submodels are expanded");
@@ -1077,7 +1077,7 @@ class Loader {
         // A unit labels columns and reaches gnuplot scripts and HTML: only the unit grammar passes.
         a.unit = Str(s["unit"], name);
         if (const std::string problem = UnitProblem(a.unit); !problem.empty()) {
-          sink_.Error("unit.invalid", Loc(s["unit"]), name, fmt::format("the unit '{}' {}", PrintableExcerpt(a.unit), problem),
+          sink_.Error("unit.invalid", Loc(s["unit"]), name, fmt::format("the unit '{}' is refused: {}", PrintableExcerpt(a.unit), problem),
                       "write SI symbols with an optional prefix, separated by spaces or '*', one '/', whole exponents: "
                       "e.g. m, rad, N m, kg m^2, rad/s, m s^-2; '-' for none");
           a.unit.clear();
@@ -1128,7 +1128,9 @@ class Loader {
     const Env none;
     auto positive = [&](const char* key, std::optional<double>& out) {
       if (!n[key]) return;
-      const double v = Number(n[key], "simulation", none);
+      bool ok = true;
+      const double v = Number(n[key], "simulation", none, &ok);
+      if (!ok) return;  // said by Number
       if (!(v > 0)) sink_.Error(Loc(n[key]), "simulation", fmt::format("{} must be > 0 (got {:g})", key, v));
       out = v;
     };
