@@ -1,9 +1,11 @@
 // Regression tests for what fuzzing found (scripts/fuzz, fuzz/model_loader_fuzzer.cc).
 //
 // Every file in tests/models/fuzz/ is a minimised input that once crashed, hung or tripped a
-// sanitizer. Each goes through what the fuzzer does (load, compile, lay out the outputs, one
-// right-hand side at the initial state) and must end in a ModelError or in success: never in
-// another exception, a crash or a hang.
+// sanitizer. Each goes through what the fuzzer does (fuzz/run_front_end.h: load, compile, the
+// file's run options, lay out the outputs, one right-hand side at the initial state) and must end
+// in a ModelError or in success: never in another exception, a crash or a hang. So must every
+// model file of the hostile corpus (tests/models/hostile/, run through the CLI by
+// tests/cli/hostile_test.cc), in process here.
 //
 // A file whose header has a line
 //   # status: open
@@ -23,8 +25,7 @@
 
 #include <gtest/gtest.h>
 
-#include "multibond/io/model_loader.h"
-#include "multibond/sim/simulator.h"
+#include "../../fuzz/run_front_end.h"
 
 namespace multibond {
 namespace {
@@ -32,6 +33,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kDir = MULTIBOND_SOURCE_DIR "/tests/models/fuzz";
+constexpr const char* kHostile = MULTIBOND_SOURCE_DIR "/tests/models/hostile";
 
 bool IsOpen(const fs::path& file) {
   std::ifstream in(file);
@@ -41,10 +43,10 @@ bool IsOpen(const fs::path& file) {
   return false;
 }
 
-std::vector<fs::path> Files(bool open) {
+std::vector<fs::path> Files(bool open, const char* dir = kDir) {
   std::vector<fs::path> files;
   std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(kDir, ec))
+  for (const auto& entry : fs::directory_iterator(dir, ec))
     if (entry.is_regular_file() && entry.path().extension() == ".yaml" && IsOpen(entry.path()) == open)
       files.push_back(entry.path());
   std::sort(files.begin(), files.end());
@@ -61,15 +63,7 @@ class FuzzRegression : public ::testing::TestWithParam<fs::path> {};
 TEST_P(FuzzRegression, ThrowsModelErrorOrSucceeds) {
   const std::string text = ReadFile(GetParam());
   try {
-    const LoadedModel lm = LoadModelString(text, GetParam().filename().string());
-    const auto model = CompiledModel::Compile(lm.graph, lm.compile);
-    (void)MakeColumns(*model, false);
-    if (model->num_states() < 2000) {
-      Workspace ws = model->MakeWorkspace();
-      const Eigen::VectorXd x = model->MakeInitialState();
-      Eigen::VectorXd xdot(x.size());
-      model->CalcDerivatives(0.0, x.data(), xdot.data(), ws);
-    }
+    fuzz::RunFrontEnd(text, GetParam().filename().string());
   } catch (const ModelError&) {
     SUCCEED();  // a diagnosed bad model
   } catch (const std::exception& e) {
@@ -86,6 +80,7 @@ std::string TestName(const ::testing::TestParamInfo<fs::path>& info) {
 
 INSTANTIATE_TEST_SUITE_P(Fixed, FuzzRegression, ::testing::ValuesIn(Files(false)), TestName);
 // Known, not yet fixed bugs (see each file's header): disabled until fixed.
+INSTANTIATE_TEST_SUITE_P(Hostile, FuzzRegression, ::testing::ValuesIn(Files(false, kHostile)), TestName);
 INSTANTIATE_TEST_SUITE_P(DISABLED_Open, FuzzRegression, ::testing::ValuesIn(Files(true)), TestName);
 GTEST_ALLOW_UNINSTANTIATED_PARAMETERIZED_TEST(FuzzRegression);
 

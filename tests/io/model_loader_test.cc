@@ -1,10 +1,17 @@
 // The model loader: what a good file becomes, and what every kind of bad input is told.
 
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
@@ -405,6 +412,252 @@ TEST(ModelLoaderRegression, Rk4WithoutStepIsAModelError) {
   const auto ds = Errors(std::string(kMsd) + "simulation: {solver: rk4}\n");
   ASSERT_GE(ds.size(), 1u);
   EXPECT_THAT(ds[0].message, HasSubstr("rk4 is a fixed-step method and needs 'step'"));
+}
+
+// --- hostile input (issue 21): every one of these crashed, hung, or was accepted before --------
+
+/// The diagnostic with `code` among those of loading `yaml` (with `limits`); fails if there is none.
+Diagnostic WithCode(const std::string& yaml, const std::string& code, const InputLimits& limits = {}) {
+  try {
+    (void)LoadModelString(yaml, "m.yaml", limits);
+  } catch (const ModelError& e) {
+    for (const Diagnostic& d : e.diagnostics())
+      if (d.code == code) return d;
+    ADD_FAILURE() << "no diagnostic '" << code << "'; first: " << e.diagnostics().front().ToString();
+    return {};
+  }
+  ADD_FAILURE() << "expected a ModelError (" << code << ") for:\n" << yaml.substr(0, 400);
+  return {};
+}
+
+/// A temporary folder of the test, removed at the end.
+struct TempDir {
+  std::filesystem::path path;
+  TempDir() {
+    std::string p = (std::filesystem::temp_directory_path() / "mb_loader_XXXXXX").string();
+    path = ::mkdtemp(p.data());
+  }
+  ~TempDir() { std::filesystem::remove_all(path); }
+};
+
+TEST(ModelLoaderHostile, RefusesWhatIsNotARegularFile) {
+  TempDir dir;
+  const std::string fifo = (dir.path / "fifo.yaml").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  for (const std::string& path : {std::string("/dev/zero"), std::string("/dev/urandom"), dir.path.string(), fifo}) {
+    try {
+      (void)LoadModelFile(path);
+      ADD_FAILURE() << path << " was loaded";
+    } catch (const ModelError& e) {
+      EXPECT_EQ(e.diagnostics().front().code, "io.not_regular") << path;  // the CLI exits 74
+      EXPECT_THAT(e.diagnostics().front().message, HasSubstr("cannot read the model file: it is a")) << path;
+    }
+  }
+  try {
+    (void)LoadModelFile((dir.path / "missing.yaml").string());
+    ADD_FAILURE();
+  } catch (const ModelError& e) {
+    EXPECT_EQ(e.diagnostics().front().code, "io.unreadable");
+  }
+}
+
+TEST(ModelLoaderHostile, RefusesAFileLargerThanTheLimit) {
+  TempDir dir;
+  const std::string path = (dir.path / "big.yaml").string();
+  std::ofstream(path) << kMsd << "# " << std::string(2000, 'x') << "\n";
+  InputLimits limits;
+  limits.file_bytes = 1000;
+  try {
+    (void)LoadModelFile(path, limits);
+    ADD_FAILURE();
+  } catch (const ModelError& e) {
+    const Diagnostic& d = e.diagnostics().front();
+    EXPECT_EQ(d.code, "limit.file-size");
+    EXPECT_EQ(d.where.ToString(), path + ":1:1");
+    EXPECT_THAT(d.message, HasSubstr("limit 'file-size' exceeded: the model is " + std::to_string(std::filesystem::file_size(path)) +
+                                     " bytes long (at most 1000)"));
+    EXPECT_THAT(d.hint, HasSubstr("--limit file-size=N (now 1000)"));
+  }
+  limits.file_bytes = 100000;
+  EXPECT_EQ(LoadModelFile(path, limits).graph.num_elements(), 5);
+  limits.file_bytes = 1000;
+  EXPECT_EQ(WithCode(std::string(kMsd) + "#" + std::string(1000, 'x'), "limit.file-size", limits).where.line, 1);
+}
+
+TEST(ModelLoaderHostile, SelfReferencingAliasIsALocatedError) {
+  const Diagnostic d = WithCode(std::string(kMsd) + "outputs: &x [*x]\n", "yaml.self_alias");
+  EXPECT_EQ(d.where.ToString(), "m.yaml:14:14");
+  EXPECT_EQ(WithCode("model: m\nelements: &e\n  a: {type: I, inertia: 1, p0: *e}\nbonds: []\n", "yaml.self_alias").where.line, 3);
+}
+
+TEST(ModelLoaderHostile, AliasExpansionIsBounded) {
+  std::string yaml = std::string(kMsd) + "description: &l0 [lol, lol, lol, lol, lol, lol, lol, lol, lol, lol]\nstates:\n";
+  for (int i = 1; i <= 9; ++i) {
+    yaml += "  l" + std::to_string(i) + ": &l" + std::to_string(i) + " [";
+    for (int k = 0; k < 10; ++k) yaml += (k ? ", *l" : "*l") + std::to_string(i - 1);
+    yaml += "]\n";
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const Diagnostic d = WithCode(yaml, "limit.yaml-nodes");
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(5));
+  EXPECT_THAT(d.message, HasSubstr("more than 1000000 YAML nodes"));
+}
+
+/// Submodels s1 ... s`levels`, each with `fan` instances of the one before; the model holds one s`levels`.
+std::string NestedSubmodels(int levels, int fan) {
+  std::string y = "model: m\nsubmodels:\n  s0:\n    ports: [j]\n    elements:\n      j: {type: \"1\"}\n      m: {type: I, inertia: 1.0}\n    bonds: [j -> m]\n";
+  for (int i = 1; i <= levels; ++i) {
+    y += "  s" + std::to_string(i) + ":\n    ports: [j]\n    elements:\n      j: {type: \"1\"}\n";
+    for (int k = 0; k < fan; ++k) y += "      c" + std::to_string(k) + ": {type: s" + std::to_string(i - 1) + "}\n";
+    y += "    bonds: [";
+    for (int k = 0; k < fan; ++k) y += (k ? ", j -> c" : "j -> c") + std::to_string(k) + ".j";
+    y += "]\n";
+  }
+  return y + "elements:\n  f: {type: Se, effort: 1.0}\n  top: {type: s" + std::to_string(levels) + "}\nbonds:\n  - f -> top.j\n";
+}
+
+TEST(ModelLoaderHostile, ExponentialSubmodelsAreRefusedBeforeExpanding) {
+  const auto start = std::chrono::steady_clock::now();
+  const Diagnostic d = WithCode(NestedSubmodels(30, 10), "limit.instances");  // 10^30 instances
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(1));
+  const std::string yaml = NestedSubmodels(30, 10);
+  // At the model's 'elements' (its first entry, the line after the key).
+  EXPECT_EQ(d.where.line, std::count(yaml.begin(), yaml.begin() + static_cast<long>(yaml.find("\nelements:")), '\n') + 3);
+  EXPECT_THAT(d.message, HasSubstr("limit 'instances' exceeded: more than 100000 submodel instances, nested ones included"));
+  EXPECT_THAT(d.hint, HasSubstr("--limit instances=N (now 100000)"));
+  // Counted exactly: 3 levels of 4 give 4 + 16 + 64 = 84 instances and the top one: 85.
+  InputLimits limits;
+  limits.instances = 84;
+  EXPECT_THAT(WithCode(NestedSubmodels(3, 4), "limit.instances", limits).message, HasSubstr("85 submodel instances"));
+  limits.instances = 85;
+  EXPECT_NO_THROW((void)LoadModelString(NestedSubmodels(3, 4), "m.yaml", limits));
+}
+
+TEST(ModelLoaderHostile, SubmodelDepthAndGraphSizeAreBounded) {
+  InputLimits limits;
+  limits.depth = 5;  // the YAML of NestedSubmodels nests 5 deep
+  EXPECT_THAT(WithCode(NestedSubmodels(6, 1), "limit.depth", limits).message,
+              HasSubstr("limit 'depth' exceeded: 7 submodels nested in submodels (at most 5)"));
+  EXPECT_NO_THROW((void)LoadModelString(NestedSubmodels(4, 1), "m.yaml", limits));
+  limits = {};
+  limits.elements = 10;
+  EXPECT_THAT(WithCode(NestedSubmodels(2, 2), "limit.elements", limits).message,  // f + (j + 2 (j + 2 (j, m))) = 12
+              HasSubstr("limit 'elements' exceeded: 12 elements once the submodels are expanded (at most 10)"));
+  limits = {};
+  limits.bonds = 3;
+  EXPECT_THAT(WithCode(kMsd, "limit.bonds", limits).message, HasSubstr("limit 'bonds' exceeded: 4 bonds in the expanded bond graph (at most 3)"));
+  limits = {};
+  limits.elements = 4;
+  EXPECT_EQ(WithCode(kMsd, "limit.elements", limits).where.line, 4);  // the first element
+}
+
+TEST(ModelLoaderHostile, NamesFollowTheIdentifierGrammarWithLocations) {
+  struct Case {
+    std::string yaml;
+    int line, column;
+  };
+  const std::string se = "  f: {type: Se, effort: 1.0}\n";
+  for (const Case& c : {
+           Case{"elements:\n" + se + "  spring.q: {type: C, stiffness: 1}\nbonds: [f -> spring.q]\n", 3, 3},
+           Case{"elements:\n" + se + "  \"a->b\": {type: C, stiffness: 1}\nbonds: []\n", 3, 3},
+           Case{"elements:\n" + se + "  m: {type: I, inertia: 1}\nbonds:\n  - {from: f, to: m, name: m.p}\n", 5, 28},
+           Case{"elements:\n" + se + "  m: {type: I, inertia: 1}\nbonds: [f -> m]\noutputs:\n  - {name: f.e, variable: m.p}\n", 6, 12},
+           Case{"elements:\n" + se + "  j: {type: \"1\"}\nbonds: [f -> j]\nstates:\n  x.y: {kind: integral, of: j}\n", 6, 3},
+           Case{"submodels:\n  a.b: {elements: {m: {type: I, inertia: 1}}}\nelements:\n" + se + "bonds: []\n", 2, 3},
+           Case{"submodels:\n  s: {parameters: {k.1: 1}, elements: {m: {type: I, inertia: 1}}}\nelements:\n" + se + "bonds: []\n", 2, 20},
+           Case{"bodies:\n  G.x: {mass: 1}\n", 2, 3},
+           Case{"model: \"m x\"\nelements:\n" + se + "bonds: []\n", 1, 8},
+       }) {
+    const Diagnostic d = WithCode(c.yaml, "name.invalid");
+    EXPECT_EQ(d.where.line, c.line) << c.yaml;
+    EXPECT_EQ(d.where.column, c.column) << c.yaml;
+    EXPECT_THAT(d.hint, HasSubstr("a name is a letter or '_', then letters, digits and '_'")) << c.yaml;
+  }
+  EXPECT_THAT(WithCode("elements:\n" + se + "  spring.q: {type: C, stiffness: 1}\nbonds: []\n", "name.invalid").message,
+              HasSubstr("an element's name holds '.' (it separates the parts of result column names, as in spring.q)"));
+  EXPECT_THAT(WithCode("elements:\n" + se + "  spring.q: {type: C, stiffness: 1}\nbonds: []\n", "name.invalid").hint, HasSubstr("'spring_q'"));
+  EXPECT_EQ(WithCode("elements:\n" + se + "  x: {type: C, stiffness: 1, components: [\"a`id`\"]}\nbonds: []\n", "name.invalid").where.line, 3);
+}
+
+const char* kIntegral = R"(model: m
+domain: rotation
+elements:
+  f: {type: Se, effort: 1.0}
+  j: {type: "1"}
+  J: {type: I, inertia: 1.0}
+bonds: [f -> j, j -> J]
+states:
+  angle: {kind: integral, of: j, unit: UNIT}
+)";
+
+std::string WithUnit(const std::string& unit) {
+  std::string y = kIntegral;
+  return y.replace(y.find("UNIT"), 4, unit);
+}
+
+TEST(ModelLoaderHostile, UnitsFollowTheUnitGrammar) {
+  for (const char* unit : {"rad", "\"N m\"", "rad/s", "\"kg m^2\"", "\"-\"", "\"m s^-2\""}) {
+    const LoadedModel lm = LoadModelString(WithUnit(unit), "m.yaml");
+    EXPECT_EQ(lm.graph.aux_states().at(0).unit, YAML::Load(unit).as<std::string>()) << unit;
+  }
+  for (const char* unit : {"\"m`touch /tmp/pwned`\"", "\"m\\\"\\nsystem(\\\"id\\\")\\n#\"", "furlong", "\"<b>\""}) {
+    const Diagnostic d = WithCode(WithUnit(unit), "unit.invalid");
+    EXPECT_EQ(d.where.ToString(), "m.yaml:9:40") << unit;
+    EXPECT_THAT(d.message, HasSubstr("the unit '")) << unit;
+    EXPECT_THAT(d.message, ::testing::Not(HasSubstr("\n"))) << unit;
+    EXPECT_THAT(d.hint, HasSubstr("kg m^2, rad/s")) << unit;
+  }
+}
+
+TEST(ModelLoaderHostile, BytesThatAreNotUtf8AreALocatedError) {
+  std::string yaml = kMsd;
+  yaml.replace(yaml.find("mass:"), 4, "m\xe4ss");
+  const Diagnostic d = WithCode(yaml, "text.encoding");
+  EXPECT_EQ(d.where.ToString(), "m.yaml:5:4");
+  EXPECT_THAT(d.message, HasSubstr("byte 0xe4 is not part of valid UTF-8"));
+  EXPECT_EQ(WithCode(std::string(kMsd) + "# \xff\n", "text.encoding").where.line, 14);
+  EXPECT_EQ(WithCode(std::string(kMsd) + "description: \"a\x1b[2J\"\n", "text.encoding").where.line, 14);
+  EXPECT_NO_THROW((void)LoadModelString(std::string(kMsd) + "description: \"caf\xc3\xa9 \xe2\x86\x92 ok\"\n"));
+}
+
+TEST(ModelLoaderHostile, SubnormalNumbersAreRefusedWhereverANumberIsRead) {
+  for (const char* tail : {"simulation: {dt: 4.9e-324}\n", "simulation: {t_end: 1e-310}\n", "simulation: {rtol: 1e-320, atol: 1e-9}\n"}) {
+    const auto ds = Errors(std::string(kMsd) + tail);
+    ASSERT_EQ(ds.size(), 1u) << tail;  // said once, not again as "must be > 0"
+    EXPECT_EQ(ds[0].where.line, 14) << tail;
+    EXPECT_THAT(ds[0].message, HasSubstr("is too small to compute with (a subnormal number")) << tail;
+  }
+  std::string yaml = kMsd;
+  yaml.replace(yaml.find("100.0"), 5, "1e-315");
+  EXPECT_THAT(Errors(yaml)[0].message, HasSubstr("'1e-315' is too small"));
+  EXPECT_EQ(Errors(yaml)[0].where.line, 6);
+}
+
+std::string GearPair(const std::string& teeth_a) {
+  return R"(model: gears
+bodies:
+  A: {mass: 1.0, inertia: [1.0, 1.0, 1.0]}
+  B: {mass: 1.0, inertia: [1.0, 1.0, 1.0], position: [0.1, 0, 0]}
+joints:
+  a_bearing: {type: revolute, child: A, axis: z, rigid: true}
+  b_bearing: {type: revolute, child: B, axis: z, rigid: true}
+gears:
+  mesh: {a: {body: A, axis: z, teeth: )" + teeth_a + R"(}, b: {body: B, axis: -z, teeth: 24}, K: 1.0e6, R: 10}
+drives:
+  motor: {type: torque, body: A, axis: z, value: 1.0}
+)";
+}
+
+TEST(ModelLoaderHostile, ToothCountsAreWholeNumbersOfASaneSize) {
+  EXPECT_NO_THROW((void)LoadModelString(GearPair("12")));
+  for (const char* teeth : {"12.5", "0.5", "1e300", "100001"}) {
+    const auto ds = Errors(GearPair(teeth));
+    ASSERT_EQ(ds.size(), 1u) << teeth;
+    EXPECT_EQ(ds[0].code, "param.range") << teeth;
+    EXPECT_EQ(ds[0].where.line, 9) << teeth;
+    EXPECT_THAT(ds[0].message, HasSubstr("teeth: a tooth count is a whole number from 1 to 100000")) << teeth;
+  }
+  EXPECT_THAT(Errors(GearPair("4.9e-324"))[0].message, HasSubstr("too small to compute with"));
 }
 
 }  // namespace

@@ -57,4 +57,16 @@ std::string EscapeInvalidUtf8(std::string_view text) {
   return out;
 }
 
+TextProblem FindTextProblem(std::string_view text) {
+  for (std::size_t i = 0; i < text.size();) {
+    const unsigned char b = static_cast<unsigned char>(text[i]);
+    if ((b < 0x20 && b != '\t' && b != '\n' && b != '\r') || b == 0x7f)
+      return {i, fmt::format("control character 0x{:02x} (YAML allows only tab, line feed and carriage return)", b)};
+    const std::size_t n = SequenceAt(text, i);
+    if (n == 0) return {i, fmt::format("byte 0x{:02x} is not part of valid UTF-8", b)};
+    i += n;
+  }
+  return {};
+}
+
 }  // namespace multibond

@@ -1,12 +1,19 @@
 #include "multibond/io/model_loader.h"
 
+#include "multibond/core/identifier.h"
 #include "multibond/core/structure.h"
+#include "multibond/core/units.h"
+#include "multibond/core/utf8.h"
+#include "multibond/io/yaml_bounds.h"
 #include "multibond/mech/mechanism.h"
 #include "multibond/sim/simulator.h"
 
 #include <algorithm>
+#include <cfloat>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -14,6 +21,10 @@
 #include <map>
 #include <set>
 #include <sstream>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
@@ -24,6 +35,24 @@ namespace {
 
 using Env = std::map<std::string, double>;  // submodel parameters in scope
 
+Diagnostic FileSizeError(const std::string& file, std::uint64_t size, const InputLimits& limits) {
+  Diagnostic d;
+  d.where = {file, 1, 1};
+  d.code = "limit.file-size";
+  d.message = fmt::format("limit 'file-size' exceeded: the model is {} bytes long (at most {})", size, limits.file_bytes);
+  d.hint = RaiseLimitHint("file-size", limits.file_bytes);
+  return d;
+}
+
+[[noreturn]] void ThrowIo(const std::string& path, const std::string& code, const std::string& message, const std::string& hint) {
+  Diagnostic d;
+  d.where.file = path;
+  d.code = code;  // "io.*": the CLI exits 74 for it, as for any file it cannot read
+  d.message = message;
+  d.hint = hint;
+  throw ModelError(d);
+}
+
 const std::vector<std::string> kTopKeys = {"model", "description", "domain", "elements", "bonds", "states", "outputs",
                                            "simulation", "submodels", "gravity", "bodies", "joints", "gears", "drives", "points",
                                            "constraints", "rigid", "algebraic_loops"};
@@ -31,12 +60,21 @@ const std::vector<std::string> kCommonKeys = {"type", "dim", "domain", "componen
 
 class Loader {
  public:
-  Loader(std::string file, std::string text) : file_(std::move(file)), text_(std::move(text)) {}
+  Loader(std::string file, std::string text, const InputLimits& limits) : file_(std::move(file)), text_(std::move(text)), limits_(limits) {}
 
   LoadedModel Load() {
     LoadedModel out{BondGraph("model"), {}, {}, file_, text_, {}, nullptr};
+    if (text_.size() > limits_.file_bytes) throw ModelError(FileSizeError(file_, text_.size(), limits_));
+    // Names, values and comments reach results, run.json and messages: the text must be UTF-8.
+    if (const TextProblem t = FindTextProblem(text_); t.found()) {
+      sink_.Error("text.encoding", Location(t.offset), "", fmt::format("the model file is not UTF-8 text: {}", t.what),
+                  "save the file as UTF-8 (names are ASCII identifiers; other text may use any Unicode character)");
+      sink_.ThrowIfErrors();
+    }
     YAML::Node root;
     try {
+      // Bounded before yaml-cpp builds a tree: node count (aliases expanded), depth, self-aliases.
+      if (!CheckYamlBounds(text_, file_, limits_, sink_)) sink_.ThrowIfErrors();
       // A second document (after '---') would be ignored by YAML::Load: a model file holds one.
       const std::vector<YAML::Node> documents = YAML::LoadAll(text_);
       if (documents.size() > 1) {
@@ -89,7 +127,11 @@ class Loader {
       sink_.Error({file_, 1, 1}, "", "the model has no 'bonds' section", "list the bonds under 'bonds:', e.g. '- force -> mass'");
     for (const char* key : {"joints", "gears", "drives", "points", "gravity"})
       if (root[key] && !mechanism) sink_.Error(Loc(root[key]), key, fmt::format("'{}' needs a 'bodies' section", key), "declare the bodies first");
+    // Submodel instances, their depth and the elements and bonds they expand to are counted
+    // before anything is expanded: an exponential nest is refused in microseconds.
+    if (!CheckExpansion(root)) sink_.ThrowIfErrors();
     ReadScope(root, "", Env{}, 0);
+    CheckGraphSize(root);
     WarnIfSomeCompliancesAreIgnored();
     if (root["outputs"]) ReadOutputs(root["outputs"]);
     if (root["simulation"]) ReadSimulation(root["simulation"], out.simulation, mechanism);
@@ -110,15 +152,11 @@ class Loader {
   }
 
  private:
-  /// Names become column headers, file names of figures and comments in generated code: a name
-  /// must not be empty nor hold a control character (a line break), a quote or a backslash.
-  /// Reports the problem at `where` and returns false.
+  /// Names become column headers, file names of figures and comments in generated code: every
+  /// name follows the identifier grammar (core/identifier.h, docs/model-format.md "Names and
+  /// units"). Reports the problem at `where` and returns false.
   /// `names_columns`: the name heads result columns (all but the model's), so 'time' and 'energy' are taken.
   bool CheckName(const std::string& name, const SourceLocation& where, const char* what, bool names_columns = true) {
-    std::string bad;
-    for (const char ch : name)
-      if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) bad = "a control character (a line break, a tab)";
-      else if (ch == '"' || ch == '\\') bad = fmt::format("'{}'", ch);
     if (names_columns && (name == "time" || name == "energy")) {
       // The results' own columns: time, and the energy account energy.work, energy.stored, ...
       sink_.Error("name.invalid", where, name, fmt::format("{} name '{}' is reserved for the results' {} column{}", what, name, name,
@@ -126,13 +164,24 @@ class Loader {
                   "choose another name");
       return false;
     }
-    if (!name.empty() && bad.empty()) return true;
-    std::string shown;
-    for (const char ch : name) shown += static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f ? '?' : ch;
-    sink_.Error("name.invalid", where, shown,
-                name.empty() ? fmt::format("{} name is empty", what) : fmt::format("{} name holds {}", what, bad),
-                "use letters, digits, '_' and '.'");
+    const std::string problem = IdentifierProblem(name);
+    if (problem.empty()) return true;
+    const std::string better = SuggestIdentifier(name);
+    sink_.Error("name.invalid", where, PrintableExcerpt(name), fmt::format("{} name {}", what, problem),
+                fmt::format("a name is a letter or '_', then letters, digits and '_' (at most {} characters){}", kMaxNameLength,
+                            better.empty() || better == name ? "" : fmt::format(": e.g. '{}'", better)));
     return false;
+  }
+
+  /// Component names head columns too ("<name>.<component>"): identifiers, a leading digit allowed.
+  std::vector<std::string> Components(const YAML::Node& n, const std::string& element) {
+    std::vector<std::string> out = Words(n, element, "components");
+    if (!n.IsSequence()) return out;
+    for (size_t i = 0; i < out.size() && i < n.size(); ++i)
+      if (const std::string problem = IdentifierProblem(out[i], true); !problem.empty())
+        sink_.Error("name.invalid", Loc(n[i]), element, fmt::format("component name '{}' {}", PrintableExcerpt(out[i]), problem),
+                    "a component name is letters, digits and '_', e.g. x, y, z or 1, 2, 3");
+    return out;
   }
 
   /// Redundant reactions are shared by compliances only when every constraint has one
@@ -158,6 +207,71 @@ class Loader {
     d.hint = fmt::format("give '{}' (and every other constraint) a compliance (a rigid joint or mesh: its K), or remove them all",
                          without->name);
     sink_.Add(d);
+  }
+
+  /// What a scope expands to: submodel instances (nested ones included), the depth of their
+  /// nesting, elements and bonds. Saturates at kCountCap.
+  struct Expansion {
+    std::uint64_t instances = 0, depth = 0, elements = 0, bonds = 0;
+  };
+  static constexpr std::uint64_t kCountCap = std::uint64_t{1} << 62;
+  static std::uint64_t Add(std::uint64_t a, std::uint64_t b) { return std::min(kCountCap, a + std::min(b, kCountCap)); }
+
+  Expansion Expand(const YAML::Node& scope, std::map<std::string, Expansion>& memo, std::set<std::string>& visiting) {
+    Expansion x;
+    const YAML::Node elements = scope["elements"];
+    if (elements.IsMap())
+      for (const auto& kv : elements) {
+        const YAML::Node type = kv.second.IsMap() ? kv.second["type"] : YAML::Node();
+        const auto def = type && type.IsScalar() ? submodels_.find(type.Scalar()) : submodels_.end();
+        if (def == submodels_.end()) {
+          x.elements = Add(x.elements, 1);
+          continue;
+        }
+        if (visiting.count(def->first)) continue;  // a submodel that contains itself: said by Instantiate
+        if (!memo.count(def->first)) {
+          visiting.insert(def->first);
+          memo[def->first] = Expand(def->second.node, memo, visiting);
+          visiting.erase(def->first);
+        }
+        const Expansion& inner = memo[def->first];
+        x.instances = Add(x.instances, Add(inner.instances, 1));
+        x.depth = std::max(x.depth, Add(inner.depth, 1));
+        x.elements = Add(x.elements, inner.elements);
+        x.bonds = Add(x.bonds, inner.bonds);
+      }
+    if (scope["bonds"].IsSequence()) x.bonds = Add(x.bonds, scope["bonds"].size());
+    return x;
+  }
+
+  /// The limit `name` (InputLimits) exceeded by `found` (kCountCap: "more than `limit`").
+  void LimitError(const char* name, const SourceLocation& where, std::uint64_t found, std::uint64_t limit, const std::string& what) {
+    const std::string count = found >= kCountCap ? fmt::format("more than {}", limit) : fmt::format("{}", found);
+    sink_.Error(fmt::format("limit.{}", name), where, "", fmt::format("limit '{}' exceeded: {} {} (at most {})", name, count, what, limit),
+                RaiseLimitHint(name, limit));
+  }
+
+  /// Counts what the model's submodels expand to, before any is expanded. False if a limit is exceeded.
+  bool CheckExpansion(const YAML::Node& root) {
+    if (submodels_.empty()) return true;
+    std::map<std::string, Expansion> memo;
+    std::set<std::string> visiting;
+    const Expansion x = Expand(root, memo, visiting);
+    const SourceLocation where = root["elements"] ? Loc(root["elements"]) : SourceLocation{file_, 1, 1};
+    bool ok = true;
+    if (x.instances > limits_.instances) ok = false, LimitError("instances", where, x.instances, limits_.instances, "submodel instances, nested ones included");
+    if (x.depth > limits_.depth) ok = false, LimitError("depth", where, x.depth, limits_.depth, "submodels nested in submodels");
+    if (x.elements > limits_.elements) ok = false, LimitError("elements", where, x.elements, limits_.elements, "elements once the submodels are expanded");
+    if (x.bonds > limits_.bonds) ok = false, LimitError("bonds", where, x.bonds, limits_.bonds, "bonds once the submodels are expanded");
+    return ok;
+  }
+
+  /// The expanded graph (mechanism parts included) within the element and bond limits.
+  void CheckGraphSize(const YAML::Node& root) {
+    const SourceLocation where = root["bodies"] ? Loc(root["bodies"]) : root["elements"] ? Loc(root["elements"]) : SourceLocation{file_, 1, 1};
+    const auto elements = static_cast<std::uint64_t>(graph_.num_elements()), bonds = static_cast<std::uint64_t>(graph_.num_bonds());
+    if (elements > limits_.elements) LimitError("elements", where, elements, limits_.elements, "elements in the expanded bond graph");
+    if (bonds > limits_.bonds) LimitError("bonds", where, bonds, limits_.bonds, "bonds in the expanded bond graph");
   }
 
   struct SubmodelDef {
@@ -205,11 +319,7 @@ class Loader {
       else if ((c == '{' || c == '[') && OpensFlow(i)) open.push_back({c, i});
       else if ((c == '}' || c == ']') && !open.empty()) open.pop_back();
     }
-    auto location = [&](size_t pos) {
-      const size_t line_start = pos == 0 ? 0 : text_.rfind('\n', pos - 1) + 1;
-      const int line = static_cast<int>(std::count(text_.begin(), text_.begin() + static_cast<long>(pos), '\n')) + 1;
-      return SourceLocation{file_, line, static_cast<int>(pos - line_start) + 1};
-    };
+    auto location = [&](size_t pos) { return Location(pos); };
     const char here = at < text_.size() ? text_[at] : '\0';
     if (!open.empty() && (here == '}' || here == ']') && here != (open.back().c == '{' ? '}' : ']')) {
       d.details.push_back(fmt::format("the '{}' opened at {} is closed here by '{}'", open.back().c, location(open.back().pos).ToString(), here));
@@ -245,6 +355,14 @@ class Loader {
       }
     }
     return d;
+  }
+
+  /// file:line:column of the byte at `pos` of the text (the column counts bytes).
+  SourceLocation Location(size_t pos) const {
+    pos = std::min(pos, text_.size());
+    const size_t line_start = pos == 0 ? 0 : text_.rfind('\n', pos - 1) + 1;
+    const int line = static_cast<int>(std::count(text_.begin(), text_.begin() + static_cast<long>(pos), '\n')) + 1;
+    return SourceLocation{file_, line, static_cast<int>(pos - line_start) + 1};
   }
 
   /// A '{' or '[' at text_[i] starts a flow collection when it starts a value: after ':', ',',
@@ -374,6 +492,11 @@ class Loader {
     const double v = std::strtod(begin, &end);
     if (s.empty() || end != begin + s.size()) return fail(fmt::format("expected a number, got '{}'", s), "write a plain number such as 1.5 or 2e-3");
     if (!std::isfinite(v)) return fail(fmt::format("'{}' is not a finite number", s), "NaN and infinities are not allowed in a model");
+    // A subnormal number (0 < |v| < 2.2e-308) is no physical quantity: its inverse is infinite,
+    // and arithmetic on it loses its digits.
+    if (v != 0.0 && std::abs(v) < DBL_MIN)
+      return fail(fmt::format("'{}' is too small to compute with (a subnormal number, below {:g} in magnitude)", s, DBL_MIN),
+                  "write 0, or a value of a sensible size in SI units");
     return v;
   }
 
@@ -581,7 +704,8 @@ class Loader {
         if (!def["parameters"].IsMap())
           sink_.Error(Loc(def["parameters"]), name, "'parameters' maps each name to its default value", "write e.g. parameters: {m: 1.0}");
         else
-          for (const auto& p : def["parameters"]) sd.defaults[p.first.Scalar()] = Number(p.second, name, Env{});
+          for (const auto& p : def["parameters"])
+            if (CheckName(p.first.Scalar(), Loc(p.first), "a parameter's", false)) sd.defaults[p.first.Scalar()] = Number(p.second, name, Env{});
       }
       if (def["ports"])
         for (const auto& p : Words(def["ports"], name, "ports")) sd.ports.insert(p);
@@ -603,10 +727,7 @@ class Loader {
 
   /// Reads the elements, bonds and states of a model or of a submodel instance under `prefix`.
   void ReadScope(const YAML::Node& scope, const std::string& prefix, const Env& env, int depth) {
-    if (depth > 16) {
-      sink_.Error(Loc(scope), prefix, "submodels nested more than 16 deep (a submodel that contains itself?)");
-      return;
-    }
+    if (static_cast<std::uint64_t>(depth) > limits_.depth) return;  // said by CheckExpansion before expanding
     const YAML::Node elements = scope["elements"];
     if (elements && !elements.IsMap()) {
       sink_.Error(Loc(elements), "elements", "'elements' must be a mapping of names to element specifications",
@@ -629,11 +750,6 @@ class Loader {
         // An element refused here has had its error: the bonds that name it do not add another.
         const std::string qualified = Qualify(prefix, local);
         if (!CheckName(local, Loc(kv.first), "an element's")) {
-          refused_elements_.insert(qualified);
-          continue;
-        }
-        if (local.find_first_of(" \t>") != std::string::npos || local.find("->") != std::string::npos) {
-          sink_.Error(Loc(kv.first), local, "element names may not contain spaces or '->'", "use letters, digits, '_' and '.'");
           refused_elements_.insert(qualified);
           continue;
         }
@@ -771,7 +887,7 @@ class Loader {
     }
     if (spec["domain"]) e.domain = Domain(spec["domain"], name);
     if (spec["components"])
-      e.components = Words(spec["components"], name, "components");
+      e.components = Components(spec["components"], name);
     if (graph_.Find(name) >= 0 || graph_.FindAux(name) >= 0) {
       sink_.Error(where, name, "duplicate name", "give every element and state a unique name");
       return;
@@ -797,6 +913,7 @@ class Loader {
   void InstantiateBody(const std::string& name, const std::string& type, const YAML::Node& spec, const SourceLocation& where,
                        const Env& outer, int depth) {
     const SubmodelDef& def = submodels_.at(type);
+    if (++instances_ > limits_.instances) return;  // said by CheckExpansion before expanding
     Env env = def.defaults;
     std::vector<std::string> keys = {"type", "description"};
     for (const auto& [p, v] : def.defaults) keys.push_back(p);
@@ -955,8 +1072,17 @@ class Loader {
         }
       }
       if (s["components"])
-        a.components = Words(s["components"], name, "components");
-      if (s["unit"]) a.unit = s["unit"].Scalar();
+        a.components = Components(s["components"], name);
+      if (s["unit"]) {
+        // A unit labels columns and reaches gnuplot scripts and HTML: only the unit grammar passes.
+        a.unit = Str(s["unit"], name);
+        if (const std::string problem = UnitProblem(a.unit); !problem.empty()) {
+          sink_.Error("unit.invalid", Loc(s["unit"]), name, fmt::format("the unit '{}' is refused: {}", PrintableExcerpt(a.unit), problem),
+                      "write SI symbols with an optional prefix, separated by spaces or '*', one '/', whole exponents: "
+                      "e.g. m, rad, N m, kg m^2, rad/s, m s^-2; '-' for none");
+          a.unit.clear();
+        }
+      }
       if (graph_.Find(name) >= 0 || graph_.FindAux(name) >= 0) {
         sink_.Error(a.where, name, "duplicate name", "give every element and state a unique name");
         continue;
@@ -1002,7 +1128,9 @@ class Loader {
     const Env none;
     auto positive = [&](const char* key, std::optional<double>& out) {
       if (!n[key]) return;
-      const double v = Number(n[key], "simulation", none);
+      bool ok = true;
+      const double v = Number(n[key], "simulation", none, &ok);
+      if (!ok) return;  // said by Number
       if (!(v > 0)) sink_.Error(Loc(n[key]), "simulation", fmt::format("{} must be > 0 (got {:g})", key, v));
       out = v;
     };
@@ -1435,7 +1563,7 @@ class Loader {
           else sink_.Error(Loc(s), name, fmt::format("gear '{}' needs a 'body'", key));
           if (s["axis"]) *axis = Axis(s["axis"], name);
           else sink_.Error(Loc(s), name, fmt::format("gear '{}' needs an 'axis' (in the carrier's frame)", key));
-          if (s["teeth"]) *teeth = Number(s["teeth"], name, Env{});
+          if (s["teeth"]) *teeth = Number(s["teeth"], name, Env{});  // a whole number in range: mech::Mechanism
           else sink_.Error(Loc(s), name, fmt::format("gear '{}' needs 'teeth'", key));
         };
         side("a", &gm.body_a, &gm.axis_a, &gm.teeth_a);
@@ -1520,6 +1648,8 @@ class Loader {
   }
 
   std::string file_, text_;
+  const InputLimits& limits_;
+  std::uint64_t instances_ = 0;  ///< submodel instances expanded so far
   std::shared_ptr<const mech::Mechanism> mechanism_;
   BondGraph graph_;
   DiagnosticSink sink_;
@@ -1592,9 +1722,9 @@ void ExplainInMechanismTerms(const mech::Mechanism& m, std::vector<Diagnostic>& 
   }
 }
 
-LoadedModel LoadModelString(const std::string& yaml, const std::string& file) {
+LoadedModel LoadModelString(const std::string& yaml, const std::string& file, const InputLimits& limits) {
   try {
-    return Loader(file, yaml).Load();
+    return Loader(file, yaml, limits).Load();
   } catch (const YAML::Exception& e) {
     // A node of a shape the loader did not expect somewhere it did not check: still a model
     // error, with the place yaml-cpp knows.
@@ -1607,20 +1737,34 @@ LoadedModel LoadModelString(const std::string& yaml, const std::string& file) {
   }
 }
 
-LoadedModel LoadModelFile(const std::string& path) {
-  std::error_code ec;
-  std::ifstream in(path, std::ios::binary);
-  if (!in || std::filesystem::is_directory(path, ec)) {
-    Diagnostic d;
-    d.where.file = path;
-    d.message = std::filesystem::is_directory(path, ec) ? "cannot read the model file: it is a directory" : "cannot open the model file";
-    d.hint = "check the path and the file's permissions";
-    d.code = "io.unreadable";  // the CLI exits 74 for it, as for any file it cannot read
-    throw ModelError(d);
+LoadedModel LoadModelFile(const std::string& path, const InputLimits& limits) {
+  // O_NONBLOCK: opening a FIFO does not wait for a writer; it is refused below like a device.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0)
+    ThrowIo(path, "io.unreadable", fmt::format("cannot open the model file: {}", std::strerror(errno)), "check the path and the file's permissions");
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0)
+    ThrowIo(path, "io.unreadable", fmt::format("cannot read the model file: {}", std::strerror(errno)), "check the path and the file's permissions");
+  if (!S_ISREG(st.st_mode)) {
+    const char* kind = S_ISDIR(st.st_mode) ? "a directory" : S_ISFIFO(st.st_mode) ? "a FIFO (named pipe)" : S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) ? "a device" : S_ISSOCK(st.st_mode) ? "a socket" : "not a regular file";
+    ThrowIo(path, "io.not_regular", fmt::format("cannot read the model file: it is {}", kind), "give the path of a model file (.yaml)");
   }
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return LoadModelString(ss.str(), path);
+  if (static_cast<std::uint64_t>(st.st_size) > limits.file_bytes) throw ModelError(FileSizeError(path, static_cast<std::uint64_t>(st.st_size), limits));
+  // The file may grow while it is read: no more than the limit and one byte is read.
+  std::string text;
+  char buffer[1 << 16];
+  while (text.size() <= limits.file_bytes) {
+    const ssize_t n = ::read(fd, buffer, std::min<std::uint64_t>(sizeof buffer, limits.file_bytes + 1 - text.size()));
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) ThrowIo(path, "io.unreadable", fmt::format("cannot read the model file: {}", std::strerror(errno)), "check the file");
+    if (n == 0) break;
+    text.append(buffer, static_cast<size_t>(n));
+  }
+  return LoadModelString(text, path, limits);
 }
 
 }  // namespace multibond

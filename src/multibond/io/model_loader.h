@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/io/limits.h"
 #include "multibond/mech/mechanism.h"
 #include "multibond/solve/integrator.h"
 
@@ -37,8 +38,13 @@ struct LoadedModel {
 /// wrote bodies and joints reads the problem in those terms.
 void ExplainInMechanismTerms(const mech::Mechanism& m, std::vector<Diagnostic>& diagnostics);
 
-LoadedModel LoadModelFile(const std::string& path);
-LoadedModel LoadModelString(const std::string& yaml, const std::string& file = "<string>");
+/// Reads a model file. It must be a regular file (a directory, device or FIFO is refused with a
+/// diagnostic whose code starts with "io.", as is a file that cannot be opened); at most
+/// limits.file_bytes are read. Every bound of `limits` exceeded is a located diagnostic with the
+/// code "limit.<name>" (see InputLimits), bytes that are not UTF-8 one with "text.encoding".
+LoadedModel LoadModelFile(const std::string& path, const InputLimits& limits = {});
+/// The same for a model's text; `file` names it in diagnostics.
+LoadedModel LoadModelString(const std::string& yaml, const std::string& file = "<string>", const InputLimits& limits = {});
 
 /// The closest of `candidates` to `word` (edit distance <= 2 or a prefix), or "".
 std::string DidYouMean(const std::string& word, const std::vector<std::string>& candidates);

@@ -1,5 +1,6 @@
 #include "multibond/mech/mechanism.h"
 
+#include <cmath>
 #include <map>
 #include <set>
 #include <tuple>
@@ -12,6 +13,9 @@
 namespace multibond::mech {
 
 namespace {
+
+/// The most teeth a gear may have (a sane bound: real gears have a few to a few thousand).
+constexpr double kMaxTeeth = 100000;
 
 const std::vector<std::string> kXyz = {"x", "y", "z"};
 
@@ -131,7 +135,13 @@ class Expander {
       body_ref(gm.carrier, gm.where, gm.name, true, true);
       body_ref(gm.body_a, gm.where, gm.name, false, true);
       body_ref(gm.body_b, gm.where, gm.name, false, true);
-      if (!(gm.teeth_a > 0) || !(gm.teeth_b > 0)) sink_.Error("param.range", gm.where, gm.name, "teeth counts must be > 0");
+      // A tooth count is a whole number of a size gears have: a denormal or fractional count makes
+      // a ratio of no meaning (and 1e-310 an infinite one).
+      for (const auto& [side, teeth] : {std::pair{"a", gm.teeth_a}, std::pair{"b", gm.teeth_b}})
+        if (!(teeth >= 1 && teeth <= kMaxTeeth && teeth == std::floor(teeth)))
+          sink_.Error("param.range", gm.where, gm.name,
+                      fmt::format("gear '{}' has {:g} teeth: a tooth count is a whole number from 1 to {:g}", side, teeth, kMaxTeeth),
+                      "write the number of teeth of the gear, e.g. teeth: 24");
       if (!gm.rigid && !(gm.stiffness > 0))
         sink_.Error("param.range", gm.where, gm.name, fmt::format("mesh stiffness must be > 0 (got {:g})", gm.stiffness),
                     "give the mesh a stiffness, or make it an ideal constraint with 'rigid: true'");
