@@ -1,0 +1,44 @@
+#pragma once
+// The run options shared by `run` and `compare`, resolved in one place with one set of defaults:
+// the command line over the model file's `simulation:` section over the built-in defaults.
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "cli.h"
+#include "multibond/sim/simulator.h"
+
+namespace multibond::cli {
+
+struct RunArgs {
+  LoadArgs load;
+  std::optional<double> t_end, dt, rtol, atol, step, max_step;
+  std::optional<std::string> solver, coordinates;
+  bool all_variables = false, no_projection = false;
+  std::string jit = "auto";
+  std::string jacobian = "auto";
+};
+
+void AddRunOptions(CLI::App* cmd, RunArgs& a);
+
+/// A model loaded and compiled, with its run options resolved.
+struct PreparedRun {
+  LoadedModel lm;
+  std::shared_ptr<const CompiledModel> model;
+  RunOptions options;
+  std::string solver;
+  std::string coordinates;  ///< "joint" or "inertial"
+};
+
+/// Throws ModelError (bad model, bad output), CliExit 64 (unknown solver, options the run would
+/// refuse) or 74 (--jit on without a working compiler).
+PreparedRun PrepareRun(const std::string& path, const RunArgs& a);
+
+/// What to try after a failed run, from what failed and with which settings.
+std::string FailureHint(const RunOptions& o, const std::string& message);
+
+/// "solver bdf, rtol 1e-08, atol 1e-10, ...": the settings a run used, for reports.
+std::string RunSettings(const PreparedRun& p);
+
+}  // namespace multibond::cli

@@ -1,0 +1,166 @@
+// The hostile corpus: inputs an attacker or a hurried user could give multibond. Every file in
+// tests/models/hostile/ opens with header lines that say what the command line must do:
+//   # hostile: what the file attacks
+//   # args: run {model} -o {out} -q --jit off   (optional; this is the default; {model} is the
+//           file, {out} a fresh folder that does not exist yet, {dir} its parent)
+//   # exit: the expected exit code
+//   # expect: a text the output must hold (repeatable)
+//   # absent: a text the output must not hold (repeatable)
+// Whatever the case, the command must not crash (no signal), hang (60 s), end in an uncaught
+// exception, or, when it fails, leave results.csv or run.json behind. Inputs that cannot be kept
+// as files (devices, 50 MB) are made by the tests at the end.
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "support/cli_runner.h"
+#include "support/temp_dir.h"
+
+namespace multibond {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using ::testing::Not;
+using testing::CliResult;
+using testing::RunCli;
+using testing::TempDir;
+
+constexpr const char* kCorpus = MULTIBOND_SOURCE_DIR "/tests/models/hostile";
+
+struct Case {
+  std::string hostile, args = "run {model} -o {out} -q --jit off";
+  int exit = -1;
+  std::vector<std::string> expect, absent;
+};
+
+std::string Trim(const std::string& s) {
+  const auto a = s.find_first_not_of(" \t\r"), z = s.find_last_not_of(" \t\r");
+  return a == std::string::npos ? std::string() : s.substr(a, z - a + 1);
+}
+
+Case ReadCase(const fs::path& file) {
+  Case c;
+  std::ifstream in(file, std::ios::binary);
+  std::string line;
+  while (std::getline(in, line) && line.rfind('#', 0) == 0) {
+    const std::string body = Trim(line.substr(1));
+    const auto colon = body.find(':');
+    if (colon == std::string::npos) continue;
+    const std::string key = body.substr(0, colon), value = Trim(body.substr(colon + 1));
+    if (key == "hostile") c.hostile = value;
+    else if (key == "args") c.args = value;
+    else if (key == "exit") c.exit = std::stoi(value);
+    else if (key == "expect") c.expect.push_back(value);
+    else if (key == "absent") c.absent.push_back(value);
+  }
+  return c;
+}
+
+std::vector<fs::path> CorpusFiles() {
+  std::vector<fs::path> files;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(kCorpus, ec))
+    if (entry.is_regular_file()) files.push_back(entry.path());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+std::string Replace(std::string s, const std::string& from, const std::string& to) {
+  for (size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size())) s.replace(at, from.size(), to);
+  return s;
+}
+
+/// What every hostile input must not do, whatever the command answers.
+void ExpectContained(const CliResult& r, const fs::path& out) {
+  EXPECT_FALSE(r.timed_out) << "hung: killed after 60 s\n" << r.out;
+  EXPECT_EQ(r.signal, 0) << "ended by signal " << r.signal << "\n" << r.out;
+  EXPECT_THAT(r.out, Not(HasSubstr("terminate called")));
+  EXPECT_THAT(r.out, Not(HasSubstr("what():")));
+  EXPECT_THAT(r.out, Not(HasSubstr("AddressSanitizer")));
+  EXPECT_THAT(r.out, Not(HasSubstr("runtime error:")));  // UBSan
+  if (r.code != 0) {
+    EXPECT_FALSE(fs::exists(out / "results.csv")) << "a failed command left results.csv\n" << r.out;
+    EXPECT_FALSE(fs::exists(out / "run.json")) << "a failed command left run.json\n" << r.out;
+  }
+}
+
+TEST(HostileCorpus, HasCases) { EXPECT_GE(CorpusFiles().size(), 10u) << kCorpus; }
+
+class Hostile : public ::testing::TestWithParam<fs::path> {};
+
+TEST_P(Hostile, IsAnsweredAsTheHeaderSays) {
+  const fs::path& file = GetParam();
+  const Case c = ReadCase(file);
+  ASSERT_FALSE(c.hostile.empty()) << file << " has no '# hostile:' line";
+  ASSERT_GE(c.exit, 0) << file << " has no '# exit:' line";
+  TempDir tmp("multibond-hostile");
+  const fs::path out = tmp.path() / "out";
+  std::vector<std::string> args;
+  std::istringstream words(c.args);
+  for (std::string w; words >> w;)
+    args.push_back(Replace(Replace(Replace(w, "{model}", file.string()), "{out}", out.string()), "{dir}", tmp.path().string()));
+  const CliResult r = RunCli(args);
+  SCOPED_TRACE(c.hostile);
+  ExpectContained(r, out);
+  EXPECT_EQ(r.code, c.exit) << r.out;
+  for (const std::string& e : c.expect) EXPECT_THAT(r.out, HasSubstr(e));
+  for (const std::string& a : c.absent) EXPECT_THAT(r.out, Not(HasSubstr(a)));
+}
+
+INSTANTIATE_TEST_SUITE_P(Corpus, Hostile, ::testing::ValuesIn(CorpusFiles()), [](const auto& info) {
+  std::string name = info.param.stem().string();
+  for (char& ch : name)
+    if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+  return name;
+});
+
+// Models that are not files a person wrote: devices, pipes, folders, and a file of 50 MB.
+
+CliResult RunModel(const std::string& model, const fs::path& out) { return RunCli({"run", model, "-o", out.string(), "-q", "--jit", "off"}, 60); }
+
+TEST(HostileInput, DevicesAndFoldersAreNotModelFiles) {
+  TempDir tmp("multibond-hostile");
+  const fs::path fifo = tmp.path() / "model.fifo";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  for (const std::string& model : std::vector<std::string>{"/dev/zero", "/dev/urandom", fifo.string(), tmp.path().string()}) {
+    SCOPED_TRACE(model);
+    const fs::path out = tmp.path() / "out";
+    const CliResult r = RunModel(model, out);
+    ExpectContained(r, out);
+    EXPECT_EQ(r.code, 74) << r.out;
+    EXPECT_THAT(r.out, HasSubstr("not a regular file"));
+    EXPECT_FALSE(fs::exists(out));
+  }
+}
+
+TEST(HostileInput, AFileLargerThanTheLimitIsRefusedBeforeItIsRead) {
+  TempDir tmp("multibond-hostile");
+  const fs::path big = tmp.path() / "big.yaml";
+  {
+    std::ofstream f(big, std::ios::binary);
+    const std::string line = "# " + std::string(1022, 'x') + "\n";
+    for (int i = 0; i < 50 * 1024; ++i) f << line;  // 50 MiB
+  }
+  const fs::path out = tmp.path() / "out";
+  CliResult r = RunModel(big.string(), out);
+  ExpectContained(r, out);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("--limit file-size="));
+  // The limit can be lowered too: a small model over a small limit is refused the same way.
+  r = RunCli({"check", MULTIBOND_SOURCE_DIR "/examples/mass_spring_damper.yaml", "--limit", "file-size=100"});
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("--limit file-size="));
+}
+
+}  // namespace
+}  // namespace multibond
