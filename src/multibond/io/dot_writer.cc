@@ -1,6 +1,7 @@
 #include "multibond/io/dot_writer.h"
 
 #include "multibond/core/process.h"
+#include "multibond/io/safe_text.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -25,36 +26,10 @@ namespace multibond {
 
 namespace {
 
-/// Contents of a double-quoted DOT string: quotes and backslashes escaped, newlines as \n.
-std::string Quote(const std::string& s) {
-  std::string out = "\"";
-  for (char ch : s) {
-    if (ch == '"' || ch == '\\') out += '\\';
-    if (ch == '\n') {
-      out += "\\n";
-      continue;
-    }
-    if (ch == '\r') continue;
-    out += ch;
-  }
-  return out + "\"";
-}
-
-/// Text inside an HTML-like label.
-std::string HtmlEscape(const std::string& s) {
-  std::string out;
-  for (char ch : s) {
-    switch (ch) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\n': out += "<BR/>"; break;
-      default: out += ch;
-    }
-  }
-  return out;
-}
+/// Every name and text from the graph goes into the DOT file through these (safe_text.h): a name
+/// cannot end its string, add attributes or break the file.
+std::string Quote(const std::string& s) { return DotString(s); }
+std::string HtmlEscape(const std::string& s) { return DotHtmlText(s); }
 
 /// A DOT identifier: bare when it can be, quoted otherwise.
 std::string Id(const std::string& s) {
