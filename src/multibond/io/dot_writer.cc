@@ -228,14 +228,18 @@ bool RenderWithGraphviz(const std::string& dot_path, const std::string& out_path
   });
   if (!format_ok) return fail(fmt::format("invalid Graphviz output format '{}' (expected e.g. svg or png)", format));
 
-  // dot's messages go to a temporary file, quoted on failure.
-  const std::string log = (std::filesystem::temp_directory_path() / fmt::format("multibond-dot-{}.log", getpid())).string();
+  // dot's messages go to a temporary file of our own (a unique name, created by mkstemp: not a
+  // link someone planted), quoted on failure.
+  std::string log = (std::filesystem::temp_directory_path() / "multibond-dot-XXXXXX").string();
+  const int log_fd = mkstemp(log.data());
+  if (log_fd < 0) return fail(fmt::format("cannot create a temporary file for dot's messages: {}", std::strerror(errno)));
+  close(log_fd);
   const std::string failure = RunProcess({"dot", "-T" + format, "-o", SafeArg(out_path), SafeArg(dot_path)}, "", log);
   std::remove(log.c_str());
   if (!failure.empty()) {
     if (failure.find("not installed") != std::string::npos)
       return fail("cannot run 'dot': Graphviz is not installed (or not on PATH)");
-    return fail(fmt::format("'dot -T{}' failed on '{}': {}", format, dot_path, failure));
+    return fail(fmt::format("'dot -T{}' failed on '{}': {}", format, MessageText(dot_path), MessageText(failure)));
   }
   return true;
 }
