@@ -291,6 +291,63 @@ TEST(DotWriterTest, EscapesNames) {
   EXPECT_NE(svg.find("back\\slash"), std::string::npos);
 }
 
+TEST(DotWriterTest, HostileNamesStayInsideTheirStrings) {
+  // Names as a hand-made graph (or a loader that lets them through) may hold them: control
+  // characters, bytes that are not UTF-8, quotes and brackets that would end a string or a node
+  // statement and add attributes (image= makes dot read a file), HTML that would end a label.
+  const std::vector<std::string> names = {
+      "ctl\x01\x1b[2J\x7f",
+      "bad\xff\xfe\xc3",
+      "q\"]; e9 [image=\"/etc/passwd\"]; x [label=\"",
+      "j<b>&amp;</b></FONT>]>, image=\"/etc/passwd\" x=<",
+      "back\\\"slash\\",
+      "line\nbreak\r",
+  };
+  BondGraph g(names[2]);
+  g.AddSe(names[0], Value(1.0));
+  g.AddJunction(names[3], ElementKind::kOne);
+  g.AddI(names[1], Param::Scalar(1.0));
+  g.AddC(names[4], Param::Scalar(1.0));
+  g.AddR(names[5], Param::Scalar(1.0));
+  g.AddI("grp." + names[2], Param::Scalar(1.0));
+  g.AddI("grp." + names[0], Param::Scalar(1.0));
+  g.Connect(names[0], names[3], 0, names[2]);
+  for (int e = 2; e <= 6; ++e) g.Connect(names[3], g.element(e).name, 0, names[e % names.size()]);
+  const Analysed a = Analyse(g);
+  const std::string dot = MakeDot(g, &a.structure, &a.causality);
+
+  // Valid UTF-8, no control character but the line breaks between statements.
+  for (size_t i = 0; i < dot.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(dot[i]);
+    ASSERT_FALSE((c < 0x20 && c != '\n') || c == 0x7f) << "control character " << int(c) << " at " << i << "\n" << dot;
+    if (c >= 0x80) {
+      const int n = (c & 0xe0) == 0xc0 ? 1 : (c & 0xf0) == 0xe0 ? 2 : (c & 0xf8) == 0xf0 ? 3 : -1;
+      ASSERT_GT(n, 0) << "not UTF-8 at " << i << "\n" << dot;
+      for (int k = 1; k <= n; ++k)
+        ASSERT_EQ(static_cast<unsigned char>(dot[i + k]) & 0xc0, 0x80) << "not UTF-8 at " << i << "\n" << dot;
+      i += n;
+    }
+  }
+  // One statement per element and per bond, each with the attributes we write and no other.
+  std::istringstream in(dot);
+  int nodes = 0, edges = 0;
+  static const std::regex quoted(R"re("(\\.|[^"\\])*")re");
+  static const std::regex html(R"re(<[^<>]*<BR/><FONT POINT-SIZE="8">[^<>]*</FONT>>)re");
+  for (std::string line; std::getline(in, line);) {
+    const std::string bare = std::regex_replace(std::regex_replace(line, html, "H"), quoted, "Q");
+    EXPECT_EQ(bare.find("image"), std::string::npos) << line;
+    if (std::regex_match(bare, std::regex(R"(\s*e\d+ \[label=[QH], (fontcolor=red, color=red, )?tooltip=Q\];)"))) ++nodes;
+    if (std::regex_match(bare, std::regex(R"(\s*e\d+ -> e\d+ \[[a-z=, ]*(, label=Q)?, tooltip=Q\];)"))) ++edges;
+  }
+  EXPECT_EQ(nodes, g.num_elements()) << dot;
+  EXPECT_EQ(edges, g.num_bonds()) << dot;
+  TempDir dir;
+  const std::string svg = RenderSvg(dot, dir);
+  EXPECT_NE(svg.find("</svg>"), std::string::npos);
+  EXPECT_EQ(svg.find('\x01'), std::string::npos);
+  EXPECT_EQ(svg.find("/etc/passwd\"/>"), std::string::npos);
+}
+
 TEST(DotWriterTest, Deterministic) {
   const BondGraph g = RigidGear();
   const Analysed a = Analyse(g);

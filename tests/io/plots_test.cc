@@ -4,8 +4,13 @@
 // saw it, against the CSV), and the page shows every figure and renders in a headless Chromium.
 #include "support/temp_dir.h"
 #include "multibond/io/plots.h"
+#include "multibond/io/results_writer.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <sys/resource.h>
 
 #include <unistd.h>
 
@@ -28,6 +33,7 @@ namespace multibond {
 namespace {
 
 namespace fs = std::filesystem;
+using ::testing::HasSubstr;
 
 /// The names the issue fixes (figure number, link, quantity).
 const std::vector<std::string> kContractNames = {
@@ -78,14 +84,15 @@ class SyntheticRun {
     Add("energy.residual", "-", [](double t) { return 1e-9 * std::sin(t); });
   }
 
-  /// Writes results.csv and run.json into `dir`; `skip` leaves a column out.
+  /// Writes results.csv and run.json into `dir`; `skip` leaves a column out. Header cells are
+  /// CSV-quoted when they need it, as CsvWriter writes them.
   void Write(const fs::path& dir, const std::string& skip = "") const {
     std::ofstream csv(dir / "results.csv");
     std::string header;
     for (size_t c = 0; c < names_.size(); ++c)
       if (names_[c] != skip) {
         if (!header.empty()) header += ',';
-        header += fmt::format("{} [{}]", names_[c], units_[c]);
+        header += CsvCell(fmt::format("{} [{}]", names_[c], units_[c]));
       }
     csv << header << "\n";
     for (int r = 0; r < kRows; ++r) {
@@ -101,6 +108,19 @@ class SyntheticRun {
       "status": "ok", "samples": 401, "options": {"solver": "bdf", "rtol": 1e-8, "atol": 1e-10, "dt": 0.005},
       "energy": {"work": 1.0, "stored": 0.5, "dissipated": 0.5, "residual": 1e-9, "max_abs_residual": 2e-9},
       "solver_stats": {"steps": 10, "rhs_evals": 20, "jac_evals": 1}, "wall_seconds": 0.1, "multibond_version": "test"})";
+  }
+
+  /// Gives column `name` another unit (text of a hand-crafted results.csv).
+  void SetUnit(const std::string& name, const std::string& unit) {
+    for (size_t c = 0; c < names_.size(); ++c)
+      if (names_[c] == name) units_[c] = unit;
+  }
+
+  /// Sets column `name` to `v` from row `from` on.
+  void SetValues(const std::string& name, double v, int from = 0) {
+    for (size_t c = 0; c < names_.size(); ++c)
+      if (names_[c] == name)
+        for (int r = from; r < kRows; ++r) cols_[c][r] = v;
   }
 
   const std::vector<double>& Col(const std::string& name) const {
@@ -386,6 +406,253 @@ TEST(PlotsTest, PageShowsEveryFigureAndRendersInChromium) {
   };
   EXPECT_EQ(be32(16), 1280u);
   EXPECT_EQ(be32(20), 2000u);
+}
+
+// ---------------------------------------------------------------------------------------------
+// A results folder may come from anyone: its text never runs anything, plot reads only the
+// folder's own regular files and writes only inside it, and malformed data is a clear error.
+
+/// True when `s` is valid UTF-8 without control characters other than line breaks and tabs.
+bool CleanText(const std::string& s) {
+  size_t i = 0;
+  while (i < s.size()) {
+    const unsigned char c = static_cast<unsigned char>(s[i]);
+    if (c < 0x80) {
+      if ((c < 0x20 && c != '\n' && c != '\t') || c == 0x7f) return false;
+      ++i;
+      continue;
+    }
+    const int n = (c & 0xe0) == 0xc0 ? 1 : (c & 0xf0) == 0xe0 ? 2 : (c & 0xf8) == 0xf0 ? 3 : -1;
+    if (n < 0) return false;
+    for (int k = 1; k <= n; ++k)
+      if (i + k >= s.size() || (static_cast<unsigned char>(s[i + k]) & 0xc0) != 0x80) return false;
+    i += n + 1;
+  }
+  return true;
+}
+
+/// The message of the std::runtime_error that `f` throws ("" if it throws none).
+template <class F>
+std::string RuntimeErrorOf(F&& f) {
+  try {
+    f();
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+PlotOptions NoBondGraph() {
+  PlotOptions o;
+  o.bond_graph = false;
+  return o;
+}
+
+TEST(PlotsHostileTest, HeaderTextRunsNoCommandInGnuplot) {
+  TempDir dir;
+  SyntheticRun run;
+  // Each unit tries another way out of a gnuplot string or comment; each would create a file
+  // PWNED-<tag> in the folder (an absolute path: gnuplot may run elsewhere).
+  const std::string marker = (dir.path() / "PWNED").string();
+  auto touch = [&](const char* tag) { return fmt::format("touch {}-{}", marker, tag); };
+  run.SetUnit("time", fmt::format("s`{}`\xff\xfe", touch("backquote")));
+  run.SetUnit("G.h.x", fmt::format("N m s\nsystem \"{}\"\n!{}\n#", touch("newline-system"), touch("newline-bang")));
+  run.SetUnit("G.h.y", fmt::format("@macro `{}` '); system('{}'); x=('", touch("quoted-backquote"), touch("single-quote")));
+  run.SetUnit("drive.torque", fmt::format("N m\"; system \"{}\"; \"\\", touch("double-quote")));
+  run.SetUnit("P1.r.x", fmt::format("m\\\n!{}", touch("continuation")));
+  run.SetUnit("G.R.11", fmt::format("-\r!{}\x01\x1b[2J", touch("carriage-return")));
+  run.Write(dir.path());
+
+  const PlotReport report = MakePaperFigures(dir.path().string(), NoBondGraph());
+  WriteResultsPage(dir.path().string(), report);
+  for (const auto& entry : fs::directory_iterator(dir.path()))
+    EXPECT_NE(entry.path().filename().string().rfind("PWNED", 0), 0u) << "a header's text ran a command: " << entry.path();
+  // The figures with those columns are drawn all the same.
+  for (const char* name : {"fig03-G-orientation", "fig05-G-momentum", "fig06-G-torque", "fig21-P1-com"})
+    EXPECT_TRUE(Exists(dir.path() / "figures" / (std::string(name) + ".png"))) << name;
+  // Every script is clean text; no file text leaves its line or reaches a backquote.
+  for (const auto& entry : fs::directory_iterator(dir.path() / "plots")) {
+    if (entry.path().extension() != ".gp") continue;
+    const std::string gp = ReadFile(entry.path());
+    EXPECT_TRUE(CleanText(gp)) << entry.path();
+    EXPECT_EQ(gp.find('`'), std::string::npos) << entry.path();
+    std::istringstream in(gp);
+    for (std::string line; std::getline(in, line);) {
+      const size_t first = line.find_first_not_of(' ');
+      if (first == std::string::npos) continue;
+      EXPECT_NE(line[first], '!') << entry.path() << ": " << line;
+      EXPECT_NE(line.compare(first, 6, "system"), 0) << entry.path() << ": " << line;
+    }
+  }
+  for (const std::string& w : report.warnings) EXPECT_TRUE(CleanText(w)) << w;
+  EXPECT_TRUE(CleanText(ReadFile(dir.path() / "index.html")));
+}
+
+TEST(PlotsHostileTest, RunJsonIsARecordNotAnInstruction) {
+  TempDir outer;
+  const fs::path dir = outer.path() / "results";
+  fs::create_directories(dir);
+  // run.json names a file outside the folder whose text the loader would quote.
+  const fs::path secret = outer.path() / "secret.yaml";
+  std::ofstream(secret) << "SECRET-KEY-42: value\n";
+  SyntheticRun().Write(dir);
+  nlohmann::json run = nlohmann::json::parse(ReadFile(dir / "run.json"));
+  run["model"]["file"] = secret.string();
+  run["model"]["name"] = "</script><script>alert(1)</script>";
+  run["status"] = "\"><img src=x onerror=alert(2)>";
+  run["options"]["solver"] = "a & b 'c' `touch x`";
+  std::ofstream(dir / "run.json") << run.dump();
+
+  PlotOptions o;  // no --model: run.json's model.file is not followed
+  const PlotReport report = MakePaperFigures(dir.string(), o);
+  WriteResultsPage(dir.string(), report);
+  const std::string html = ReadFile(dir / "index.html");
+  EXPECT_EQ(html.find("SECRET-KEY-42"), std::string::npos) << "a file named in run.json reached the page";
+  for (const std::string& w : report.warnings) EXPECT_EQ(w.find("SECRET-KEY-42"), std::string::npos) << w;
+  EXPECT_FALSE(Exists(dir / "figures" / "fig02-bond-graph.png"));
+  bool said = false;
+  for (const std::string& w : report.warnings) said = said || (w.find("run.json") != std::string::npos && w.find("--model") != std::string::npos);
+  EXPECT_TRUE(said) << "no warning says that run.json's model is not opened and how to give one";
+  // run.json's text is on the page, escaped.
+  EXPECT_EQ(html.find("<script"), std::string::npos);
+  EXPECT_EQ(html.find("<img src=x"), std::string::npos);
+  EXPECT_NE(html.find("&lt;/script&gt;&lt;script&gt;alert(1)&lt;/script&gt;"), std::string::npos);
+  EXPECT_NE(html.find("&quot;&gt;&lt;img src=x onerror=alert(2)&gt;"), std::string::npos);
+  EXPECT_NE(html.find("a &amp; b &#39;c&#39;"), std::string::npos);
+}
+
+TEST(PlotsHostileTest, ReadsOnlyRegularFilesOfTheFolder) {
+  TempDir outer;
+  const fs::path dir = outer.path() / "results", elsewhere = outer.path() / "elsewhere";
+  fs::create_directories(dir);
+  fs::create_directories(elsewhere);
+  SyntheticRun().Write(elsewhere);
+  // results.csv a link out of the folder.
+  fs::create_symlink(elsewhere / "results.csv", dir / "results.csv");
+  EXPECT_THAT(RuntimeErrorOf([&] { MakePaperFigures(dir.string(), NoBondGraph()); }), HasSubstr("symbolic link"));
+  EXPECT_THAT(RuntimeErrorOf([&] { WriteResultsPage(dir.string()); }), HasSubstr("symbolic link"));
+  EXPECT_FALSE(fs::exists(dir / "index.html"));
+  // run.json a link out of the folder.
+  fs::remove(dir / "results.csv");
+  SyntheticRun().Write(dir);
+  fs::remove(dir / "run.json");
+  fs::create_symlink(elsewhere / "run.json", dir / "run.json");
+  EXPECT_THAT(RuntimeErrorOf([&] { WriteResultsPage(dir.string()); }), HasSubstr("symbolic link"));
+  // Not a regular file.
+  fs::remove(dir / "run.json");
+  fs::create_directories(dir / "run.json");
+  EXPECT_THAT(RuntimeErrorOf([&] { WriteResultsPage(dir.string()); }), HasSubstr("not a regular file"));
+}
+
+TEST(PlotsHostileTest, WritesNothingThroughPlantedLinks) {
+  TempDir outer;
+  const fs::path dir = outer.path() / "results", elsewhere = outer.path() / "elsewhere";
+  fs::create_directories(dir);
+  fs::create_directories(elsewhere);
+  SyntheticRun().Write(dir);
+  const fs::path victim = elsewhere / "victim.txt";
+  std::ofstream(victim) << "precious";
+
+  // figures/ itself a link out of the folder: refused, nothing written there.
+  fs::create_directory_symlink(elsewhere, dir / "figures");
+  EXPECT_THAT(RuntimeErrorOf([&] { MakePaperFigures(dir.string(), NoBondGraph()); }), HasSubstr("symbolic link"));
+  EXPECT_EQ(std::distance(fs::directory_iterator(elsewhere), fs::directory_iterator()), 1);
+  fs::remove(dir / "figures");
+
+  // Links in figures/ and plots/ where outputs go: replaced, never written through.
+  fs::create_directories(dir / "figures");
+  fs::create_directories(dir / "plots");
+  const std::vector<fs::path> planted = {dir / "figures" / "fig05-G-momentum.png", dir / "figures" / "fig05-G-momentum.svg",
+                                         dir / "plots" / "fig05-G-momentum.ranges", dir / "plots" / "fig05-G-momentum.gp",
+                                         dir / "plots" / "fig05-G-momentum.log"};
+  for (const fs::path& p : planted) fs::create_symlink(victim, p);
+  const PlotReport report = MakePaperFigures(dir.string(), NoBondGraph());
+  WriteResultsPage(dir.string(), report);
+  EXPECT_EQ(ReadFile(victim), "precious");
+  for (const fs::path& p : planted) {
+    if (p.extension() == ".log") continue;  // written only when gnuplot complains
+    EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(p))) << p;
+  }
+  EXPECT_EQ(ReadRanges(dir, "fig05-G-momentum").count("a"), 1u);
+  // No temporaries are left in the folder.
+  for (const auto& entry : fs::directory_iterator(dir))
+    EXPECT_TRUE(entry.path().filename() == "results.csv" || entry.path().filename() == "run.json" ||
+                entry.path().filename() == "figures" || entry.path().filename() == "plots" || entry.path().filename() == "index.html")
+        << entry.path();
+}
+
+TEST(PlotsHostileTest, MalformedResultsAreClearErrors) {
+  TempDir dir;
+  const fs::path csv = dir.path() / "results.csv";
+  auto plot_error = [&] { return RuntimeErrorOf([&] { MakePaperFigures(dir.path().string(), NoBondGraph()); }); };
+  auto page_error = [&] { return RuntimeErrorOf([&] { WriteResultsPage(dir.path().string()); }); };
+
+  std::ofstream(csv, std::ios::trunc).flush();  // 0 bytes
+  EXPECT_THAT(plot_error(), HasSubstr("empty"));
+  EXPECT_THAT(page_error(), HasSubstr("empty"));
+
+  {  // binary junk
+    std::ofstream out(csv, std::ios::binary | std::ios::trunc);
+    unsigned state = 12345;
+    for (int i = 0; i < 200000; ++i) {
+      state = state * 1103515245u + 12345u;
+      out.put(static_cast<char>(state >> 16));
+    }
+  }
+  EXPECT_FALSE(plot_error().empty());
+  EXPECT_FALSE(page_error().empty());
+
+  // Text where a number belongs: the line and the column.
+  std::ofstream(csv, std::ios::trunc) << "time [s],x [m]\n0,1\n0.1,abc\n";
+  EXPECT_THAT(plot_error(), HasSubstr("results.csv:3"));
+  EXPECT_THAT(plot_error(), HasSubstr("not a number: 'abc' in column 2 ('x')"));
+  // A row with too few values.
+  std::ofstream(csv, std::ios::trunc) << "time [s],x [m]\n0,1\n0.1\n";
+  EXPECT_THAT(plot_error(), HasSubstr("results.csv:3: 1 values for 2 columns"));
+  // nan and inf are numbers: the figures are drawn or left out, nothing crashes.
+  SyntheticRun nan_run;
+  nan_run.SetValues("G.h.x", NAN);
+  nan_run.SetValues("time", INFINITY, SyntheticRun::kRows - 1);
+  nan_run.Write(dir.path());
+  EXPECT_NO_THROW({
+    try {
+      WriteResultsPage(dir.path().string(), MakePaperFigures(dir.path().string(), NoBondGraph()));
+    } catch (const std::runtime_error&) {
+    }
+  });
+}
+
+/// Runs MakePaperFigures on `dir` with 1.5 GB of address space (not under AddressSanitizer, which
+/// reserves more) and exits 0 when it throws std::runtime_error saying `want`; 2 on another exception.
+[[noreturn]] void ReadInLittleMemory(const fs::path& dir, const std::string& want) {
+#if !defined(__SANITIZE_ADDRESS__)
+  const rlimit limit{1536ull << 20, 1536ull << 20};
+  setrlimit(RLIMIT_AS, &limit);
+#endif
+  int code = 1;
+  try {
+    PlotOptions o;
+    o.bond_graph = false;
+    MakePaperFigures(dir.string(), o);
+  } catch (const std::runtime_error& e) {
+    code = std::string(e.what()).find(want) != std::string::npos ? 0 : 3;
+  } catch (...) {
+    code = 2;
+  }
+  std::_Exit(code);
+}
+
+TEST(PlotsHostileTest, AMillionColumnsWithShortRowsStayInBoundedMemory) {
+  TempDir dir;
+  {
+    std::ofstream out(dir.path() / "results.csv", std::ios::binary);
+    out << "time [s]";
+    for (int c = 1; c < 1000000; ++c) out << ",c" << c << " [m]";
+    out << '\n';
+    for (int r = 0; r < 2000; ++r) out << r << '\n';  // one value per row
+  }
+  // In a child with 1.5 GB of address space: a reader that pads short rows needs 16 GB.
+  EXPECT_EXIT(ReadInLittleMemory(dir.path(), "1 values for 1000000 columns"), ::testing::ExitedWithCode(0), "");
 }
 
 }  // namespace

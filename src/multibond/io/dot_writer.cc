@@ -1,6 +1,7 @@
 #include "multibond/io/dot_writer.h"
 
 #include "multibond/core/process.h"
+#include "multibond/io/safe_text.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -25,36 +26,10 @@ namespace multibond {
 
 namespace {
 
-/// Contents of a double-quoted DOT string: quotes and backslashes escaped, newlines as \n.
-std::string Quote(const std::string& s) {
-  std::string out = "\"";
-  for (char ch : s) {
-    if (ch == '"' || ch == '\\') out += '\\';
-    if (ch == '\n') {
-      out += "\\n";
-      continue;
-    }
-    if (ch == '\r') continue;
-    out += ch;
-  }
-  return out + "\"";
-}
-
-/// Text inside an HTML-like label.
-std::string HtmlEscape(const std::string& s) {
-  std::string out;
-  for (char ch : s) {
-    switch (ch) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\n': out += "<BR/>"; break;
-      default: out += ch;
-    }
-  }
-  return out;
-}
+/// Every name and text from the graph goes into the DOT file through these (safe_text.h): a name
+/// cannot end its string, add attributes or break the file.
+std::string Quote(const std::string& s) { return DotString(s); }
+std::string HtmlEscape(const std::string& s) { return DotHtmlText(s); }
 
 /// A DOT identifier: bare when it can be, quoted otherwise.
 std::string Id(const std::string& s) {
@@ -253,14 +228,18 @@ bool RenderWithGraphviz(const std::string& dot_path, const std::string& out_path
   });
   if (!format_ok) return fail(fmt::format("invalid Graphviz output format '{}' (expected e.g. svg or png)", format));
 
-  // dot's messages go to a temporary file, quoted on failure.
-  const std::string log = (std::filesystem::temp_directory_path() / fmt::format("multibond-dot-{}.log", getpid())).string();
+  // dot's messages go to a temporary file of our own (a unique name, created by mkstemp: not a
+  // link someone planted), quoted on failure.
+  std::string log = (std::filesystem::temp_directory_path() / "multibond-dot-XXXXXX").string();
+  const int log_fd = mkstemp(log.data());
+  if (log_fd < 0) return fail(fmt::format("cannot create a temporary file for dot's messages: {}", std::strerror(errno)));
+  close(log_fd);
   const std::string failure = RunProcess({"dot", "-T" + format, "-o", SafeArg(out_path), SafeArg(dot_path)}, "", log);
   std::remove(log.c_str());
   if (!failure.empty()) {
     if (failure.find("not installed") != std::string::npos)
       return fail("cannot run 'dot': Graphviz is not installed (or not on PATH)");
-    return fail(fmt::format("'dot -T{}' failed on '{}': {}", format, dot_path, failure));
+    return fail(fmt::format("'dot -T{}' failed on '{}': {}", format, MessageText(dot_path), MessageText(failure)));
   }
   return true;
 }

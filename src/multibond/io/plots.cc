@@ -1,7 +1,9 @@
 #include "multibond/io/plots.h"
 
 #include "multibond/core/process.h"
+#include "multibond/io/results_folder.h"
 #include "multibond/io/results_reader.h"
+#include "multibond/io/safe_text.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -43,6 +45,10 @@ namespace fs = std::filesystem;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
+/// The longest results.csv header plot reads, and the largest run.json.
+constexpr std::uint64_t kMaxHeaderBytes = 256ull << 20;
+constexpr std::uint64_t kMaxRunJsonBytes = 4ull << 20;
+
 // The scenario of shared/spec/differential.md: drive speed and tooth ratios, for the analytic
 // steady values the page compares with.
 constexpr double kDriveSpeed = 50.0;         // rad/s about x, on G
@@ -59,28 +65,22 @@ constexpr std::array<const char*, 3> kAxes = {"x", "y", "z"};
 /// results.csv in memory, column by column.
 class Table {
  public:
-  static Table Load(const fs::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw std::runtime_error(fmt::format("cannot read '{}' (run 'multibond run MODEL -o DIR' first)", path.string()));
-    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  /// Reads the folder's results.csv (a regular file, not a link, of at most `max_bytes`): the
+  /// header's names and units, then every row, each with exactly one number per column. Memory:
+  /// 8 bytes a value, so at most about 4 times the file's size (one-character values), plus about
+  /// 150 bytes a column. Throws std::runtime_error with the file, line and what is wrong.
+  /// `st` gets the file's status; `keep`, when given, the open file.
+  static Table Load(const ResultsFolder& folder, std::uint64_t max_bytes, struct stat* st, Fd* keep = nullptr) {
+    const std::string path = folder.PathOf("results.csv");
+    Fd fd = folder.OpenInput("results.csv", max_bytes, "results-size", st);
+    if (fd.get() < 0) throw std::runtime_error(fmt::format("cannot read '{}': no such file (run 'multibond run MODEL -o DIR' first)", path));
+    if (st->st_size == 0) throw std::runtime_error(fmt::format("{}: empty file", path));
+    BoundedFileBuf buf(fd.get(), std::min<std::uint64_t>(max_bytes, kMaxHeaderBytes));
+    std::istream in(&buf);
     Table t;
-    size_t pos = 0;
-    auto next_line = [&](std::string_view* line) {
-      if (pos >= text.size()) return false;
-      size_t end = text.find('\n', pos);
-      if (end == std::string::npos) end = text.size();
-      *line = std::string_view(text).substr(pos, end - pos);
-      if (!line->empty() && line->back() == '\r') line->remove_suffix(1);
-      pos = end + 1;
-      return true;
-    };
-    std::string_view line;
-    if (text.empty() || text[0] == '\n') throw std::runtime_error(fmt::format("'{}' has no header line", path.string()));
-    // The header as the writer quotes it (a name may hold a comma), then the rows from where it ends.
-    std::istringstream header(text);
     int lineno = 0;
-    const std::vector<std::string> cells = ReadHeaderCells(header, path.string(), lineno);
-    pos = header.tellg() < 0 ? text.size() : static_cast<size_t>(header.tellg());
+    const std::vector<std::string> cells = ReadHeaderCells(in, path, lineno);
+    if (buf.exceeded()) throw std::runtime_error(fmt::format("{}: the header is longer than {} bytes, more than plot reads", path, kMaxHeaderBytes));
     for (const std::string& cell : cells) {
       NameAndUnit nu = SplitNameAndUnit(cell);
       t.index_.emplace(nu.name, static_cast<int>(t.names_.size()));
@@ -88,20 +88,19 @@ class Table {
       t.units_.push_back(std::move(nu.unit));
     }
     t.cols_.resize(t.names_.size());
-    while (next_line(&line)) {
-      if (line.empty()) continue;
-      std::string row(line);
-      const char* p = row.c_str();
-      for (size_t c = 0; c < t.cols_.size(); ++c) {
-        char* end = nullptr;
-        const double v = std::strtod(p, &end);
-        t.cols_[c].push_back(end == p ? kNaN : v);
-        p = end;
-        while (*p && *p != ',') ++p;
-        if (*p == ',') ++p;
-      }
+    buf.set_limit(max_bytes);
+    std::string line;
+    std::vector<double> row;
+    while (std::getline(in, line)) {
+      ++lineno;
+      if (line.empty() || line == "\r") continue;
+      ParseRow(line, t.names_, path, lineno, row);
+      for (size_t c = 0; c < row.size(); ++c) t.cols_[c].push_back(row[c]);
     }
-    if (t.rows() == 0) throw std::runtime_error(fmt::format("'{}' has no rows", path.string()));
+    if (buf.exceeded())
+      throw std::runtime_error(fmt::format("'{}' grew beyond {} bytes while it was read; {}", path, max_bytes, RaiseLimitHint("results-size", max_bytes)));
+    if (t.rows() == 0) throw std::runtime_error(fmt::format("'{}' has no rows", path));
+    if (keep) *keep = std::move(fd);
     return t;
   }
 
@@ -172,51 +171,28 @@ std::array<double, 3> Sub(const std::array<double, 3>& a, const std::array<doubl
 // Text in two markups. Captions and legends are written once, with _{sub} and ^{sup} as in
 // gnuplot's enhanced text, and turned into HTML for the page.
 
-std::string HtmlEscape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
 /// "Q_{P1}" -> "Q<sub>P1</sub>", HTML-escaped.
 std::string MarkupToHtml(const std::string& s) {
-  std::string out;
+  std::string out, plain;
   for (size_t i = 0; i < s.size(); ++i) {
     if ((s[i] == '_' || s[i] == '^') && i + 1 < s.size() && s[i + 1] == '{') {
       const size_t close = s.find('}', i + 2);
       if (close != std::string::npos) {
         const char* tag = s[i] == '_' ? "sub" : "sup";
-        out += fmt::format("<{}>{}</{}>", tag, HtmlEscape(s.substr(i + 2, close - i - 2)), tag);
+        out += HtmlEscape(plain) + fmt::format("<{}>{}</{}>", tag, HtmlEscape(s.substr(i + 2, close - i - 2)), tag);
+        plain.clear();
         i = close;
         continue;
       }
     }
-    out += HtmlEscape(std::string(1, s[i]));
+    plain += s[i];
   }
-  return out;
+  return out + HtmlEscape(plain);
 }
 
-/// A double-quoted gnuplot string (enhanced text markup kept).
-std::string GpString(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (c == '\n') {
-      out += "\\n";
-      continue;
-    }
-    out += c;
-  }
-  return out + "\"";
-}
+/// A gnuplot string (enhanced text markup kept): our own text, with file text (units) in it only
+/// through GnuplotLiteralText.
+std::string GpString(const std::string& s) { return GnuplotString(s); }
 
 /// A number for a script or a page, exactly enough.
 std::string Num(double v) { return std::isfinite(v) ? fmt::format("{:.10g}", v) : "NaN"; }
@@ -469,12 +445,12 @@ class ScriptWriter {
     s << "set datafile columnheaders\n";
     s << "# results.csv columns used (1-based), read once into the datablock $d (as text: no digit lost):\n";
     std::string using_spec = "(strcol(1))";
-    s << "#   $d column 1 = results.csv column 1: time [" << t_.Unit("time") << "]\n";
+    s << "#   $d column 1 = results.csv column 1: time [" << GnuplotComment(t_.Unit("time")) << "]\n";
     int next = 2;
     for (const std::string& col : f_.Columns()) {
       block_[col] = next;
       using_spec += fmt::format(":(strcol({}))", t_.Find(col) + 1);
-      s << fmt::format("#   $d column {} = results.csv column {}: {} [{}]\n", next, t_.Find(col) + 1, col, t_.Unit(col));
+      s << fmt::format("#   $d column {} = results.csv column {}: {} [{}]\n", next, t_.Find(col) + 1, col, GnuplotComment(t_.Unit(col)));
       ++next;
     }
     s << "set table $d separator comma\n";
@@ -537,7 +513,9 @@ class ScriptWriter {
   }
 
  private:
-  std::string Unit(const Panel& p) const { return p.unit.empty() ? t_.Unit(p.curves.front().columns.front()) : p.unit; }
+  /// A unit for a label: the panel's own, else the header's, shown as it is (not as enhanced text).
+  std::string Unit(const Panel& p) const { return p.unit.empty() ? FileUnit(p.curves.front().columns.front()) : p.unit; }
+  std::string FileUnit(const std::string& column) const { return GnuplotLiteralText(t_.Unit(column)); }
 
   /// Prints the panel's data extent (first pass only).
   static void PrintRanges(std::ostringstream& s, const std::string& id, bool z) {
@@ -562,7 +540,7 @@ class ScriptWriter {
     s << "  set lmargin 12\n  set rmargin 13\n";
     s << fmt::format("  set title {}\n", GpString(p.title + title_suffix));
     s << fmt::format("  set xrange [{}:{}]\n", Num(w.t0), Num(w.t1));
-    s << fmt::format("  set xlabel {}\n", GpString(fmt::format("time t [{}]", t_.Unit("time"))));
+    s << fmt::format("  set xlabel {}\n", GpString(fmt::format("time t [{}]", FileUnit("time"))));
     s << fmt::format("  set ylabel {}\n", GpString(fmt::format("{} [{}]", p.quantity, Unit(p))));
     s << "  set xtics autofreq\n  set ytics autofreq\n  set format y \"%h\"\n";
     const auto [lo, hi] = DataRange(t_, p.curves, w);
@@ -581,7 +559,7 @@ class ScriptWriter {
       std::string expr = fmt::format("{}", col);
       if (c.from_start || c.scale != 1.0) {
         expr = fmt::format("(${}", col);
-        if (c.from_start) expr += fmt::format(" - ({:.17g})", t_.First(c.columns.front()));
+        if (c.from_start) expr += fmt::format(" - ({})", std::isfinite(t_.First(c.columns.front())) ? fmt::format("{:.17g}", t_.First(c.columns.front())) : "NaN");
         expr += ")";
         if (c.scale != 1.0) expr = fmt::format("({}*{})", expr, Num(c.scale));
       }
@@ -625,7 +603,7 @@ class ScriptWriter {
       half = half * 1.1 + 1e-9;
       for (int i = 0; i < 3; ++i) lo[i] = mid[i] - half, hi[i] = mid[i] + half;
     }
-    const std::string unit = p.kind == PanelKind::kOrientation ? "-" : t_.Unit(p.curves.front().columns.front());
+    const std::string unit = p.kind == PanelKind::kOrientation ? "-" : FileUnit(p.curves.front().columns.front());
     s << fmt::format("  set xrange [{}:{}]\n  set yrange [{}:{}]\n  set zrange [{}:{}]\n", Num(lo[0]), Num(hi[0]), Num(lo[1]), Num(hi[1]),
                      Num(lo[2]), Num(hi[2]));
     s << fmt::format("  set xlabel {}\n  set ylabel {}\n  set zlabel {} rotate parallel\n", GpString(fmt::format("x [{}]", unit)),
@@ -670,26 +648,29 @@ pid_t Start(const std::vector<std::string>& args, const std::string& cwd, const 
 
 std::string Finish(pid_t pid, const std::string& program) { return WaitProcess(pid, program); }
 
-std::string ReadFile(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+/// The first `max` bytes of a program's log (in the work folder), made printable.
+std::string ReadLog(const std::string& path, size_t max = 600) {
+  std::ifstream in(path, std::ios::binary);
+  std::string text(max + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<size_t>(in.gcount()));
+  const bool cut = text.size() > max;
+  if (cut) text.resize(max);
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back()))) text.pop_back();
+  return MessageText(text) + (cut ? "..." : "");
 }
 
-std::string Trim(std::string s) {
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
-  return s;
-}
-
-/// The model file for Fig. 2: the option, else run.json's, if readable.
-std::string ModelFor(const fs::path& dir, const PlotOptions& o) {
-  if (!o.model_path.empty()) return o.model_path;
+/// run.json of the folder as JSON ({} when it is absent or does not parse); throws when it is a
+/// link, not a regular file or larger than kMaxRunJsonBytes.
+nlohmann::json ReadRunJson(const ResultsFolder& folder) {
+  const std::optional<std::string> text = folder.ReadText("run.json", kMaxRunJsonBytes, nullptr);
+  if (!text) return nlohmann::json::object();
   try {
-    const auto j = nlohmann::json::parse(ReadFile(dir / "run.json"));
-    const std::string file = j.at("model").at("file").get<std::string>();
-    if (fs::exists(file)) return file;
+    nlohmann::json j = nlohmann::json::parse(*text);
+    if (j.is_object()) return j;
   } catch (const std::exception&) {
   }
-  return "";
+  return nlohmann::json::object();
 }
 
 /// `key` -> `value` of every "name: {field: value}" entry of a mechanism section (e.g. each joint's
@@ -706,30 +687,33 @@ void NestFromSection(const YAML::Node& root, const char* section, const char* fi
   }
 }
 
-/// Fig. 2: the model's multibond graph with causal strokes. Returns the files written.
-std::vector<std::string> DrawBondGraph(const fs::path& dir, const std::string& model, std::vector<std::string>& warnings) {
+/// Fig. 2: the model's multibond graph with causal strokes, drawn in `work` and put into the
+/// folder's figures/ and plots/. Returns the files written.
+std::vector<std::string> DrawBondGraph(const ResultsFolder& folder, const WorkFolder& work, int figures, int plots,
+                                       const std::string& model, std::vector<std::string>& warnings) {
   const LoadedModel lm = LoadModelFile(model);
   DiagnosticSink sink;
   const Structure s = AnalyzeStructure(lm.graph, lm.compile.default_domain, sink);
   if (sink.has_errors()) {
-    warnings.push_back(fmt::format("Fig. 2 left out: the model '{}' has structural errors (see 'multibond check')", model));
+    warnings.push_back(fmt::format("Fig. 2 left out: the model '{}' has structural errors (see 'multibond check')", MessageText(model)));
     return {};
   }
   const CausalAssignment c = AssignCausality(lm.graph, s);
-  const fs::path dot = dir / "plots" / (std::string(kBondGraphName) + ".dot");
-  WriteFileAtomic(dot.string(), MakeDot(lm.graph, &s, &c, LinkGrouping(lm)));
+  const std::string dot = std::string(kBondGraphName) + ".dot";
+  work.Write("plots/" + dot, MakeDot(lm.graph, &s, &c, LinkGrouping(lm)));
   std::vector<std::string> files;
   for (const char* format : {"png", "svg"}) {
-    const fs::path out = dir / "figures" / (std::string(kBondGraphName) + "." + format);
+    const std::string out = std::string(kBondGraphName) + "." + format;
     std::string error;
-    if (RenderWithGraphviz(dot.string(), out.string(), format, &error))
-      files.push_back(out.string());
+    if (RenderWithGraphviz(work.path() + "/plots/" + dot, work.path() + "/figures/" + out, format, &error) &&
+        work.Publish("figures/" + out, figures, out))
+      files.push_back(folder.PathOf("figures/" + out));
     else
-      warnings.push_back(fmt::format("Fig. 2 ({}) left out: {}", format, error));
+      warnings.push_back(fmt::format("Fig. 2 ({}) left out: {}", format, MessageText(error)));
   }
+  work.Publish("plots/" + dot, plots, dot);
   return files;
 }
-
 
 // ---------------------------------------------------------------------------------------------
 // The page
@@ -1024,13 +1008,26 @@ constexpr std::array<Section, 8> kSections = {{
     {30, 33, "G. Link H (housing)"},
 }};
 
-/// A value of run.json as text ("" if absent).
-std::string JsonText(const nlohmann::json& j, std::initializer_list<const char*> path) {
+/// The value at `path` in run.json, or null.
+const nlohmann::json* JsonAt(const nlohmann::json& j, std::initializer_list<const char*> path) {
   const nlohmann::json* p = &j;
   for (const char* k : path) {
-    if (!p->is_object() || !p->contains(k)) return "";
+    if (!p->is_object() || !p->contains(k)) return nullptr;
     p = &(*p)[k];
   }
+  return p;
+}
+
+/// A string of run.json as it is ("" if absent or not a string).
+std::string JsonString(const nlohmann::json& j, std::initializer_list<const char*> path) {
+  const nlohmann::json* p = JsonAt(j, path);
+  return p && p->is_string() ? p->get<std::string>() : "";
+}
+
+/// A value of run.json as HTML text ("" if absent).
+std::string JsonText(const nlohmann::json& j, std::initializer_list<const char*> path) {
+  const nlohmann::json* p = JsonAt(j, path);
+  if (!p) return "";
   if (p->is_string()) return HtmlEscape(p->get<std::string>());
   if (p->is_number_integer()) return std::to_string(p->get<long long>());
   if (p->is_number()) {
@@ -1189,23 +1186,34 @@ std::vector<std::string> PaperFigureNames() {
 }
 
 PlotReport MakePaperFigures(const std::string& results_dir, const PlotOptions& options) {
-  const fs::path dir(results_dir);
-  const Table table = Table::Load(dir / "results.csv");
-  if (!table.Has("time")) throw std::runtime_error(fmt::format("'{}' has no 'time' column", (dir / "results.csv").string()));
-  fs::create_directories(dir / "figures");
-  fs::create_directories(dir / "plots");
+  const ResultsFolder folder(results_dir);
+  struct stat st {};
+  Fd csv;
+  const Table table = Table::Load(folder, options.limits.results_bytes, &st, &csv);
+  if (!table.Has("time")) throw std::runtime_error(fmt::format("'{}' has no 'time' column", folder.PathOf("results.csv")));
+  const nlohmann::json run = ReadRunJson(folder);
+  const Fd figures_dir = folder.OutputDir("figures"), plots_dir = folder.OutputDir("plots");
+  const int figures_fd = figures_dir.get(), plots_fd = plots_dir.get();
+  // gnuplot and dot write into a private folder; finished files are renamed into place.
+  const WorkFolder work(folder);
+  work.AddInput(folder, "results.csv", csv.get(), st);
   PlotReport report;
 
   if (options.bond_graph) {
-    const std::string model = ModelFor(dir, options);
-    if (model.empty()) {
-      report.warnings.push_back("Fig. 2 left out: no model file (give one with --model; run.json's is not readable from here)");
+    if (options.model_path.empty()) {
+      // run.json's model.file records the run; it is not an instruction to open a file.
+      const std::string recorded = JsonString(run, {"model", "file"});
+      report.warnings.push_back(fmt::format(
+          "Fig. 2 left out: no model file given (give it with --model FILE){}", recorded.empty() ? "" :
+          fmt::format("; run.json names '{}', which plot does not open by itself", MessageText(recorded.substr(0, 200)))));
     } else {
       try {
-        for (std::string& f : DrawBondGraph(dir, model, report.warnings)) report.files.push_back(std::move(f));
-      } catch (const ModelError& e) {
-        report.warnings.push_back(fmt::format("Fig. 2 left out: the model '{}' does not load: {}", model,
-                                              e.diagnostics().empty() ? e.what() : e.diagnostics().front().ToString()));
+        for (std::string& f : DrawBondGraph(folder, work, figures_fd, plots_fd, options.model_path, report.warnings))
+          report.files.push_back(std::move(f));
+      } catch (const ModelError&) {
+        // Not its text: the page may be shared, and the diagnostics quote the file.
+        report.warnings.push_back(fmt::format("Fig. 2 left out: the model '{}' does not load (see 'multibond check' on it)",
+                                              MessageText(options.model_path)));
       }
     }
   }
@@ -1222,64 +1230,67 @@ PlotReport MakePaperFigures(const std::string& results_dir, const PlotOptions& o
       report.warnings.push_back(fmt::format("Fig. {} ({}) left out: results.csv has no column {}", f.number, f.Name(), list));
       continue;
     }
-    WriteFileAtomic((dir / "plots" / (f.Name() + ".gp")).string(), ScriptWriter(table, f, options).Run());
+    work.Write("plots/" + f.Name() + ".gp", ScriptWriter(table, f, options).Run());
     figures.push_back(f);
   }
+  auto publish_scripts = [&] {
+    for (const FigureSpec& f : figures) work.Publish("plots/" + f.Name() + ".gp", plots_fd, f.Name() + ".gp");
+  };
 
   const int jobs = options.jobs > 0 ? options.jobs : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   std::vector<Job> running;
   std::map<std::string, std::string> failures;  // figure name -> reason
   auto reap = [&](const Job& j) {
     std::string why = Finish(j.pid, options.gnuplot);
-    const std::string log = Trim(ReadFile(j.log));
+    const std::string log = ReadLog(work.path() + "/" + j.log);
     if (!why.empty()) failures[j.name] = why + (log.empty() ? "" : ": " + log);
-    std::error_code ec;
-    if (log.empty()) fs::remove(j.log, ec);
+    // The log is kept only when gnuplot said something (an older one goes).
+    if (log.empty() || !work.Publish(j.log, plots_fd, j.name + ".log")) ::unlinkat(plots_fd, (j.name + ".log").c_str(), 0);
   };
   for (const FigureSpec& f : figures) {
     if (static_cast<int>(running.size()) >= jobs) {
       reap(running.front());
       running.erase(running.begin());
     }
-    Job j{-1, f.Name(), (dir / "plots" / (f.Name() + ".log")).string()};
+    Job j{-1, f.Name(), "plots/" + f.Name() + ".log"};
     std::string error;
-    j.pid = Start({options.gnuplot, "plots/" + f.Name() + ".gp"}, dir.string(), j.log, &error);
+    j.pid = Start({options.gnuplot, "plots/" + f.Name() + ".gp"}, work.path(), work.path() + "/" + j.log, &error);
     if (j.pid < 0) {
       for (const Job& r : running) reap(r);
+      publish_scripts();
       throw std::runtime_error(error + " (install gnuplot, e.g. the Debian package gnuplot-nox; the scripts are in " +
-                               (dir / "plots").string() + ")");
+                               folder.PathOf("plots") + ")");
     }
     running.push_back(j);
   }
   for (const Job& r : running) reap(r);
+  publish_scripts();
 
   for (const FigureSpec& f : figures) {
+    work.Publish("plots/" + f.Name() + ".ranges", plots_fd, f.Name() + ".ranges");
     if (failures.count(f.Name())) {
       report.warnings.push_back(fmt::format("Fig. {} ({}) failed: {}", f.number, f.Name(), failures[f.Name()]));
       continue;
     }
     for (const char* ext : {".png", ".svg"}) {
-      const fs::path p = dir / "figures" / (f.Name() + ext);
-      std::error_code ec;
-      if (fs::exists(p, ec) && fs::file_size(p, ec) > 0)
-        report.files.push_back(p.string());
+      const std::string name = f.Name() + ext;
+      if (IsNonEmptyRegularFile(work.fd(), "figures/" + name) && work.Publish("figures/" + name, figures_fd, name))
+        report.files.push_back(folder.PathOf("figures/" + name));
       else
-        report.warnings.push_back(fmt::format("Fig. {}: gnuplot wrote no {}", f.number, p.string()));
+        report.warnings.push_back(fmt::format("Fig. {}: gnuplot wrote no {}", f.number, MessageText(folder.PathOf("figures/" + name))));
     }
   }
   return report;
 }
 
-void WriteResultsPage(const std::string& results_dir, const PlotReport& report) {
-  const fs::path dir(results_dir);
-  const Table table = Table::Load(dir / "results.csv");
+void WriteResultsPage(const std::string& results_dir, const PlotReport& report, const InputLimits& limits) {
+  const ResultsFolder folder(results_dir);
+  struct stat st {};
+  const Table table = Table::Load(folder, limits.results_bytes, &st);
   const Facts facts(table);
-  nlohmann::json run = nlohmann::json::object();
-  try {
-    if (fs::exists(dir / "run.json")) run = nlohmann::json::parse(ReadFile(dir / "run.json"));
-  } catch (const std::exception&) {
-    run = nlohmann::json::object();
-  }
+  const nlohmann::json run = ReadRunJson(folder);
+  const fs::path dir(results_dir);
+  const Fd figures_dir = folder.ExistingDir("figures");
 
   // Every figure that is there, in the paper's order.
   struct Entry {
@@ -1288,11 +1299,7 @@ void WriteResultsPage(const std::string& results_dir, const PlotReport& report) 
   };
   std::vector<Entry> entries = {{2, kBondGraphName, kBondGraphCaption}};
   for (const FigureSpec& f : PaperFigures()) entries.push_back({f.number, f.Name(), f.caption});
-  auto present = [&](const std::string& name, const char* ext) {
-    std::error_code ec;
-    const fs::path p = dir / "figures" / (name + ext);
-    return fs::exists(p, ec) && fs::file_size(p, ec) > 0;
-  };
+  auto present = [&](const std::string& name, const char* ext) { return IsNonEmptyRegularFile(figures_dir.get(), name + ext); };
 
   std::ostringstream h;
   const std::string model = JsonText(run, {"model", "name"}).empty() ? "differential" : JsonText(run, {"model", "name"});

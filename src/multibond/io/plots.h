@@ -22,14 +22,16 @@
 #include <vector>
 
 #include "multibond/io/dot_writer.h"
+#include "multibond/io/limits.h"
 #include "multibond/io/model_loader.h"
 
 namespace multibond {
 
 /// Options of MakePaperFigures.
 struct PlotOptions {
-  /// Model file for the bond graph drawing (Fig. 2). "" = the model named in DIR/run.json, if it
-  /// can be read from the current folder; without a model, Fig. 2 is left out (with a warning).
+  /// Model file for the bond graph drawing (Fig. 2), as the user gave it. Without one, Fig. 2 is
+  /// left out with a warning: the model named in DIR/run.json is a record of the run, and plot
+  /// does not open a file because a results folder names it.
   std::string model_path;
   /// Draw Fig. 2 (needs Graphviz's `dot`).
   bool bond_graph = true;
@@ -42,6 +44,8 @@ struct PlotOptions {
   int path_stride = 5;
   /// gnuplot processes at a time; 0 = the number of hardware threads.
   int jobs = 0;
+  /// Bounds on what is read (results_bytes: the largest results.csv).
+  InputLimits limits;
 };
 
 /// What MakePaperFigures did.
@@ -64,12 +68,20 @@ std::vector<std::string> PaperFigureNames();
 /// Draws the paper's figures from `results_dir` (see the file comment). Throws std::runtime_error
 /// when results.csv cannot be read or gnuplot cannot be run at all; a figure whose columns are
 /// missing, or whose gnuplot run fails, is left out with a warning.
+///
+/// The folder may come from anyone (results_folder.h): only its own regular files results.csv
+/// and run.json are read (a link, a file larger than the limit, a malformed results.csv is an
+/// error); figures/ and plots/ are refused when they are links, and every file is written in a
+/// private work folder and renamed into place. No text of the folder reaches gnuplot but as an
+/// escaped string (safe_text.h), and warnings hold only printable text.
 PlotReport MakePaperFigures(const std::string& results_dir, const PlotOptions& options = {});
 
 /// Writes `results_dir`/index.html: every figure found in `results_dir`/figures with the paper's
 /// caption and what it shows, and the run's summary from results.csv and run.json (steady values
 /// against the analytic ones, energy account, solver). `report`'s warnings are listed on the page.
-/// Throws std::runtime_error when results.csv cannot be read or the page cannot be written.
-void WriteResultsPage(const std::string& results_dir, const PlotReport& report = {});
+/// Throws std::runtime_error when results.csv cannot be read or the page cannot be written. Every
+/// text from results.csv, run.json or a warning is HTML-escaped; figures are shown only when they
+/// are regular files (not links) in figures/.
+void WriteResultsPage(const std::string& results_dir, const PlotReport& report = {}, const InputLimits& limits = {});
 
 }  // namespace multibond

@@ -1,10 +1,14 @@
 #include "multibond/io/results_reader.h"
 
+#include <algorithm>
+#include <charconv>
 #include <cstdlib>
 #include <fstream>
 #include <stdexcept>
 
 #include <fmt/format.h>
+
+#include "multibond/io/safe_text.h"
 
 namespace multibond {
 
@@ -46,21 +50,12 @@ ResultsTable ReadResults(const std::string& path) {
     t.units.push_back(std::move(nu.unit));
   }
   std::string line;
+  std::vector<double> row;
   while (std::getline(in, line)) {
     ++lineno;
     if (line.empty()) continue;
-    std::vector<double> row;
-    row.reserve(t.names.size());
-    const char* p = line.c_str();
-    while (*p) {
-      char* end = nullptr;
-      row.push_back(std::strtod(p, &end));
-      if (end == p) throw std::runtime_error(fmt::format("{}:{}: not a number", path, lineno));
-      p = *end == ',' ? end + 1 : end;
-    }
-    if (row.size() != t.names.size())
-      throw std::runtime_error(fmt::format("{}:{}: {} values for {} columns", path, lineno, row.size(), t.names.size()));
-    t.rows.push_back(std::move(row));
+    ParseRow(line, t.names, path, lineno, row);
+    t.rows.push_back(row);
   }
   return t;
 }
@@ -68,7 +63,7 @@ ResultsTable ReadResults(const std::string& path) {
 /// The header's cells, as CsvCell writes them: a cell opening with a double quote runs to the
 /// matching quote ("" is one quote) across commas and line breaks (further lines are read, counted
 /// in `lineno`); a quote elsewhere is kept as it is, as files written before names were quoted have.
-std::vector<std::string> ReadHeaderCells(std::istream& in, const std::string& path, int& lineno) {
+std::vector<std::string> ReadHeaderCells(std::istream& in, const std::string& path, int& lineno, size_t max_cells) {
   std::string line;
   if (!std::getline(in, line)) throw std::runtime_error(fmt::format("{}: empty file", path));
   lineno = 1;
@@ -93,6 +88,8 @@ std::vector<std::string> ReadHeaderCells(std::istream& in, const std::string& pa
       else if (i < line.size() && line[i] == '"') cells.back() += '"', ++i;
       else quoted = false;
     } else if (c == ',') {
+      if (cells.size() >= max_cells)
+        throw std::runtime_error(fmt::format("{}: the header has more than {} columns, more than plot reads", path, max_cells));
       cells.emplace_back();
       cell_start = true;
     } else if (c == '"' && at_start) {
@@ -103,6 +100,32 @@ std::vector<std::string> ReadHeaderCells(std::istream& in, const std::string& pa
     }
   }
   return cells;
+}
+
+void ParseRow(std::string_view line, const std::vector<std::string>& names, const std::string& path, int lineno,
+              std::vector<double>& row) {
+  if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  const size_t cells = static_cast<size_t>(std::count(line.begin(), line.end(), ',')) + 1;
+  if (cells != names.size())
+    throw std::runtime_error(fmt::format("{}:{}: {} values for {} columns", path, lineno, cells, names.size()));
+  row.resize(cells);
+  size_t start = 0;
+  for (size_t c = 0; c < cells; ++c) {
+    size_t end = line.find(',', start);
+    if (end == std::string_view::npos) end = line.size();
+    std::string_view cell = line.substr(start, end - start);
+    while (!cell.empty() && cell.front() == ' ') cell.remove_prefix(1);
+    while (!cell.empty() && cell.back() == ' ') cell.remove_suffix(1);
+    std::string_view digits = cell;
+    if (!digits.empty() && digits.front() == '+') digits.remove_prefix(1);
+    const auto [ptr, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), row[c]);
+    if (digits.empty() || ec != std::errc() || ptr != digits.data() + digits.size()) {
+      const std::string_view shown = cell.substr(0, 40);
+      throw std::runtime_error(fmt::format("{}:{}: not a number: '{}{}' in column {} ('{}')", path, lineno, MessageText(shown),
+                                           shown.size() < cell.size() ? "..." : "", c + 1, MessageText(names[c])));
+    }
+    start = end + 1;
+  }
 }
 
 }  // namespace multibond
