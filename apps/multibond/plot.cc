@@ -15,6 +15,7 @@ namespace {
 
 struct PlotArgs {
   std::string dir, model;
+  std::vector<std::string> limits;
 };
 
 int Plot(const PlotArgs& a, const std::vector<std::string>& argv) {
@@ -22,13 +23,14 @@ int Plot(const PlotArgs& a, const std::vector<std::string>& argv) {
   ReportRemovedTemporaries(folder);
   PlotOptions po;
   po.model_path = a.model;
+  po.limits = ParseLimits(a.limits);
   const PlotReport report = MakePaperFigures(a.dir, po);
   for (const auto& w : report.warnings) std::cerr << "warning: " << w << '\n';
   if (report.files.empty()) {
     std::cerr << fmt::format("error: no figure drawn from '{}' (see the warnings above); nothing was written\n", a.dir);
     return kExitIo;
   }
-  WriteResultsPage(a.dir, report);
+  WriteResultsPage(a.dir, report, po.limits);
   std::cout << fmt::format("wrote {} figure files in {}/figures and {}/index.html\n", report.files.size(), a.dir, a.dir);
   return kExitOk;
 }
@@ -39,7 +41,13 @@ Command AddPlotCommand(CLI::App& app) {
   auto a = std::make_shared<PlotArgs>();
   CLI::App* cmd = app.add_subcommand("plot", "Draw the paper's figures (Figs. 2-33) from a results folder and write DIR/index.html");
   cmd->add_option("DIR", a->dir, "results folder of 'multibond run'")->required();
-  cmd->add_option("--model", a->model, "model file, for the bond graph (default: the one named in DIR/run.json)");
+  cmd->add_option("--model", a->model,
+                  "model file, for the bond graph (Fig. 2); without it Fig. 2 is left out: the model named in DIR/run.json is a "
+                  "record, not followed (docs/security.md)");
+  cmd->add_option("--limit", a->limits, "NAME=VALUE: change a bound on the input, e.g. results-size=8G (repeatable; docs/security.md)")
+      ->type_name("NAME=VALUE")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   return {cmd, [a](const std::vector<std::string>& argv) { return Plot(*a, argv); }, [] { return true; }};
 }
 

@@ -53,6 +53,21 @@ TEST(OutputFolder, RemovesTheTemporariesOfDeadCommandsAndNothingElse) {
   for (const char* kept : {"results.csv", "model.yaml", "notes.tmp"}) EXPECT_TRUE(fs::exists(dir.path() / kept)) << kept;
 }
 
+TEST(OutputFolder, RemovesTheWorkFolderOfAnInterruptedPlotWithoutFollowingItsLinks) {
+  TempDir dir, elsewhere;
+  std::ofstream(elsewhere.path() / "victim") << "precious";
+  const fs::path work = dir.path() / ".multibond-plot-abc123";
+  fs::create_directories(work);
+  std::ofstream(work / "fig03.png") << "half";
+  fs::create_directory_symlink(elsewhere.path(), work / "link");
+  fs::create_directories(dir.path() / "figures.partial");  // a folder of the user's: kept
+  const OutputFolder folder(dir.path().string(), "test");
+  EXPECT_THAT(folder.removed_stale(), UnorderedElementsAre(".multibond-plot-abc123"));
+  EXPECT_FALSE(fs::exists(work));
+  EXPECT_TRUE(fs::is_directory(dir.path() / "figures.partial"));
+  EXPECT_EQ(ReadFile(elsewhere.path() / "victim"), "precious");
+}
+
 TEST(OutputFolder, APlantedLockLinkIsRefusedAndItsTargetUntouched) {
   TempDir dir, elsewhere;
   const fs::path victim = elsewhere.path() / "victim";

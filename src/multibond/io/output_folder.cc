@@ -28,7 +28,8 @@ bool EndsWith(const std::string& s, const std::string& tail) {
 /// A temporary this program (or an earlier version of it) writes: removed once nobody holds the
 /// lock, since nobody can be writing it.
 bool IsTemporary(const std::string& name) {
-  return (name.size() > 1 && name[0] == '.' && EndsWith(name, kTemporarySuffix)) || EndsWith(name, ".partial");
+  return (name.size() > 1 && name[0] == '.' && EndsWith(name, kTemporarySuffix)) || EndsWith(name, ".partial") ||
+         name.rfind(".multibond-plot-", 0) == 0;
 }
 
 std::string ReadHolder(int fd) {
@@ -94,6 +95,10 @@ OutputFolder::OutputFolder(std::string path, const std::string& command, bool cr
       struct stat s {};
       if (!IsTemporary(name) || fstatat(dir_fd, name.c_str(), &s, AT_SYMLINK_NOFOLLOW) != 0) continue;
       if ((S_ISREG(s.st_mode) || S_ISLNK(s.st_mode)) && unlinkat(dir_fd, name.c_str(), 0) == 0) removed_.push_back(name);
+      if (S_ISDIR(s.st_mode) && name.rfind(".multibond-plot-", 0) == 0) {  // a work folder of plot (results_folder.h); links inside are removed, not followed
+        std::error_code ec;
+        if (std::filesystem::remove_all(std::filesystem::path(path_) / name, ec) > 0 && !ec) removed_.push_back(name);
+      }
     }
     closedir(d);  // closes dir_fd
   } else {
