@@ -45,10 +45,14 @@ void SetLimit(InputLimits& limits, const std::string& assignment) {
     else if (s == 'G') scale = 1'000'000'000;
     if (scale != 1) digits.pop_back();
   }
-  const bool ok = !digits.empty() && digits.size() <= 15 && digits.find_first_not_of("0123456789") == std::string::npos;
-  const std::uint64_t v = ok ? std::stoull(digits) * scale : 0;
+  const bool digits_ok = !digits.empty() && digits.size() <= 15 && digits.find_first_not_of("0123456789") == std::string::npos;
+  const std::uint64_t base = digits_ok ? std::stoull(digits) : 0;
+  // 15 digits and a G suffix would wrap around: a value beyond 2^62 is refused (the counters
+  // compared with a limit must not overflow either).
+  const bool ok = digits_ok && base <= (std::uint64_t{1} << 62) / scale;
+  const std::uint64_t v = ok ? base * scale : 0;
   if (!ok || v == 0)
-    throw std::invalid_argument(fmt::format("--limit {}: '{}' is not a whole number >= 1 (a k, M or G suffix may follow)", name, value));
+    throw std::invalid_argument(fmt::format("--limit {}: '{}' is not a whole number from 1 to 2^62 (a k, M or G suffix may follow)", name, value));
   limits.*kFields[index] = v;
 }
 
