@@ -16,6 +16,7 @@
 
 #include "multibond/core/interrupt.h"
 #include "multibond/core/process.h"
+#include "support/alive.h"
 #include "support/temp_dir.h"
 
 namespace multibond {
@@ -24,14 +25,7 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 
-/// True while `pid` is a process that has not terminated (a zombie counts as gone).
-bool Alive(pid_t pid) {
-  if (kill(pid, 0) != 0) return errno != ESRCH;
-  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
-  std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
-  const auto close = text.rfind(')');
-  return close == std::string::npos || close + 2 >= text.size() || text[close + 2] != 'Z';
-}
+using testing::Alive;
 
 /// Sets the stop flag after `ms` milliseconds, from another thread (as a signal handler would).
 class StopLater {
