@@ -2,10 +2,15 @@
 // the state-dependent elements the rigid-body library is built from: an MTF carrying a rotation
 // matrix, a lever-arm MTF (paper eq. 1-6), an inertia R Ib R^T and an orientation state.
 
+#include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <random>
 #include <string>
+#include <thread>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -13,9 +18,11 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/core/interrupt.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
 #include "support/rotation_graph.h"
+#include "support/temp_dir.h"
 
 namespace multibond {
 namespace {
@@ -233,6 +240,62 @@ INSTANTIATE_TEST_SUITE_P(Examples, OneAnswer,
                            std::string s = info.param.substr(0, info.param.find('.'));
                            return s;
                          });
+
+// Before: runs with and without the generated code wrote different numbers (fused multiply-adds
+// on one side, Eigen's vectorised 3x3 products and sums from +0.0 on the other).
+TEST(OneAnswerRun, TheDifferentialGivesTheSameSamplesOnBothEngines) {
+  const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml");
+  std::vector<std::vector<double>> rows[2];
+  for (int engine = 0; engine < 2; ++engine) {
+    CompileOptions co = lm.compile;
+    co.generate_code = engine == 1;
+    const auto model = CompiledModel::Compile(lm.graph, co);
+    ASSERT_EQ(model->uses_generated_code(), engine == 1) << model->rhs_engine();
+    RunOptions o;
+    o.t_end = 0.05;
+    o.dt = 0.005;
+    o.integrator.method = ParseMethod(lm.simulation.solver.value_or("bdf"));
+    o.integrator.rtol = lm.simulation.rtol.value_or(1e-8);
+    o.integrator.atol = lm.simulation.atol.value_or(1e-10);
+    o.all_variables = true;
+    RecordingObserver rec;
+    Simulate(*model, o, rec);
+    rows[engine] = rec.rows();
+  }
+  ASSERT_EQ(rows[0].size(), rows[1].size());
+  ASSERT_GT(rows[0].size(), 10u);
+  for (size_t i = 0; i < rows[0].size(); ++i) {
+    ASSERT_EQ(rows[0][i].size(), rows[1][i].size());
+    EXPECT_TRUE(SameBits("sample", rows[0][i].data(), rows[1][i].data(), static_cast<int>(rows[0][i].size()))) << "row " << i;
+  }
+}
+
+// A stop while the generated code compiles ends the run (it used to fall back to the
+// interpreter, like a compiler that fails, after the compiler had run to its end).
+TEST(OneAnswerRun, AStopWhileCompilingIsNotAFallback) {
+  const char* old_cxx = std::getenv("MULTIBOND_CXX");
+  const std::string saved = old_cxx ? old_cxx : "";
+  testing::TempDir dir("multibond-slow-cxx");
+  const std::string script = (dir.path() / "slow-cxx.sh").string();
+  std::ofstream(script) << "#!/bin/sh\nexec sleep 30\n";
+  std::filesystem::permissions(script, std::filesystem::perms(0700));
+  setenv("MULTIBOND_CXX", script.c_str(), 1);
+  const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/mass_spring_damper.yaml");
+  CompileOptions co = lm.compile;
+  co.generate_code = true;
+  ResetStop();
+  std::thread stopper([] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    StopFlag().store(true);
+  });
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_THROW(CompiledModel::Compile(lm.graph, co), Interrupted);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2));
+  stopper.join();
+  ResetStop();
+  if (old_cxx) setenv("MULTIBOND_CXX", saved.c_str(), 1);
+  else unsetenv("MULTIBOND_CXX");
+}
 
 }  // namespace
 }  // namespace multibond

@@ -587,7 +587,7 @@ std::string CompiledModel::GenerateTangentSource() const {
             std::string e;
             for (int k = 0; k < in.m; ++k)
               e += fmt::format("{}mod[{}] * z{}", k ? " + " : "", in.coef + (in.count == 2 ? r * in.m + k : k * in.n + r), k);
-            line(fmt::format("  d[{}] = {};", in.dst + r, e.empty() ? "0.0" : e));
+            line(fmt::format("  d[{}] = {};", in.dst + r, e.empty() ? "(-0.0)" : e));
           }
           line("}");
         }

@@ -1,4 +1,5 @@
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/exact_sum.h"
 
 #include "multibond/compile/jit.h"
 
@@ -870,15 +871,6 @@ namespace {
 
 using RowMajor3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
 
-/// Where every sum of the evaluation starts: -0.0, the exact identity of addition (-0 + x is x
-/// for every x, +0 + -0 is +0), so that a sum here has the bits of the same terms written out
-/// as a + b + c, as the generated code does (codegen.cc); starting from +0.0 would turn a sum
-/// that is -0 into +0 in one engine only.
-constexpr double kSumStart = -0.0;
-
-/// s + c v, where a coefficient that is exactly zero adds nothing (the generated code leaves its
-/// term out: 0 * v could otherwise change the sign of a zero sum, or be a NaN for an infinite v).
-inline double AddTerm(double s, double c, double v) { return c == 0.0 ? s : s + c * v; }
 
 /// dst(R) = A(R x C, row-major) src(C).
 template <int R, int C>
