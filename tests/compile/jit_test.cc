@@ -277,6 +277,20 @@ TEST_F(JitTest, ASymbolicLinkInTheCacheIsNotFollowed) {
   EXPECT_FALSE(fs::is_symlink(so));
 }
 
+// Loaded through /proc/self/fd/N, a library is known to dlopen by that name: a second library
+// loaded through the same N (the first descriptor closed and reused) was taken for the first.
+TEST_F(JitTest, TwoLibrariesLoadedOneAfterTheOtherAreBothThemselves) {
+  const JitResult first = CompileAndLoad(kSource, "answer");
+  ASSERT_NE(first.symbol, nullptr) << first.description;
+  const JitResult second = CompileAndLoad("extern \"C\" double answer() { return 7.0; }\n", "answer");
+  ASSERT_NE(second.symbol, nullptr) << second.description;
+  EXPECT_EQ(Call(first), 42.0);
+  EXPECT_EQ(Call(second), 7.0);
+  const JitResult third = CompileAndLoad("extern \"C\" double answer() { return 8.0; }\n", "answer");
+  ASSERT_NE(third.symbol, nullptr) << third.description;
+  EXPECT_EQ(Call(third), 8.0);
+}
+
 // ---------------------------------------------------------------------------------------------
 // A stop while the compiler runs (issue 21): the compiler is ended, nothing is left behind.
 

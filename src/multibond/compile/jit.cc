@@ -38,6 +38,11 @@ class Fd {
     return *this;
   }
   int get() const { return fd_; }
+  int release() {
+    const int fd = fd_;
+    fd_ = -1;
+    return fd;
+  }
 
  private:
   int fd_;
@@ -248,7 +253,9 @@ std::string Build(const fs::path& dir, int dfd, const std::string& stem, const s
   return "";
 }
 
-/// dlopen of the file open as `fd`: the file checked is the file loaded.
+/// dlopen of the file open as `fd`: the file checked is the file loaded. The descriptor must stay
+/// open while the library is loaded: dlopen takes a name it already loaded for the same library,
+/// and /proc/self/fd/N names another file once N is closed and reused.
 void* LoadFd(int fd, const fs::path& path) {
   const std::string proc = fmt::format("/proc/self/fd/{}", fd);
   if (access("/proc/self/fd", X_OK) == 0) return dlopen(proc.c_str(), RTLD_NOW | RTLD_LOCAL);
@@ -284,7 +291,11 @@ void BuildAndLoad(const fs::path& dir, int dfd, const std::string& stem, const s
     r.description = fmt::format("cannot load {}: {}", so.string(), dlerror()) + notes;
     return;
   }
-  r.library = std::shared_ptr<void>(handle, [](void* h) { dlclose(h); });
+  const int kept = fd.release();
+  r.library = std::shared_ptr<void>(handle, [kept](void* h) {
+    dlclose(h);
+    close(kept);
+  });
   r.symbol = dlsym(handle, symbol.c_str());
   if (!r.symbol) {
     r.description = fmt::format("{} has no symbol {}", so.string(), symbol) + notes;
