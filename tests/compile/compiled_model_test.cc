@@ -2,14 +2,27 @@
 // the state-dependent elements the rigid-body library is built from: an MTF carrying a rotation
 // matrix, a lever-arm MTF (paper eq. 1-6), an inertia R Ib R^T and an orientation state.
 
+#include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+#include <thread>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <fmt/format.h>
+
 #include "multibond/compile/compiled_model.h"
+#include "multibond/core/interrupt.h"
+#include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
 #include "support/rotation_graph.h"
+#include "support/temp_dir.h"
 
 namespace multibond {
 namespace {
@@ -160,6 +173,128 @@ TEST(CompiledModel, SixDimensionalBondsEqualSixScalarCopies) {
   EXPECT_TRUE(xdot.segment(0, 6).isApprox(pdot, 1e-14)) << xdot.segment(0, 6).transpose();
   EXPECT_TRUE(xdot.segment(6, 6).isApprox(v, 1e-14));
   EXPECT_EQ(model->state_names()[5], "mass.p.6");
+}
+
+// ---------------------------------------------------------------------------------------------
+// One answer (issue 21): the interpreter and the generated code give the same bits.
+
+struct Engines {
+  std::shared_ptr<const CompiledModel> interpreter, generated;
+};
+
+Engines CompileBoth(const std::string& example) {
+  const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + example);
+  CompileOptions co = lm.compile;
+  co.generate_code = false;
+  Engines e;
+  e.interpreter = CompiledModel::Compile(lm.graph, co);
+  co.generate_code = true;
+  e.generated = CompiledModel::Compile(lm.graph, co);
+  return e;
+}
+
+/// Bitwise equality of two arrays of doubles (EXPECT_EQ on doubles would take -0 for 0).
+::testing::AssertionResult SameBits(const char* what, const double* a, const double* b, int n, const std::vector<std::string>* names = nullptr) {
+  int differ = 0;
+  std::string first;
+  for (int i = 0; i < n; ++i) {
+    if (std::memcmp(&a[i], &b[i], sizeof(double)) == 0) continue;
+    if (differ++ < 8)
+      first += fmt::format("\n  {}[{}]{}: {:a} vs {:a} ({:.17g} vs {:.17g})", what, i, names ? " " + (*names)[i] : "", a[i], b[i], a[i], b[i]);
+  }
+  if (differ == 0) return ::testing::AssertionSuccess();
+  return ::testing::AssertionFailure() << differ << " of " << n << " values differ:" << first;
+}
+
+class OneAnswer : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(OneAnswer, InterpreterAndGeneratedCodeGiveTheSameBits) {
+  const Engines e = CompileBoth(GetParam());
+  if (!e.generated->uses_generated_code()) GTEST_SKIP() << e.generated->rhs_engine();
+  Workspace wi = e.interpreter->MakeWorkspace(), wg = e.generated->MakeWorkspace();
+  const Eigen::VectorXd x0 = e.interpreter->MakeInitialState();
+  const int n = static_cast<int>(x0.size());
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 6; ++trial) {
+    Eigen::VectorXd x = x0;
+    // The initial state, then states nearby at growing distances (rotations stay near SO(3)).
+    if (trial > 0)
+      for (int i = 0; i < n; ++i) x[i] += std::ldexp(u(rng), -2 * (6 - trial)) * (1.0 + std::abs(x[i]));
+    const double t = 0.0137 * trial;
+    Eigen::VectorXd di(n), dg(n), fi(n), fg(n);
+    e.interpreter->CalcDerivatives(t, x.data(), di.data(), wi);
+    e.generated->CalcDerivatives(t, x.data(), dg.data(), wg);
+    EXPECT_TRUE(SameBits("xdot", di.data(), dg.data(), n, &e.interpreter->state_names())) << GetParam() << " trial " << trial;
+    EXPECT_TRUE(SameBits("slot", wi.slots.data(), wg.slots.data(), static_cast<int>(wi.slots.size()))) << GetParam() << " trial " << trial;
+    e.interpreter->CalcStateDerivatives(t, x.data(), fi.data(), wi);
+    e.generated->CalcStateDerivatives(t, x.data(), fg.data(), wg);
+    EXPECT_TRUE(SameBits("xdot (integrator entry)", fi.data(), fg.data(), n, &e.interpreter->state_names())) << GetParam() << " trial " << trial;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Examples, OneAnswer,
+                         ::testing::Values("compliant_gear_pair.yaml", "dc_motor.yaml", "differential.yaml", "differential_ideal.yaml",
+                                           "mass_spring_damper.yaml", "mass_spring_damper_3d.yaml", "rlc_circuit.yaml"),
+                         [](const auto& info) {
+                           std::string s = info.param.substr(0, info.param.find('.'));
+                           return s;
+                         });
+
+// Before: runs with and without the generated code wrote different numbers (fused multiply-adds
+// on one side, Eigen's vectorised 3x3 products and sums from +0.0 on the other).
+TEST(OneAnswerRun, TheDifferentialGivesTheSameSamplesOnBothEngines) {
+  const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml");
+  std::vector<std::vector<double>> rows[2];
+  for (int engine = 0; engine < 2; ++engine) {
+    CompileOptions co = lm.compile;
+    co.generate_code = engine == 1;
+    const auto model = CompiledModel::Compile(lm.graph, co);
+    ASSERT_EQ(model->uses_generated_code(), engine == 1) << model->rhs_engine();
+    RunOptions o;
+    o.t_end = 0.05;
+    o.dt = 0.005;
+    o.integrator.method = ParseMethod(lm.simulation.solver.value_or("bdf"));
+    o.integrator.rtol = lm.simulation.rtol.value_or(1e-8);
+    o.integrator.atol = lm.simulation.atol.value_or(1e-10);
+    o.all_variables = true;
+    RecordingObserver rec;
+    Simulate(*model, o, rec);
+    rows[engine] = rec.rows();
+  }
+  ASSERT_EQ(rows[0].size(), rows[1].size());
+  ASSERT_GT(rows[0].size(), 10u);
+  for (size_t i = 0; i < rows[0].size(); ++i) {
+    ASSERT_EQ(rows[0][i].size(), rows[1][i].size());
+    EXPECT_TRUE(SameBits("sample", rows[0][i].data(), rows[1][i].data(), static_cast<int>(rows[0][i].size()))) << "row " << i;
+  }
+}
+
+// A stop while the generated code compiles ends the run (it used to fall back to the
+// interpreter, like a compiler that fails, after the compiler had run to its end).
+TEST(OneAnswerRun, AStopWhileCompilingIsNotAFallback) {
+  const char* old_cxx = std::getenv("MULTIBOND_CXX");
+  const std::string saved = old_cxx ? old_cxx : "";
+  testing::TempDir dir("multibond-slow-cxx");
+  const std::string script = (dir.path() / "slow-cxx.sh").string();
+  std::ofstream(script) << "#!/bin/sh\nexec sleep 30\n";
+  std::filesystem::permissions(script, std::filesystem::perms(0700));
+  setenv("MULTIBOND_CXX", script.c_str(), 1);
+  const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/mass_spring_damper.yaml");
+  CompileOptions co = lm.compile;
+  co.generate_code = true;
+  ResetStop();
+  std::thread stopper([] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    StopFlag().store(true);
+  });
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_THROW(CompiledModel::Compile(lm.graph, co), Interrupted);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2));
+  stopper.join();
+  ResetStop();
+  if (old_cxx) setenv("MULTIBOND_CXX", saved.c_str(), 1);
+  else unsetenv("MULTIBOND_CXX");
 }
 
 }  // namespace

@@ -34,7 +34,9 @@ std::string CommentText(const std::string& name) {
 }
 
 /// sum_k coef_k * term_k, leaving out exact zeros and writing +-1 without a product (a
-/// compiler may not drop 0.0 * x itself: x could be an infinity or a NaN).
+/// compiler may not drop 0.0 * x itself: x could be an infinity or a NaN). The interpreter does
+/// the same (AddTerm in compiled_model.cc), and its sums start from -0.0, the identity of
+/// addition: a sum with no term is -0.0 here too, so both engines give the same bits.
 std::string LinComb(const std::vector<std::pair<double, std::string>>& terms) {
   std::string e;
   for (const auto& [c, t] : terms) {
@@ -44,7 +46,7 @@ std::string LinComb(const std::vector<std::pair<double, std::string>>& terms) {
     if (e.empty()) e = (c < 0 ? "-" : "") + mag;
     else e += sign + mag;
   }
-  return e.empty() ? "0.0" : e;
+  return e.empty() ? "(-0.0)" : e;
 }
 
 
@@ -191,7 +193,7 @@ void CompiledModel::EmitInstr(const Instr& in, std::string& o, std::set<std::str
         for (int col = 0; col < 3; ++col) {
           std::vector<std::pair<double, std::string>> terms;
           for (int i = 0; i < k; ++i) terms.push_back({l(i, col), In(in.src + i)});
-          used[col] = LinComb(terms) != "0.0";
+          used[col] = LinComb(terms) != "(-0.0)";
           if (used[col]) line(fmt::format("  const double z{} = {};", col, LinComb(terms)));
         }
         for (int i = 0; i < 3; ++i) {
@@ -233,7 +235,7 @@ void CompiledModel::EmitInstr(const Instr& in, std::string& o, std::set<std::str
         std::string e;
         for (int k = 0; k < in.m; ++k)
           e += fmt::format("{}{}[{}] * {}", k ? " + " : "", names.mod, in.coef + (plain ? r * in.m + k : k * in.n + r), In(in.src + k));
-        line(fmt::format("{} = {};", Out(d + r), e.empty() ? "0.0" : e));
+        line(fmt::format("{} = {};", Out(d + r), e.empty() ? "(-0.0)" : e));
       }
       break;
     }
@@ -313,7 +315,7 @@ void CompiledModel::EmitGather(const Gather& gt, std::string& o, std::vector<int
         read(gt.flow + k);
         e += fmt::format("{}{} * {}", k ? " + " : "", W(gt.effort + k), W(gt.flow + k));
       }
-      if (e.empty()) e = "0.0";
+      if (e.empty()) e = "(-0.0)";
       line(fmt::format("xdot[{}] = {};", gt.state,
                         gt.sign == 1.0 ? e : gt.sign == -1.0 ? "-(" + e + ")" : Lit(gt.sign) + " * (" + e + ")"));
       break;
@@ -585,7 +587,7 @@ std::string CompiledModel::GenerateTangentSource() const {
             std::string e;
             for (int k = 0; k < in.m; ++k)
               e += fmt::format("{}mod[{}] * z{}", k ? " + " : "", in.coef + (in.count == 2 ? r * in.m + k : k * in.n + r), k);
-            line(fmt::format("  d[{}] = {};", in.dst + r, e.empty() ? "0.0" : e));
+            line(fmt::format("  d[{}] = {};", in.dst + r, e.empty() ? "(-0.0)" : e));
           }
           line("}");
         }

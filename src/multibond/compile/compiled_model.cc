@@ -1,4 +1,5 @@
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/exact_sum.h"
 
 #include "multibond/compile/jit.h"
 
@@ -870,12 +871,13 @@ namespace {
 
 using RowMajor3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
 
+
 /// dst(R) = A(R x C, row-major) src(C).
 template <int R, int C>
 inline void MatVec(double* dst, const double* a, const double* src) {
   for (int r = 0; r < R; ++r) {
-    double s = 0.0;
-    for (int c = 0; c < C; ++c) s += a[r * C + c] * src[c];
+    double s = kSumStart;
+    for (int c = 0; c < C; ++c) s = AddTerm(s, a[r * C + c], src[c]);
     dst[r] = s;
   }
 }
@@ -898,7 +900,7 @@ inline void RotFwd(double* dst, const double* r, const double* l, const double* 
     for (int i = 0; i < 3; ++i) dst[i] = s * y[i];
     return;
   }
-  for (int i = 0; i < K; ++i) dst[i] = s * (l[3 * i] * y[0] + l[3 * i + 1] * y[1] + l[3 * i + 2] * y[2]);
+  for (int i = 0; i < K; ++i) dst[i] = s * AddTerm(AddTerm(AddTerm(kSumStart, l[3 * i], y[0]), l[3 * i + 1], y[1]), l[3 * i + 2], y[2]);
 }
 
 /// Backward rotation kernel: dst(3) = s op(R)^T L^T src(K).
@@ -907,16 +909,33 @@ inline void RotBwd(double* dst, const double* r, const double* l, const double* 
   double z[3];
   if (l == nullptr) {
     for (int i = 0; i < 3; ++i) z[i] = src[i];
-  } else {
-    for (int c = 0; c < 3; ++c) {
-      double acc = 0.0;
-      for (int i = 0; i < K; ++i) acc += l[3 * i + c] * src[i];
-      z[c] = acc;
-    }
+    double y[3];
+    RotApply(y, r, z, !transpose);
+    for (int i = 0; i < 3; ++i) dst[i] = s * y[i];
+    return;
   }
-  double y[3];
-  RotApply(y, r, z, !transpose);
-  for (int i = 0; i < 3; ++i) dst[i] = s * y[i];
+  // A column of L that is zero leaves its z out of the product, as in the generated code.
+  bool used[3];
+  for (int c = 0; c < 3; ++c) {
+    double acc = kSumStart;
+    used[c] = false;
+    for (int i = 0; i < K; ++i) {
+      acc = AddTerm(acc, l[3 * i + c], src[i]);
+      used[c] = used[c] || l[3 * i + c] != 0.0;
+    }
+    z[c] = acc;
+  }
+  for (int i = 0; i < 3; ++i) {
+    double y = kSumStart;
+    for (int c = 0; c < 3; ++c)
+      if (used[c]) y += (transpose ? r[3 * i + c] : r[3 * c + i]) * z[c];
+    dst[i] = s * y;
+  }
+}
+
+/// The lever arm a = R r in the inertial frame (R row-major); zero components of r add nothing.
+inline void LeverArm(double* a, const double* rot, const double* lever) {
+  for (int i = 0; i < 3; ++i) a[i] = AddTerm(AddTerm(AddTerm(kSumStart, lever[0], rot[3 * i]), lever[1], rot[3 * i + 1]), lever[2], rot[3 * i + 2]);
 }
 
 inline void Cross(double* out, const double* a, const double* b, double s) {
@@ -972,8 +991,8 @@ void CompiledModel::StateKernel(const Instr& in, const double* c, const double* 
       break;
     case Op::kStateMatrix:
       for (int row = 0; row < in.n; ++row) {
-        double sum = 0.0;
-        for (int k = 0; k < in.n; ++k) sum += c[in.coef + row * in.n + k] * s[k];
+        double sum = kSumStart;
+        for (int k = 0; k < in.n; ++k) sum = AddTerm(sum, c[in.coef + row * in.n + k], s[k]);
         dst[row] = sum;
       }
       break;
@@ -1033,8 +1052,8 @@ void CompiledModel::Exec(const Instr& in, double t, const double* x, const doubl
     case Op::kMat32: MatVec<3, 2>(dst, c + in.coef, win + in.src); break;
     case Op::kMatrix:
       for (int r = 0; r < in.n; ++r) {
-        double s = 0.0;
-        for (int k = 0; k < in.m; ++k) s += c[in.coef + r * in.m + k] * win[in.src + k];
+        double s = kSumStart;
+        for (int k = 0; k < in.m; ++k) s = AddTerm(s, c[in.coef + r * in.m + k], win[in.src + k]);
         dst[r] = s;
       }
       break;
@@ -1047,7 +1066,7 @@ void CompiledModel::Exec(const Instr& in, double t, const double* x, const doubl
     case Op::kLeverFwd:
     case Op::kLeverBwd: {
       double a[3];
-      RotApply(a, x + in.aux, c + in.coef, false);  // the lever arm in the inertial frame
+      LeverArm(a, x + in.aux, c + in.coef);
       if (in.op == Op::kLeverFwd) Cross(dst, win + in.src, a, in.scale);
       else Cross(dst, a, win + in.src, in.scale);
       break;
@@ -1057,13 +1076,13 @@ void CompiledModel::Exec(const Instr& in, double t, const double* x, const doubl
       // Stored row-major as (rows x cols) of M (or of M^-1); modes 1 and 3 read it transposed.
       if (in.count == 0 || in.count == 2) {
         for (int r = 0; r < in.n; ++r) {
-          double s = 0.0;
+          double s = kSumStart;
           for (int k = 0; k < in.m; ++k) s += a[r * in.m + k] * win[in.src + k];
           dst[r] = s;
         }
       } else {
         for (int r = 0; r < in.n; ++r) {
-          double s = 0.0;
+          double s = kSumStart;
           for (int k = 0; k < in.m; ++k) s += a[k * in.n + r] * win[in.src + k];
           dst[r] = s;
         }
@@ -1079,7 +1098,7 @@ void CompiledModel::Exec(const Instr& in, double t, const double* x, const doubl
     case Op::kSum1: {
       const int* src = sum_terms + in.coef;
       const double* sign = sum_signs + in.coef;
-      double s = 0.0;
+      double s = kSumStart;
       for (int j = 0; j < in.count; ++j) s += sign[j] * win[src[j]];
       dst[0] = s;
       break;
@@ -1087,7 +1106,7 @@ void CompiledModel::Exec(const Instr& in, double t, const double* x, const doubl
     case Op::kSum3: {
       const int* src = sum_terms + in.coef;
       const double* sign = sum_signs + in.coef;
-      double s0 = 0.0, s1 = 0.0, s2 = 0.0;
+      double s0 = kSumStart, s1 = kSumStart, s2 = kSumStart;
       for (int j = 0; j < in.count; ++j) {
         const double* v = win + src[j];
         s0 += sign[j] * v[0];
@@ -1106,7 +1125,7 @@ void CompiledModel::Exec(const Instr& in, double t, const double* x, const doubl
       const int* src = sum_terms + in.coef;
       const double* sign = sum_signs + in.coef;
       for (int k = 0; k < in.n; ++k) {
-        double s = 0.0;
+        double s = kSumStart;
         for (int j = 0; j < in.count; ++j) s += sign[j] * win[src[j] + k];
         dst[k] = s;
       }
@@ -1208,19 +1227,29 @@ void CompiledModel::EvalGather(const Gather& gt, const double* x, const double* 
       for (int k = 0; k < gt.size; ++k) out[k] = w[gt.flow + k];
       break;
     case StateBlock::Kind::kOrientation: {
-      // dR/dt = [w x] R  (- g (R R^T - I) R: zero on SO(3), pulls a drifting R back)
+      // dR/dt = [w x] R  (- g (R R^T - I) R: zero on SO(3), pulls a drifting R back). Written out
+      // term by term as the generated code is (codegen.cc, EmitGather): the same operations in
+      // the same order, no zero terms, no vectorised product with fused multiply-adds.
       const double* om = w + gt.flow;
-      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(x + gt.state);
-      Eigen::Matrix3d skew;
-      skew << 0, -om[2], om[1], om[2], 0, -om[0], -om[1], om[0], 0;
-      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> rdot(out);
-      if (gt.sign > 0.0) skew -= gt.sign * (r * r.transpose() - Eigen::Matrix3d::Identity());
-      rdot.noalias() = skew * r;
+      const double* r = x + gt.state;
+      if (gt.sign > 0.0) {
+        double s[9] = {0.0, -om[2], om[1], om[2], 0.0, -om[0], -om[1], om[0], 0.0};
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            s[3 * i + j] -= gt.sign * (r[3 * i] * r[3 * j] + r[3 * i + 1] * r[3 * j + 1] + r[3 * i + 2] * r[3 * j + 2] - (i == j ? 1.0 : 0.0));
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) out[3 * i + j] = s[3 * i] * r[j] + s[3 * i + 1] * r[3 + j] + s[3 * i + 2] * r[6 + j];
+      } else {
+        // ([w x] R)_ij = w_{i+1} R_{i+2,j} - w_{i+2} R_{i+1,j}
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            out[3 * i + j] = om[(i + 1) % 3] * r[3 * ((i + 2) % 3) + j] - om[(i + 2) % 3] * r[3 * ((i + 1) % 3) + j];
+      }
       break;
     }
     case StateBlock::Kind::kWork:
     case StateBlock::Kind::kDissipation: {
-      double p = 0.0;
+      double p = kSumStart;
       for (int k = 0; k < gt.size; ++k) p += w[gt.effort + k] * w[gt.flow + k];
       out[0] = gt.sign * p;
       break;

@@ -26,6 +26,7 @@
 
 #include "multibond/causality/repair.h"
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/exact_sum.h"
 
 namespace multibond {
 
@@ -303,7 +304,6 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
       tmp[in.dst + k] = 0.0;
     }
   };
-  using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
   for (int index : tangent_plan_) {
     const Instr& in = plan_[index];
     switch (in.op) {
@@ -321,15 +321,24 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
         break;
       case Op::kIFlowRotated:
       case Op::kIFlowRotatedDiag: {
-        // f = R Ib^-1 R^T h  ->  df = dR a + R Ib^-1 (dR^T h + R^T dh),  a = Ib^-1 R^T h
-        const Eigen::Map<const Rm3> r(x + in.aux), rd(xdot + in.aux);
-        const Eigen::Map<const Eigen::Vector3d> h(x + in.src), hd(xdot + in.src);
-        Eigen::Matrix3d ibinv = Eigen::Matrix3d::Zero();
-        if (in.op == Op::kIFlowRotatedDiag) ibinv.diagonal() << c[in.coef], c[in.coef + 1], c[in.coef + 2];
-        else ibinv = Eigen::Map<const Rm3>(c + in.coef);
-        const Eigen::Vector3d a = ibinv * (r.transpose() * h);
-        const Eigen::Vector3d da = ibinv * (rd.transpose() * h + r.transpose() * hd);
-        Eigen::Map<Eigen::Vector3d>(d + in.dst) = rd * a + r * da;
+        // f = R Ib^-1 R^T h  ->  df = dR a + R Ib^-1 (dR^T h + R^T dh),  a = Ib^-1 R^T h; written
+        // out term by term in the generated code's order (GenerateTangentSource).
+        const double *r = x + in.aux, *rd = xdot + in.aux, *h = x + in.src, *hd = xdot + in.src;
+        auto ib = [&](int i, int j) {
+          return in.op == Op::kIFlowRotatedDiag ? (i == j ? c[in.coef + i] : 0.0) : c[in.coef + 3 * i + j];
+        };
+        double hb[3], dhb[3], a[3], da[3];
+        for (int i = 0; i < 3; ++i) {
+          hb[i] = r[i] * h[0] + r[3 + i] * h[1] + r[6 + i] * h[2];
+          dhb[i] = rd[i] * h[0] + rd[3 + i] * h[1] + rd[6 + i] * h[2] + r[i] * hd[0] + r[3 + i] * hd[1] + r[6 + i] * hd[2];
+        }
+        for (int i = 0; i < 3; ++i) {
+          a[i] = AddTerm(AddTerm(AddTerm(kSumStart, ib(i, 0), hb[0]), ib(i, 1), hb[1]), ib(i, 2), hb[2]);
+          da[i] = AddTerm(AddTerm(AddTerm(kSumStart, ib(i, 0), dhb[0]), ib(i, 1), dhb[1]), ib(i, 2), dhb[2]);
+        }
+        for (int i = 0; i < 3; ++i)
+          d[in.dst + i] = rd[3 * i] * a[0] + rd[3 * i + 1] * a[1] + rd[3 * i + 2] * a[2] + r[3 * i] * da[0] + r[3 * i + 1] * da[1] +
+                          r[3 * i + 2] * da[2];
         break;
       }
       case Op::kRotFwd1: case Op::kRotFwd2: case Op::kRotFwd3:
@@ -359,7 +368,7 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
           }
           const double* a = mod + in.coef;
           for (int r = 0; r < in.n; ++r) {
-            double s = 0.0;
+            double s = kSumStart;
             for (int k = 0; k < in.m; ++k) s += (in.count == 2 ? a[r * in.m + k] : a[k * in.n + r]) * z[k];
             d[in.dst + r] = s;
           }
