@@ -138,7 +138,7 @@ TEST(HostileInput, DevicesAndFoldersAreNotModelFiles) {
     const CliResult r = RunModel(model, out);
     ExpectContained(r, out);
     EXPECT_EQ(r.code, 74) << r.out;
-    EXPECT_THAT(r.out, HasSubstr("not a regular file"));
+    EXPECT_THAT(r.out, HasSubstr("error: cannot read the model file: it is a"));
     EXPECT_FALSE(fs::exists(out));
   }
 }

@@ -70,7 +70,7 @@ void AtomicFile::Fail(const std::string& why) {
 
 void AtomicFile::Write(std::string_view data) {
   if (!file_ || finished_) return;
-  std::fwrite(data.data(), 1, data.size(), file_);
+  if (std::fwrite(data.data(), 1, data.size(), file_) != data.size() && write_errno_ == 0) write_errno_ = errno ? errno : EIO;
   hash_.Update(data);
   bytes_ += data.size();
 }
@@ -79,7 +79,9 @@ void AtomicFile::Finish() {
   if (finished_) return;
   if (!file_) Fail("the file is not open");
   errno = 0;
-  if (std::fflush(file_) != 0 || std::ferror(file_)) Fail(errno ? std::strerror(errno) : "write error");
+  const bool flushed = std::fflush(file_) == 0;
+  if (write_errno_ == 0 && !flushed) write_errno_ = errno ? errno : EIO;
+  if (write_errno_ != 0 || std::ferror(file_)) Fail(std::strerror(write_errno_ ? write_errno_ : EIO));
   if (fsync(fd_) != 0) Fail(std::strerror(errno));
   finished_ = true;
 }

@@ -59,6 +59,7 @@ class AtomicFile {
   std::FILE* file_ = nullptr;
   int fd_ = -1;
   bool finished_ = false, published_ = false;
+  int write_errno_ = 0;  ///< the first failed write's error (a full disk), said by Finish
   std::uint64_t bytes_ = 0;
   Sha256 hash_;
 };
