@@ -2,6 +2,7 @@
 
 #include <stdlib.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -16,6 +17,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "support/alive.h"
 #include "support/temp_dir.h"
 
 namespace {
@@ -894,6 +896,31 @@ TEST_F(CliTest, SigtermDuringARunKeepsTheRowsAndExits143) {
   const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "interrupted");
   EXPECT_EQ(ListNames(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
+}
+
+}  // namespace
+
+namespace {
+
+// A stop while the generated code compiles: the compiler (here a stand-in that sleeps, with a
+// child of its own) is ended with its whole process group, the command exits 128 + SIGTERM, and
+// nothing is left in the output folder or the cache but what was complete.
+TEST_F(CliTest, SigtermWhileTheGeneratedCodeCompilesEndsTheCompilerAndExits143) {
+  fs::create_directories(dir_);
+  const fs::path compiler = dir_ / "slow-cxx", pidfile = dir_ / "compiler.pid", cache = dir_ / "cache", out = dir_ / "out";
+  std::ofstream(compiler) << "#!/bin/sh\nsleep 30 &\necho $! > " << pidfile.string() << "\nwait\n";
+  fs::permissions(compiler, fs::perms::owner_all);
+  const Result r = Shell("MULTIBOND_CXX=" + compiler.string() + " MULTIBOND_CACHE=" + cache.string() + " " + MULTIBOND_CLI + " run " +
+                         Example("mass_spring_damper.yaml") + " -o " + out.string() + " -q --jit on & pid=$!; for i in $(seq 600); do [ -s " +
+                         pidfile.string() + " ] && break; sleep 0.05; done; kill -TERM $pid; wait $pid; echo \"exit $?\"");
+  EXPECT_THAT(r.out, HasSubstr("exit 143")) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("interrupted by SIGTERM while compiling the generated code"));
+  const pid_t sleeper = std::atoi(Read(pidfile).c_str());
+  ASSERT_GT(sleeper, 0);
+  for (int i = 0; i < 100 && multibond::testing::Alive(sleeper); ++i) usleep(20000);
+  EXPECT_FALSE(multibond::testing::Alive(sleeper)) << "the compiler's child " << sleeper << " still runs";
+  EXPECT_FALSE(fs::exists(out)) << "the output folder was touched before the model compiled";
+  for (const auto& entry : fs::directory_iterator(cache)) EXPECT_EQ(entry.path().extension(), ".cc") << entry.path();
 }
 
 }  // namespace

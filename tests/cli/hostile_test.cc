@@ -13,6 +13,7 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <functional>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -160,6 +161,59 @@ TEST(HostileInput, AFileLargerThanTheLimitIsRefusedBeforeItIsRead) {
   r = RunCli({"check", MULTIBOND_SOURCE_DIR "/examples/mass_spring_damper.yaml", "--limit", "file-size=100"});
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_THAT(r.out, HasSubstr("--limit file-size="));
+}
+
+// Results folders are inputs too: `plot DIR` reads only DIR's own regular files, writes only
+// inside DIR, and says what is wrong with exit 74.
+
+TEST(HostileResultsFolder, LinksFifosAndJunkAreRefusedAndNothingIsWrittenOutside) {
+  TempDir tmp("multibond-hostile"), elsewhere("multibond-elsewhere");
+  const fs::path good = tmp.path() / "good";
+  ASSERT_EQ(RunCli({"run", MULTIBOND_SOURCE_DIR "/examples/mass_spring_damper.yaml", "-o", good.string(), "-q", "--t-end", "0.1"}).code, 0);
+  struct Folder {
+    std::string what, expect;
+    std::function<void(const fs::path&)> make;
+  };
+  const std::vector<Folder> folders = {
+      {"results.csv is a link to a system file", "is a symbolic link",
+       [](const fs::path& d) { fs::create_symlink("/etc/passwd", d / "results.csv"); }},
+      {"run.json is a link to a system file", "is a symbolic link",
+       [&](const fs::path& d) {
+         fs::copy_file(good / "results.csv", d / "results.csv");
+         fs::create_symlink("/etc/hostname", d / "run.json");
+       }},
+      {"run.json is a FIFO (no hang)", "is not a regular file",
+       [&](const fs::path& d) {
+         fs::copy_file(good / "results.csv", d / "results.csv");
+         ASSERT_EQ(mkfifo((d / "run.json").c_str(), 0600), 0);
+       }},
+      {"figures/ is a link out of the folder", "is a symbolic link",
+       [&](const fs::path& d) {
+         fs::copy_file(good / "results.csv", d / "results.csv");
+         fs::create_directory_symlink(elsewhere.path(), d / "figures");
+       }},
+      {"results.csv is random bytes", "results.csv",
+       [](const fs::path& d) {
+         std::ifstream random("/dev/urandom", std::ios::binary);
+         std::string bytes(100000, '\0');
+         random.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+         std::ofstream(d / "results.csv", std::ios::binary) << bytes;
+       }},
+      {"results.csv is empty", "empty file", [](const fs::path& d) { std::ofstream(d / "results.csv"); }},
+  };
+  int k = 0;
+  for (const Folder& f : folders) {
+    SCOPED_TRACE(f.what);
+    const fs::path dir = tmp.path() / ("case" + std::to_string(++k));
+    fs::create_directories(dir);
+    f.make(dir);
+    const CliResult r = RunCli({"plot", dir.string()}, 30);
+    ExpectContained(r, dir / "no-such-output");
+    EXPECT_EQ(r.code, 74) << r.out;
+    EXPECT_THAT(r.out, HasSubstr(f.expect));
+    EXPECT_FALSE(fs::exists(dir / "index.html"));
+    EXPECT_TRUE(fs::is_empty(elsewhere.path())) << "plot wrote through a link";
+  }
 }
 
 }  // namespace
