@@ -1,4 +1,4 @@
-// The paper's differential (issue 4): ns per right-hand side (plan interpreter and generated
+// The paper's differential: ns per right-hand side (plan interpreter and generated
 // code) and the whole 0-5 s run, at the example's settings (examples/differential.yaml:
 // srk3, rtol 1e-8, atol 1e-10) and with Dormand-Prince at the same tolerances for comparison.
 // Run: build/release/bench/multibond_bench --benchmark_filter=Differential

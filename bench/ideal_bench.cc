@@ -1,4 +1,4 @@
-// The ideal differential (issue 7): examples/differential_ideal.yaml, every joint and mesh an
+// The ideal differential: examples/differential_ideal.yaml, every joint and mesh an
 // ideal constraint, over 0-5 s. Reports wall time, steps, right-hand sides (each one solves for
 // the 46 constraint efforts) and Jacobian evaluations, per solver and tolerance, and the cost of
 // one right-hand side.

@@ -1,5 +1,5 @@
 #pragma once
-// The validation of the paper's differential (issue 4, shared/spec/differential.md): the values
+// The validation of the paper's differential (docs/differential.md): the values
 // any correct implementation shows after the start transient, computed from a run's results and
 // compared with the spec's analytic values. Used by the report the README's main command prints
 // and by tests/physics/differential_test.cc, so that what is printed is what is tested.
@@ -40,7 +40,7 @@ inline Eigen::Matrix3d Rot(const multibond::ResultsTable& t, size_t row, const s
   return r;
 }
 
-/// Every check of issue 4 at the last row (t = 5 s), plus the whole-run ones.
+/// Every check of docs/differential.md at the last row (t = 5 s), plus the whole-run ones.
 inline std::vector<Check> Checks(const multibond::ResultsTable& t) {
   std::vector<Check> c;
   const size_t last = t.rows.size() - 1;

@@ -19,7 +19,7 @@ int main(int argc, char** argv) {
     const multibond::ResultsTable t = multibond::ReadResults(dir + "/results.csv");
     std::ifstream in(dir + "/run.json");
     const auto run = nlohmann::json::parse(in);
-    std::printf("Differential of the paper (shared/spec/differential.md), t = %.3g s\n", t.rows.back()[0]);
+    std::printf("Differential of the paper (docs/differential.md), t = %.3g s\n", t.rows.back()[0]);
     std::printf("  solver %s, rtol %.1e: %ld steps, %ld right-hand sides, %.3f s wall (%s)\n",
                 run["options"]["solver"].get<std::string>().c_str(), run["options"]["rtol"].get<double>(),
                 run["solver_stats"]["steps"].get<long>(), run["solver_stats"]["rhs_evals"].get<long>(),

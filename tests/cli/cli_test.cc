@@ -481,7 +481,7 @@ TEST_F(CliTest, CheckExplainsDerivativeCausalityInMechanismTerms) {
 
 namespace {
 
-// --- check --suggest (issue 7, item 5) ---------------------------------------------------------
+// --- check --suggest ---------------------------------------------------------
 
 TEST_F(CliTest, CheckSuggestListsOneCouplingForTheRigidGearPairWithItsDefaults) {
   const Result r = Cli("check " + Example("rigid_gear_pair.yaml") + " --suggest");
@@ -620,7 +620,7 @@ TEST_F(CliTest, AFailedCodeGenerationIsSaid) {
   EXPECT_THAT(r.out, HasSubstr("warning: running on the interpreter"));
 }
 
-// --- compare (issue 7, item 4) -----------------------------------------------------------------
+// --- compare -----------------------------------------------------------------
 
 class CompareTest : public CliTest {
  protected:
@@ -749,7 +749,7 @@ TEST_F(CliTest, CheckWithIdealConstraintsAcceptsDerivativeCausality) {
 
 // ---------------------------------------------------------------------------------------------
 // Output folders on a shared machine: one command at a time, nothing half-written, never onto an
-// input (issue: hostile files and a shared machine).
+// input (docs/security.md).
 
 namespace {
 

@@ -1,4 +1,4 @@
-// The rigid-body library against closed-form answers and invariants (issue 3).
+// The rigid-body library against closed-form answers and invariants.
 
 #include <cmath>
 #include <numbers>

@@ -1,4 +1,4 @@
-// examples/differential_ideal.yaml (issue 7): the paper's differential with every joint and mesh
+// examples/differential_ideal.yaml: the paper's differential with every joint and mesh
 // rigid and the housing fixed, against the closed-form solution of the rigid mechanism: one
 // equivalent inertia J on the drive coupling (docs/differential.md, "The ideal mechanism").
 

@@ -1,4 +1,4 @@
-// The paper's differential (issue 4): every validation of shared/spec/differential.md at the
+// The paper's differential: every validation of docs/differential.md at the
 // default settings, the energy balance falling with the tolerance, generated code against the
 // interpreter, and bit-identical reruns.
 
