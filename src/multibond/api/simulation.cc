@@ -3,6 +3,7 @@
 // projected at each), so stepping to the output times of a run gives that run's numbers.
 
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -86,18 +87,22 @@ namespace {
 
 /// The variable called `name` and the component asked for (-1: all): a variable or state of the
 /// model, a declared output that names one, or either with ".<component>".
-std::pair<VariableRef, int> FindValue(const CompiledModel& m, std::string_view name) {
-  const std::string n(name);
+std::optional<std::pair<VariableRef, int>> TryFindValue(const CompiledModel& m, const std::string& name) {
   for (const OutputDecl& o : m.graph().outputs())
-    if (o.kind == OutputDecl::Kind::kVariable && o.name == n) return FindValue(m, o.variable);
-  if (auto v = m.FindVariable(n)) return {*v, -1};
-  const size_t dot = n.rfind('.');
-  if (dot != std::string::npos) {
-    auto [v, k] = FindValue(m, std::string_view(n).substr(0, dot));
-    const std::string component = n.substr(dot + 1);
-    for (size_t c = 0; k < 0 && c < v.components.size(); ++c)
-      if (v.components[c] == component) return {v, static_cast<int>(c)};
-  }
+    if (o.kind == OutputDecl::Kind::kVariable && o.name == name) return TryFindValue(m, o.variable);
+  if (auto v = m.FindVariable(name)) return std::pair{*v, -1};
+  const size_t dot = name.rfind('.');
+  if (dot == std::string::npos) return std::nullopt;
+  const auto whole = TryFindValue(m, name.substr(0, dot));
+  if (!whole || whole->second >= 0) return std::nullopt;
+  const std::vector<std::string>& components = whole->first.components;
+  for (size_t c = 0; c < components.size(); ++c)
+    if (components[c] == name.substr(dot + 1)) return std::pair{whole->first, static_cast<int>(c)};
+  return std::nullopt;
+}
+
+std::pair<VariableRef, int> FindValue(const CompiledModel& m, std::string_view name) {
+  if (auto found = TryFindValue(m, std::string(name))) return *found;
   std::vector<std::string> known = m.state_names();
   for (int c = 0; c < m.num_slot_classes(); ++c) known.push_back(m.slot_class_name(c));
   for (const OutputDecl& o : m.graph().outputs())
