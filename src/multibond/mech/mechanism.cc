@@ -525,7 +525,7 @@ class Expander {
     o.position = p.body + ".r";
     o.rotation = p.body + ".R";
     o.point = p.at;
-    o.unit = "m";
+    o.unit = std::string("m");  // assigning the literal trips GCC 12's false -Wrestrict (GCC bug 105651)
     o.where = p.where;
     if (!FindBody(p.body)->mass.has_rotation()) {  // a point mass: its CoM is the point
       o.kind = OutputDecl::Kind::kVariable;

@@ -174,10 +174,13 @@ inline int ScaleAddMulti(int nvec, sunrealtype* a, N_Vector x, N_Vector* y, N_Ve
 }
 /// Four doubles (GCC/clang vector extension): the compiler keeps these in AVX registers.
 typedef double Double4 __attribute__((vector_size(32)));
-inline Double4 Load4(const sunrealtype* p) {
-  Double4 v;
-  std::memcpy(&v, p, sizeof v);  // unaligned load
-  return v;
+/// p = x[0..4) * w[0..4), elementwise, from unaligned loads. (Written through a reference: a
+/// Double4 returned by value is an AVX register in the ABI only with AVX on, and GCC warns.)
+inline void Product4(const sunrealtype* x, const sunrealtype* w, Double4& p) {
+  Double4 a, b;
+  std::memcpy(&a, x, sizeof a);
+  std::memcpy(&b, w, sizeof b);
+  p = a * b;
 }
 /// sum_i (x_i w_i)^2 with sixteen partial sums in four vector registers. One running sum is a
 /// chain of dependent additions (4 cycles each; 196 on the differential, twice per step),
@@ -190,15 +193,19 @@ inline sunrealtype WSqrSumLocal(N_Vector x, N_Vector w) {
   Double4 a0 = {0.0, 0.0, 0.0, 0.0}, a1 = a0, a2 = a0, a3 = a0;
   sunindextype i = 0;
   for (; i + 16 <= n; i += 16) {
-    const Double4 p0 = Load4(xd + i) * Load4(wd + i), p1 = Load4(xd + i + 4) * Load4(wd + i + 4);
-    const Double4 p2 = Load4(xd + i + 8) * Load4(wd + i + 8), p3 = Load4(xd + i + 12) * Load4(wd + i + 12);
+    Double4 p0, p1, p2, p3;
+    Product4(xd + i, wd + i, p0);
+    Product4(xd + i + 4, wd + i + 4, p1);
+    Product4(xd + i + 8, wd + i + 8, p2);
+    Product4(xd + i + 12, wd + i + 12, p3);
     a0 += p0 * p0;
     a1 += p1 * p1;
     a2 += p2 * p2;
     a3 += p3 * p3;
   }
   for (; i + 4 <= n; i += 4) {
-    const Double4 p = Load4(xd + i) * Load4(wd + i);
+    Double4 p;
+    Product4(xd + i, wd + i, p);
     a0 += p * p;
   }
   sunrealtype tail = 0.0;
