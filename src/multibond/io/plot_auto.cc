@@ -90,7 +90,7 @@ FigureList AutoFigures(const std::vector<std::string>& names, const std::vector<
     if (room()) {
       Figure f;
       f.name = unique("energy-account");
-      f.caption = "Energy account: work done on the model, energy stored (kinetic, potential) and dissipated, and the balance's residual";
+      f.caption = "Energy account: work, stored (kinetic, potential), dissipated; residual";
       f.shows = "work = kinetic + potential + dissipated, up to the residual (relative to the largest energy handled).";
       list.sections.push_back("Energy account");
       f.section = 0;
