@@ -1,5 +1,6 @@
 // multibond plot DIR: figures from a results folder, and a page that shows them.
 
+#include <cstddef>
 #include <iostream>
 #include <memory>
 
@@ -14,8 +15,9 @@ namespace multibond::cli {
 namespace {
 
 struct PlotArgs {
-  std::string dir, model;
+  std::string dir, model, figures;
   std::vector<std::string> limits;
+  std::size_t max_figures = PlotOptions{}.max_figures;
 };
 
 int Plot(const PlotArgs& a, const std::vector<std::string>& argv) {
@@ -23,8 +25,10 @@ int Plot(const PlotArgs& a, const std::vector<std::string>& argv) {
   ReportRemovedTemporaries(folder);
   PlotOptions po;
   po.model_path = a.model;
+  po.figures_path = a.figures;
+  po.max_figures = a.max_figures;
   po.limits = ParseLimits(a.limits);
-  const PlotReport report = MakePaperFigures(a.dir, po);
+  const PlotReport report = MakeFigures(a.dir, po);
   for (const auto& w : report.warnings) std::cerr << "warning: " << w << '\n';
   if (report.files.empty()) {
     std::cerr << fmt::format("error: no figure drawn from '{}' (see the warnings above); nothing was written\n", a.dir);
@@ -39,11 +43,17 @@ int Plot(const PlotArgs& a, const std::vector<std::string>& argv) {
 
 Command AddPlotCommand(CLI::App& app) {
   auto a = std::make_shared<PlotArgs>();
-  CLI::App* cmd = app.add_subcommand("plot", "Draw the paper's figures (Figs. 2-33) from a results folder and write DIR/index.html");
+  CLI::App* cmd = app.add_subcommand("plot", "Draw every output of a results folder against time (or the figures of a figure list) and write DIR/index.html");
   cmd->add_option("DIR", a->dir, "results folder of 'multibond run'")->required();
+  cmd->add_option("--figures", a->figures,
+                  "figure list (YAML, docs/plots.md) to draw instead of the general figures, e.g. "
+                  "examples/differential/figures.yaml for the paper's figures");
   cmd->add_option("--model", a->model,
-                  "model file, for the bond graph (Fig. 2); without it Fig. 2 is left out: the model named in DIR/run.json is a "
-                  "record, not followed (docs/security.md)");
+                  "model file, for the bond graph figure; without it the bond graph is left out: the model named in DIR/run.json "
+                  "is a record, not followed (docs/security.md)");
+  cmd->add_option("--max-figures", a->max_figures, "draw at most N figures (gnuplot runs); the rest are left out with a warning")
+      ->type_name("N")
+      ->check(CLI::Range(std::size_t{1}, std::size_t{100000}));
   cmd->add_option("--limit", a->limits, "NAME=VALUE: change a bound on the input, e.g. results-size=8G (repeatable; docs/security.md)")
       ->type_name("NAME=VALUE")
       ->expected(1)

@@ -602,7 +602,7 @@ TEST_F(CliTest, OptionConflictsExit64AndAnEmptyPlotSaysSo) {
   const fs::path other = dir_ / "msd";
   ASSERT_EQ(Cli("run " + Example("mass_spring_damper.yaml") + " -q --t-end 0.01 -o " + other.string()).code, 0);
   fs::remove(other / "run.json");
-  const Result plot = Cli("plot " + other.string());
+  const Result plot = Cli("plot " + other.string() + " --figures " + Example("differential/figures.yaml"));
   EXPECT_EQ(plot.code, 74) << plot.out;
   EXPECT_THAT(plot.out, HasSubstr("error: no figure drawn"));
   EXPECT_FALSE(fs::exists(other / "index.html"));

@@ -1,8 +1,13 @@
-// MakePaperFigures and WriteResultsPage on a small synthetic results folder (a run of the
-// differential takes too long for this suite): every figure of the paper is written as PNG and
-// SVG under its contract name, each panel plots the columns it should (its data extent, as gnuplot
-// saw it, against the CSV), and the page shows every figure and renders in a headless Chromium.
+// MakeFigures and WriteResultsPage. The paper's figures, drawn from the figure list
+// examples/differential/figures.yaml on a small synthetic results folder (a run of the
+// differential takes too long for this suite): every figure is written as PNG and SVG under its
+// contract name, each panel plots the columns it should (its data extent, as gnuplot saw it,
+// against the CSV), and the page shows every figure and renders in a headless Chromium. The
+// general figures, through the CLI, of the mass-spring-damper and the DC motor; bounded on a
+// results.csv of 10,000 columns.
+#include "support/cli_runner.h"
 #include "support/temp_dir.h"
+#include "multibond/io/plot_auto.h"
 #include "multibond/io/plots.h"
 #include "multibond/io/results_writer.h"
 
@@ -15,6 +20,7 @@
 #include <unistd.h>
 
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -208,9 +214,23 @@ bool Exists(const fs::path& p) {
   return fs::exists(p, ec) && fs::file_size(p, ec) > 0;
 }
 
+/// The paper's figure list.
+const std::string kPaperFigures = std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential/figures.yaml";
+
+/// The names of the paper's figures, as the figure list gives them.
+std::vector<std::string> PaperFigureNames() { return FigureNames(ReadFigureList(kPaperFigures)); }
+
 PlotOptions Options() {
   PlotOptions o;
+  o.figures_path = kPaperFigures;
   o.model_path = std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml";
+  return o;
+}
+
+PlotOptions NoBondGraph() {
+  PlotOptions o;
+  o.figures_path = kPaperFigures;
+  o.bond_graph = false;
   return o;
 }
 
@@ -224,7 +244,7 @@ TEST(PlotsTest, EveryFigureFromTheRightColumns) {
   TempDir dir;
   const SyntheticRun run;
   run.Write(dir.path());
-  const PlotReport report = MakePaperFigures(dir.path().string(), Options());
+  const PlotReport report = MakeFigures(dir.path().string(), Options());
   for (const std::string& w : report.warnings) ADD_FAILURE() << "warning: " << w;
 
   // Every figure, PNG and SVG, non-empty, and reported.
@@ -309,8 +329,9 @@ TEST(PlotsTest, MissingColumnsLeaveTheFigureOutWithAWarning) {
   TempDir dir;
   SyntheticRun().Write(dir.path(), "S2.F.y");
   PlotOptions o;
+  o.figures_path = kPaperFigures;
   o.bond_graph = false;
-  const PlotReport report = MakePaperFigures(dir.path().string(), o);
+  const PlotReport report = MakeFigures(dir.path().string(), o);
   ASSERT_EQ(report.warnings.size(), 1u);
   EXPECT_NE(report.warnings[0].find("Fig. 19"), std::string::npos) << report.warnings[0];
   EXPECT_NE(report.warnings[0].find("S2.F.y"), std::string::npos) << report.warnings[0];
@@ -322,14 +343,13 @@ TEST(PlotsTest, MissingColumnsLeaveTheFigureOutWithAWarning) {
 
 TEST(PlotsTest, Errors) {
   TempDir dir;
-  EXPECT_THROW(MakePaperFigures((dir.path() / "nothing").string()), std::runtime_error);
+  EXPECT_THROW(MakeFigures((dir.path() / "nothing").string()), std::runtime_error);
   EXPECT_THROW(WriteResultsPage((dir.path() / "nothing").string()), std::runtime_error);
   SyntheticRun().Write(dir.path());
-  PlotOptions o;
-  o.bond_graph = false;
+  PlotOptions o = NoBondGraph();
   o.gnuplot = (dir.path() / "no-such-gnuplot").string();
   try {
-    MakePaperFigures(dir.path().string(), o);
+    MakeFigures(dir.path().string(), o);
     ADD_FAILURE() << "no exception without gnuplot";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("not installed"), std::string::npos) << e.what();
@@ -364,7 +384,7 @@ TEST(PlotsTest, BondGraphGroupedByLink) {
 TEST(PlotsTest, PageShowsEveryFigureAndRendersInChromium) {
   TempDir dir;
   SyntheticRun().Write(dir.path());
-  const PlotReport report = MakePaperFigures(dir.path().string(), Options());
+  const PlotReport report = MakeFigures(dir.path().string(), Options());
   WriteResultsPage(dir.path().string(), report);
   const std::string html = ReadFile(dir.path() / "index.html");
   ASSERT_FALSE(html.empty());
@@ -442,11 +462,6 @@ std::string RuntimeErrorOf(F&& f) {
   return "";
 }
 
-PlotOptions NoBondGraph() {
-  PlotOptions o;
-  o.bond_graph = false;
-  return o;
-}
 
 TEST(PlotsHostileTest, HeaderTextRunsNoCommandInGnuplot) {
   TempDir dir;
@@ -463,7 +478,7 @@ TEST(PlotsHostileTest, HeaderTextRunsNoCommandInGnuplot) {
   run.SetUnit("G.R.11", fmt::format("-\r!{}\x01\x1b[2J", touch("carriage-return")));
   run.Write(dir.path());
 
-  const PlotReport report = MakePaperFigures(dir.path().string(), NoBondGraph());
+  const PlotReport report = MakeFigures(dir.path().string(), NoBondGraph());
   WriteResultsPage(dir.path().string(), report);
   for (const auto& entry : fs::directory_iterator(dir.path()))
     EXPECT_NE(entry.path().filename().string().rfind("PWNED", 0), 0u) << "a header's text ran a command: " << entry.path();
@@ -504,7 +519,8 @@ TEST(PlotsHostileTest, RunJsonIsARecordNotAnInstruction) {
   std::ofstream(dir / "run.json") << run.dump();
 
   PlotOptions o;  // no --model: run.json's model.file is not followed
-  const PlotReport report = MakePaperFigures(dir.string(), o);
+  o.figures_path = kPaperFigures;
+  const PlotReport report = MakeFigures(dir.string(), o);
   WriteResultsPage(dir.string(), report);
   const std::string html = ReadFile(dir / "index.html");
   EXPECT_EQ(html.find("SECRET-KEY-42"), std::string::npos) << "a file named in run.json reached the page";
@@ -529,7 +545,7 @@ TEST(PlotsHostileTest, ReadsOnlyRegularFilesOfTheFolder) {
   SyntheticRun().Write(elsewhere);
   // results.csv a link out of the folder.
   fs::create_symlink(elsewhere / "results.csv", dir / "results.csv");
-  EXPECT_THAT(RuntimeErrorOf([&] { MakePaperFigures(dir.string(), NoBondGraph()); }), HasSubstr("symbolic link"));
+  EXPECT_THAT(RuntimeErrorOf([&] { MakeFigures(dir.string(), NoBondGraph()); }), HasSubstr("symbolic link"));
   EXPECT_THAT(RuntimeErrorOf([&] { WriteResultsPage(dir.string()); }), HasSubstr("symbolic link"));
   EXPECT_FALSE(fs::exists(dir / "index.html"));
   // run.json a link out of the folder.
@@ -555,7 +571,7 @@ TEST(PlotsHostileTest, WritesNothingThroughPlantedLinks) {
 
   // figures/ itself a link out of the folder: refused, nothing written there.
   fs::create_directory_symlink(elsewhere, dir / "figures");
-  EXPECT_THAT(RuntimeErrorOf([&] { MakePaperFigures(dir.string(), NoBondGraph()); }), HasSubstr("symbolic link"));
+  EXPECT_THAT(RuntimeErrorOf([&] { MakeFigures(dir.string(), NoBondGraph()); }), HasSubstr("symbolic link"));
   EXPECT_EQ(std::distance(fs::directory_iterator(elsewhere), fs::directory_iterator()), 1);
   fs::remove(dir / "figures");
 
@@ -566,7 +582,7 @@ TEST(PlotsHostileTest, WritesNothingThroughPlantedLinks) {
                                          dir / "plots" / "fig05-G-momentum.ranges", dir / "plots" / "fig05-G-momentum.gp",
                                          dir / "plots" / "fig05-G-momentum.log"};
   for (const fs::path& p : planted) fs::create_symlink(victim, p);
-  const PlotReport report = MakePaperFigures(dir.string(), NoBondGraph());
+  const PlotReport report = MakeFigures(dir.string(), NoBondGraph());
   WriteResultsPage(dir.string(), report);
   EXPECT_EQ(ReadFile(victim), "precious");
   for (const fs::path& p : planted) {
@@ -584,7 +600,7 @@ TEST(PlotsHostileTest, WritesNothingThroughPlantedLinks) {
 TEST(PlotsHostileTest, MalformedResultsAreClearErrors) {
   TempDir dir;
   const fs::path csv = dir.path() / "results.csv";
-  auto plot_error = [&] { return RuntimeErrorOf([&] { MakePaperFigures(dir.path().string(), NoBondGraph()); }); };
+  auto plot_error = [&] { return RuntimeErrorOf([&] { MakeFigures(dir.path().string(), NoBondGraph()); }); };
   auto page_error = [&] { return RuntimeErrorOf([&] { WriteResultsPage(dir.path().string()); }); };
 
   std::ofstream(csv, std::ios::trunc).flush();  // 0 bytes
@@ -616,7 +632,7 @@ TEST(PlotsHostileTest, MalformedResultsAreClearErrors) {
   nan_run.Write(dir.path());
   EXPECT_NO_THROW({
     try {
-      WriteResultsPage(dir.path().string(), MakePaperFigures(dir.path().string(), NoBondGraph()));
+      WriteResultsPage(dir.path().string(), MakeFigures(dir.path().string(), NoBondGraph()));
     } catch (const std::runtime_error&) {
     }
   });
@@ -633,7 +649,7 @@ TEST(PlotsHostileTest, MalformedResultsAreClearErrors) {
   try {
     PlotOptions o;
     o.bond_graph = false;
-    MakePaperFigures(dir.string(), o);
+    MakeFigures(dir.string(), o);
   } catch (const std::runtime_error& e) {
     code = std::string(e.what()).find(want) != std::string::npos ? 0 : 3;
   } catch (...) {
@@ -653,6 +669,126 @@ TEST(PlotsHostileTest, AMillionColumnsWithShortRowsStayInBoundedMemory) {
   }
   // In a child with 1.5 GB of address space: a reader that pads short rows needs 16 GB.
   EXPECT_EXIT(ReadInLittleMemory(dir.path(), "1 values for 1000000 columns"), ::testing::ExitedWithCode(0), "");
+}
+
+// ---------------------------------------------------------------------------------------------
+// The general figures: any results folder, through the CLI as a user runs it.
+
+/// `multibond run EXAMPLE` then `multibond plot DIR`: exit 0, the figures `want` (PNG and SVG, each
+/// with its script) and a page that shows them with the run's record.
+void RunAndPlot(const std::string& example, const std::string& model_name, const std::vector<std::string>& want) {
+  SCOPED_TRACE(example);
+  TempDir tmp;
+  const fs::path dir = tmp.path() / "results";
+  const auto run = multibond::testing::RunCli(
+      {"run", std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + example, "-o", dir.string(), "-q", "--jit", "off", "--t-end", "1"});
+  ASSERT_EQ(run.code, 0) << run.out;
+  const auto plot = multibond::testing::RunCli({"plot", dir.string()}, 120);
+  ASSERT_EQ(plot.code, 0) << plot.out;
+  EXPECT_EQ(plot.out.find("warning"), std::string::npos) << plot.out;
+  const std::string html = ReadFile(dir / "index.html");
+  for (const std::string& name : want) {
+    for (const char* ext : {".png", ".svg"}) EXPECT_TRUE(Exists(dir / "figures" / (name + ext))) << name << ext;
+    EXPECT_TRUE(Exists(dir / "plots" / (name + ".gp"))) << name;
+    EXPECT_THAT(html, HasSubstr("<img src=\"figures/" + name + ".png\"")) << name;
+  }
+  // Nothing else is drawn: one figure per element and unit.
+  size_t pictures = 0;
+  for (const auto& entry : fs::directory_iterator(dir / "figures")) pictures += entry.path().extension() == ".png";
+  EXPECT_EQ(pictures, want.size());
+  // The run's record: model, options, solver statistics, status, energy.
+  EXPECT_THAT(html, HasSubstr(model_name));
+  EXPECT_THAT(html, HasSubstr("solver statistics"));
+  EXPECT_THAT(html, HasSubstr("rhs_evals"));
+  EXPECT_THAT(html, HasSubstr("<th>status</th><td>ok</td>"));
+  EXPECT_THAT(html, HasSubstr("Energy account"));
+  // The energy account's panels: work, kinetic, potential, dissipated in J, then the residual.
+  const auto ranges = ReadRanges(dir, "energy-account");
+  EXPECT_EQ(ranges.count("a"), 1u);
+  EXPECT_EQ(ranges.count("b"), 1u);
+  const std::string gp = ReadFile(dir / "plots" / "energy-account.gp");
+  for (const char* c : {"energy.work [J]", "energy.kinetic [J]", "energy.potential [J]", "energy.dissipated [J]", "energy.residual [-]"})
+    EXPECT_THAT(gp, HasSubstr(c));
+}
+
+TEST(PlotsGeneralTest, MassSpringDamper) {
+  RunAndPlot("mass_spring_damper.yaml", "mass_spring_damper",
+             {"energy-account", "mass-N_s", "spring-m", "force-J", "damper-J", "outputs-m_s", "outputs-N", "mass-J", "spring-J"});
+}
+
+TEST(PlotsGeneralTest, DcMotor) {
+  RunAndPlot("dc_motor.yaml", "dc_motor",
+             {"energy-account", "La-V_s", "J-N_m_s", "supply-J", "Ra-J", "friction-J", "outputs-A", "outputs-rad_s", "outputs-N_m",
+              "La-J", "J-J"});
+}
+
+TEST(PlotsGeneralTest, TenThousandColumnsDrawABoundedNumberOfFigures) {
+  TempDir dir;
+  {
+    std::ofstream out(dir.path() / "results.csv");
+    out << "time [s]";
+    for (int c = 0; c < 10000; ++c) out << ",e" << c << ".q [m]";
+    out << '\n';
+    for (int r = 0; r < 20; ++r) {
+      out << 0.1 * r;
+      for (int c = 0; c < 10000; ++c) out << ',' << (r + c) % 7;
+      out << '\n';
+    }
+  }
+  PlotOptions o;
+  o.max_figures = 6;
+  const auto start = std::chrono::steady_clock::now();
+  const PlotReport report = MakeFigures(dir.path().string(), o);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 60.0);
+  EXPECT_EQ(report.files.size(), 2u * 6u);
+  size_t scripts = 0;
+  for (const auto& entry : fs::directory_iterator(dir.path() / "plots")) scripts += entry.path().extension() == ".gp";
+  EXPECT_EQ(scripts, 6u);
+  ASSERT_EQ(report.warnings.size(), 1u);
+  EXPECT_THAT(report.warnings[0], HasSubstr("9994 of 10000 figures left out"));
+  EXPECT_THAT(report.warnings[0], HasSubstr("--max-figures"));
+  // The default bound holds too.
+  EXPECT_GT(PlotOptions{}.max_figures, 0u);
+  EXPECT_LE(PlotOptions{}.max_figures, 200u);
+  // One element of many columns: split into figures of a few curves.
+  std::vector<std::string> names = {"time"}, units = {"s"}, warnings;
+  for (int c = 0; c < 100; ++c) names.push_back(fmt::format("big.c{}", c)), units.push_back("m");
+  EXPECT_EQ(FigureNames(AutoFigures(names, units, 100, warnings)).size(), (100 + kMaxCurvesPerFigure - 1) / kMaxCurvesPerFigure);
+}
+
+// A figure list is untrusted like a model file: its texts reach gnuplot only as escaped strings.
+TEST(PlotsHostileTest, FigureListTextRunsNoCommandInGnuplot) {
+  TempDir dir;
+  SyntheticRun().Write(dir.path());
+  const std::string marker = (dir.path() / "PWNED").string();
+  const fs::path list = dir.path() / "list.yaml";
+  std::ofstream(list) << fmt::format(R"(title: "<script>alert(1)</script>"
+figures:
+  - name: f1
+    label: "`touch {0}-label`"
+    caption: "'); system('touch {0}-caption'); x=('"
+    shows: "<img src=x onerror=alert(2)> {{{{last G.h.x}}}}"
+    panels:
+      - title: "\"; system \"touch {0}-title\"; \""
+        quantity: "@x `touch {0}-quantity`"
+        unit: "\\\\\n!touch {0}-unit"
+        curves: [{{vector: G.h, title: "\n!touch {0}-legend"}}]
+)",
+                                     marker);
+  PlotOptions o;
+  o.figures_path = list.string();
+  const PlotReport report = MakeFigures(dir.path().string(), o);
+  WriteResultsPage(dir.path().string(), report);
+  for (const std::string& w : report.warnings) ADD_FAILURE() << w;
+  EXPECT_TRUE(Exists(dir.path() / "figures" / "f1.png"));
+  for (const auto& entry : fs::directory_iterator(dir.path()))
+    EXPECT_NE(entry.path().filename().string().rfind("PWNED", 0), 0u) << "a figure list's text ran a command: " << entry.path();
+  const std::string gp = ReadFile(dir.path() / "plots" / "f1.gp");
+  EXPECT_EQ(gp.find('`'), std::string::npos);
+  const std::string html = ReadFile(dir.path() / "index.html");
+  EXPECT_EQ(html.find("<script>"), std::string::npos);
+  EXPECT_EQ(html.find("<img src=x"), std::string::npos);
+  EXPECT_THAT(html, HasSubstr("&lt;img src=x onerror=alert(2)&gt;"));
 }
 
 }  // namespace

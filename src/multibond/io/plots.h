@@ -1,39 +1,42 @@
 #pragma once
 /// \file
-/// The paper's figures from a results folder, and a page that shows them.
+/// `multibond plot DIR`: figures from a results folder, and a page that shows them.
 ///
-/// MakePaperFigures reads DIR/results.csv (and DIR/run.json) of a run of the paper's differential
-/// (examples/differential.yaml) and draws Figs. 3 to 33 of "Modeling and Simulation of Dynamics
-/// of Differential Gear Train Mechanism using Bond Graph" with gnuplot, plus the multibond graph
-/// (Fig. 2) with Graphviz when the model file is at hand:
+/// MakeFigures reads DIR/results.csv (and DIR/run.json) and draws, with gnuplot, either the
+/// general figures of any run (every output against time, grouped by element and unit, and the
+/// energy account: plot_auto.h) or the figures of a figure list file (docs/plots.md; e.g.
+/// examples/differential/figures.yaml, the paper's figures of the differential), plus the model's
+/// bond graph with Graphviz when the model file is given:
 ///
-///     DIR/figures/figNN-<link>-<quantity>.png and .svg   the pictures (figNN-...: see PaperFigureNames)
-///     DIR/plots/figNN-<link>-<quantity>.gp               the gnuplot script of each; run it again from
-///                                                          DIR with `gnuplot plots/figNN-....gp`
-///     DIR/plots/figNN-<link>-<quantity>.ranges           what each panel plotted: its data extent as
-///                                                          gnuplot saw it (panel, x, y, z min/max)
+///     DIR/figures/<name>.png and .svg   the pictures
+///     DIR/plots/<name>.gp               the gnuplot script of each; run it again from DIR with
+///                                       `gnuplot plots/<name>.gp`
+///     DIR/plots/<name>.ranges           what each panel plotted: its data extent as gnuplot saw
+///                                       it (panel, x, y, z min/max)
 ///
-/// Scripts read results.csv directly, by column number (found from the header, "name [unit]").
-/// WriteResultsPage then writes DIR/index.html: every figure with the paper's caption, a short
-/// text on the physics it shows, and the run's summary (steady values against the analytic ones,
-/// the energy account).
+/// WriteResultsPage then writes DIR/index.html (plot_page.h).
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
 #include "multibond/io/dot_writer.h"
 #include "multibond/io/limits.h"
 #include "multibond/io/model_loader.h"
+#include "multibond/io/plot_figures.h"
 
 namespace multibond {
 
-/// Options of MakePaperFigures.
+/// Options of MakeFigures.
 struct PlotOptions {
-  /// Model file for the bond graph drawing (Fig. 2), as the user gave it. Without one, Fig. 2 is
-  /// left out with a warning: the model named in DIR/run.json is a record of the run, and plot
-  /// does not open a file because a results folder names it.
+  /// A figure list file (docs/plots.md); "" for the general figures.
+  std::string figures_path;
+  /// Model file for the bond graph drawing, as the user gave it. Without one, a figure list's
+  /// bond graph figure is left out with a warning (the model named in DIR/run.json is a record of
+  /// the run: plot does not open a file because a results folder names it), and the general
+  /// figures have none.
   std::string model_path;
-  /// Draw Fig. 2 (needs Graphviz's `dot`).
+  /// Draw the bond graph (needs Graphviz's `dot`).
   bool bond_graph = true;
   /// The gnuplot program (looked up on PATH).
   std::string gnuplot = "gnuplot";
@@ -44,44 +47,43 @@ struct PlotOptions {
   int path_stride = 5;
   /// gnuplot processes at a time; 0 = the number of hardware threads.
   int jobs = 0;
-  /// Bounds on what is read (results_bytes: the largest results.csv).
+  /// The most figures drawn (gnuplot runs); the rest are left out with a warning.
+  std::size_t max_figures = 100;
+  /// Bounds on what is read (results_bytes: the largest results.csv; file_bytes, yaml_nodes and
+  /// depth: the figure list).
   InputLimits limits;
 };
 
-/// What MakePaperFigures did.
+/// What MakeFigures did.
 struct PlotReport {
   std::vector<std::string> files;     ///< every picture written (PNG and SVG), in figure order
   std::vector<std::string> warnings;  ///< figures left out and why (missing columns, gnuplot errors)
+  FigureList figures;                 ///< the figures it was to draw (the page shows those drawn)
 };
 
-/// Drawing options for a mechanism's bond graph, grouped by link (the paper's Fig. 2): each
-/// joint's and drive's elements inside its child link's cluster, each gear mesh inside its gear
-/// `a`'s, each relative velocity "X~Y" inside X's; bonds labelled by dimension only. The links come
-/// from the model file's mechanism sections (bodies, joints, gears, drives); a model without them
-/// gets the plain grouping by name prefix.
+/// Drawing options for a mechanism's bond graph, grouped by link: each joint's and drive's
+/// elements inside its child link's cluster, each gear mesh inside its gear `a`'s, each relative
+/// velocity "X~Y" inside X's; bonds labelled by dimension only. The links come from the model
+/// file's mechanism sections (bodies, joints, gears, drives); a model without them gets the plain
+/// grouping by name prefix.
 DotOptions LinkGrouping(const LoadedModel& model);
 
-/// The base names of the paper's figures, in order: "fig02-bond-graph", "fig03-G-orientation", ...,
-/// "fig33-H-reaction" (figure number, link, quantity). Each is drawn as .png and .svg.
-std::vector<std::string> PaperFigureNames();
-
-/// Draws the paper's figures from `results_dir` (see the file comment). Throws std::runtime_error
-/// when results.csv cannot be read or gnuplot cannot be run at all; a figure whose columns are
-/// missing, or whose gnuplot run fails, is left out with a warning.
+/// Draws the figures (see the file comment). Throws ModelError when the figure list is wrong
+/// (nothing is written then), std::runtime_error when results.csv cannot be read or gnuplot
+/// cannot be run at all, Interrupted when a stop is asked for (running gnuplots are ended); a
+/// figure whose columns are missing, or whose gnuplot run fails, is left out with a warning.
 ///
 /// The folder may come from anyone (results_folder.h): only its own regular files results.csv
 /// and run.json are read (a link, a file larger than the limit, a malformed results.csv is an
 /// error); figures/ and plots/ are refused when they are links, and every file is written in a
-/// private work folder and renamed into place. No text of the folder reaches gnuplot but as an
-/// escaped string (safe_text.h), and warnings hold only printable text.
-PlotReport MakePaperFigures(const std::string& results_dir, const PlotOptions& options = {});
+/// private work folder and renamed into place. No text of the folder or of the figure list
+/// reaches gnuplot but as an escaped string (safe_text.h), and warnings hold only printable text.
+PlotReport MakeFigures(const std::string& results_dir, const PlotOptions& options = {});
 
-/// Writes `results_dir`/index.html: every figure found in `results_dir`/figures with the paper's
-/// caption and what it shows, and the run's summary from results.csv and run.json (steady values
-/// against the analytic ones, energy account, solver). `report`'s warnings are listed on the page.
-/// Throws std::runtime_error when results.csv cannot be read or the page cannot be written. Every
-/// text from results.csv, run.json or a warning is HTML-escaped; figures are shown only when they
-/// are regular files (not links) in figures/.
+/// Writes `results_dir`/index.html: the run's record and every figure of `report.figures` found
+/// in `results_dir`/figures (the general figures when `report` has none), with `report`'s
+/// warnings. Throws std::runtime_error when results.csv cannot be read or the page cannot be
+/// written. Figures are shown only when they are regular files (not links) in figures/.
 void WriteResultsPage(const std::string& results_dir, const PlotReport& report = {}, const InputLimits& limits = {});
 
 }  // namespace multibond

@@ -1,0 +1,39 @@
+#pragma once
+/// \file
+/// gnuplot for `plot`: a figure's script, and running gnuplot on many scripts a few at a time.
+///
+/// A script reads results.csv directly, by column number (found from the header), into a
+/// datablock, and writes figures/<name>.png and .svg and plots/<name>.ranges (each panel's data
+/// extent as gnuplot saw it: panel, x min/max, y min/max[, z min/max]). It runs from the results
+/// folder: `gnuplot plots/<name>.gp`. Every text in it is an escaped gnuplot string or comment
+/// (safe_text.h); units from results.csv are shown as they are (GnuplotLiteralText).
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "multibond/io/plot_figures.h"
+#include "multibond/io/plot_table.h"
+#include "multibond/io/results_folder.h"
+
+namespace multibond {
+
+struct ScriptSettings {
+  /// Length of the start-transient panels [s], from the first time of the run (capped at a quarter of the run).
+  double zoom_length = 0.5;
+  /// 3D paths plot every n-th row (keeps the SVGs small).
+  int path_stride = 5;
+};
+
+/// The gnuplot script of `figure` (which has panels; every column it uses is in `table`).
+std::string GnuplotScript(const PlotTable& table, const Figure& figure, const ScriptSettings& settings = {});
+
+/// Runs `program` on plots/<name>.gp for each of `names` in `work` (its cwd), at most `jobs` at a
+/// time. A log with text is published as plots/<name>.log in `plots_dir` (an older one is
+/// removed). Returns the figures whose run failed, with the reason. Throws std::runtime_error
+/// when the program cannot be started at all (after waiting for those running); when a stop is
+/// asked for, ends every running gnuplot (EndProcess) and rethrows Interrupted.
+std::map<std::string, std::string> RunGnuplot(const WorkFolder& work, int plots_dir, const std::vector<std::string>& names,
+                                              const std::string& program, int jobs);
+
+}  // namespace multibond
