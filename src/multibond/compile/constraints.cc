@@ -329,16 +329,21 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
         };
         double hb[3], dhb[3], a[3], da[3];
         for (int i = 0; i < 3; ++i) {
-          hb[i] = r[i] * h[0] + r[3 + i] * h[1] + r[6 + i] * h[2];
-          dhb[i] = rd[i] * h[0] + rd[3 + i] * h[1] + rd[6 + i] * h[2] + r[i] * hd[0] + r[3 + i] * hd[1] + r[6 + i] * hd[2];
+          hb[i] = Dot3(r[i], h[0], r[3 + i], h[1], r[6 + i], h[2]);
+          dhb[i] = kSumStart;
+          for (int k = 0; k < 3; ++k) dhb[i] = AddProduct(dhb[i], rd[3 * k + i], h[k]);
+          for (int k = 0; k < 3; ++k) dhb[i] = AddProduct(dhb[i], r[3 * k + i], hd[k]);
         }
         for (int i = 0; i < 3; ++i) {
           a[i] = AddTerm(AddTerm(AddTerm(kSumStart, ib(i, 0), hb[0]), ib(i, 1), hb[1]), ib(i, 2), hb[2]);
           da[i] = AddTerm(AddTerm(AddTerm(kSumStart, ib(i, 0), dhb[0]), ib(i, 1), dhb[1]), ib(i, 2), dhb[2]);
         }
-        for (int i = 0; i < 3; ++i)
-          d[in.dst + i] = rd[3 * i] * a[0] + rd[3 * i + 1] * a[1] + rd[3 * i + 2] * a[2] + r[3 * i] * da[0] + r[3 * i + 1] * da[1] +
-                          r[3 * i + 2] * da[2];
+        for (int i = 0; i < 3; ++i) {
+          double s = kSumStart;
+          for (int k = 0; k < 3; ++k) s = AddProduct(s, rd[3 * i + k], a[k]);
+          for (int k = 0; k < 3; ++k) s = AddProduct(s, r[3 * i + k], da[k]);
+          d[in.dst + i] = s;
+        }
         break;
       }
       case Op::kRotFwd1: case Op::kRotFwd2: case Op::kRotFwd3:
@@ -363,13 +368,13 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
           MB_ASSERT(in.m <= 16, "modulated inverse larger than 16");
           for (int r = 0; r < in.m; ++r) {
             double s = d[in.src + r];
-            for (int k = 0; k < in.n; ++k) s -= (in.count == 2 ? dm[r * in.n + k] : dm[k * in.m + r]) * y[k];
+            for (int k = 0; k < in.n; ++k) s = AddProduct(s, -(in.count == 2 ? dm[r * in.n + k] : dm[k * in.m + r]), y[k]);
             z[r] = s;
           }
           const double* a = mod + in.coef;
           for (int r = 0; r < in.n; ++r) {
             double s = kSumStart;
-            for (int k = 0; k < in.m; ++k) s += (in.count == 2 ? a[r * in.m + k] : a[k * in.n + r]) * z[k];
+            for (int k = 0; k < in.m; ++k) s = AddProduct(s, in.count == 2 ? a[r * in.m + k] : a[k * in.n + r], z[k]);
             d[in.dst + r] = s;
           }
         }
