@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/exact_sum.h"
 
 namespace multibond {
 
@@ -33,9 +34,10 @@ std::string CommentText(const std::string& name) {
   return out;
 }
 
-/// s + a b with one rounding (exact_sum.h: AddProduct, AddTerm and std::fma in the interpreter).
+/// s + a b, one term of a chain: fused where the process fuses its sums (exact_sum.h: MulAdd in
+/// the interpreter, read from the same flag).
 std::string Fma(const std::string& a, const std::string& b, const std::string& s) {
-  return "__builtin_fma(" + a + ", " + b + ", " + s + ")";
+  return fused_sums ? "__builtin_fma(" + a + ", " + b + ", " + s + ")" : "(" + s + " + " + a + " * " + b + ")";
 }
 
 /// The chain a0 b0 + a1 b1 + ...: the first product rounded, each next one fused into the running
@@ -49,7 +51,7 @@ std::string Chain(const std::vector<std::pair<std::string, std::string>>& produc
 /// sum_k coef_k * term_k as a chain (AddTerm in the interpreter), leaving out exact zeros (a
 /// compiler may not drop 0.0 * x itself: x could be an infinity or a NaN) and writing +-1 as a
 /// plain sum (fma(+-1, t, s) is s +- t exactly); the first term is the rounded product, which
-/// fma(c, t, -0.0) is. A sum with no term is -0.0, where the interpreter's sums start.
+/// MulAdd(c, t, -0.0) is. A sum with no term is -0.0, where the interpreter's sums start.
 std::string LinComb(const std::vector<std::pair<double, std::string>>& terms) {
   std::string e;
   for (const auto& [c, t] : terms) {

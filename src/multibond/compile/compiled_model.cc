@@ -938,11 +938,11 @@ inline void LeverArm(double* a, const double* rot, const double* lever) {
   for (int i = 0; i < 3; ++i) a[i] = AddTerm(AddTerm(AddTerm(kSumStart, lever[0], rot[3 * i]), lever[1], rot[3 * i + 1]), lever[2], rot[3 * i + 2]);
 }
 
-/// out = s (a x b), each component a_j b_k - a_k b_j as the chain fma(-a_k, b_j, a_j b_k).
+/// out = s (a x b), each component a_j b_k - a_k b_j as the chain a_j b_k + (-a_k) b_j.
 inline void Cross(double* out, const double* a, const double* b, double s) {
-  out[0] = s * std::fma(-a[2], b[1], a[1] * b[2]);
-  out[1] = s * std::fma(-a[0], b[2], a[2] * b[0]);
-  out[2] = s * std::fma(-a[1], b[0], a[0] * b[1]);
+  out[0] = s * MulAdd(-a[2], b[1], a[1] * b[2]);
+  out[1] = s * MulAdd(-a[0], b[2], a[2] * b[0]);
+  out[2] = s * MulAdd(-a[1], b[0], a[0] * b[1]);
 }
 
 }  // namespace
@@ -1230,7 +1230,7 @@ void CompiledModel::EvalGather(const Gather& gt, const double* x, const double* 
     case StateBlock::Kind::kOrientation: {
       // dR/dt = [w x] R  (- g (R R^T - I) R: zero on SO(3), pulls a drifting R back). Written out
       // term by term as the generated code is (codegen.cc, EmitGather): the same operations in
-      // the same operations in the same order, the same fused multiply-adds (exact_sum.h).
+      // the same operations in the same order, the same chains (exact_sum.h).
       const double* om = w + gt.flow;
       const double* r = x + gt.state;
       if (gt.sign > 0.0) {
@@ -1238,7 +1238,7 @@ void CompiledModel::EvalGather(const Gather& gt, const double* x, const double* 
         for (int i = 0; i < 3; ++i)
           for (int j = 0; j < 3; ++j) {
             const double rrt = Dot3(r[3 * i], r[3 * j], r[3 * i + 1], r[3 * j + 1], r[3 * i + 2], r[3 * j + 2]);
-            s[3 * i + j] = std::fma(-gt.sign, rrt - (i == j ? 1.0 : 0.0), s[3 * i + j]);
+            s[3 * i + j] = MulAdd(-gt.sign, rrt - (i == j ? 1.0 : 0.0), s[3 * i + j]);
           }
         for (int i = 0; i < 3; ++i)
           for (int j = 0; j < 3; ++j) out[3 * i + j] = Dot3(s[3 * i], r[j], s[3 * i + 1], r[3 + j], s[3 * i + 2], r[6 + j]);
@@ -1246,7 +1246,7 @@ void CompiledModel::EvalGather(const Gather& gt, const double* x, const double* 
         // ([w x] R)_ij = w_{i+1} R_{i+2,j} - w_{i+2} R_{i+1,j}
         for (int i = 0; i < 3; ++i)
           for (int j = 0; j < 3; ++j)
-            out[3 * i + j] = std::fma(-om[(i + 2) % 3], r[3 * ((i + 1) % 3) + j], om[(i + 1) % 3] * r[3 * ((i + 2) % 3) + j]);
+            out[3 * i + j] = MulAdd(-om[(i + 2) % 3], r[3 * ((i + 1) % 3) + j], om[(i + 1) % 3] * r[3 * ((i + 2) % 3) + j]);
       }
       break;
     }
