@@ -40,6 +40,9 @@ std::string Fma(const std::string& a, const std::string& b, const std::string& s
   return fused_sums ? "__builtin_fma(" + a + ", " + b + ", " + s + ")" : "(" + s + " + " + a + " * " + b + ")";
 }
 
+/// -a for a name or a literal (a function: GCC 12 warns, wrongly, on "-" + std::string&&).
+std::string Neg(const std::string& a) { return fmt::format("-{}", a); }
+
 /// The chain a0 b0 + a1 b1 + ...: the first product rounded, each next one fused into the running
 /// sum (exact_sum.h); an empty chain is -0.0. The interpreter: AddProduct from kSumStart.
 std::string Chain(const std::vector<std::pair<std::string, std::string>>& products) {
@@ -241,7 +244,7 @@ void CompiledModel::EmitInstr(const Instr& in, std::string& o, std::set<std::str
       const std::string* q = fwd ? arm : v;
       for (int i = 0; i < 3; ++i) {
         const int j = (i + 1) % 3, k = (i + 2) % 3;
-        line(fmt::format("{} = {} * {};", Out(d + i), Lit(in.scale), Fma("-" + p[k], q[j], p[j] + " * " + q[k])));
+        line(fmt::format("{} = {} * {};", Out(d + i), Lit(in.scale), Fma(Neg(p[k]), q[j], p[j] + " * " + q[k])));
       }
       break;
     }
@@ -324,7 +327,7 @@ void CompiledModel::EmitGather(const Gather& gt, std::string& o, std::vector<int
         for (int i = 0; i < 3; ++i)
           for (int j = 0; j < 3; ++j)
             line(fmt::format("xdot[{}] = {};", r + 3 * i + j,
-                             Fma("-" + om[(i + 2) % 3], fmt::format("x[{}]", r + 3 * ((i + 1) % 3) + j),
+                             Fma(Neg(om[(i + 2) % 3]), fmt::format("x[{}]", r + 3 * ((i + 1) % 3) + j),
                                  fmt::format("{} * x[{}]", om[(i + 1) % 3], r + 3 * ((i + 2) % 3) + j))));
       }
       break;
@@ -399,6 +402,10 @@ std::string CompiledModel::GenerateFactorSource() const {
   // one piece took 6-12 s to compile, in pieces about a second).
   const IndependentFactor& f = factor_;
   const int n = f.size(), ne = f.entries();
+  auto B = [](int k) { return fmt::format("b[{}]", k); };
+  auto V = [](int k) { return fmt::format("v[{}]", k); };
+  auto L = [](int k) { return fmt::format("l[{}]", k); };
+  auto Ld = [](int k) { return fmt::format("ld[{}]", k); };
   constexpr int kStatementsPerPart = 200;
   std::string parts, body;
   std::string part;
@@ -433,8 +440,8 @@ std::string CompiledModel::GenerateFactorSource() const {
   };
   add(fmt::format("  for (int k = 0; k < {}; ++k) d[k] = 0.0;\n", f.values()), 1);
   for (const IndependentFactor::Dot& e : f.w3)
-    add(fmt::format("  d[{}] += b[{}] * v[{}] + b[{}] * v[{}] + b[{}] * v[{}];\n", e.target, e.a, e.b, e.a + 1, e.b + 1, e.a + 2, e.b + 2), 1);
-  for (const IndependentFactor::Dot& e : f.w1) add(fmt::format("  d[{}] += b[{}] * v[{}];\n", e.target, e.a, e.b), 1);
+    add(fmt::format("  d[{}] += {};\n", e.target, Chain({{B(e.a), V(e.b)}, {B(e.a + 1), V(e.b + 1)}, {B(e.a + 2), V(e.b + 2)}})), 1);
+  for (const IndependentFactor::Dot& e : f.w1) add(fmt::format("  d[{}] = {};\n", e.target, Fma(B(e.a), V(e.b), fmt::format("d[{}]", e.target))), 1);
   for (int i = 0; i < n; ++i) {
     std::string row = fmt::format("  {{\n    double di = d[{}];\n", i);
     int statements = 3;
@@ -442,10 +449,10 @@ std::string CompiledModel::GenerateFactorSource() const {
       row += fmt::format("    {{ double c = l[{}];\n", e);
       for (int t = f.l3_offset[e]; t < f.l3_offset[e + 1]; ++t) {
         const IndependentFactor::Dot& u = f.l3[t];
-        row += fmt::format("      c -= l[{}] * ld[{}] + l[{}] * ld[{}] + l[{}] * ld[{}];\n", u.a, u.b, u.a + 1, u.b + 1, u.a + 2, u.b + 2);
+        row += fmt::format("      c -= {};\n", Chain({{L(u.a), Ld(u.b)}, {L(u.a + 1), Ld(u.b + 1)}, {L(u.a + 2), Ld(u.b + 2)}}));
       }
-      for (int t = f.l1_offset[e]; t < f.l1_offset[e + 1]; ++t) row += fmt::format("      c -= l[{}] * ld[{}];\n", f.l1[t].a, f.l1[t].b);
-      row += fmt::format("      ld[{}] = c; l[{}] = c * d[{}]; di -= l[{}] * c; }}\n", e, e, f.cols[e], e);
+      for (int t = f.l1_offset[e]; t < f.l1_offset[e + 1]; ++t) row += fmt::format("      c = {};\n", Fma(Neg(L(f.l1[t].a)), Ld(f.l1[t].b), "c"));
+      row += fmt::format("      ld[{}] = c; l[{}] = c * d[{}]; di = {}; }}\n", e, e, f.cols[e], Fma(Neg(L(e)), "c", "di"));
       statements += 2 + (f.l3_offset[e + 1] - f.l3_offset[e]) + (f.l1_offset[e + 1] - f.l1_offset[e]);
     }
     row += fmt::format("    if (!(di > 1e-10 * d[{}])) return 0;\n    d[{}] = 1.0 / di;\n  }}\n", i, i);
@@ -455,17 +462,20 @@ std::string CompiledModel::GenerateFactorSource() const {
   const std::string factor = function("extern \"C\" int multibond_ldlt_factor(const double* __restrict b, const double* __restrict v,\n"
                                       "                                       double* __restrict d)",
                                       "  double* y = nullptr;\n  const double* rhs = nullptr;\n", "  return 1;\n");
-  // L D L^T y = rhs: the interpreter subtracts one term at a time (s = rhs; s -= l y; ...), the
-  // same as the left-to-right chain here.
+  // L D L^T y = rhs: the interpreter subtracts one term at a time (s = rhs; s = s - l y; ...), the
+  // same chain as here (exact_sum.h).
   checked = false;
   for (int i = 0; i < n; ++i) {
     std::string e = fmt::format("rhs[{}]", f.multiplier[i]);
-    for (int k = f.row_offset[i]; k < f.row_offset[i + 1]; ++k) e += fmt::format(" - l[{}] * y[{}]", k, f.cols[k]);
+    for (int k = f.row_offset[i]; k < f.row_offset[i + 1]; ++k) e = Fma(Neg(L(k)), fmt::format("y[{}]", f.cols[k]), e);
     add(fmt::format("  y[{}] = {};\n", i, e), 1 + f.row_offset[i + 1] - f.row_offset[i]);
   }
   for (int i = 0; i < n; ++i) add(fmt::format("  y[{}] *= d[{}];\n", i, i), 1);
   for (int i = n - 1; i >= 0; --i)
-    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) add(fmt::format("  y[{}] -= l[{}] * y[{}];\n", f.cols[e], e, i), 1);
+    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) {
+      const std::string y = fmt::format("y[{}]", f.cols[e]);
+      add(fmt::format("  {} = {};\n", y, Fma(Neg(L(e)), fmt::format("y[{}]", i), y)), 1);
+    }
   std::string scatter = fmt::format("  for (int k = 0; k < {}; ++k) lambda[k] = 0.0;\n", num_lambda_);
   for (int i = 0; i < n; ++i) scatter += fmt::format("  lambda[{}] = y[{}];\n", f.multiplier[i], i);
   const std::string solve = function("extern \"C\" void multibond_ldlt_solve(const double* __restrict rhs, double* __restrict lambda,\n"

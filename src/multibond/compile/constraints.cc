@@ -455,25 +455,26 @@ bool CompiledModel::FactorIndependent(Workspace& ws) const {
   // W's nonzeros straight into their places in the factor; fill-in starts at zero.
   std::fill(ws.con.factor.begin(), ws.con.factor.end(), 0.0);
   for (const IndependentFactor::Dot& e : f.w3)
-    d[e.target] += b[e.a] * v[e.b] + b[e.a + 1] * v[e.b + 1] + b[e.a + 2] * v[e.b + 2];
-  for (const IndependentFactor::Dot& e : f.w1) d[e.target] += b[e.a] * v[e.b];
+    d[e.target] += Dot3(b[e.a], v[e.b], b[e.a + 1], v[e.b + 1], b[e.a + 2], v[e.b + 2]);
+  for (const IndependentFactor::Dot& e : f.w1) d[e.target] = MulAdd(b[e.a], v[e.b], d[e.target]);
   // Crout's L D L^T, row by row: (L D)(i, j) = W(i, j) - sum_{k < j} L(i, k) (L D)(j, k), then
   // L(i, j) = (L D)(i, j) / d_j and d_i = W(i, i) - sum_{k < i} L(i, k) (L D)(i, k). Each entry is
   // a dot product accumulated in a register over the precomputed common columns (the
   // column-by-column form scatters its updates into a work vector, which chains them through
-  // memory: measured slower here).
+  // memory: measured slower here). Sums of products are chains as everywhere (exact_sum.h), in
+  // the order of the generated factorisation (GenerateFactorSource).
   for (int i = 0; i < n; ++i) {
     double di = d[i];
     for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) {
       double c = l[e];
       for (int t = f.l3_offset[e]; t < f.l3_offset[e + 1]; ++t) {
         const IndependentFactor::Dot& u = f.l3[t];
-        c -= l[u.a] * ld[u.b] + l[u.a + 1] * ld[u.b + 1] + l[u.a + 2] * ld[u.b + 2];
+        c -= Dot3(l[u.a], ld[u.b], l[u.a + 1], ld[u.b + 1], l[u.a + 2], ld[u.b + 2]);
       }
-      for (int t = f.l1_offset[e]; t < f.l1_offset[e + 1]; ++t) c -= l[f.l1[t].a] * ld[f.l1[t].b];
+      for (int t = f.l1_offset[e]; t < f.l1_offset[e + 1]; ++t) c = MulAdd(-l[f.l1[t].a], ld[f.l1[t].b], c);
       ld[e] = c;
       l[e] = c * d[f.cols[e]];  // the next entries wait for this one: a product, not a division
-      di -= l[e] * c;
+      di = MulAdd(-l[e], c, di);
     }
     if (!(di > 1e-10 * d[i])) return false;  // not positive definite here, or nearly dependent
     d[i] = 1.0 / di;  // from here on, d holds D^-1
@@ -496,12 +497,12 @@ void CompiledModel::SolveFactored(const double* rhs, double* out, Workspace& ws)
   double* y = ws.con.y.data();
   for (int i = 0; i < n; ++i) {
     double s = rhs[f.multiplier[i]];
-    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) s -= l[e] * y[f.cols[e]];
+    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) s = MulAdd(-l[e], y[f.cols[e]], s);
     y[i] = s;
   }
   for (int i = 0; i < n; ++i) y[i] *= d[i];
   for (int i = n - 1; i >= 0; --i)
-    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) y[f.cols[e]] -= l[e] * y[i];
+    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) y[f.cols[e]] = MulAdd(-l[e], y[i], y[f.cols[e]]);
   std::fill(out, out + num_lambda_, 0.0);
   for (int i = 0; i < n; ++i) out[f.multiplier[i]] = y[i];
 }
