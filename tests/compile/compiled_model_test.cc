@@ -18,6 +18,7 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/exact_sum.h"
 #include "multibond/core/interrupt.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
@@ -206,11 +207,9 @@ Engines CompileBoth(const std::string& example) {
   return ::testing::AssertionFailure() << differ << " of " << n << " values differ:" << first;
 }
 
-class OneAnswer : public ::testing::TestWithParam<std::string> {};
-
-TEST_P(OneAnswer, InterpreterAndGeneratedCodeGiveTheSameBits) {
-  const Engines e = CompileBoth(GetParam());
-  if (!e.generated->uses_generated_code()) GTEST_SKIP() << e.generated->rhs_engine();
+/// Both engines of one example at the initial state and at states nearby: the same bits in every
+/// state derivative and every slot.
+void ExpectSameBits(const std::string& example, const Engines& e) {
   Workspace wi = e.interpreter->MakeWorkspace(), wg = e.generated->MakeWorkspace();
   const Eigen::VectorXd x0 = e.interpreter->MakeInitialState();
   const int n = static_cast<int>(x0.size());
@@ -225,12 +224,38 @@ TEST_P(OneAnswer, InterpreterAndGeneratedCodeGiveTheSameBits) {
     Eigen::VectorXd di(n), dg(n), fi(n), fg(n);
     e.interpreter->CalcDerivatives(t, x.data(), di.data(), wi);
     e.generated->CalcDerivatives(t, x.data(), dg.data(), wg);
-    EXPECT_TRUE(SameBits("xdot", di.data(), dg.data(), n, &e.interpreter->state_names())) << GetParam() << " trial " << trial;
-    EXPECT_TRUE(SameBits("slot", wi.slots.data(), wg.slots.data(), static_cast<int>(wi.slots.size()))) << GetParam() << " trial " << trial;
+    EXPECT_TRUE(SameBits("xdot", di.data(), dg.data(), n, &e.interpreter->state_names())) << example << " trial " << trial;
+    EXPECT_TRUE(SameBits("slot", wi.slots.data(), wg.slots.data(), static_cast<int>(wi.slots.size()))) << example << " trial " << trial;
     e.interpreter->CalcStateDerivatives(t, x.data(), fi.data(), wi);
     e.generated->CalcStateDerivatives(t, x.data(), fg.data(), wg);
-    EXPECT_TRUE(SameBits("xdot (integrator entry)", fi.data(), fg.data(), n, &e.interpreter->state_names())) << GetParam() << " trial " << trial;
+    EXPECT_TRUE(SameBits("xdot (integrator entry)", fi.data(), fg.data(), n, &e.interpreter->state_names())) << example << " trial " << trial;
   }
+}
+
+class OneAnswer : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(OneAnswer, InterpreterAndGeneratedCodeGiveTheSameBits) {
+  const Engines e = CompileBoth(GetParam());
+  if (!e.generated->uses_generated_code()) GTEST_SKIP() << e.generated->rhs_engine();
+  ExpectSameBits(GetParam(), e);
+}
+
+/// Sums as on a machine without FMA (exact_sum.h), for the scope of one test.
+struct UnfusedSums {
+  bool before = fused_sums;
+  UnfusedSums() { fused_sums = false; }
+  ~UnfusedSums() { fused_sums = before; }
+};
+
+// A machine without an FMA instruction would run glibc's software fma (about 100 ns a call) in
+// the generated code and the interpreter; there both engines write each term as a multiply and an
+// add, and still agree to the bit.
+TEST_P(OneAnswer, WithoutFusedSumsTheEnginesStillAgree) {
+  UnfusedSums unfused;
+  const Engines e = CompileBoth(GetParam());
+  if (!e.generated->uses_generated_code()) GTEST_SKIP() << e.generated->rhs_engine();
+  EXPECT_THAT(e.generated->GenerateSource(), ::testing::Not(::testing::HasSubstr("fma")));
+  ExpectSameBits(GetParam(), e);
 }
 
 INSTANTIATE_TEST_SUITE_P(Examples, OneAnswer,
@@ -240,6 +265,16 @@ INSTANTIATE_TEST_SUITE_P(Examples, OneAnswer,
                            std::string s = info.param.substr(0, info.param.find('.'));
                            return s;
                          });
+
+// Where the CPU has FMA, every further term of a sum is one fused multiply-add in the generated
+// code (the interpreter's std::fma gives the same bits; the speed of the FMA build, issue 21).
+TEST(OneAnswerRun, TheGeneratedCodeFusesItsSumsWhereTheCpuHasFma) {
+  if (!__builtin_cpu_supports("fma")) GTEST_SKIP() << "no FMA on this CPU";
+  ASSERT_TRUE(fused_sums);
+  const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml");
+  const std::string src = CompiledModel::Compile(lm.graph, lm.compile)->GenerateSource();
+  EXPECT_THAT(src, ::testing::HasSubstr("__builtin_fma("));
+}
 
 // Before: runs with and without the generated code wrote different numbers (fused multiply-adds
 // on one side, Eigen's vectorised 3x3 products and sums from +0.0 on the other).

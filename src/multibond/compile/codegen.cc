@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/exact_sum.h"
 
 namespace multibond {
 
@@ -33,18 +34,35 @@ std::string CommentText(const std::string& name) {
   return out;
 }
 
-/// sum_k coef_k * term_k, leaving out exact zeros and writing +-1 without a product (a
-/// compiler may not drop 0.0 * x itself: x could be an infinity or a NaN). The interpreter does
-/// the same (AddTerm in compiled_model.cc), and its sums start from -0.0, the identity of
-/// addition: a sum with no term is -0.0 here too, so both engines give the same bits.
+/// s + a b, one term of a chain: fused where the process fuses its sums (exact_sum.h: MulAdd in
+/// the interpreter, read from the same flag).
+std::string Fma(const std::string& a, const std::string& b, const std::string& s) {
+  return fused_sums ? "__builtin_fma(" + a + ", " + b + ", " + s + ")" : "(" + s + " + " + a + " * " + b + ")";
+}
+
+/// -a for a name or a literal (a function: GCC 12 warns, wrongly, on "-" + std::string&&).
+std::string Neg(const std::string& a) { return fmt::format("-{}", a); }
+
+/// The chain a0 b0 + a1 b1 + ...: the first product rounded, each next one fused into the running
+/// sum (exact_sum.h); an empty chain is -0.0. The interpreter: AddProduct from kSumStart.
+std::string Chain(const std::vector<std::pair<std::string, std::string>>& products) {
+  std::string e;
+  for (const auto& [a, b] : products) e = e.empty() ? a + " * " + b : Fma(a, b, e);
+  return e.empty() ? "(-0.0)" : e;
+}
+
+/// sum_k coef_k * term_k as a chain (AddTerm in the interpreter), leaving out exact zeros (a
+/// compiler may not drop 0.0 * x itself: x could be an infinity or a NaN) and writing +-1 as a
+/// plain sum (fma(+-1, t, s) is s +- t exactly); the first term is the rounded product, which
+/// MulAdd(c, t, -0.0) is. A sum with no term is -0.0, where the interpreter's sums start.
 std::string LinComb(const std::vector<std::pair<double, std::string>>& terms) {
   std::string e;
   for (const auto& [c, t] : terms) {
     if (c == 0.0) continue;
-    const std::string sign = c < 0 ? " - " : " + ";
-    const std::string mag = std::abs(c) == 1.0 ? t : Lit(std::abs(c)) + " * " + t;
-    if (e.empty()) e = (c < 0 ? "-" : "") + mag;
-    else e += sign + mag;
+    const bool unit = std::abs(c) == 1.0;
+    if (e.empty()) e = (c < 0 ? "-" : "") + (unit ? t : Lit(std::abs(c)) + " * " + t);
+    else if (unit) e += (c < 0 ? " - " : " + ") + t;
+    else e = Fma(Lit(c), t, e);
   }
   return e.empty() ? "(-0.0)" : e;
 }
@@ -93,9 +111,10 @@ void CompiledModel::EmitStateKernel(const Instr& in, const std::function<std::st
     case Op::kIFlowRotatedDiag: {
       // f = R Ib^-1 R^T h, R row-major at state offset a.
       const int a = in.aux;
+      auto St = [](int k) { return fmt::format("x[{}]", k); };
       line("{");
       for (int i = 0; i < 3; ++i)  // hb = R^T h
-        line(fmt::format("  const double hb{} = x[{}] * {} + x[{}] * {} + x[{}] * {};", i, a + i, src(0), a + 3 + i, src(1), a + 6 + i, src(2)));
+        line(fmt::format("  const double hb{} = {};", i, Chain({{St(a + i), src(0)}, {St(a + 3 + i), src(1)}, {St(a + 6 + i), src(2)}})));
       for (int i = 0; i < 3; ++i) {
         if (in.op == Op::kIFlowRotatedDiag)
           line(fmt::format("  const double wb{} = {} * hb{};", i, Lit(c[in.coef + i]), i));
@@ -104,7 +123,7 @@ void CompiledModel::EmitStateKernel(const Instr& in, const std::function<std::st
                            LinComb({{c[in.coef + 3 * i], "hb0"}, {c[in.coef + 3 * i + 1], "hb1"}, {c[in.coef + 3 * i + 2], "hb2"}})));
       }
       for (int i = 0; i < 3; ++i)  // f = R wb
-        line(fmt::format("  {} = x[{}] * wb0 + x[{}] * wb1 + x[{}] * wb2;", dst(i), a + 3 * i, a + 3 * i + 1, a + 3 * i + 2));
+        line(fmt::format("  {} = {};", dst(i), Chain({{St(a + 3 * i), "wb0"}, {St(a + 3 * i + 1), "wb1"}, {St(a + 3 * i + 2), "wb2"}})));
       line("}");
       break;
     }
@@ -180,9 +199,9 @@ void CompiledModel::EmitInstr(const Instr& in, std::string& o, std::set<std::str
           std::vector<std::pair<double, std::string>> terms;
           for (int i = 0; i < 3; ++i) {
             if (l(r, i) == 0.0) continue;
-            std::vector<std::pair<double, std::string>> row;
-            for (int j = 0; j < 3; ++j) row.push_back({1.0, Rot(in.aux, i, j, in.transpose) + " * " + In(in.src + j)});
-            terms.push_back({l(r, i), "(" + LinComb(row) + ")"});
+            std::vector<std::pair<std::string, std::string>> row;
+            for (int j = 0; j < 3; ++j) row.push_back({Rot(in.aux, i, j, in.transpose), In(in.src + j)});
+            terms.push_back({l(r, i), "(" + Chain(row) + ")"});
           }
           line(fmt::format("{} = {} * ({});", Out(d + r), Lit(in.scale), LinComb(terms)));
         }
@@ -197,10 +216,10 @@ void CompiledModel::EmitInstr(const Instr& in, std::string& o, std::set<std::str
           if (used[col]) line(fmt::format("  const double z{} = {};", col, LinComb(terms)));
         }
         for (int i = 0; i < 3; ++i) {
-          std::vector<std::pair<double, std::string>> terms;
+          std::vector<std::pair<std::string, std::string>> products;
           for (int col = 0; col < 3; ++col)
-            if (used[col]) terms.push_back({1.0, Rot(in.aux, col, i, in.transpose) + " * z" + std::to_string(col)});
-          line(fmt::format("  {} = {} * ({});", Out(d + i), Lit(in.scale), LinComb(terms)));
+            if (used[col]) products.push_back({Rot(in.aux, col, i, in.transpose), "z" + std::to_string(col)});
+          line(fmt::format("  {} = {} * ({});", Out(d + i), Lit(in.scale), Chain(products)));
         }
         line("}");
       }
@@ -217,25 +236,25 @@ void CompiledModel::EmitInstr(const Instr& in, std::string& o, std::set<std::str
           line(fmt::format("const double {}_{} = {};", a, i, LinComb(terms)));
         }
       }
-      const std::string v0 = In(in.src), v1 = In(in.src + 1), v2 = In(in.src + 2), s = Lit(in.scale);
-      if (in.op == Op::kLeverFwd) {  // s (v x a)
-        line(fmt::format("{} = {} * ({} * {}_2 - {} * {}_1);", Out(d), s, v1, a, v2, a));
-        line(fmt::format("{} = {} * ({} * {}_0 - {} * {}_2);", Out(d + 1), s, v2, a, v0, a));
-        line(fmt::format("{} = {} * ({} * {}_1 - {} * {}_0);", Out(d + 2), s, v0, a, v1, a));
-      } else {  // s (a x v)
-        line(fmt::format("{} = {} * ({}_1 * {} - {}_2 * {});", Out(d), s, a, v2, a, v1));
-        line(fmt::format("{} = {} * ({}_2 * {} - {}_0 * {});", Out(d + 1), s, a, v0, a, v2));
-        line(fmt::format("{} = {} * ({}_0 * {} - {}_1 * {});", Out(d + 2), s, a, v1, a, v0));
+      // s (p x q) with (p x q)_i = p_j q_k - p_k q_j = fma(-p_k, q_j, p_j q_k), as Cross in compiled_model.cc.
+      const std::string v[3] = {In(in.src), In(in.src + 1), In(in.src + 2)};
+      const std::string arm[3] = {a + "_0", a + "_1", a + "_2"};
+      const bool fwd = in.op == Op::kLeverFwd;  // s (v x a), else s (a x v)
+      const std::string* p = fwd ? v : arm;
+      const std::string* q = fwd ? arm : v;
+      for (int i = 0; i < 3; ++i) {
+        const int j = (i + 1) % 3, k = (i + 2) % 3;
+        line(fmt::format("{} = {} * {};", Out(d + i), Lit(in.scale), Fma(Neg(p[k]), q[j], p[j] + " * " + q[k])));
       }
       break;
     }
     case Op::kModulated: {
       const bool plain = in.count == 0 || in.count == 2;
       for (int r = 0; r < in.n; ++r) {
-        std::string e;
+        std::vector<std::pair<std::string, std::string>> products;
         for (int k = 0; k < in.m; ++k)
-          e += fmt::format("{}{}[{}] * {}", k ? " + " : "", names.mod, in.coef + (plain ? r * in.m + k : k * in.n + r), In(in.src + k));
-        line(fmt::format("{} = {};", Out(d + r), e.empty() ? "(-0.0)" : e));
+          products.push_back({fmt::format("{}[{}]", names.mod, in.coef + (plain ? r * in.m + k : k * in.n + r)), In(in.src + k)});
+        line(fmt::format("{} = {};", Out(d + r), Chain(products)));
       }
       break;
     }
@@ -289,33 +308,39 @@ void CompiledModel::EmitGather(const Gather& gt, std::string& o, std::vector<int
         // With stabilisation: ([w x] - g (R R^T - I)) R, written out in full.
         line("{");
         line(fmt::format("  double s[9] = {{0.0, -{}, {}, {}, 0.0, -{}, -{}, {}, 0.0}};", om[2], om[1], om[2], om[0], om[1], om[0]));
+        // s_ij = fma(-g, (R R^T)_ij - I_ij, s_ij), each a chain (EvalGather in compiled_model.cc).
+        auto x = [](int k) { return fmt::format("x[{}]", k); };
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) {
+            const std::string rrt = Chain({{x(r + 3 * i), x(r + 3 * j)}, {x(r + 3 * i + 1), x(r + 3 * j + 1)}, {x(r + 3 * i + 2), x(r + 3 * j + 2)}});
+            const std::string s = fmt::format("s[{}]", 3 * i + j);
+            line(fmt::format("  {} = {};", s, Fma(Lit(-gt.sign), "(" + rrt + (i == j ? " - 1.0)" : " - 0.0)"), s)));
+          }
         for (int i = 0; i < 3; ++i)
           for (int j = 0; j < 3; ++j)
-            line(fmt::format("  s[{}] -= {} * (x[{}] * x[{}] + x[{}] * x[{}] + x[{}] * x[{}] - {});", 3 * i + j, Lit(gt.sign),
-                              r + 3 * i, r + 3 * j, r + 3 * i + 1, r + 3 * j + 1, r + 3 * i + 2, r + 3 * j + 2, i == j ? "1.0" : "0.0"));
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j)
-            line(fmt::format("  xdot[{}] = s[{}] * x[{}] + s[{}] * x[{}] + s[{}] * x[{}];", r + 3 * i + j, 3 * i, r + j, 3 * i + 1,
-                              r + 3 + j, 3 * i + 2, r + 6 + j));
+            line(fmt::format("  xdot[{}] = {};", r + 3 * i + j,
+                             Chain({{fmt::format("s[{}]", 3 * i), x(r + j)}, {fmt::format("s[{}]", 3 * i + 1), x(r + 3 + j)},
+                                    {fmt::format("s[{}]", 3 * i + 2), x(r + 6 + j)}})));
         line("}");
       } else {
-        // ([w x] R)_ij = w_{i+1} R_{i+2,j} - w_{i+2} R_{i+1,j}
+        // ([w x] R)_ij = w_{i+1} R_{i+2,j} - w_{i+2} R_{i+1,j} = fma(-w_{i+2}, R_{i+1,j}, w_{i+1} R_{i+2,j})
         for (int i = 0; i < 3; ++i)
           for (int j = 0; j < 3; ++j)
-            line(fmt::format("xdot[{}] = {} * x[{}] - {} * x[{}];", r + 3 * i + j, om[(i + 1) % 3], r + 3 * ((i + 2) % 3) + j,
-                              om[(i + 2) % 3], r + 3 * ((i + 1) % 3) + j));
+            line(fmt::format("xdot[{}] = {};", r + 3 * i + j,
+                             Fma(Neg(om[(i + 2) % 3]), fmt::format("x[{}]", r + 3 * ((i + 1) % 3) + j),
+                                 fmt::format("{} * x[{}]", om[(i + 1) % 3], r + 3 * ((i + 2) % 3) + j))));
       }
       break;
     }
     case StateBlock::Kind::kWork:
     case StateBlock::Kind::kDissipation: {
-      std::string e;
+      std::vector<std::pair<std::string, std::string>> products;
       for (int k = 0; k < gt.size; ++k) {
         read(gt.effort + k);
         read(gt.flow + k);
-        e += fmt::format("{}{} * {}", k ? " + " : "", W(gt.effort + k), W(gt.flow + k));
+        products.push_back({W(gt.effort + k), W(gt.flow + k)});
       }
-      if (e.empty()) e = "(-0.0)";
+      const std::string e = Chain(products);
       line(fmt::format("xdot[{}] = {};", gt.state,
                         gt.sign == 1.0 ? e : gt.sign == -1.0 ? "-(" + e + ")" : Lit(gt.sign) + " * (" + e + ")"));
       break;
@@ -377,6 +402,10 @@ std::string CompiledModel::GenerateFactorSource() const {
   // one piece took 6-12 s to compile, in pieces about a second).
   const IndependentFactor& f = factor_;
   const int n = f.size(), ne = f.entries();
+  auto B = [](int k) { return fmt::format("b[{}]", k); };
+  auto V = [](int k) { return fmt::format("v[{}]", k); };
+  auto L = [](int k) { return fmt::format("l[{}]", k); };
+  auto Ld = [](int k) { return fmt::format("ld[{}]", k); };
   constexpr int kStatementsPerPart = 200;
   std::string parts, body;
   std::string part;
@@ -411,8 +440,8 @@ std::string CompiledModel::GenerateFactorSource() const {
   };
   add(fmt::format("  for (int k = 0; k < {}; ++k) d[k] = 0.0;\n", f.values()), 1);
   for (const IndependentFactor::Dot& e : f.w3)
-    add(fmt::format("  d[{}] += b[{}] * v[{}] + b[{}] * v[{}] + b[{}] * v[{}];\n", e.target, e.a, e.b, e.a + 1, e.b + 1, e.a + 2, e.b + 2), 1);
-  for (const IndependentFactor::Dot& e : f.w1) add(fmt::format("  d[{}] += b[{}] * v[{}];\n", e.target, e.a, e.b), 1);
+    add(fmt::format("  d[{}] += {};\n", e.target, Chain({{B(e.a), V(e.b)}, {B(e.a + 1), V(e.b + 1)}, {B(e.a + 2), V(e.b + 2)}})), 1);
+  for (const IndependentFactor::Dot& e : f.w1) add(fmt::format("  d[{}] = {};\n", e.target, Fma(B(e.a), V(e.b), fmt::format("d[{}]", e.target))), 1);
   for (int i = 0; i < n; ++i) {
     std::string row = fmt::format("  {{\n    double di = d[{}];\n", i);
     int statements = 3;
@@ -420,10 +449,10 @@ std::string CompiledModel::GenerateFactorSource() const {
       row += fmt::format("    {{ double c = l[{}];\n", e);
       for (int t = f.l3_offset[e]; t < f.l3_offset[e + 1]; ++t) {
         const IndependentFactor::Dot& u = f.l3[t];
-        row += fmt::format("      c -= l[{}] * ld[{}] + l[{}] * ld[{}] + l[{}] * ld[{}];\n", u.a, u.b, u.a + 1, u.b + 1, u.a + 2, u.b + 2);
+        row += fmt::format("      c -= {};\n", Chain({{L(u.a), Ld(u.b)}, {L(u.a + 1), Ld(u.b + 1)}, {L(u.a + 2), Ld(u.b + 2)}}));
       }
-      for (int t = f.l1_offset[e]; t < f.l1_offset[e + 1]; ++t) row += fmt::format("      c -= l[{}] * ld[{}];\n", f.l1[t].a, f.l1[t].b);
-      row += fmt::format("      ld[{}] = c; l[{}] = c * d[{}]; di -= l[{}] * c; }}\n", e, e, f.cols[e], e);
+      for (int t = f.l1_offset[e]; t < f.l1_offset[e + 1]; ++t) row += fmt::format("      c = {};\n", Fma(Neg(L(f.l1[t].a)), Ld(f.l1[t].b), "c"));
+      row += fmt::format("      ld[{}] = c; l[{}] = c * d[{}]; di = {}; }}\n", e, e, f.cols[e], Fma(Neg(L(e)), "c", "di"));
       statements += 2 + (f.l3_offset[e + 1] - f.l3_offset[e]) + (f.l1_offset[e + 1] - f.l1_offset[e]);
     }
     row += fmt::format("    if (!(di > 1e-10 * d[{}])) return 0;\n    d[{}] = 1.0 / di;\n  }}\n", i, i);
@@ -433,17 +462,20 @@ std::string CompiledModel::GenerateFactorSource() const {
   const std::string factor = function("extern \"C\" int multibond_ldlt_factor(const double* __restrict b, const double* __restrict v,\n"
                                       "                                       double* __restrict d)",
                                       "  double* y = nullptr;\n  const double* rhs = nullptr;\n", "  return 1;\n");
-  // L D L^T y = rhs: the interpreter subtracts one term at a time (s = rhs; s -= l y; ...), the
-  // same as the left-to-right chain here.
+  // L D L^T y = rhs: the interpreter subtracts one term at a time (s = rhs; s = s - l y; ...), the
+  // same chain as here (exact_sum.h).
   checked = false;
   for (int i = 0; i < n; ++i) {
     std::string e = fmt::format("rhs[{}]", f.multiplier[i]);
-    for (int k = f.row_offset[i]; k < f.row_offset[i + 1]; ++k) e += fmt::format(" - l[{}] * y[{}]", k, f.cols[k]);
+    for (int k = f.row_offset[i]; k < f.row_offset[i + 1]; ++k) e = Fma(Neg(L(k)), fmt::format("y[{}]", f.cols[k]), e);
     add(fmt::format("  y[{}] = {};\n", i, e), 1 + f.row_offset[i + 1] - f.row_offset[i]);
   }
   for (int i = 0; i < n; ++i) add(fmt::format("  y[{}] *= d[{}];\n", i, i), 1);
   for (int i = n - 1; i >= 0; --i)
-    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) add(fmt::format("  y[{}] -= l[{}] * y[{}];\n", f.cols[e], e, i), 1);
+    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) {
+      const std::string y = fmt::format("y[{}]", f.cols[e]);
+      add(fmt::format("  {} = {};\n", y, Fma(Neg(L(e)), fmt::format("y[{}]", i), y)), 1);
+    }
   std::string scatter = fmt::format("  for (int k = 0; k < {}; ++k) lambda[k] = 0.0;\n", num_lambda_);
   for (int i = 0; i < n; ++i) scatter += fmt::format("  lambda[{}] = y[{}];\n", f.multiplier[i], i);
   const std::string solve = function("extern \"C\" void multibond_ldlt_solve(const double* __restrict rhs, double* __restrict lambda,\n"
@@ -544,19 +576,27 @@ std::string CompiledModel::GenerateTangentSource() const {
         auto ib = [&](int i, int j) {
           return in.op == Op::kIFlowRotatedDiag ? (i == j ? c[in.coef + i] : 0.0) : c[in.coef + 3 * i + j];
         };
+        auto x = [](int k) { return fmt::format("x[{}]", k); };
+        auto xd = [](int k) { return fmt::format("xd[{}]", k); };
         line("{");
         for (int i = 0; i < 3; ++i) {  // R^T h and dR^T h + R^T dh
-          line(fmt::format("  const double hb{} = x[{}] * x[{}] + x[{}] * x[{}] + x[{}] * x[{}];", i, r + i, h, r + 3 + i, h + 1, r + 6 + i, h + 2));
-          line(fmt::format("  const double dhb{} = xd[{}] * x[{}] + xd[{}] * x[{}] + xd[{}] * x[{}] + x[{}] * xd[{}] + x[{}] * xd[{}] + x[{}] * xd[{}];",
-                           i, r + i, h, r + 3 + i, h + 1, r + 6 + i, h + 2, r + i, h, r + 3 + i, h + 1, r + 6 + i, h + 2));
+          std::vector<std::pair<std::string, std::string>> hb, dhb;
+          for (int k = 0; k < 3; ++k) {
+            hb.push_back({x(r + 3 * k + i), x(h + k)});
+            dhb.push_back({xd(r + 3 * k + i), x(h + k)});
+          }
+          for (int k = 0; k < 3; ++k) dhb.push_back({x(r + 3 * k + i), xd(h + k)});
+          line(fmt::format("  const double hb{} = {};", i, Chain(hb)));
+          line(fmt::format("  const double dhb{} = {};", i, Chain(dhb)));
         }
         for (int i = 0; i < 3; ++i) {
           line(fmt::format("  const double a{} = {};", i, LinComb({{ib(i, 0), "hb0"}, {ib(i, 1), "hb1"}, {ib(i, 2), "hb2"}})));
           line(fmt::format("  const double da{} = {};", i, LinComb({{ib(i, 0), "dhb0"}, {ib(i, 1), "dhb1"}, {ib(i, 2), "dhb2"}})));
         }
         for (int i = 0; i < 3; ++i)
-          line(fmt::format("  d[{}] = xd[{}] * a0 + xd[{}] * a1 + xd[{}] * a2 + x[{}] * da0 + x[{}] * da1 + x[{}] * da2;", in.dst + i,
-                           r + 3 * i, r + 3 * i + 1, r + 3 * i + 2, r + 3 * i, r + 3 * i + 1, r + 3 * i + 2));
+          line(fmt::format("  d[{}] = {};", in.dst + i,
+                           Chain({{xd(r + 3 * i), "a0"}, {xd(r + 3 * i + 1), "a1"}, {xd(r + 3 * i + 2), "a2"}, {x(r + 3 * i), "da0"},
+                                  {x(r + 3 * i + 1), "da1"}, {x(r + 3 * i + 2), "da2"}})));
         line("}");
         break;
       }
@@ -580,14 +620,14 @@ std::string CompiledModel::GenerateTangentSource() const {
           for (int r = 0; r < in.m; ++r) {
             std::string e = fmt::format("d[{}]", in.src + r);
             for (int k = 0; k < in.n; ++k)
-              e += fmt::format(" - dmod[{}] * w[{}]", me.out + (in.count == 2 ? r * in.n + k : k * in.m + r), in.dst + k);
+              e = Fma(fmt::format("-dmod[{}]", me.out + (in.count == 2 ? r * in.n + k : k * in.m + r)), fmt::format("w[{}]", in.dst + k), e);
             line(fmt::format("  const double z{} = {};", r, e));
           }
           for (int r = 0; r < in.n; ++r) {
-            std::string e;
+            std::vector<std::pair<std::string, std::string>> products;
             for (int k = 0; k < in.m; ++k)
-              e += fmt::format("{}mod[{}] * z{}", k ? " + " : "", in.coef + (in.count == 2 ? r * in.m + k : k * in.n + r), k);
-            line(fmt::format("  d[{}] = {};", in.dst + r, e.empty() ? "(-0.0)" : e));
+              products.push_back({fmt::format("mod[{}]", in.coef + (in.count == 2 ? r * in.m + k : k * in.n + r)), fmt::format("z{}", k)});
+            line(fmt::format("  d[{}] = {};", in.dst + r, Chain(products)));
           }
           line("}");
         }

@@ -885,9 +885,9 @@ inline void MatVec(double* dst, const double* a, const double* src) {
 /// y = op(R) v for a row-major R (op = transpose when `transpose`).
 inline void RotApply(double* y, const double* r, const double* v, bool transpose) {
   if (transpose) {
-    for (int i = 0; i < 3; ++i) y[i] = r[i] * v[0] + r[3 + i] * v[1] + r[6 + i] * v[2];
+    for (int i = 0; i < 3; ++i) y[i] = Dot3(r[i], v[0], r[3 + i], v[1], r[6 + i], v[2]);
   } else {
-    for (int i = 0; i < 3; ++i) y[i] = r[3 * i] * v[0] + r[3 * i + 1] * v[1] + r[3 * i + 2] * v[2];
+    for (int i = 0; i < 3; ++i) y[i] = Dot3(r[3 * i], v[0], r[3 * i + 1], v[1], r[3 * i + 2], v[2]);
   }
 }
 
@@ -928,7 +928,7 @@ inline void RotBwd(double* dst, const double* r, const double* l, const double* 
   for (int i = 0; i < 3; ++i) {
     double y = kSumStart;
     for (int c = 0; c < 3; ++c)
-      if (used[c]) y += (transpose ? r[3 * i + c] : r[3 * c + i]) * z[c];
+      if (used[c]) y = AddProduct(y, transpose ? r[3 * i + c] : r[3 * c + i], z[c]);
     dst[i] = s * y;
   }
 }
@@ -938,10 +938,11 @@ inline void LeverArm(double* a, const double* rot, const double* lever) {
   for (int i = 0; i < 3; ++i) a[i] = AddTerm(AddTerm(AddTerm(kSumStart, lever[0], rot[3 * i]), lever[1], rot[3 * i + 1]), lever[2], rot[3 * i + 2]);
 }
 
+/// out = s (a x b), each component a_j b_k - a_k b_j as the chain a_j b_k + (-a_k) b_j.
 inline void Cross(double* out, const double* a, const double* b, double s) {
-  out[0] = s * (a[1] * b[2] - a[2] * b[1]);
-  out[1] = s * (a[2] * b[0] - a[0] * b[2]);
-  out[2] = s * (a[0] * b[1] - a[1] * b[0]);
+  out[0] = s * MulAdd(-a[2], b[1], a[1] * b[2]);
+  out[1] = s * MulAdd(-a[0], b[2], a[2] * b[0]);
+  out[2] = s * MulAdd(-a[1], b[0], a[0] * b[1]);
 }
 
 }  // namespace
@@ -1077,13 +1078,13 @@ void CompiledModel::Exec(const Instr& in, double t, const double* x, const doubl
       if (in.count == 0 || in.count == 2) {
         for (int r = 0; r < in.n; ++r) {
           double s = kSumStart;
-          for (int k = 0; k < in.m; ++k) s += a[r * in.m + k] * win[in.src + k];
+          for (int k = 0; k < in.m; ++k) s = AddProduct(s, a[r * in.m + k], win[in.src + k]);
           dst[r] = s;
         }
       } else {
         for (int r = 0; r < in.n; ++r) {
           double s = kSumStart;
-          for (int k = 0; k < in.m; ++k) s += a[k * in.n + r] * win[in.src + k];
+          for (int k = 0; k < in.m; ++k) s = AddProduct(s, a[k * in.n + r], win[in.src + k]);
           dst[r] = s;
         }
       }
@@ -1229,28 +1230,30 @@ void CompiledModel::EvalGather(const Gather& gt, const double* x, const double* 
     case StateBlock::Kind::kOrientation: {
       // dR/dt = [w x] R  (- g (R R^T - I) R: zero on SO(3), pulls a drifting R back). Written out
       // term by term as the generated code is (codegen.cc, EmitGather): the same operations in
-      // the same order, no zero terms, no vectorised product with fused multiply-adds.
+      // the same operations in the same order, the same chains (exact_sum.h).
       const double* om = w + gt.flow;
       const double* r = x + gt.state;
       if (gt.sign > 0.0) {
         double s[9] = {0.0, -om[2], om[1], om[2], 0.0, -om[0], -om[1], om[0], 0.0};
         for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j)
-            s[3 * i + j] -= gt.sign * (r[3 * i] * r[3 * j] + r[3 * i + 1] * r[3 * j + 1] + r[3 * i + 2] * r[3 * j + 2] - (i == j ? 1.0 : 0.0));
+          for (int j = 0; j < 3; ++j) {
+            const double rrt = Dot3(r[3 * i], r[3 * j], r[3 * i + 1], r[3 * j + 1], r[3 * i + 2], r[3 * j + 2]);
+            s[3 * i + j] = MulAdd(-gt.sign, rrt - (i == j ? 1.0 : 0.0), s[3 * i + j]);
+          }
         for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) out[3 * i + j] = s[3 * i] * r[j] + s[3 * i + 1] * r[3 + j] + s[3 * i + 2] * r[6 + j];
+          for (int j = 0; j < 3; ++j) out[3 * i + j] = Dot3(s[3 * i], r[j], s[3 * i + 1], r[3 + j], s[3 * i + 2], r[6 + j]);
       } else {
         // ([w x] R)_ij = w_{i+1} R_{i+2,j} - w_{i+2} R_{i+1,j}
         for (int i = 0; i < 3; ++i)
           for (int j = 0; j < 3; ++j)
-            out[3 * i + j] = om[(i + 1) % 3] * r[3 * ((i + 2) % 3) + j] - om[(i + 2) % 3] * r[3 * ((i + 1) % 3) + j];
+            out[3 * i + j] = MulAdd(-om[(i + 2) % 3], r[3 * ((i + 1) % 3) + j], om[(i + 1) % 3] * r[3 * ((i + 2) % 3) + j]);
       }
       break;
     }
     case StateBlock::Kind::kWork:
     case StateBlock::Kind::kDissipation: {
       double p = kSumStart;
-      for (int k = 0; k < gt.size; ++k) p += w[gt.effort + k] * w[gt.flow + k];
+      for (int k = 0; k < gt.size; ++k) p = AddProduct(p, w[gt.effort + k], w[gt.flow + k]);
       out[0] = gt.sign * p;
       break;
     }

@@ -329,16 +329,21 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
         };
         double hb[3], dhb[3], a[3], da[3];
         for (int i = 0; i < 3; ++i) {
-          hb[i] = r[i] * h[0] + r[3 + i] * h[1] + r[6 + i] * h[2];
-          dhb[i] = rd[i] * h[0] + rd[3 + i] * h[1] + rd[6 + i] * h[2] + r[i] * hd[0] + r[3 + i] * hd[1] + r[6 + i] * hd[2];
+          hb[i] = Dot3(r[i], h[0], r[3 + i], h[1], r[6 + i], h[2]);
+          dhb[i] = kSumStart;
+          for (int k = 0; k < 3; ++k) dhb[i] = AddProduct(dhb[i], rd[3 * k + i], h[k]);
+          for (int k = 0; k < 3; ++k) dhb[i] = AddProduct(dhb[i], r[3 * k + i], hd[k]);
         }
         for (int i = 0; i < 3; ++i) {
           a[i] = AddTerm(AddTerm(AddTerm(kSumStart, ib(i, 0), hb[0]), ib(i, 1), hb[1]), ib(i, 2), hb[2]);
           da[i] = AddTerm(AddTerm(AddTerm(kSumStart, ib(i, 0), dhb[0]), ib(i, 1), dhb[1]), ib(i, 2), dhb[2]);
         }
-        for (int i = 0; i < 3; ++i)
-          d[in.dst + i] = rd[3 * i] * a[0] + rd[3 * i + 1] * a[1] + rd[3 * i + 2] * a[2] + r[3 * i] * da[0] + r[3 * i + 1] * da[1] +
-                          r[3 * i + 2] * da[2];
+        for (int i = 0; i < 3; ++i) {
+          double s = kSumStart;
+          for (int k = 0; k < 3; ++k) s = AddProduct(s, rd[3 * i + k], a[k]);
+          for (int k = 0; k < 3; ++k) s = AddProduct(s, r[3 * i + k], da[k]);
+          d[in.dst + i] = s;
+        }
         break;
       }
       case Op::kRotFwd1: case Op::kRotFwd2: case Op::kRotFwd3:
@@ -363,13 +368,13 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
           MB_ASSERT(in.m <= 16, "modulated inverse larger than 16");
           for (int r = 0; r < in.m; ++r) {
             double s = d[in.src + r];
-            for (int k = 0; k < in.n; ++k) s -= (in.count == 2 ? dm[r * in.n + k] : dm[k * in.m + r]) * y[k];
+            for (int k = 0; k < in.n; ++k) s = AddProduct(s, -(in.count == 2 ? dm[r * in.n + k] : dm[k * in.m + r]), y[k]);
             z[r] = s;
           }
           const double* a = mod + in.coef;
           for (int r = 0; r < in.n; ++r) {
             double s = kSumStart;
-            for (int k = 0; k < in.m; ++k) s += (in.count == 2 ? a[r * in.m + k] : a[k * in.n + r]) * z[k];
+            for (int k = 0; k < in.m; ++k) s = AddProduct(s, in.count == 2 ? a[r * in.m + k] : a[k * in.n + r], z[k]);
             d[in.dst + r] = s;
           }
         }
@@ -450,25 +455,26 @@ bool CompiledModel::FactorIndependent(Workspace& ws) const {
   // W's nonzeros straight into their places in the factor; fill-in starts at zero.
   std::fill(ws.con.factor.begin(), ws.con.factor.end(), 0.0);
   for (const IndependentFactor::Dot& e : f.w3)
-    d[e.target] += b[e.a] * v[e.b] + b[e.a + 1] * v[e.b + 1] + b[e.a + 2] * v[e.b + 2];
-  for (const IndependentFactor::Dot& e : f.w1) d[e.target] += b[e.a] * v[e.b];
+    d[e.target] += Dot3(b[e.a], v[e.b], b[e.a + 1], v[e.b + 1], b[e.a + 2], v[e.b + 2]);
+  for (const IndependentFactor::Dot& e : f.w1) d[e.target] = MulAdd(b[e.a], v[e.b], d[e.target]);
   // Crout's L D L^T, row by row: (L D)(i, j) = W(i, j) - sum_{k < j} L(i, k) (L D)(j, k), then
   // L(i, j) = (L D)(i, j) / d_j and d_i = W(i, i) - sum_{k < i} L(i, k) (L D)(i, k). Each entry is
   // a dot product accumulated in a register over the precomputed common columns (the
   // column-by-column form scatters its updates into a work vector, which chains them through
-  // memory: measured slower here).
+  // memory: measured slower here). Sums of products are chains as everywhere (exact_sum.h), in
+  // the order of the generated factorisation (GenerateFactorSource).
   for (int i = 0; i < n; ++i) {
     double di = d[i];
     for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) {
       double c = l[e];
       for (int t = f.l3_offset[e]; t < f.l3_offset[e + 1]; ++t) {
         const IndependentFactor::Dot& u = f.l3[t];
-        c -= l[u.a] * ld[u.b] + l[u.a + 1] * ld[u.b + 1] + l[u.a + 2] * ld[u.b + 2];
+        c -= Dot3(l[u.a], ld[u.b], l[u.a + 1], ld[u.b + 1], l[u.a + 2], ld[u.b + 2]);
       }
-      for (int t = f.l1_offset[e]; t < f.l1_offset[e + 1]; ++t) c -= l[f.l1[t].a] * ld[f.l1[t].b];
+      for (int t = f.l1_offset[e]; t < f.l1_offset[e + 1]; ++t) c = MulAdd(-l[f.l1[t].a], ld[f.l1[t].b], c);
       ld[e] = c;
       l[e] = c * d[f.cols[e]];  // the next entries wait for this one: a product, not a division
-      di -= l[e] * c;
+      di = MulAdd(-l[e], c, di);
     }
     if (!(di > 1e-10 * d[i])) return false;  // not positive definite here, or nearly dependent
     d[i] = 1.0 / di;  // from here on, d holds D^-1
@@ -491,12 +497,12 @@ void CompiledModel::SolveFactored(const double* rhs, double* out, Workspace& ws)
   double* y = ws.con.y.data();
   for (int i = 0; i < n; ++i) {
     double s = rhs[f.multiplier[i]];
-    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) s -= l[e] * y[f.cols[e]];
+    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) s = MulAdd(-l[e], y[f.cols[e]], s);
     y[i] = s;
   }
   for (int i = 0; i < n; ++i) y[i] *= d[i];
   for (int i = n - 1; i >= 0; --i)
-    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) y[f.cols[e]] -= l[e] * y[i];
+    for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) y[f.cols[e]] = MulAdd(-l[e], y[i], y[f.cols[e]]);
   std::fill(out, out + num_lambda_, 0.0);
   for (int i = 0; i < n; ++i) out[f.multiplier[i]] = y[i];
 }

@@ -319,7 +319,9 @@ fs::path JitCacheFolder() {
 const std::vector<std::string>& JitFlags() {
   // -march=native: the object is built per machine (the key includes the flags).
   // -ffp-contract=off: no fused multiply-add where the source has a product and a sum, as in the
-  // library (src/CMakeLists.txt): generated code and interpreter give the same bits.
+  // library (src/CMakeLists.txt): generated code and interpreter give the same bits. The sums'
+  // fused multiply-adds are written out (__builtin_fma, exact_sum.h); -march=native makes each one
+  // instruction where the CPU has FMA.
   // -fno-tree-slp-vectorize: GCC's straight-line vectoriser packs the scalar results of the
   // generated code into vectors with more shuffles than it saves; without it the differential's
   // right-hand side takes 151 ns instead of 174 (GCC 12; clang accepts the flag too).
