@@ -3,6 +3,8 @@
 // model_loader_test.cc, HostileYaml*).
 
 #include <chrono>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 #include <gmock/gmock.h>
@@ -90,6 +92,30 @@ TEST(YamlBounds, LeavesSyntaxErrorsToYamlCpp) {
   DiagnosticSink sink;
   EXPECT_THROW(CheckYamlBounds("a: [1, 2\nb: 3\n", "f.yaml", {}, sink), YAML::Exception);
   EXPECT_THROW(CheckYamlBounds("a: *nowhere\n", "f.yaml", {}, sink), YAML::Exception);
+}
+
+}  // namespace
+}  // namespace multibond
+
+namespace multibond {
+namespace {
+
+// Found by the fuzzer: yaml-cpp, given this malformed flow collection, produces null nodes without
+// reading on; only the yaml-nodes limit (a million) stopped it, which took 14 s under the
+// sanitizers. A file's written nodes are now bounded by its length (two per character).
+TEST(YamlBounds, AParserThatProducesNodesWithoutReadingIsStoppedAtOnce) {
+  std::ifstream in(MULTIBOND_SOURCE_DIR "/tests/models/fuzz/yaml_parser_runaway.yaml", std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_FALSE(text.empty());
+  const Diagnostic d = Refusal(text);
+  EXPECT_EQ(d.code, "yaml.syntax");
+  EXPECT_THAT(d.message, HasSubstr("more nodes than the file has characters"));
+  EXPECT_GT(d.where.line, 0);
+  // A file that is mostly nulls is still accepted: "a:" is two nodes in two characters.
+  std::string nulls;
+  for (int i = 0; i < 1000; ++i) nulls += "k" + std::to_string(i) + ":\n";
+  DiagnosticSink sink;
+  EXPECT_TRUE(CheckYamlBounds(nulls + "l: [,]\nm: {a, b}\n", "f.yaml", {}, sink));
 }
 
 }  // namespace

@@ -18,7 +18,8 @@ struct Stop {};
 
 class BoundsHandler : public YAML::EventHandler {
  public:
-  BoundsHandler(const std::string& file, const InputLimits& limits, DiagnosticSink& sink) : file_(file), limits_(limits), sink_(sink) {}
+  BoundsHandler(const std::string& file, std::size_t text_size, const InputLimits& limits, DiagnosticSink& sink)
+      : file_(file), limits_(limits), sink_(sink), max_written_(2 * static_cast<std::uint64_t>(text_size) + 16) {}
 
   void OnDocumentStart(const YAML::Mark&) override {
     anchors_.assign(1, Anchor{});  // anchor ids count from 1 in each document
@@ -87,11 +88,27 @@ class BoundsHandler : public YAML::EventHandler {
   void Leaf(const YAML::Mark& mark, YAML::anchor_t anchor) {
     Define(mark, anchor, false);
     if (anchor != YAML::NullAnchor) anchors_[anchor].size = 1;
+    Written(mark);
     Count(mark, 1);
+  }
+
+  /// A node written in the file (not an alias) takes at least half a character of it ("a:" is a
+  /// key and a null): more means yaml-cpp is producing nodes without reading (seen on malformed
+  /// flow collections: a million nulls from 706 bytes), and it is stopped at once.
+  void Written(const YAML::Mark& mark) {
+    if (++written_ <= max_written_) return;
+    Diagnostic d;
+    d.where = Where(mark);
+    d.code = "yaml.syntax";
+    d.message = "the YAML here cannot be read: the parser produced more nodes than the file has characters";
+    d.hint = "check the brackets, braces and commas of the flow collections ([...] and {...}) around this place";
+    sink_.Add(d);
+    throw Stop{};
   }
 
   void Open(const YAML::Mark& mark, YAML::anchor_t anchor) {
     Define(mark, anchor, true);
+    Written(mark);
     open_.push_back({anchor, nodes_});
     Count(mark, 1);
     if (open_.size() <= limits_.depth) return;
@@ -121,6 +138,8 @@ class BoundsHandler : public YAML::EventHandler {
   std::vector<Frame> open_;
   std::string pending_name_;
   std::uint64_t nodes_ = 0;
+  std::uint64_t written_ = 0;  ///< nodes written in the file (aliases not counted)
+  std::uint64_t max_written_;
 };
 
 }  // namespace
@@ -128,7 +147,7 @@ class BoundsHandler : public YAML::EventHandler {
 bool CheckYamlBounds(const std::string& text, const std::string& file, const InputLimits& limits, DiagnosticSink& sink) {
   std::istringstream in(text);
   YAML::Parser parser(in);
-  BoundsHandler handler(file, limits, sink);
+  BoundsHandler handler(file, text.size(), limits, sink);
   try {
     while (parser.HandleNextDocument(handler)) {
     }
