@@ -5,6 +5,7 @@
 // against the CSV), and the page shows every figure and renders in a headless Chromium. The
 // general figures, through the CLI, of the mass-spring-damper and the DC motor; bounded on a
 // results.csv of 10,000 columns.
+#include "support/errors.h"
 #include "support/cli_runner.h"
 #include "support/temp_dir.h"
 #include "multibond/io/plot_auto.h"
@@ -37,6 +38,8 @@
 
 namespace multibond {
 namespace {
+
+using testing::RuntimeErrorOf;
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
@@ -449,17 +452,6 @@ bool CleanText(const std::string& s) {
     i += n + 1;
   }
   return true;
-}
-
-/// The message of the std::runtime_error that `f` throws ("" if it throws none).
-template <class F>
-std::string RuntimeErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const std::runtime_error& e) {
-    return e.what();
-  }
-  return "";
 }
 
 

@@ -1,5 +1,6 @@
 // ResultsFolder and WorkFolder: only the folder's own regular files are read, within a bound;
 // output folders that are links are refused; finished files replace planted links.
+#include "support/errors.h"
 #include "support/temp_dir.h"
 #include "multibond/io/results_folder.h"
 
@@ -16,20 +17,12 @@
 namespace multibond {
 namespace {
 
+using testing::RuntimeErrorOf;
+
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using testing::ReadFile;
 using testing::TempDir;
-
-template <class F>
-std::string RuntimeErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const std::runtime_error& e) {
-    return e.what();
-  }
-  return "";
-}
 
 TEST(ResultsFolder, ReadsOnlyRegularFilesWithinTheBound) {
   TempDir dir;

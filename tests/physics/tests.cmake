@@ -4,3 +4,4 @@ target_include_directories(physics_differential_test PRIVATE ${PROJECT_SOURCE_DI
 multibond_test(physics/ideal_constraints_test.cc LIBS multibond::io LABELS physics)
 multibond_test(physics/differential_ideal_test.cc LIBS multibond::io LABELS physics)
 multibond_test(physics/rhs_allocation_test.cc LIBS multibond::io LABELS physics)
+multibond_test(physics/repaired_physics_test.cc LIBS multibond::io LABELS physics)

@@ -1,6 +1,7 @@
-// CsvWriter and ReadResults without a simulation: header cells quoted only when a name needs it
-// and read back as written, and a write that cannot complete leaves no temporary file behind and
-// names the file the user asked for.
+// CsvWriter and the run record without a simulation: header cells quoted only when a name needs
+// it and read back as written (through ReadResults), a write that cannot complete leaves nothing
+// behind and names the file the user asked for, and run.json records any text it is given.
+#include "support/errors.h"
 #include "support/temp_dir.h"
 #include "multibond/io/results_reader.h"
 #include "multibond/io/results_writer.h"
@@ -19,22 +20,13 @@
 namespace multibond {
 namespace {
 
+using testing::RuntimeErrorOf;
+
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using testing::ReadFile;
 using testing::ListNames;
 using testing::TempDir;
-
-/// The message of the std::runtime_error that `f` throws ("" if it throws none).
-template <class F>
-std::string RuntimeErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const std::runtime_error& e) {
-    return e.what();
-  }
-  return "";
-}
 
 /// Writes a two-row results file through CsvWriter, as a run would.
 void WriteResults(const fs::path& path, const std::vector<Column>& columns) {
@@ -55,20 +47,6 @@ TEST(CsvCell, QuotesOnlyCellsThatNeedIt) {
   EXPECT_EQ(CsvCell("say \"hi\" [m]"), "\"say \"\"hi\"\" [m]\"");
   EXPECT_EQ(CsvCell("two\nlines"), "\"two\nlines\"");
   EXPECT_EQ(CsvCell("cr\r"), "\"cr\r\"");
-}
-
-TEST(ResultsIo, HeaderCellSplitsIntoNameAndUnit) {
-  const auto check = [](const std::string& cell, const std::string& name, const std::string& unit) {
-    const NameAndUnit nu = SplitNameAndUnit(cell);
-    EXPECT_EQ(nu.name, name) << cell;
-    EXPECT_EQ(nu.unit, unit) << cell;
-  };
-  check("A.omega.z [rad/s]", "A.omega.z", "rad/s");
-  check("t [s]\r", "t", "s");                  // a CRLF file's last cell
-  check("G.R.23 []", "G.R.23", "");             // dimensionless
-  check("energy.residual", "energy.residual", "");
-  check("a [b] c", "a [b] c", "");              // brackets inside a name, no unit
-  check("x [m] [N]", "x [m]", "N");             // the last bracket is the unit
 }
 
 TEST(ResultsIo, NamesWithCommaAndQuoteRoundTrip) {
@@ -101,26 +79,6 @@ TEST(ResultsIo, NameWithLineBreakRoundTripsAndRowsKeepTheirLineNumbers) {
   std::ofstream(path, std::ios::app) << "1,x\n";
   EXPECT_THAT(RuntimeErrorOf([&] { ReadResults(path.string()); }), HasSubstr(path.string() + ":5: not a number"));
 }
-
-TEST(ResultsIo, ReaderTakesQuotedCellsAndQuotesInsidePlainCells) {
-  TempDir dir;
-  const fs::path path = dir.path() / "results.csv";
-  // A file written before names were quoted can hold a quote inside a cell: it is part of the name.
-  std::ofstream(path) << "time [s],\"a,b [N]\",say \"hi\" [m],\"\" [-]\n0,1,2,3\n";
-  const ResultsTable t = ReadResults(path.string());
-  EXPECT_EQ(t.names, (std::vector<std::string>{"time", "a,b", "say \"hi\"", ""}));
-  EXPECT_EQ(t.units, (std::vector<std::string>{"s", "N", "m", "-"}));
-  EXPECT_EQ(t.Last("say \"hi\""), 2.0);
-}
-
-TEST(ResultsIo, UnclosedQuoteInHeaderIsReported) {
-  TempDir dir;
-  const fs::path path = dir.path() / "results.csv";
-  std::ofstream(path) << "time [s],\"a [m]\n0,1\n";
-  EXPECT_THAT(RuntimeErrorOf([&] { ReadResults(path.string()); }),
-              HasSubstr(path.string() + ":1: a quoted column name is not closed"));
-}
-
 
 TEST(CsvWriter, DestinationThatIsADirectoryIsReportedBeforeTheRun) {
   TempDir dir;
