@@ -9,6 +9,8 @@
 #include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
+#include "multibond/io/diagnostic_codes.h"
+
 namespace multibond {
 
 namespace {
@@ -35,7 +37,7 @@ class BoundsHandler : public YAML::EventHandler {
     if (a.open) {
       Diagnostic d;
       d.where = Where(mark);
-      d.code = "yaml.self_alias";
+      d.code = codes::kYamlSelfAlias;
       d.message = fmt::format("the alias '*{}' stands for the node anchored '&{}' (at {}), which contains this alias: the node "
                               "would contain itself without end", a.name, a.name, a.where.ToString());
       d.hint = "an alias may only refer to a node that is complete before it";
@@ -76,7 +78,7 @@ class BoundsHandler : public YAML::EventHandler {
     if (nodes_ <= limits_.yaml_nodes) return;
     Diagnostic d;
     d.where = Where(mark);
-    d.code = "limit.yaml-nodes";
+    d.code = codes::kLimitYamlNodes;
     d.message = fmt::format("limit 'yaml-nodes' exceeded: the file holds more than {} YAML nodes (each alias counted as the nodes "
                             "it stands for)", limits_.yaml_nodes);
     d.hint = RaiseLimitHint("yaml-nodes", limits_.yaml_nodes);
@@ -97,7 +99,7 @@ class BoundsHandler : public YAML::EventHandler {
     if (open_.size() <= limits_.depth) return;
     Diagnostic d;
     d.where = Where(mark);
-    d.code = "limit.depth";
+    d.code = codes::kLimitDepth;
     d.message = fmt::format("limit 'depth' exceeded: YAML lists and mappings nested more than {} deep", limits_.depth);
     d.hint = RaiseLimitHint("depth", limits_.depth);
     sink_.Add(d);
