@@ -15,19 +15,12 @@
 
 #include "multibond/io/diagnostic_codes.h"
 #include "multibond/io/limits.h"
+#include "support/temp_dir.h"
 
 namespace multibond {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string ReadAll(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  EXPECT_TRUE(in) << "cannot open " << path;
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 std::vector<std::string> Lines(const std::string& text) {
   std::vector<std::string> lines;
@@ -55,7 +48,7 @@ const char* ExitColumn(codes::Outcome o) {
 std::vector<std::string> DocumentedRows() {
   std::vector<std::string> rows;
   bool inside = false;
-  for (const std::string& line : Lines(ReadAll(MULTIBOND_SOURCE_DIR "/docs/model-format.md"))) {
+  for (const std::string& line : Lines(testing::ReadFile(MULTIBOND_SOURCE_DIR "/docs/model-format.md"))) {
     if (line == "| code | exit | problem |") inside = true;
     else if (inside && line.rfind("| `", 0) == 0) rows.push_back(line);
     else if (inside && line.rfind("|---", 0) != 0) break;
@@ -92,7 +85,7 @@ TEST(DiagnosticCodes, EveryCodeTheSourcesGiveIsCatalogued) {
   int found = 0;
   for (const auto& entry : fs::recursive_directory_iterator(MULTIBOND_SOURCE_DIR "/src/multibond")) {
     if (entry.path().extension() != ".cc" && entry.path().extension() != ".h") continue;
-    const std::string text = ReadAll(entry.path());
+    const std::string text = testing::ReadFile(entry.path());
     for (auto it = std::sregex_iterator(text.begin(), text.end(), given); it != std::sregex_iterator(); ++it, ++found)
       EXPECT_TRUE(known.count((*it)[1])) << entry.path().filename() << " gives the code '" << (*it)[1]
                                          << "', which is not in io/diagnostic_codes.h";
@@ -104,7 +97,7 @@ TEST(DiagnosticCodes, EveryCodeTheBadModelsAndTheDocumentationExpectIsCatalogued
   const std::set<std::string> known = CatalogueCodes();
   int found = 0;
   for (const auto& entry : fs::directory_iterator(MULTIBOND_SOURCE_DIR "/tests/models/bad"))
-    for (const std::string& line : Lines(ReadAll(entry.path())))
+    for (const std::string& line : Lines(testing::ReadFile(entry.path())))
       if (line.rfind("# code:", 0) == 0) {
         std::string code = line.substr(7);
         code.erase(0, code.find_first_not_of(' '));
@@ -113,7 +106,7 @@ TEST(DiagnosticCodes, EveryCodeTheBadModelsAndTheDocumentationExpectIsCatalogued
       }
   for (const auto& entry : fs::directory_iterator(MULTIBOND_SOURCE_DIR "/docs")) {
     if (entry.path().extension() != ".md") continue;
-    for (const std::string& line : Lines(ReadAll(entry.path())))
+    for (const std::string& line : Lines(testing::ReadFile(entry.path())))
       if (line.rfind("# doc: expect-error ", 0) == 0) {
         const std::string code = line.substr(20, line.find_first_of(" \r", 20) - 20);
         ++found;
