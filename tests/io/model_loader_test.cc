@@ -14,6 +14,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "multibond/io/model_loader.h"
+#include "support/mechanism_chain.h"
 #include "multibond/sim/simulator.h"
 
 namespace multibond {
@@ -658,6 +659,19 @@ TEST(ModelLoaderHostile, ToothCountsAreWholeNumbersOfASaneSize) {
     EXPECT_THAT(ds[0].message, HasSubstr("teeth: a tooth count is a whole number from 1 to 100000")) << teeth;
   }
   EXPECT_THAT(Errors(GearPair("4.9e-324"))[0].message, HasSubstr("too small to compute with"));
+}
+
+TEST(ModelLoader, LoadsAChainOf5000Bodies) {
+  // Every name (bodies, joints, the elements they expand to) is found through a hash index: the
+  // load takes well under a second (bench/loader_bench.cc times it).
+  const LoadedModel lm = LoadModelString(testing::MechanismChainText(5000), "chain.yaml");
+  ASSERT_NE(lm.mechanism, nullptr);
+  EXPECT_EQ(lm.mechanism->bodies().size(), 5000u);
+  EXPECT_EQ(lm.mechanism->joints().size(), 5000u);
+  EXPECT_EQ(lm.mechanism->joints().back().parent, "b4998");
+  EXPECT_GE(lm.graph.Find("b4999.v"), 0);
+  EXPECT_GE(lm.graph.Find("j4999.r.K"), 0) << "the last joint's rotational spring";
+  EXPECT_TRUE(lm.warnings.empty());
 }
 
 }  // namespace

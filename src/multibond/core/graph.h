@@ -16,6 +16,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -215,8 +216,8 @@ class BondGraph {
   std::vector<Bond> bonds_;
   std::vector<AuxState> aux_;
   std::vector<OutputDecl> outputs_;
-  std::map<std::string, int> index_;
-  std::map<std::string, int> aux_index_;
+  std::unordered_map<std::string, int> index_;      ///< element name -> index (O(1) Find)
+  std::unordered_map<std::string, int> aux_index_;  ///< state name -> index
 };
 
 /// Adds elements under a name prefix: Scope(g, "A").Name("w") == "A.w". Submodels are built with

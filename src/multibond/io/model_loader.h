@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/io/did_you_mean.h"
 #include "multibond/io/limits.h"
 #include "multibond/mech/mechanism.h"
 #include "multibond/solve/integrator.h"
@@ -45,8 +46,5 @@ void ExplainInMechanismTerms(const mech::Mechanism& m, std::vector<Diagnostic>& 
 LoadedModel LoadModelFile(const std::string& path, const InputLimits& limits = {});
 /// The same for a model's text; `file` names it in diagnostics.
 LoadedModel LoadModelString(const std::string& yaml, const std::string& file = "<string>", const InputLimits& limits = {});
-
-/// The closest of `candidates` to `word` (edit distance <= 2 or a prefix), or "".
-std::string DidYouMean(const std::string& word, const std::vector<std::string>& candidates);
 
 }  // namespace multibond

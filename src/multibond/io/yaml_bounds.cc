@@ -9,6 +9,8 @@
 #include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
+#include "multibond/io/diagnostic_codes.h"
+
 namespace multibond {
 
 namespace {
@@ -36,7 +38,7 @@ class BoundsHandler : public YAML::EventHandler {
     if (a.open) {
       Diagnostic d;
       d.where = Where(mark);
-      d.code = "yaml.self_alias";
+      d.code = codes::kYamlSelfAlias;
       d.message = fmt::format("the alias '*{}' stands for the node anchored '&{}' (at {}), which contains this alias: the node "
                               "would contain itself without end", a.name, a.name, a.where.ToString());
       d.hint = "an alias may only refer to a node that is complete before it";
@@ -77,7 +79,7 @@ class BoundsHandler : public YAML::EventHandler {
     if (nodes_ <= limits_.yaml_nodes) return;
     Diagnostic d;
     d.where = Where(mark);
-    d.code = "limit.yaml-nodes";
+    d.code = codes::kLimitYamlNodes;
     d.message = fmt::format("limit 'yaml-nodes' exceeded: the file holds more than {} YAML nodes (each alias counted as the nodes "
                             "it stands for)", limits_.yaml_nodes);
     d.hint = RaiseLimitHint("yaml-nodes", limits_.yaml_nodes);
@@ -99,7 +101,7 @@ class BoundsHandler : public YAML::EventHandler {
     if (++written_ <= max_written_) return;
     Diagnostic d;
     d.where = Where(mark);
-    d.code = "yaml.syntax";
+    d.code = codes::kYamlSyntax;
     d.message = "the YAML here cannot be read: the parser produced more nodes than the file has characters";
     d.hint = "check the brackets, braces and commas of the flow collections ([...] and {...}) around this place";
     sink_.Add(d);
@@ -114,7 +116,7 @@ class BoundsHandler : public YAML::EventHandler {
     if (open_.size() <= limits_.depth) return;
     Diagnostic d;
     d.where = Where(mark);
-    d.code = "limit.depth";
+    d.code = codes::kLimitDepth;
     d.message = fmt::format("limit 'depth' exceeded: YAML lists and mappings nested more than {} deep", limits_.depth);
     d.hint = RaiseLimitHint("depth", limits_.depth);
     sink_.Add(d);

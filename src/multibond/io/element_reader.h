@@ -1,0 +1,24 @@
+#pragma once
+/// \file
+/// Reading one element of an 'elements' section (Se, Sf, I, C, R, TF, MTF, GY, MGY, 0, 1) with its
+/// parameters into the graph; a submodel instance is read by SubmodelReader instead.
+
+#include <string>
+
+#include "multibond/io/parameter_reader.h"
+
+namespace multibond {
+
+class ElementReader : public ParameterReader {
+ public:
+  using ParameterReader::ParameterReader;
+
+  /// Adds the element `name` (qualified), written at `where` as `spec`, to the graph; state names
+  /// in its parameters are qualified by `prefix`, $parameters read from `env`.
+  void ReadElement(const std::string& name, const YAML::Node& spec, const SourceLocation& where, const std::string& prefix,
+                   const Env& env);
+  /// Warns (constraint.compliance_ignored) when some ideal constraints have a compliance and others none.
+  void WarnIfSomeCompliancesAreIgnored();
+};
+
+}  // namespace multibond

@@ -1,0 +1,296 @@
+#include "multibond/io/mechanism_reader.h"
+
+#include <algorithm>
+#include <functional>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "multibond/io/diagnostic_codes.h"
+#include "multibond/io/did_you_mean.h"
+
+namespace multibond {
+
+std::shared_ptr<const mech::Mechanism> MechanismReader::ReadMechanism(const YAML::Node& root) {
+  ReadRigid(root);
+  mech::Mechanism m;
+  if (root["gravity"]) m.SetGravity(Vec3(root["gravity"], "gravity"));
+  if (!ReadBodies(root, m)) return nullptr;
+  if (const YAML::Node joints = root["joints"]) ReadJoints(joints, m);
+  if (const YAML::Node gears = root["gears"]) ReadGears(gears, m);
+  if (const YAML::Node drives = root["drives"]) ReadDrives(drives, m);
+  if (const YAML::Node points = root["points"]) ReadPoints(points, m);
+  CheckRigidNames(m);
+  if (sink_.has_errors()) return nullptr;
+  m.ExpandInto(graph_, sink_);
+  return std::make_shared<mech::Mechanism>(std::move(m));
+}
+
+/// The model's 'rigid' key: 'all' (every joint and gear mesh) or a list of their names.
+void MechanismReader::ReadRigid(const YAML::Node& root) {
+  if (const YAML::Node r = root["rigid"]) {
+    if (r.IsScalar() && (r.Scalar() == "all" || r.Scalar() == "true")) {
+      rigid_all_ = true;
+    } else if (r.IsSequence()) {
+      for (const auto& n : r) {
+        rigid_names_.push_back(n.Scalar());
+        rigid_where_.push_back(Loc(n));
+        rigid_set_.insert(n.Scalar());
+      }
+    } else {
+      sink_.Error(Loc(r), "rigid", "'rigid' is 'all' or a list of joint and gear mesh names",
+                  "write e.g. 'rigid: all' or 'rigid: [G_bearing, mesh_GA]'");
+    }
+  }
+}
+
+bool MechanismReader::RigidByModel(const std::string& name) const { return rigid_all_ || rigid_set_.count(name) > 0; }
+
+/// Every name in 'rigid: [...]' must be a joint or a gear mesh (a misspelt one would leave that
+/// part compliant without a word).
+void MechanismReader::CheckRigidNames(const mech::Mechanism& m) {
+  if (rigid_names_.empty()) return;
+  std::vector<std::string> parts;
+  for (const auto& j : m.joints()) parts.push_back(j.name);
+  for (const auto& g : m.gears()) parts.push_back(g.name);
+  const std::unordered_set<std::string> known(parts.begin(), parts.end());
+  for (size_t k = 0; k < rigid_names_.size(); ++k)
+    if (!known.count(rigid_names_[k])) {
+      const std::string guess = DidYouMean(rigid_names_[k], parts);
+      sink_.Error(codes::kMechReference, rigid_where_[k], rigid_names_[k], "'rigid' names no joint or gear mesh of that name",
+                  guess.empty() ? "list the joints and gear meshes to make rigid" : fmt::format("did you mean '{}'?", guess));
+    }
+}
+
+bool MechanismReader::ReadBodies(const YAML::Node& root, mech::Mechanism& m) {
+  const YAML::Node bodies = root["bodies"];
+  if (!bodies.IsMap()) {
+    sink_.Error(Loc(bodies), "bodies", "'bodies' is a mapping of names to bodies");
+    return false;
+  }
+  // Positions may be given relative to another body: resolve in dependency order.
+  std::unordered_map<std::string, YAML::Node> spec;
+  std::vector<std::string> order;
+  for (const auto& kv : bodies) {
+    if (!CheckName(kv.first.Scalar(), Loc(kv.first), "a body's")) continue;
+    spec[kv.first.Scalar()] = kv.second;
+    order.push_back(kv.first.Scalar());
+  }
+  std::unordered_set<std::string> in_progress;
+  std::function<const mech::Body*(const std::string&, const YAML::Node&)> make = [&](const std::string& name,
+                                                                                     const YAML::Node& at) -> const mech::Body* {
+    if (made_.count(name)) return &made_[name];
+    if (!spec.count(name)) {
+      sink_.Error(codes::kMechReference, Loc(at), name, fmt::format("no body called '{}'", name), "define it under 'bodies'");
+      return nullptr;
+    }
+    if (in_progress.count(name)) {
+      sink_.Error(codes::kMechReference, Loc(at), name, "body positions refer to each other in a circle");
+      return nullptr;
+    }
+    in_progress.insert(name);
+    const YAML::Node b = spec[name];
+    mech::Body body;
+    body.name = name;
+    body.where = Loc(b);
+    if (!b.IsMap()) {
+      sink_.Error(Loc(b), name, "a body is a mapping with shape/density or mass/inertia, position, ...");
+      made_[name] = body;
+      return &made_[name];
+    }
+    CheckKeys(b, {"shape", "density", "mass", "inertia", "position", "orientation", "velocity", "omega", "description"}, name);
+    body.mass = Mass(b, name);
+    if (b["orientation"]) body.orientation = Orientation(b["orientation"], name);
+    if (const YAML::Node p = b["position"]) {
+      if (p.IsMap()) {
+        CheckKeys(p, {"relative_to", "offset"}, name);
+        const mech::Body* ref = p["relative_to"] ? make(p["relative_to"].Scalar(), p["relative_to"]) : nullptr;
+        const Eigen::Vector3d off = p["offset"] ? Vec3(p["offset"], name) : Eigen::Vector3d::Zero();
+        if (ref) body.position = ref->position + ref->orientation * off;
+        else if (!p["relative_to"]) sink_.Error(Loc(p), name, "a relative position needs 'relative_to' (a body) and 'offset' (in its frame)");
+      } else {
+        body.position = Vec3(p, name);
+      }
+    }
+    if (b["velocity"]) body.velocity = Vec3(b["velocity"], name);
+    if (b["omega"]) body.omega = Vec3(b["omega"], name);
+    in_progress.erase(name);
+    made_[name] = body;
+    return &made_[name];
+  };
+  for (const std::string& name : order) {
+    make(name, spec[name]);
+    m.AddBody(made_[name]);
+  }
+  return true;
+}
+
+const mech::Body* MechanismReader::BodyOrGround(const std::string& name) const {
+  const auto it = made_.find(name);
+  return it == made_.end() ? nullptr : &it->second;
+}
+
+void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
+  for (const auto& kv : joints) {
+    const std::string name = kv.first.Scalar();
+    const YAML::Node j = kv.second;
+    if (!CheckName(name, Loc(kv.first), "a joint's")) continue;
+    mech::Joint joint;
+    joint.name = name;
+    joint.where = Loc(kv.first);
+    if (!j.IsMap()) {
+      sink_.Error(joint.where, name, "a joint is a mapping with type, parent, child, ...");
+      continue;
+    }
+    const std::string type = j["type"] ? j["type"].Scalar() : "coupling";
+    const std::vector<std::string> types = {"coupling", "revolute", "fixed", "weld", "spherical", "prismatic", "held"};
+    if (std::find(types.begin(), types.end(), type) == types.end()) {
+      const std::string guess = DidYouMean(type, types);
+      sink_.Error(Loc(j["type"]), name, fmt::format("unknown joint type '{}'", type),
+                  guess.empty() ? "use coupling, revolute, fixed, spherical, prismatic or held" : fmt::format("did you mean '{}'?", guess));
+      continue;
+    }
+    CheckKeys(j, {"type", "parent", "child", "at", "child_at", "axis", "translation", "rotation", "rigid", "description"}, name);
+    // 'rigid: true' on the joint (or the model's 'rigid: all' / list) makes each of its
+    // couplings an ideal constraint; the named kinds then need no coupling sections.
+    rigid_joint_ = (j["rigid"] && Bool(j["rigid"], name)) || RigidByModel(name);
+          joint.kind = type;
+    joint.parent = j["parent"] ? j["parent"].Scalar() : std::string(mech::kGround);
+    if (type == "held" && joint.parent != mech::kGround) sink_.Error(Loc(j["parent"]), name, "a 'held' joint holds its child to the ground", "remove 'parent'");
+    if (!j["child"]) {
+      sink_.Error(joint.where, name, "a joint needs a 'child' body");
+      continue;
+    }
+    joint.child = j["child"].Scalar();
+    if (j["child_at"]) joint.child_point = Vec3(j["child_at"], name);
+    const mech::Body* parent = BodyOrGround(joint.parent);
+    const mech::Body* child = BodyOrGround(joint.child);
+    if (j["at"]) {
+      joint.parent_point = Vec3(j["at"], name);
+    } else if (child && (parent || joint.parent == mech::kGround)) {
+      // By default the joint sits where the child's attachment is at t = 0: undeflected.
+      const Eigen::Vector3d p = child->position + child->orientation * joint.child_point;
+      joint.parent_point = parent ? Eigen::Vector3d(parent->orientation.transpose() * (p - parent->position)) : p;
+    }
+    const bool needs_axis = type == "revolute" || type == "prismatic";
+    if (needs_axis && !j["axis"]) sink_.Error(joint.where, name, fmt::format("a {} joint needs an 'axis' (in the parent's frame)", type));
+    const Eigen::Vector3d axis = j["axis"] ? Axis(j["axis"], name) : Eigen::Vector3d::UnitZ();
+    const Eigen::MatrixXd all = Eigen::Matrix3d::Identity();
+    const Eigen::MatrixXd perp = mech::Perpendicular(axis);
+    using F = mech::Coupling::Frame;
+    if (type == "coupling") {
+      joint.translation = ReadCoupling(j["translation"], name, "translation", nullptr, F::kWorld);
+      joint.rotation = ReadCoupling(j["rotation"], name, "rotation", nullptr, F::kParent);
+    } else {
+      const bool trans = type != "prismatic", rot_all = type == "fixed" || type == "weld" || type == "held" || type == "prismatic";
+      if (j["translation"] || rigid_joint_)
+        joint.translation = ReadCoupling(j["translation"] ? j["translation"] : rigid_section_, name, "translation",
+                                         trans ? &all : &perp, trans ? F::kWorld : F::kParent);
+      else sink_.Error(joint.where, name, fmt::format("a {} joint needs 'translation: {{K: ..., R: ...}}' (or 'rigid: true')", type));
+      if (type != "spherical") {
+        if (j["rotation"] || rigid_joint_)
+          joint.rotation = ReadCoupling(j["rotation"] ? j["rotation"] : rigid_section_, name, "rotation", rot_all ? &all : &perp, F::kParent);
+        else sink_.Error(joint.where, name, fmt::format("a {} joint needs 'rotation: {{K: ..., R: ...}}' (or 'rigid: true')", type));
+      } else if (j["rotation"]) {
+        sink_.Error(Loc(j["rotation"]), name, "a spherical joint leaves every rotation free", "remove 'rotation', or use type: coupling");
+      }
+    }
+    rigid_joint_ = false;
+    m.AddJoint(joint);
+  }
+}
+
+void MechanismReader::ReadGears(const YAML::Node& gears, mech::Mechanism& m) {
+  for (const auto& kv : gears) {
+    const std::string name = kv.first.Scalar();
+    const YAML::Node g = kv.second;
+    if (!CheckName(name, Loc(kv.first), "a gear mesh's")) continue;
+    mech::GearMesh gm;
+    gm.name = name;
+    gm.where = Loc(kv.first);
+    CheckKeys(g, {"carrier", "a", "b", "K", "R", "stiffness", "damping", "rigid", "description"}, name);
+    gm.rigid = (g["rigid"] && Bool(g["rigid"], name)) || RigidByModel(name);
+    gm.carrier = g["carrier"] ? g["carrier"].Scalar() : std::string(mech::kGround);
+    auto side = [&](const char* key, std::string* body, Eigen::Vector3d* axis, double* teeth) {
+      const YAML::Node s = g[key];
+      if (!s || !s.IsMap()) {
+        sink_.Error(gm.where, name, fmt::format("a gear mesh needs '{}: {{body: ..., axis: ..., teeth: ...}}'", key));
+        return;
+      }
+      CheckKeys(s, {"body", "axis", "teeth"}, name);
+      if (s["body"]) *body = s["body"].Scalar();
+      else sink_.Error(Loc(s), name, fmt::format("gear '{}' needs a 'body'", key));
+      if (s["axis"]) *axis = Axis(s["axis"], name);
+      else sink_.Error(Loc(s), name, fmt::format("gear '{}' needs an 'axis' (in the carrier's frame)", key));
+      if (s["teeth"]) *teeth = Number(s["teeth"], name, Env{});  // a whole number in range: mech::Mechanism
+      else sink_.Error(Loc(s), name, fmt::format("gear '{}' needs 'teeth'", key));
+    };
+    side("a", &gm.body_a, &gm.axis_a, &gm.teeth_a);
+    side("b", &gm.body_b, &gm.axis_b, &gm.teeth_b);
+    {  // a rigid mesh uses K, if given, only to share a load with redundant constraints
+      Eigen::VectorXd k, r;
+      Gains(g, name, 1, &k, &r, gm.rigid);
+      gm.stiffness = k[0];
+      gm.damping = gm.rigid ? 0.0 : r[0];
+    }
+    m.AddGear(gm);
+  }
+}
+
+void MechanismReader::ReadDrives(const YAML::Node& drives, mech::Mechanism& m) {
+  for (const auto& kv : drives) {
+    const std::string name = kv.first.Scalar();
+    const YAML::Node d = kv.second;
+    if (!CheckName(name, Loc(kv.first), "a drive's")) continue;
+    mech::Drive drive;
+    drive.name = name;
+    drive.where = Loc(kv.first);
+    const std::string type = d["type"] ? d["type"].Scalar() : "";
+    const std::map<std::string, mech::Drive::Kind> kinds = {{"angular_velocity", mech::Drive::Kind::kAngularVelocity},
+                                                            {"velocity", mech::Drive::Kind::kVelocity},
+                                                            {"torque", mech::Drive::Kind::kTorque},
+                                                            {"force", mech::Drive::Kind::kForce}};
+    if (!kinds.count(type)) {
+      sink_.Error(d["type"] ? Loc(d["type"]) : drive.where, name, fmt::format("unknown drive type '{}'", type),
+                  "use angular_velocity, velocity, torque or force");
+      continue;
+    }
+    drive.kind = kinds.at(type);
+    const bool velocity = drive.kind == mech::Drive::Kind::kAngularVelocity || drive.kind == mech::Drive::Kind::kVelocity;
+    std::vector<std::string> keys = {"type", "body", "axis", "value", "description"};
+    if (velocity) keys.insert(keys.end(), {"reference", "K", "R", "stiffness", "damping"});
+    if (drive.kind == mech::Drive::Kind::kForce) keys.push_back("at");
+    CheckKeys(d, keys, name);
+    if (d["body"]) drive.body = d["body"].Scalar();
+    else sink_.Error(drive.where, name, "a drive needs a 'body'");
+    if (d["reference"]) drive.reference = d["reference"].Scalar();
+    if (d["axis"]) drive.axis = Axis(d["axis"], name);
+    else sink_.Error(drive.where, name, "a drive needs an 'axis'");
+    if (d["value"]) drive.value = ReadTimeFunction(d["value"], name, Env{});
+    else sink_.Error(drive.where, name, "a drive needs a 'value' (a number or a time function)");
+    if (d["at"]) drive.point = Vec3(d["at"], name);
+    if (velocity) {
+      Eigen::VectorXd k, r;
+      Gains(d, name, 1, &k, &r);
+      drive.stiffness = k[0];
+      drive.damping = r[0];
+    }
+    m.AddDrive(drive);
+  }
+}
+
+void MechanismReader::ReadPoints(const YAML::Node& points, mech::Mechanism& m) {
+  for (const auto& kv : points) {
+    mech::Point p;
+    p.name = kv.first.Scalar();
+    p.where = Loc(kv.first);
+    if (!CheckName(p.name, p.where, "a point's")) continue;
+    CheckKeys(kv.second, {"body", "at", "description"}, p.name);
+    if (kv.second["body"]) p.body = kv.second["body"].Scalar();
+    else sink_.Error(p.where, p.name, "a point needs a 'body'");
+    if (kv.second["at"]) p.at = Vec3(kv.second["at"], p.name);
+    m.AddPoint(p);
+  }
+}
+
+}  // namespace multibond
