@@ -65,6 +65,18 @@ enum class Outcome {
   X(kOutputUnknownVariable, "output.unknown_variable", kModelError, "an output naming no variable (reported by run)")         \
   X(kOutputSize, "output.size", kModelError, "an output whose terms or point do not have the sizes it needs")                \
   X(kOutputDuplicate, "output.duplicate", kModelError, "two output columns of one name")                                     \
+  X(kPlotList, "plot.list", kModelError, "a figure list (plot --figures) that is not a mapping, or has no figures") \
+  X(kPlotType, "plot.type", kModelError, "a key of a figure list whose value has the wrong type (a list, a mapping, a number, text)") \
+  X(kPlotUnknownKey, "plot.unknown_key", kModelError, "a key a figure list does not know there") \
+  X(kPlotDuplicateKey, "plot.duplicate_key", kModelError, "a key given twice in one mapping of a figure list") \
+  X(kPlotName, "plot.name", kModelError, "a figure name that is not a file name of letters, digits, '-' and '_', or is used twice") \
+  X(kPlotPanels, "plot.panels", kModelError, "a figure with no panels, or with panels and a bond graph") \
+  X(kPlotPanel, "plot.panel", kModelError, "a panel that does not fit its kind (a path without three columns, an orientation without a body)") \
+  X(kPlotKind, "plot.kind", kModelError, "a panel kind other than time, path and orientation") \
+  X(kPlotCurve, "plot.curve", kModelError, "a curve that names no column, or more than one way") \
+  X(kPlotColumn, "plot.column", kModelError, "a column name of a figure list that is not a result column name") \
+  X(kPlotColor, "plot.color", kModelError, "a colour that is not #rrggbb") \
+  X(kPlotCheck, "plot.check", kModelError, "a check of a figure list without a column, a value or a positive tolerance") \
   X(kInternalDoubleWriter, "internal.double_writer", kModelError,                                                              \
     "a variable computed twice: a causality conflict the analysis did not catch (a bug of multibond: please report it)")
 

@@ -1,3 +1,4 @@
+#include "multibond/io/diagnostic_codes.h"
 #include "multibond/io/plot_figures.h"
 
 #include <fcntl.h>
@@ -43,7 +44,7 @@ class Reader {
   FigureList Read(const YAML::Node& root) {
     FigureList out;
     if (!root.IsMap()) {
-      sink_.Error("plot.list", Loc(root), "", "a figure list must be a YAML mapping with 'figures' or 'sections'",
+      sink_.Error(codes::kPlotList, Loc(root), "", "a figure list must be a YAML mapping with 'figures' or 'sections'",
                   "see docs/plots.md, or examples/differential/figures.yaml");
       return out;
     }
@@ -53,7 +54,7 @@ class Reader {
     if (root["figures"]) Figures(root["figures"], -1, "figures", out);
     if (const YAML::Node s = root["sections"]) {
       if (!s.IsSequence()) {
-        sink_.Error("plot.type", Loc(s), "sections", "'sections' must be a list", "each item: {title: ..., figures: [...]}");
+        sink_.Error(codes::kPlotType, Loc(s), "sections", "'sections' must be a list", "each item: {title: ..., figures: [...]}");
       } else {
         for (size_t i = 0; i < s.size(); ++i) {
           const std::string where = fmt::format("sections[{}]", i);
@@ -64,9 +65,9 @@ class Reader {
       }
     }
     if (!root["figures"] && !root["sections"])
-      sink_.Error("plot.list", Loc(root), "", "the figure list has neither 'figures' nor 'sections'", "see docs/plots.md");
+      sink_.Error(codes::kPlotList, Loc(root), "", "the figure list has neither 'figures' nor 'sections'", "see docs/plots.md");
     if (const YAML::Node c = root["checks"]) {
-      if (!c.IsSequence()) sink_.Error("plot.type", Loc(c), "checks", "'checks' must be a list", "see docs/plots.md");
+      if (!c.IsSequence()) sink_.Error(codes::kPlotType, Loc(c), "checks", "'checks' must be a list", "see docs/plots.md");
       else
         for (size_t i = 0; i < c.size(); ++i) Checks(c[i], fmt::format("checks[{}]", i), out);
     }
@@ -82,19 +83,19 @@ class Reader {
   /// Reports keys not in `allowed` (did you mean?) and keys given twice; false when `n` is no mapping.
   bool Keys(const YAML::Node& n, const std::vector<std::string>& allowed, const std::string& where) {
     if (!n.IsMap()) {
-      sink_.Error("plot.type", Loc(n), where, "expected a mapping (key: value lines)", "see docs/plots.md");
+      sink_.Error(codes::kPlotType, Loc(n), where, "expected a mapping (key: value lines)", "see docs/plots.md");
       return false;
     }
     std::set<std::string> seen;
     for (const auto& kv : n) {
       const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : "?";
       if (!seen.insert(key).second)
-        sink_.Error("plot.duplicate_key", Loc(kv.first), where, fmt::format("duplicate key '{}'", key), "give each key once");
+        sink_.Error(codes::kPlotDuplicateKey, Loc(kv.first), where, fmt::format("duplicate key '{}'", key), "give each key once");
       if (std::find(allowed.begin(), allowed.end(), key) != allowed.end()) continue;
       const std::string guess = DidYouMean(key, allowed);
       std::string list;
       for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-      sink_.Error("plot.unknown_key", Loc(kv.first), where, fmt::format("unknown key '{}'", key),
+      sink_.Error(codes::kPlotUnknownKey, Loc(kv.first), where, fmt::format("unknown key '{}'", key),
                   guess.empty() ? "known keys here: " + list : fmt::format("did you mean '{}'?", guess));
     }
     return true;
@@ -103,7 +104,7 @@ class Reader {
   std::string Text(const YAML::Node& n, const std::string& where) {
     if (!n) return "";
     if (!n.IsScalar()) {
-      sink_.Error("plot.type", Loc(n), where, "expected a text", "write it on one line, or as a YAML block (>)");
+      sink_.Error(codes::kPlotType, Loc(n), where, "expected a text", "write it on one line, or as a YAML block (>)");
       return "";
     }
     return n.Scalar();
@@ -113,7 +114,7 @@ class Reader {
     if (!n) return false;
     bool b = false;
     if (n.IsScalar() && YAML::convert<bool>::decode(n, b)) return b;
-    sink_.Error("plot.type", Loc(n), where, "expected true or false");
+    sink_.Error(codes::kPlotType, Loc(n), where, "expected true or false");
     return false;
   }
 
@@ -121,20 +122,20 @@ class Reader {
     if (!n) return fallback;
     double v = 0;
     if (n.IsScalar() && YAML::convert<double>::decode(n, v) && std::isfinite(v)) return v;
-    sink_.Error("plot.type", Loc(n), where, "expected a finite number");
+    sink_.Error(codes::kPlotType, Loc(n), where, "expected a finite number");
     return fallback;
   }
 
   /// A results.csv column name (any text but empty).
   std::string Column(const YAML::Node& n, const std::string& where) {
     const std::string c = Text(n, where);
-    if (n && n.IsScalar() && c.empty()) sink_.Error("plot.column", Loc(n), where, "empty column name");
+    if (n && n.IsScalar() && c.empty()) sink_.Error(codes::kPlotColumn, Loc(n), where, "empty column name");
     return c;
   }
 
   void Figures(const YAML::Node& list, int section, const std::string& where, FigureList& out) {
     if (!list || !list.IsSequence()) {
-      sink_.Error("plot.type", list ? Loc(list) : SourceLocation{file_, 0, 0}, where, "expected a list of figures", "see docs/plots.md");
+      sink_.Error(codes::kPlotType, list ? Loc(list) : SourceLocation{file_, 0, 0}, where, "expected a list of figures", "see docs/plots.md");
       return;
     }
     for (size_t i = 0; i < list.size(); ++i) {
@@ -145,21 +146,21 @@ class Reader {
       fig.section = section;
       fig.name = Text(f["name"], at + ".name");
       const std::string element = fig.name.empty() ? at : fig.name;
-      if (!f["name"]) sink_.Error("plot.name", Loc(f), at, "a figure needs a 'name' (its file name)", "e.g. name: mass-position");
+      if (!f["name"]) sink_.Error(codes::kPlotName, Loc(f), at, "a figure needs a 'name' (its file name)", "e.g. name: mass-position");
       else if (!IsFigureName(fig.name))
-        sink_.Error("plot.name", Loc(f["name"]), at, fmt::format("'{}' is not a figure name", fig.name),
+        sink_.Error(codes::kPlotName, Loc(f["name"]), at, fmt::format("'{}' is not a figure name", fig.name),
                     "use 1 to 100 letters, digits, '_', '-' or '.', starting with a letter or digit");
       else if (!names_.insert(fig.name).second)
-        sink_.Error("plot.name", Loc(f["name"]), element, fmt::format("a second figure named '{}'", fig.name), "give each figure its own name");
+        sink_.Error(codes::kPlotName, Loc(f["name"]), element, fmt::format("a second figure named '{}'", fig.name), "give each figure its own name");
       fig.label = Text(f["label"], element + ".label");
       fig.caption = Text(f["caption"], element + ".caption");
       fig.shows = Text(f["shows"], element + ".shows");
       fig.bond_graph = Bool(f["bond_graph"], element + ".bond_graph");
       const YAML::Node panels = f["panels"];
       if (fig.bond_graph) {
-        if (panels) sink_.Error("plot.panels", Loc(panels), element, "a bond graph figure has no panels", "remove 'panels'");
+        if (panels) sink_.Error(codes::kPlotPanels, Loc(panels), element, "a bond graph figure has no panels", "remove 'panels'");
       } else if (!panels || !panels.IsSequence() || panels.size() == 0) {
-        sink_.Error("plot.panels", panels ? Loc(panels) : Loc(f), element, "a figure needs 'panels': a list of at least one",
+        sink_.Error(codes::kPlotPanels, panels ? Loc(panels) : Loc(f), element, "a figure needs 'panels': a list of at least one",
                     "e.g. panels: [{curves: [{column: mass.p}]}]");
       } else {
         for (size_t k = 0; k < panels.size(); ++k) {
@@ -180,7 +181,7 @@ class Reader {
     else if (kind == "orientation") p.kind = PanelKind::kOrientation;
     else if (kind != "time") {
       const std::string guess = DidYouMean(kind, kKinds);
-      sink_.Error("plot.kind", Loc(n["kind"]), where, fmt::format("unknown panel kind '{}'", kind),
+      sink_.Error(codes::kPlotKind, Loc(n["kind"]), where, fmt::format("unknown panel kind '{}'", kind),
                   guess.empty() ? "use time, path or orientation" : fmt::format("did you mean '{}'?", guess));
     }
     p.title = Text(n["title"], where + ".title");
@@ -189,20 +190,20 @@ class Reader {
     p.zoom = Bool(n["zoom"], where + ".zoom");
     p.coordinates = Bool(n["coordinates"], where + ".coordinates");
     if (p.kind != PanelKind::kTime && (n["zoom"] || n["coordinates"] || n["quantity"]))
-      sink_.Error("plot.panel", Loc(n), where, "'zoom', 'coordinates' and 'quantity' belong to time panels");
+      sink_.Error(codes::kPlotPanel, Loc(n), where, "'zoom', 'coordinates' and 'quantity' belong to time panels");
     if (p.kind == PanelKind::kOrientation) {
       const std::string body = Column(n["body"], where + ".body");
-      if (!n["body"]) sink_.Error("plot.panel", Loc(n), where, "an orientation panel needs 'body': the body whose R columns it draws");
-      if (n["curves"]) sink_.Error("plot.panel", Loc(n["curves"]), where, "an orientation panel takes 'body', not 'curves'");
+      if (!n["body"]) sink_.Error(codes::kPlotPanel, Loc(n), where, "an orientation panel needs 'body': the body whose R columns it draws");
+      if (n["curves"]) sink_.Error(codes::kPlotPanel, Loc(n["curves"]), where, "an orientation panel takes 'body', not 'curves'");
       for (int j = 1; j <= 3; ++j)
         p.curves.push_back({{fmt::format("{}.R.1{}", body, j), fmt::format("{}.R.2{}", body, j), fmt::format("{}.R.3{}", body, j)},
                             fmt::format("column {}: tip of {}_{{{}}}", j, kAxes[j - 1], body), PlotColors()[j - 1]});
       return p;
     }
-    if (n["body"]) sink_.Error("plot.panel", Loc(n["body"]), where, "'body' belongs to orientation panels", "remove it, or write kind: orientation");
+    if (n["body"]) sink_.Error(codes::kPlotPanel, Loc(n["body"]), where, "'body' belongs to orientation panels", "remove it, or write kind: orientation");
     const YAML::Node curves = n["curves"];
     if (!curves || !curves.IsSequence() || curves.size() == 0) {
-      sink_.Error("plot.panel", curves ? Loc(curves) : Loc(n), where, "a panel needs 'curves': a list of at least one",
+      sink_.Error(codes::kPlotPanel, curves ? Loc(curves) : Loc(n), where, "a panel needs 'curves': a list of at least one",
                   "e.g. curves: [{column: mass.p}] or [{vector: body.r}]");
       return p;
     }
@@ -218,7 +219,7 @@ class Reader {
     c.scale = Number(n["scale"], where + ".scale", 1.0);
     const int given = (n["column"] ? 1 : 0) + (n["columns"] ? 1 : 0) + (n["vector"] ? 1 : 0);
     if (given != 1) {
-      sink_.Error("plot.curve", Loc(n), where, "a curve takes exactly one of 'column', 'columns' and 'vector'",
+      sink_.Error(codes::kPlotCurve, Loc(n), where, "a curve takes exactly one of 'column', 'columns' and 'vector'",
                   p.kind == PanelKind::kTime ? "e.g. column: mass.p, or vector: body.r (x, y and z as three curves)"
                                              : "e.g. vector: body.r, or columns: [a, b, c] (x, y, z of the path)");
       return;
@@ -226,7 +227,7 @@ class Reader {
     const size_t first = p.curves.size();
     if (p.kind == PanelKind::kTime) {
       if (n["columns"]) {
-        sink_.Error("plot.curve", Loc(n["columns"]), where, "'columns' belongs to path panels", "give one 'column' a curve, or 'vector'");
+        sink_.Error(codes::kPlotCurve, Loc(n["columns"]), where, "'columns' belongs to path panels", "give one 'column' a curve, or 'vector'");
         return;
       }
       if (n["column"]) {
@@ -244,26 +245,26 @@ class Reader {
       }
     } else {
       if (n["column"]) {
-        sink_.Error("plot.curve", Loc(n["column"]), where, "a path takes three columns", "write columns: [x, y, z] or vector: PREFIX");
+        sink_.Error(codes::kPlotCurve, Loc(n["column"]), where, "a path takes three columns", "write columns: [x, y, z] or vector: PREFIX");
         return;
       }
       if (n["vector"]) {
         const std::string prefix = Column(n["vector"], where + ".vector");
         c.columns = {prefix + ".x", prefix + ".y", prefix + ".z"};
       } else if (!n["columns"].IsSequence() || n["columns"].size() != 3) {
-        sink_.Error("plot.curve", Loc(n["columns"]), where, "'columns' must list three columns: x, y and z of the path");
+        sink_.Error(codes::kPlotCurve, Loc(n["columns"]), where, "'columns' must list three columns: x, y and z of the path");
         return;
       } else {
         for (size_t k = 0; k < 3; ++k) c.columns.push_back(Column(n["columns"][k], fmt::format("{}.columns[{}]", where, k)));
       }
-      if (c.from_start || c.scale != 1.0) sink_.Error("plot.curve", Loc(n), where, "'from_start' and 'scale' belong to time panels");
+      if (c.from_start || c.scale != 1.0) sink_.Error(codes::kPlotCurve, Loc(n), where, "'from_start' and 'scale' belong to time panels");
       p.curves.push_back(c);
     }
     if (n["color"]) {
       const std::string color = Text(n["color"], where + ".color");
       const bool ok = color.size() == 7 && color[0] == '#' &&
                       std::all_of(color.begin() + 1, color.end(), [](char ch) { return std::isxdigit(static_cast<unsigned char>(ch)); });
-      if (!ok) sink_.Error("plot.color", Loc(n["color"]), where, fmt::format("'{}' is not a colour", color), "write it as #rrggbb, e.g. #1f77b4");
+      if (!ok) sink_.Error(codes::kPlotColor, Loc(n["color"]), where, fmt::format("'{}' is not a colour", color), "write it as #rrggbb, e.g. #1f77b4");
       else
         for (size_t k = first; k < p.curves.size(); ++k) p.curves[k].color = color;
     }
@@ -277,14 +278,14 @@ class Reader {
     c.quantity = Text(n["quantity"], where + ".quantity");
     c.unit = Text(n["unit"], where + ".unit");
     c.note = Text(n["note"], where + ".note");
-    if (n["column"] && n["norm"]) sink_.Error("plot.check", Loc(n), where, "a check takes 'column' or 'norm', not both");
+    if (n["column"] && n["norm"]) sink_.Error(codes::kPlotCheck, Loc(n), where, "a check takes 'column' or 'norm', not both");
     else if (n["column"]) c.column = Column(n["column"], where + ".column");
     else if (n["norm"]) c.column = Column(n["norm"], where + ".norm"), c.norm = true;
-    else sink_.Error("plot.check", Loc(n), where, "a check needs 'column' (a column's last value) or 'norm' (a vector's length at the end)");
-    if (!n["value"]) sink_.Error("plot.check", Loc(n), where, "a check needs 'value', the expected value");
+    else sink_.Error(codes::kPlotCheck, Loc(n), where, "a check needs 'column' (a column's last value) or 'norm' (a vector's length at the end)");
+    if (!n["value"]) sink_.Error(codes::kPlotCheck, Loc(n), where, "a check needs 'value', the expected value");
     c.value = Number(n["value"], where + ".value", 0.0);
     c.tolerance = Number(n["tolerance"], where + ".tolerance", 0.0);
-    if (c.tolerance < 0) sink_.Error("plot.check", Loc(n["tolerance"]), where, "a tolerance cannot be negative");
+    if (c.tolerance < 0) sink_.Error(codes::kPlotCheck, Loc(n["tolerance"]), where, "a tolerance cannot be negative");
     if (c.quantity.empty()) c.quantity = c.norm ? "|" + c.column + "|" : c.column;
     out.checks.push_back(std::move(c));
   }
@@ -342,7 +343,7 @@ FigureList ParseFigureList(const std::string& text, const std::string& file, con
     if (!CheckYamlBounds(text, file, limits, sink)) sink.ThrowIfErrors();
     const std::vector<YAML::Node> documents = YAML::LoadAll(text);
     if (documents.size() > 1) {
-      sink.Error("plot.list", {file, 0, 0}, "", fmt::format("the file holds {} YAML documents; a figure list is one", documents.size()),
+      sink.Error(codes::kPlotList, {file, 0, 0}, "", fmt::format("the file holds {} YAML documents; a figure list is one", documents.size()),
                  "remove the '---' line");
       sink.ThrowIfErrors();
     }
