@@ -1,5 +1,7 @@
 #include "multibond/core/structure.h"
 
+#include "multibond/core/union_find.h"
+
 #include <cmath>
 #include <numeric>
 
@@ -8,43 +10,6 @@
 namespace multibond {
 
 namespace {
-
-/// Union-find with an optional value per class (dimension or domain), reporting conflicts.
-template <typename T>
-class ValueUnion {
- public:
-  explicit ValueUnion(int n) : parent_(n), value_(n), has_(n, false) { std::iota(parent_.begin(), parent_.end(), 0); }
-  int Root(int i) {
-    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
-    return i;
-  }
-  /// Merges the classes of a and b; returns false on conflicting values.
-  bool Merge(int a, int b) {
-    a = Root(a), b = Root(b);
-    if (a == b) return true;
-    parent_[b] = a;
-    if (has_[b]) {
-      if (has_[a] && value_[a] != value_[b]) return false;
-      value_[a] = value_[b];
-      has_[a] = true;
-    }
-    return true;
-  }
-  bool Set(int i, const T& v) {
-    i = Root(i);
-    if (has_[i]) return value_[i] == v;
-    value_[i] = v;
-    has_[i] = true;
-    return true;
-  }
-  bool Has(int i) { return has_[Root(i)]; }
-  const T& Get(int i) { return value_[Root(i)]; }
-
- private:
-  std::vector<int> parent_;
-  std::vector<T> value_;
-  std::vector<bool> has_;
-};
 
 bool AllFinite(const Eigen::MatrixXd& m) { return m.allFinite(); }
 
