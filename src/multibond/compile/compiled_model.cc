@@ -548,7 +548,7 @@ void CompiledModel::Build() {
       reached[out_class[k]] = 1;
     }
   }
-  Specialize();
+  needed_moduli_ = plan::Specialize(plan_, coef_, sum_terms_, sum_signs_, moduli_);
   BuildGathers();
   {
     std::vector<std::vector<int>> plan_reads;
@@ -774,179 +774,6 @@ void CompiledModel::EvalModuli(const double* x, double* out, bool derivative) co
   }
 }
 
-void CompiledModel::Specialize() {
-  auto is_diagonal = [&](int coef, int n) {
-    for (int r = 0; r < n; ++r)
-      for (int c = 0; c < n; ++c)
-        if (r != c && coef_[coef + r * n + c] != 0.0) return false;
-    return true;
-  };
-  // Appends the diagonal of the n x n matrix at `coef`; returns its offset.
-  auto diagonal = [&](int coef, int n) {
-    const int at = static_cast<int>(coef_.size());
-    for (int r = 0; r < n; ++r) coef_.push_back(coef_[coef + r * n + r]);
-    return at;
-  };
-  for (Instr& in : plan_) {
-    switch (in.op) {
-      case Op::kStateScale:
-        if (in.n == 3) in.op = Op::kStateScale3;
-        break;
-      case Op::kStateMatrix:
-        if (in.n == 3 && is_diagonal(in.coef, 3)) {
-          in.coef = diagonal(in.coef, 3);
-          in.op = Op::kStateDiag3;
-        }
-        break;
-      case Op::kIFlowRotated:
-        if (is_diagonal(in.coef, 3)) {
-          in.coef = diagonal(in.coef, 3);
-          in.op = Op::kIFlowRotatedDiag;
-        }
-        break;
-      case Op::kScale:
-        if (in.n == 1) in.op = Op::kScale1;
-        else if (in.n == 3) in.op = Op::kScale3;
-        break;
-      case Op::kMatrix:
-        if (in.n == in.m && (in.n == 2 || in.n == 3) && is_diagonal(in.coef, in.n)) {
-          in.coef = diagonal(in.coef, in.n);
-          in.op = in.n == 2 ? Op::kDiag2 : Op::kDiag3;
-        } else if (in.m == 3 && in.n == 1) {
-          in.op = Op::kMat13;
-        } else if (in.m == 3 && in.n == 2) {
-          in.op = Op::kMat23;
-        } else if (in.m == 3 && in.n == 3) {
-          in.op = Op::kMat33;
-        } else if (in.n == 3 && in.m == 1) {
-          in.op = Op::kMat31;
-        } else if (in.n == 3 && in.m == 2) {
-          in.op = Op::kMat32;
-        }
-        break;
-      case Op::kModulated: {
-        ModulusEval& me = moduli_[in.modulus];
-        const bool plain = me.right < 0 && in.count <= 1;
-        if (plain && me.kind == Modulus::Kind::kRotation && me.rows <= 3) {
-          // M = s L op(R): forward dst = s L op(R) src; backward dst = s op(R)^T L^T src.
-          const int k = me.rows;
-          in.aux = me.rotation;
-          in.scale = me.scale;
-          in.transpose = me.transpose;
-          in.coef = me.left;  // -1: L is the identity
-          static const Op kFwd[] = {Op::kRotFwd1, Op::kRotFwd2, Op::kRotFwd3};
-          static const Op kBwd[] = {Op::kRotBwd1, Op::kRotBwd2, Op::kRotBwd3};
-          in.op = in.count == 0 ? kFwd[k - 1] : kBwd[k - 1];
-        } else if (plain && me.kind == Modulus::Kind::kLever && me.left < 0) {
-          // M = -s [a x], a = R r: forward dst = s (src x a); backward dst = s (a x src).
-          in.aux = me.rotation;
-          in.scale = me.scale;
-          in.coef = static_cast<int>(coef_.size());
-          coef_.insert(coef_.end(), {me.lever.x(), me.lever.y(), me.lever.z()});
-          in.op = in.count == 0 ? Op::kLeverFwd : Op::kLeverBwd;
-        } else {
-          me.needed = true;
-        }
-        break;
-      }
-      case Op::kSum:
-        if (in.count == 1 && sum_signs_[in.coef] == 1.0 && (in.n == 1 || in.n == 3)) {
-          in.src = sum_terms_[in.coef];
-          in.op = in.n == 1 ? Op::kCopy1 : Op::kCopy3;
-        } else if (in.n == 1) {
-          in.op = Op::kSum1;
-        } else if (in.n == 3) {
-          in.op = Op::kSum3;
-        }
-        break;
-      default:
-        break;
-    }
-  }
-  for (size_t i = 0; i < moduli_.size(); ++i)
-    if (moduli_[i].needed) needed_moduli_.push_back(static_cast<int>(i));
-}
-
-namespace {
-
-using RowMajor3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
-
-
-/// dst(R) = A(R x C, row-major) src(C).
-template <int R, int C>
-inline void MatVec(double* dst, const double* a, const double* src) {
-  for (int r = 0; r < R; ++r) {
-    double s = kSumStart;
-    for (int c = 0; c < C; ++c) s = AddTerm(s, a[r * C + c], src[c]);
-    dst[r] = s;
-  }
-}
-
-/// y = op(R) v for a row-major R (op = transpose when `transpose`).
-inline void RotApply(double* y, const double* r, const double* v, bool transpose) {
-  if (transpose) {
-    for (int i = 0; i < 3; ++i) y[i] = Dot3(r[i], v[0], r[3 + i], v[1], r[6 + i], v[2]);
-  } else {
-    for (int i = 0; i < 3; ++i) y[i] = Dot3(r[3 * i], v[0], r[3 * i + 1], v[1], r[3 * i + 2], v[2]);
-  }
-}
-
-/// Forward rotation kernel: dst(K) = s L op(R) src, L = K x 3 (identity when null).
-template <int K>
-inline void RotFwd(double* dst, const double* r, const double* l, const double* src, double s, bool transpose) {
-  double y[3];
-  RotApply(y, r, src, transpose);
-  if (l == nullptr) {
-    for (int i = 0; i < 3; ++i) dst[i] = s * y[i];
-    return;
-  }
-  for (int i = 0; i < K; ++i) dst[i] = s * AddTerm(AddTerm(AddTerm(kSumStart, l[3 * i], y[0]), l[3 * i + 1], y[1]), l[3 * i + 2], y[2]);
-}
-
-/// Backward rotation kernel: dst(3) = s op(R)^T L^T src(K).
-template <int K>
-inline void RotBwd(double* dst, const double* r, const double* l, const double* src, double s, bool transpose) {
-  double z[3];
-  if (l == nullptr) {
-    for (int i = 0; i < 3; ++i) z[i] = src[i];
-    double y[3];
-    RotApply(y, r, z, !transpose);
-    for (int i = 0; i < 3; ++i) dst[i] = s * y[i];
-    return;
-  }
-  // A column of L that is zero leaves its z out of the product, as in the generated code.
-  bool used[3];
-  for (int c = 0; c < 3; ++c) {
-    double acc = kSumStart;
-    used[c] = false;
-    for (int i = 0; i < K; ++i) {
-      acc = AddTerm(acc, l[3 * i + c], src[i]);
-      used[c] = used[c] || l[3 * i + c] != 0.0;
-    }
-    z[c] = acc;
-  }
-  for (int i = 0; i < 3; ++i) {
-    double y = kSumStart;
-    for (int c = 0; c < 3; ++c)
-      if (used[c]) y = AddProduct(y, transpose ? r[3 * i + c] : r[3 * c + i], z[c]);
-    dst[i] = s * y;
-  }
-}
-
-/// The lever arm a = R r in the inertial frame (R row-major); zero components of r add nothing.
-inline void LeverArm(double* a, const double* rot, const double* lever) {
-  for (int i = 0; i < 3; ++i) a[i] = AddTerm(AddTerm(AddTerm(kSumStart, lever[0], rot[3 * i]), lever[1], rot[3 * i + 1]), lever[2], rot[3 * i + 2]);
-}
-
-/// out = s (a x b), each component a_j b_k - a_k b_j as the chain a_j b_k + (-a_k) b_j.
-inline void Cross(double* out, const double* a, const double* b, double s) {
-  out[0] = s * MulAdd(-a[2], b[1], a[1] * b[2]);
-  out[1] = s * MulAdd(-a[0], b[2], a[2] * b[0]);
-  out[2] = s * MulAdd(-a[1], b[0], a[0] * b[1]);
-}
-
-}  // namespace
-
 namespace {
 // The generated code's view of the source functions (see codegen.cc).
 double EvalSource(const void* fns, int i, double t) { return static_cast<const TimeFunction*>(fns)[i](t); }
@@ -979,162 +806,6 @@ void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Wor
   EvalPlan(t, x, xdot, ws);
 }
 
-void CompiledModel::StateKernel(const Instr& in, const double* c, const double* r, const double* s, double* dst) {
-  switch (in.op) {
-    case Op::kStateScale:
-      for (int k = 0; k < in.n; ++k) dst[k] = c[in.coef] * s[k];
-      break;
-    case Op::kStateScale3:
-      for (int k = 0; k < 3; ++k) dst[k] = c[in.coef] * s[k];
-      break;
-    case Op::kStateDiag3:
-      for (int k = 0; k < 3; ++k) dst[k] = c[in.coef + k] * s[k];
-      break;
-    case Op::kStateMatrix:
-      for (int row = 0; row < in.n; ++row) {
-        double sum = kSumStart;
-        for (int k = 0; k < in.n; ++k) sum = AddTerm(sum, c[in.coef + row * in.n + k], s[k]);
-        dst[row] = sum;
-      }
-      break;
-    case Op::kIFlowRotated:
-    case Op::kIFlowRotatedDiag: {
-      // f = R Ib^-1 R^T h: the inertia tensor turns with the body (no Euler junction structure).
-      double hb[3], wb[3];
-      RotApply(hb, r, s, true);
-      if (in.op == Op::kIFlowRotatedDiag) {
-        for (int k = 0; k < 3; ++k) wb[k] = c[in.coef + k] * hb[k];
-      } else {
-        MatVec<3, 3>(wb, c + in.coef, hb);
-      }
-      RotApply(dst, r, wb, false);
-      break;
-    }
-    default:
-      MB_ASSERT(false, "StateKernel on an instruction that does not read a state");
-  }
-}
-
-void CompiledModel::Exec(const Instr& in, double t, const double* x, const double* win, double* wout, const double* mod,
-                         const double* lambda, const double* c, const int* sum_terms, const double* sum_signs,
-                         const TimeFunction* fns) {
-  double* dst = wout + in.dst;
-  switch (in.op) {
-    case Op::kSource:
-      for (int k = 0; k < in.n; ++k) dst[k] = fns[in.coef + k](t);
-      break;
-    case Op::kStateScale:
-    case Op::kStateScale3:
-    case Op::kStateDiag3:
-    case Op::kStateMatrix:
-    case Op::kIFlowRotated:
-    case Op::kIFlowRotatedDiag:
-      StateKernel(in, c, x + in.aux, x + in.src, dst);
-      break;
-    case Op::kScale:
-      for (int k = 0; k < in.n; ++k) dst[k] = c[in.coef] * win[in.src + k];
-      break;
-    case Op::kScale1:
-      dst[0] = c[in.coef] * win[in.src];
-      break;
-    case Op::kScale3:
-      for (int k = 0; k < 3; ++k) dst[k] = c[in.coef] * win[in.src + k];
-      break;
-    case Op::kDiag2:
-      for (int k = 0; k < 2; ++k) dst[k] = c[in.coef + k] * win[in.src + k];
-      break;
-    case Op::kDiag3:
-      for (int k = 0; k < 3; ++k) dst[k] = c[in.coef + k] * win[in.src + k];
-      break;
-    case Op::kMat13: MatVec<1, 3>(dst, c + in.coef, win + in.src); break;
-    case Op::kMat23: MatVec<2, 3>(dst, c + in.coef, win + in.src); break;
-    case Op::kMat33: MatVec<3, 3>(dst, c + in.coef, win + in.src); break;
-    case Op::kMat31: MatVec<3, 1>(dst, c + in.coef, win + in.src); break;
-    case Op::kMat32: MatVec<3, 2>(dst, c + in.coef, win + in.src); break;
-    case Op::kMatrix:
-      for (int r = 0; r < in.n; ++r) {
-        double s = kSumStart;
-        for (int k = 0; k < in.m; ++k) s = AddTerm(s, c[in.coef + r * in.m + k], win[in.src + k]);
-        dst[r] = s;
-      }
-      break;
-    case Op::kRotFwd1: RotFwd<1>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, win + in.src, in.scale, in.transpose); break;
-    case Op::kRotFwd2: RotFwd<2>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, win + in.src, in.scale, in.transpose); break;
-    case Op::kRotFwd3: RotFwd<3>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, win + in.src, in.scale, in.transpose); break;
-    case Op::kRotBwd1: RotBwd<1>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, win + in.src, in.scale, in.transpose); break;
-    case Op::kRotBwd2: RotBwd<2>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, win + in.src, in.scale, in.transpose); break;
-    case Op::kRotBwd3: RotBwd<3>(dst, x + in.aux, in.coef < 0 ? nullptr : c + in.coef, win + in.src, in.scale, in.transpose); break;
-    case Op::kLeverFwd:
-    case Op::kLeverBwd: {
-      double a[3];
-      LeverArm(a, x + in.aux, c + in.coef);
-      if (in.op == Op::kLeverFwd) Cross(dst, win + in.src, a, in.scale);
-      else Cross(dst, a, win + in.src, in.scale);
-      break;
-    }
-    case Op::kModulated: {
-      const double* a = mod + in.coef;
-      // Stored row-major as (rows x cols) of M (or of M^-1); modes 1 and 3 read it transposed.
-      if (in.count == 0 || in.count == 2) {
-        for (int r = 0; r < in.n; ++r) {
-          double s = kSumStart;
-          for (int k = 0; k < in.m; ++k) s = AddProduct(s, a[r * in.m + k], win[in.src + k]);
-          dst[r] = s;
-        }
-      } else {
-        for (int r = 0; r < in.n; ++r) {
-          double s = kSumStart;
-          for (int k = 0; k < in.m; ++k) s = AddProduct(s, a[k * in.n + r], win[in.src + k]);
-          dst[r] = s;
-        }
-      }
-      break;
-    }
-    case Op::kCopy1:
-      dst[0] = win[in.src];
-      break;
-    case Op::kCopy3:
-      for (int k = 0; k < 3; ++k) dst[k] = win[in.src + k];
-      break;
-    case Op::kSum1: {
-      const int* src = sum_terms + in.coef;
-      const double* sign = sum_signs + in.coef;
-      double s = kSumStart;
-      for (int j = 0; j < in.count; ++j) s += sign[j] * win[src[j]];
-      dst[0] = s;
-      break;
-    }
-    case Op::kSum3: {
-      const int* src = sum_terms + in.coef;
-      const double* sign = sum_signs + in.coef;
-      double s0 = kSumStart, s1 = kSumStart, s2 = kSumStart;
-      for (int j = 0; j < in.count; ++j) {
-        const double* v = win + src[j];
-        s0 += sign[j] * v[0];
-        s1 += sign[j] * v[1];
-        s2 += sign[j] * v[2];
-      }
-      dst[0] = s0;
-      dst[1] = s1;
-      dst[2] = s2;
-      break;
-    }
-    case Op::kMultiplier:
-    for (int k = 0; k < in.n; ++k) dst[k] = lambda[in.coef + k];
-    break;
-  case Op::kSum: {
-      const int* src = sum_terms + in.coef;
-      const double* sign = sum_signs + in.coef;
-      for (int k = 0; k < in.n; ++k) {
-        double s = kSumStart;
-        for (int j = 0; j < in.count; ++j) s += sign[j] * win[src[j] + k];
-        dst[k] = s;
-      }
-      break;
-    }
-  }
-}
-
 void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace& ws) const {
   double* w = ws.slots.data();
   double* mod = ws.moduli.data();
@@ -1150,18 +821,15 @@ void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace&
         t, x, xdot, w, mod, &sources);
     return;
   }
-  const double* c = coef_.data();
-  const double* lambda = ws.lambda.data();
-  for (const Instr& in : plan_)
-    Exec(in, t, x, w, w, mod, lambda, c, sum_terms_.data(), sum_signs_.data(), source_fns_.data());
+  const plan::ExecArgs args{t, x, w, w, mod, ws.lambda.data(), tables()};
+  for (const Instr& in : plan_) plan::Exec(in, args);
   for (const Gather& gt : gathers_) EvalGather(gt, x, w, xdot);
 }
 
 void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
   double* w = ws.slots.data();
   auto exec = [&](const Instr& in) {
-    Exec(in, t, x, w, w, ws.moduli.data(), ws.lambda.data(), coef_.data(), sum_terms_.data(), sum_signs_.data(),
-         source_fns_.data());
+    Exec(in, t, x, w, w, ws.moduli.data(), ws.lambda.data());
   };
   auto run = [&] {
     for (const Instr& in : plan_) exec(in);
