@@ -221,7 +221,35 @@ class CompiledModel {
 
  private:
   CompiledModel() = default;
+  /// The passes below, in order (docs/design.md, "The compiled model's parts and passes").
   void Build();
+  /// Slot classes: the efforts and flows that share a workspace slot (0- and 1-junctions,
+  /// identity transformers), their offsets, sizes, units and names; the multipliers' offsets.
+  void AssignSlots();
+  /// The state vector: blocks, names, units and initial values (state_layout.cc).
+  void LayoutStates();
+  /// The energy account's terms: each I's and C's matrix (I^-1 or K) and term (energy_account.cc).
+  void AccountEnergy();
+  /// The moduli of the MTF and MGY; returns per element its index in moduli_ or -1 (plan_builder.cc).
+  std::vector<int> PlanModuli();
+  /// One instruction per computed slot class, unordered, with the classes each reads and the
+  /// instruction that writes each class (plan_builder.cc); fills definitions_.
+  struct Draft {
+    std::vector<plan::Instr> instrs;
+    std::vector<std::vector<int>> reads;
+    std::vector<int> writer;
+  };
+  Draft EmitInstructions(const std::vector<int>& modulus_of);
+  /// Orders a draft by the causal dependencies into plan_ (throws on an algebraic loop, or tears
+  /// it with solve_algebraic_loops: tears_, tear_closure_, algebraic_loops_). Returns per plan
+  /// instruction the slot classes it reads and the one it writes (plan_builder.cc).
+  struct PlanDeps {
+    std::vector<std::vector<int>> reads;
+    std::vector<int> writes;
+  };
+  PlanDeps OrderPlan(const Draft& draft);
+  /// Compiles and loads the generated code when options_.generate_code asks (rhs_engine_ says how).
+  void GenerateCode();
 
   // The plan's data and its operation table (operations.h).
   using Op = plan::Op;

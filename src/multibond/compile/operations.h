@@ -171,6 +171,12 @@ inline void Exec(const Instr& in, const ExecArgs& a) { Traits(in.op).exec(in, a)
 /// Writes one instruction as C++ (the code generator).
 inline void Emit(const Instr& in, const EmitArgs& a) { Traits(in.op).emit(in, a); }
 
+/// Appends m to a coefficient table, row-major (the layout every kernel reads).
+inline void AppendRowMajor(std::vector<double>& pool, const Eigen::MatrixXd& m) {
+  for (int r = 0; r < m.rows(); ++r)
+    for (int c = 0; c < m.cols(); ++c) pool.push_back(m(r, c));
+}
+
 /// The specialisation pass: rewrites generic instructions into fixed-size kernels (see Op),
 /// appending the diagonals and lever arms they need to `coef`, and marks in `moduli` the ones
 /// a generic kModulated still reads. Returns the indices of those moduli (EvalModuli's list).
