@@ -12,63 +12,18 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/code_text.h"
 #include "multibond/compile/exact_sum.h"
 
 namespace multibond {
 
-namespace {
-
-/// An exact literal (hexadecimal floating point round-trips every double).
-std::string Lit(double v) { return fmt::format("({:a})", v); }
-
-std::string W(int i) { return fmt::format("w[{}]", i); }
-
-/// A user's name as the text of a // comment in generated code: printable ASCII except the
-/// backslash, anything else as '?'. A line break in a name would end the comment and let the
-/// rest of the name run as code, and a backslash at the end of the line would splice the next
-/// line of code into the comment; names are checked by the loader, but the C++ API takes any.
-std::string CommentText(const std::string& name) {
-  std::string out = name;
-  for (char& ch : out)
-    if (ch < 0x20 || ch > 0x7e || ch == '\\') ch = '?';
-  return out;
-}
-
-/// s + a b, one term of a chain: fused where the process fuses its sums (exact_sum.h: MulAdd in
-/// the interpreter, read from the same flag).
-std::string Fma(const std::string& a, const std::string& b, const std::string& s) {
-  return fused_sums ? "__builtin_fma(" + a + ", " + b + ", " + s + ")" : "(" + s + " + " + a + " * " + b + ")";
-}
-
-/// -a for a name or a literal (a function: GCC 12 warns, wrongly, on "-" + std::string&&).
-std::string Neg(const std::string& a) { return fmt::format("-{}", a); }
-
-/// The chain a0 b0 + a1 b1 + ...: the first product rounded, each next one fused into the running
-/// sum (exact_sum.h); an empty chain is -0.0. The interpreter: AddProduct from kSumStart.
-std::string Chain(const std::vector<std::pair<std::string, std::string>>& products) {
-  std::string e;
-  for (const auto& [a, b] : products) e = e.empty() ? a + " * " + b : Fma(a, b, e);
-  return e.empty() ? "(-0.0)" : e;
-}
-
-/// sum_k coef_k * term_k as a chain (AddTerm in the interpreter), leaving out exact zeros (a
-/// compiler may not drop 0.0 * x itself: x could be an infinity or a NaN) and writing +-1 as a
-/// plain sum (fma(+-1, t, s) is s +- t exactly); the first term is the rounded product, which
-/// MulAdd(c, t, -0.0) is. A sum with no term is -0.0, where the interpreter's sums start.
-std::string LinComb(const std::vector<std::pair<double, std::string>>& terms) {
-  std::string e;
-  for (const auto& [c, t] : terms) {
-    if (c == 0.0) continue;
-    const bool unit = std::abs(c) == 1.0;
-    if (e.empty()) e = (c < 0 ? "-" : "") + (unit ? t : Lit(std::abs(c)) + " * " + t);
-    else if (unit) e += (c < 0 ? " - " : " + ") + t;
-    else e = Fma(Lit(c), t, e);
-  }
-  return e.empty() ? "(-0.0)" : e;
-}
-
-
-}  // namespace
+using code::Chain;
+using code::CommentText;
+using code::Fma;
+using code::LinComb;
+using code::Lit;
+using code::Neg;
+using code::W;
 
 std::string CompiledModel::GenerateSource(bool with_fast) const {
   // Two functions from one body: multibond_rhs writes every slot into the caller's workspace
@@ -90,194 +45,15 @@ std::string CompiledModel::GenerateSource(bool with_fast) const {
 
 void CompiledModel::EmitStateKernel(const Instr& in, const std::function<std::string(int)>& src,
                                     const std::function<std::string(int)>& dst, std::string& o) const {
-  auto line = [&](const std::string& s) { o += "  " + s + "\n"; };
-  const double* c = coef_.data();
-  switch (in.op) {
-    case Op::kStateScale:
-    case Op::kStateScale3:
-      for (int k = 0; k < in.n; ++k) line(fmt::format("{} = {} * {};", dst(k), Lit(c[in.coef]), src(k)));
-      break;
-    case Op::kStateDiag3:
-      for (int k = 0; k < 3; ++k) line(fmt::format("{} = {} * {};", dst(k), Lit(c[in.coef + k]), src(k)));
-      break;
-    case Op::kStateMatrix:
-      for (int r = 0; r < in.n; ++r) {
-        std::vector<std::pair<double, std::string>> terms;
-        for (int k = 0; k < in.n; ++k) terms.push_back({c[in.coef + r * in.n + k], src(k)});
-        line(fmt::format("{} = {};", dst(r), LinComb(terms)));
-      }
-      break;
-    case Op::kIFlowRotated:
-    case Op::kIFlowRotatedDiag: {
-      // f = R Ib^-1 R^T h, R row-major at state offset a.
-      const int a = in.aux;
-      auto St = [](int k) { return fmt::format("x[{}]", k); };
-      line("{");
-      for (int i = 0; i < 3; ++i)  // hb = R^T h
-        line(fmt::format("  const double hb{} = {};", i, Chain({{St(a + i), src(0)}, {St(a + 3 + i), src(1)}, {St(a + 6 + i), src(2)}})));
-      for (int i = 0; i < 3; ++i) {
-        if (in.op == Op::kIFlowRotatedDiag)
-          line(fmt::format("  const double wb{} = {} * hb{};", i, Lit(c[in.coef + i]), i));
-        else
-          line(fmt::format("  const double wb{} = {};", i,
-                           LinComb({{c[in.coef + 3 * i], "hb0"}, {c[in.coef + 3 * i + 1], "hb1"}, {c[in.coef + 3 * i + 2], "hb2"}})));
-      }
-      for (int i = 0; i < 3; ++i)  // f = R wb
-        line(fmt::format("  {} = {};", dst(i), Chain({{St(a + 3 * i), "wb0"}, {St(a + 3 * i + 1), "wb1"}, {St(a + 3 * i + 2), "wb2"}})));
-      line("}");
-      break;
-    }
-    default:
-      MB_ASSERT(false, "StateKernel on an instruction that does not read a state");
-  }
+  const plan::EmitStateFn emit = plan::Traits(in.op).emit_state;
+  MB_ASSERT(emit != nullptr, "a state kernel for an instruction that does not read a state");
+  emit(in, coef_.data(), src, dst, o);
 }
 
 void CompiledModel::EmitInstr(const Instr& in, std::string& o, std::set<std::string>& levers_done, const CodeNames& names) const {
-  auto line = [&](const std::string& s) { o += "  " + s + "\n"; };
-  auto In = [&](int i) { return fmt::format("{}[{}]", names.in, i); };
-  auto Out = [&](int i) { return fmt::format("{}[{}]", names.out, i); };
-  auto St = [&](int i) { return fmt::format("{}[{}]", names.x, i); };
-  auto Rot = [&](int r, int i, int j, bool transpose) { return St(transpose ? r + 3 * j + i : r + 3 * i + j); };
-  const double* c = coef_.data();
   const std::string who = in.element >= 0 ? CommentText(graph_.element(in.element).name) : "";
   o += "  // " + who + "\n";
-  const int d = in.dst;
-  switch (in.op) {
-    case Op::kSource:
-      for (int k = 0; k < in.n; ++k) {
-        const TimeFunction& f = source_fns_[in.coef + k];
-        if (f.kind == TimeFunction::Kind::kConstant)
-          line(fmt::format("{} = {};", Out(d + k), Lit(f.value)));
-        else if (f.kind == TimeFunction::Kind::kStep)
-          line(fmt::format("{} = t >= {} ? {} : {};", Out(d + k), Lit(f.start), Lit(f.value), Lit(f.before)));
-        else
-          line(fmt::format("{} = src->eval(src->fns, {}, t);", Out(d + k), in.coef + k));
-      }
-      break;
-    case Op::kStateScale:
-    case Op::kStateScale3:
-    case Op::kStateDiag3:
-    case Op::kStateMatrix:
-    case Op::kIFlowRotated:
-    case Op::kIFlowRotatedDiag:
-      EmitStateKernel(in, [&](int k) { return St(in.src + k); }, [&](int k) { return Out(d + k); }, o);
-      break;
-    case Op::kScale:
-    case Op::kScale1:
-    case Op::kScale3:
-      for (int k = 0; k < in.n; ++k) line(fmt::format("{} = {} * {};", Out(d + k), Lit(c[in.coef]), In(in.src + k)));
-      break;
-    case Op::kDiag2:
-    case Op::kDiag3:
-      for (int k = 0; k < in.n; ++k) line(fmt::format("{} = {} * {};", Out(d + k), Lit(c[in.coef + k]), In(in.src + k)));
-      break;
-    case Op::kMat13:
-    case Op::kMat23:
-    case Op::kMat33:
-    case Op::kMat31:
-    case Op::kMat32:
-    case Op::kMatrix:
-      // Written to a temporary first: the interpreter computes each row in a local too.
-      for (int r = 0; r < in.n; ++r) {
-        std::vector<std::pair<double, std::string>> terms;
-        for (int k = 0; k < in.m; ++k) terms.push_back({c[in.coef + r * in.m + k], In(in.src + k)});
-        line(fmt::format("{} = {};", Out(d + r), LinComb(terms)));
-      }
-      break;
-    case Op::kRotFwd1:
-    case Op::kRotFwd2:
-    case Op::kRotFwd3:
-    case Op::kRotBwd1:
-    case Op::kRotBwd2:
-    case Op::kRotBwd3: {
-      const bool fwd = in.op == Op::kRotFwd1 || in.op == Op::kRotFwd2 || in.op == Op::kRotFwd3;
-      const int k = fwd ? in.n : in.m;  // rows of L
-      auto l = [&](int row, int col) { return in.coef < 0 ? (row == col ? 1.0 : 0.0) : c[in.coef + 3 * row + col]; };
-      if (fwd) {
-        // dst_r = s sum_i L_ri (op(R) v)_i : only the rows of op(R) that L selects are computed.
-        for (int r = 0; r < k; ++r) {
-          std::vector<std::pair<double, std::string>> terms;
-          for (int i = 0; i < 3; ++i) {
-            if (l(r, i) == 0.0) continue;
-            std::vector<std::pair<std::string, std::string>> row;
-            for (int j = 0; j < 3; ++j) row.push_back({Rot(in.aux, i, j, in.transpose), In(in.src + j)});
-            terms.push_back({l(r, i), "(" + Chain(row) + ")"});
-          }
-          line(fmt::format("{} = {} * ({});", Out(d + r), Lit(in.scale), LinComb(terms)));
-        }
-      } else {
-        // dst = s op(R)^T z with z = L^T src: only the columns of L that are not zero count.
-        line("{");
-        bool used[3] = {false, false, false};
-        for (int col = 0; col < 3; ++col) {
-          std::vector<std::pair<double, std::string>> terms;
-          for (int i = 0; i < k; ++i) terms.push_back({l(i, col), In(in.src + i)});
-          used[col] = LinComb(terms) != "(-0.0)";
-          if (used[col]) line(fmt::format("  const double z{} = {};", col, LinComb(terms)));
-        }
-        for (int i = 0; i < 3; ++i) {
-          std::vector<std::pair<std::string, std::string>> products;
-          for (int col = 0; col < 3; ++col)
-            if (used[col]) products.push_back({Rot(in.aux, col, i, in.transpose), "z" + std::to_string(col)});
-          line(fmt::format("  {} = {} * ({});", Out(d + i), Lit(in.scale), Chain(products)));
-        }
-        line("}");
-      }
-      break;
-    }
-    case Op::kLeverFwd:
-    case Op::kLeverBwd: {
-      // The lever arm a = R r, computed once per MTF and kept for its other equation.
-      const std::string a = fmt::format("arm_{}{}", names.x, in.coef);  // one per state array (R or dR/dt)
-      if (levers_done.insert(a).second) {
-        for (int i = 0; i < 3; ++i) {
-          std::vector<std::pair<double, std::string>> terms;
-          for (int j = 0; j < 3; ++j) terms.push_back({c[in.coef + j], St(in.aux + 3 * i + j)});
-          line(fmt::format("const double {}_{} = {};", a, i, LinComb(terms)));
-        }
-      }
-      // s (p x q) with (p x q)_i = p_j q_k - p_k q_j = fma(-p_k, q_j, p_j q_k), as Cross in compiled_model.cc.
-      const std::string v[3] = {In(in.src), In(in.src + 1), In(in.src + 2)};
-      const std::string arm[3] = {a + "_0", a + "_1", a + "_2"};
-      const bool fwd = in.op == Op::kLeverFwd;  // s (v x a), else s (a x v)
-      const std::string* p = fwd ? v : arm;
-      const std::string* q = fwd ? arm : v;
-      for (int i = 0; i < 3; ++i) {
-        const int j = (i + 1) % 3, k = (i + 2) % 3;
-        line(fmt::format("{} = {} * {};", Out(d + i), Lit(in.scale), Fma(Neg(p[k]), q[j], p[j] + " * " + q[k])));
-      }
-      break;
-    }
-    case Op::kModulated: {
-      const bool plain = in.count == 0 || in.count == 2;
-      for (int r = 0; r < in.n; ++r) {
-        std::vector<std::pair<std::string, std::string>> products;
-        for (int k = 0; k < in.m; ++k)
-          products.push_back({fmt::format("{}[{}]", names.mod, in.coef + (plain ? r * in.m + k : k * in.n + r)), In(in.src + k)});
-        line(fmt::format("{} = {};", Out(d + r), Chain(products)));
-      }
-      break;
-    }
-    case Op::kCopy1:
-    case Op::kCopy3:
-      for (int k = 0; k < in.n; ++k) line(fmt::format("{} = {};", Out(d + k), In(in.src + k)));
-      break;
-    case Op::kMultiplier:
-      // The plan at zero multipliers (step 1 of CalcConstrained, and the projection); with
-      // names.multipliers, what they reach once they are known (step 4, multibond_react).
-      for (int k = 0; k < in.n; ++k)
-        line(fmt::format("{} = {};", Out(d + k), names.multipliers ? fmt::format("lam[{}]", in.coef + k) : std::string("0.0")));
-      break;
-    case Op::kSum:
-    case Op::kSum1:
-    case Op::kSum3:
-      for (int k = 0; k < in.n; ++k) {
-        std::vector<std::pair<double, std::string>> terms;
-        for (int j = 0; j < in.count; ++j) terms.push_back({sum_signs_[in.coef + j], In(sum_terms_[in.coef + j] + k)});
-        line(fmt::format("{} = {};", Out(d + k), LinComb(terms)));
-      }
-      break;
-  }
+  plan::Emit(in, plan::EmitArgs{tables(), names, &levers_done, &o});
 }
 
 void CompiledModel::EmitGather(const Gather& gt, std::string& o, std::vector<int>* reads) const {
@@ -552,25 +328,21 @@ std::string CompiledModel::GenerateTangentSource() const {
   };
   for (int index : tangent_plan_) {
     const Instr& in = plan_[index];
-    switch (in.op) {
-      case Op::kSource:
+    switch (plan::Traits(in.op).tangent) {
+      case plan::Tangent::kSourceRate:
         for (int k = 0; k < in.n; ++k) {
           const TimeFunction& f = source_fns_[in.coef + k];
           const bool zero = f.kind == TimeFunction::Kind::kConstant || f.kind == TimeFunction::Kind::kStep;
           line(fmt::format("d[{}] = {};", in.dst + k, zero ? std::string("0.0") : fmt::format("src->deriv(src->fns, {}, t)", in.coef + k)));
         }
         break;
-      case Op::kMultiplier:
+      case plan::Tangent::kZero:
         for (int k = 0; k < in.n; ++k) line(fmt::format("d[{}] = 0.0;", in.dst + k));
         break;
-      case Op::kStateScale:
-      case Op::kStateScale3:
-      case Op::kStateDiag3:
-      case Op::kStateMatrix:
+      case plan::Tangent::kStateRate:
         EmitStateKernel(in, [&](int k) { return fmt::format("xd[{}]", in.src + k); }, [&](int k) { return fmt::format("d[{}]", in.dst + k); }, o);
         break;
-      case Op::kIFlowRotated:
-      case Op::kIFlowRotatedDiag: {
+      case plan::Tangent::kRotatedInertia: {
         // f = R Ib^-1 R^T h  ->  df = dR a + R Ib^-1 (dR^T h + R^T dh),  a = Ib^-1 R^T h
         const int r = in.aux, h = in.src;
         auto ib = [&](int i, int j) {
@@ -600,15 +372,13 @@ std::string CompiledModel::GenerateTangentSource() const {
         line("}");
         break;
       }
-      case Op::kRotFwd1: case Op::kRotFwd2: case Op::kRotFwd3:
-      case Op::kRotBwd1: case Op::kRotBwd2: case Op::kRotBwd3:
-      case Op::kLeverFwd: case Op::kLeverBwd:
+      case plan::Tangent::kBilinear:
         // Bilinear in R and the input: d(K(R) u) = K(R) du + K(dR) u.
         EmitInstr(in, o, levers_done, same);
         EmitInstr(in, o, levers_done, rate);
         add_tmp(in);
         break;
-      case Op::kModulated:
+      case plan::Tangent::kModulated:
         if (in.count <= 1) {
           EmitInstr(in, o, levers_done, same);
           EmitInstr(in, o, levers_done, modrate);
@@ -632,7 +402,7 @@ std::string CompiledModel::GenerateTangentSource() const {
           line("}");
         }
         break;
-      default:  // constant linear maps of slots: the same map of their derivatives
+      case plan::Tangent::kLinear:  // constant linear maps of slots: the same map of their derivatives
         EmitInstr(in, o, levers_done, same);
         break;
     }

@@ -18,6 +18,7 @@
 #include <Eigen/Dense>
 
 #include "multibond/causality/causality.h"
+#include "multibond/compile/operations.h"
 #include "multibond/core/graph.h"
 #include "multibond/core/ode_system.h"
 #include "multibond/core/structure.h"
@@ -220,53 +221,41 @@ class CompiledModel {
 
  private:
   CompiledModel() = default;
+  /// The passes below, in order (docs/design.md, "The compiled model's parts and passes").
   void Build();
+  /// Slot classes: the efforts and flows that share a workspace slot (0- and 1-junctions,
+  /// identity transformers), their offsets, sizes, units and names; the multipliers' offsets.
+  void AssignSlots();
+  /// The state vector: blocks, names, units and initial values (state_layout.cc).
+  void LayoutStates();
+  /// The energy account's terms: each I's and C's matrix (I^-1 or K) and term (energy_account.cc).
+  void AccountEnergy();
+  /// The moduli of the MTF and MGY; returns per element its index in moduli_ or -1 (plan_builder.cc).
+  std::vector<int> PlanModuli();
+  /// One instruction per computed slot class, unordered, with the classes each reads and the
+  /// instruction that writes each class (plan_builder.cc); fills definitions_.
+  struct Draft {
+    std::vector<plan::Instr> instrs;
+    std::vector<std::vector<int>> reads;
+    std::vector<int> writer;
+  };
+  Draft EmitInstructions(const std::vector<int>& modulus_of);
+  /// Orders a draft by the causal dependencies into plan_ (throws on an algebraic loop, or tears
+  /// it with solve_algebraic_loops: tears_, tear_closure_, algebraic_loops_). Returns per plan
+  /// instruction the slot classes it reads and the one it writes (plan_builder.cc).
+  struct PlanDeps {
+    std::vector<std::vector<int>> reads;
+    std::vector<int> writes;
+  };
+  PlanDeps OrderPlan(const Draft& draft);
+  /// Compiles and loads the generated code when options_.generate_code asks (rhs_engine_ says how).
+  void GenerateCode();
 
-  /// Instruction kinds. Emission produces the generic ones (sizes known at run time); the
-  /// specialisation pass (Specialize) rewrites most into kernels whose sizes and structure are
-  /// compile-time constants: diagonal coefficients, 1x3/2x3/3x3 blocks, rotations and lever
-  /// arms applied straight from the orientation state.
-  enum class Op : unsigned char {
-    // generic
-    kSource, kStateScale, kStateMatrix, kIFlowRotated, kScale, kMatrix, kModulated, kSum,
-    // specialised
-    kStateScale3, kStateDiag3, kIFlowRotatedDiag, kScale1, kScale3, kDiag2, kDiag3,
-    kMat13, kMat23, kMat33, kMat31, kMat32,
-    kRotFwd1, kRotFwd2, kRotFwd3, kRotBwd1, kRotBwd2, kRotBwd3, kLeverFwd, kLeverBwd,
-    kSum1, kSum3, kCopy1, kCopy3,
-    // ideal constraints: dst = the multipliers of one constraint (Workspace::lambda + coef)
-    kMultiplier,
-  };
-  /// One instruction. Plain data: the loop over the plan dispatches on `op` only.
-  struct Instr {
-    Op op;
-    bool transpose = false;  ///< rotation kernels: the modulus uses R^T
-    int n = 1;       ///< output size
-    int m = 1;       ///< input size
-    int dst = 0;     ///< workspace offset of the output
-    int src = 0;     ///< workspace offset of the input, or state offset (I, C)
-    int coef = 0;    ///< offset in coef_ (scale, matrices, sum terms) or in moduli (modulated); -1 = identity
-    int count = 0;   ///< kSum: number of terms; kModulated: 0 = M, 1 = M^T, 2 = M^-1, 3 = M^-T
-    int aux = 0;     ///< state offset of R (rotated inertia, rotation and lever kernels)
-    int modulus = -1;  ///< kModulated: index in moduli_
-    double scale = 1.0;  ///< rotation and lever kernels
-    int element = -1;
-  };
-  struct ModulusEval {
-    Modulus::Kind kind;
-    int rows, cols;
-    int out;          ///< offset in Workspace::moduli of M (rows*cols, row-major)
-    int out_inverse;  ///< offset of M^-1 or -1 if not needed
-    int rotation;     ///< state offset of R (row-major 3x3)
-    int left;         ///< offset in coef_ of the left matrix (rows x 3) or -1
-    int right;        ///< offset in coef_ of the right matrix (3 x cols) or -1
-    int constant;     ///< offset in coef_ of the constant matrix or -1
-    double scale;
-    bool transpose;
-    Eigen::Vector3d lever;
-    int constant_rows = 0;  ///< rows of the constant factor (= columns of `left`)
-    bool needed = false;    ///< read by a generic kModulated instruction (others apply it on the fly)
-  };
+  // The plan's data and its operation table (operations.h).
+  using Op = plan::Op;
+  using Instr = plan::Instr;
+  using ModulusEval = plan::ModulusEval;
+  using CodeNames = plan::CodeNames;
   struct Gather {
     StateBlock::Kind kind;
     int state, size, effort, flow, rotation;
@@ -280,14 +269,14 @@ class CompiledModel {
   void EvalPlan(double t, const double* x, double* xdot, Workspace& ws) const;
   /// One state block's derivative from the slots `w` (and x, for orientations).
   static void EvalGather(const Gather& gt, const double* x, const double* w, double* xdot);
-  /// One instruction of the plan, on slots `w` (interpreter and constraint passes share it).
-  /// The instructions that read a state block s (I flows, C efforts): dst = E s, or R Ib^-1 R^T s
-  /// with the orientation r. Exec passes the state; the constraint solve passes momenta of its own.
-  static void StateKernel(const Instr& in, const double* c, const double* r, const double* s, double* dst);
-  /// Reads slots from `win`, writes its output slot in `wout` (the same array in the plain pass).
-  static void Exec(const Instr& in, double t, const double* x, const double* win, double* wout, const double* mod,
-                   const double* lambda, const double* c, const int* sum_terms, const double* sum_signs,
-                   const TimeFunction* fns);
+  /// The tables the plan's instructions refer to (coefficients, sum terms, source functions).
+  plan::Tables tables() const { return {coef_.data(), sum_terms_.data(), sum_signs_.data(), source_fns_.data()}; }
+  /// One instruction of the plan (the operation table's interpreter kernel): reads slots from
+  /// `win`, writes its output slot in `wout` (the same array in the plain pass).
+  void Exec(const Instr& in, double t, const double* x, const double* win, double* wout, const double* mod,
+            const double* lambda) const {
+    plan::Exec(in, plan::ExecArgs{t, x, win, wout, mod, lambda, tables()});
+  }
   /// Ideal constraints: the graph rewriting before the plan, and the plan's constraint tables.
   void PrepareConstraintGraph();
   void BuildConstraints(const std::vector<std::vector<int>>& plan_reads, const std::vector<int>& plan_writes);
@@ -322,8 +311,6 @@ class CompiledModel {
   void FindIndependentConstraints();
   /// g(x) - target(t) of every multiplier component, from filled slots, into `out`.
   void ConstraintValues(double t, const double* w, double* out) const;
-  /// Rewrites generic instructions into fixed-size kernels (see Op).
-  void Specialize();
   /// jacobian_pattern_ from the plan's reads and writes (compile/jacobian_pattern.cc).
   void BuildJacobianPattern();
   /// The state-derivative gathers, from the state layout and the slot classes.
@@ -367,18 +354,10 @@ class CompiledModel {
   GeneratedRhs generated_ = nullptr;
   GeneratedRhs generated_fast_ = nullptr;
   std::shared_ptr<void> generated_library_;  ///< keeps the shared object loaded
-  /// A state-reading kernel (StateKernel: the flow M^-1 of a momentum or displacement) as C++,
-  /// from the input expressions src(k) to the outputs dst(k); orientations read from x[].
+  /// A state-reading instruction's kernel (the table's emit_state: the flow M^-1 of a momentum
+  /// or displacement) as C++, from the input expressions src(k) to the outputs dst(k).
   void EmitStateKernel(const Instr& in, const std::function<std::string(int)>& src,
                        const std::function<std::string(int)>& dst, std::string& o) const;
-  /// The arrays an instruction's generated code reads and writes (EmitInstr).
-  struct CodeNames {
-    const char* x = "x";    ///< states: the inputs of state kernels, R of rotation and lever kernels
-    const char* in = "w";   ///< the slots it reads
-    const char* out = "w";  ///< the slots it writes
-    const char* mod = "mod";
-    bool multipliers = false;  ///< kMultiplier reads lam[] (else 0: the plan at zero multipliers)
-  };
   /// One plan instruction as C++, appended to o; levers_done: the lever arms already declared
   /// in the enclosing scope. A rotated inertia's kernel reads its R from x[] whatever names.x.
   void EmitInstr(const Instr& in, std::string& o, std::set<std::string>& levers_done, const CodeNames& names) const;

@@ -146,8 +146,7 @@ void CompiledModel::BuildConstraints(const std::vector<std::vector<int>>& plan_r
   std::vector<int> flow_instr_of_element(g.num_elements(), -1);
   for (int k = 0; k < np; ++k) {
     const Op op = plan_[k].op;
-    if (op == Op::kStateScale || op == Op::kStateScale3 || op == Op::kStateDiag3 || op == Op::kStateMatrix ||
-        op == Op::kIFlowRotated || op == Op::kIFlowRotatedDiag)
+    if (plan::Traits(op).reads == plan::Reads::kState)
       if (g.element(plan_[k].element).kind == ElementKind::kI) flow_instr_of_element[plan_[k].element] = k;
   }
   flow_instr_of_block_.assign(gathers_.size(), -1);
@@ -296,7 +295,7 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
   const double* c = coef_.data();
   const double* lam = ws.lambda.data();
   auto exec = [&](const Instr& in, const double* xs, const double* win, double* wout, const double* m) {
-    Exec(in, t, xs, win, wout, m, lam, c, sum_terms_.data(), sum_signs_.data(), source_fns_.data());
+    Exec(in, t, xs, win, wout, m, lam);
   };
   auto add_tmp = [&](const Instr& in) {
     for (int k = 0; k < in.n; ++k) {
@@ -306,21 +305,17 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
   };
   for (int index : tangent_plan_) {
     const Instr& in = plan_[index];
-    switch (in.op) {
-      case Op::kSource:
+    switch (plan::Traits(in.op).tangent) {
+      case plan::Tangent::kSourceRate:
         for (int k = 0; k < in.n; ++k) d[in.dst + k] = source_fns_[in.coef + k].Derivative(t);
         break;
-      case Op::kMultiplier:
+      case plan::Tangent::kZero:
         for (int k = 0; k < in.n; ++k) d[in.dst + k] = 0.0;  // efforts only: never reaches a constraint's flow
         break;
-      case Op::kStateScale:
-      case Op::kStateScale3:
-      case Op::kStateDiag3:
-      case Op::kStateMatrix:
+      case plan::Tangent::kStateRate:
         exec(in, xdot, d, d, mod);
         break;
-      case Op::kIFlowRotated:
-      case Op::kIFlowRotatedDiag: {
+      case plan::Tangent::kRotatedInertia: {
         // f = R Ib^-1 R^T h  ->  df = dR a + R Ib^-1 (dR^T h + R^T dh),  a = Ib^-1 R^T h; written
         // out term by term in the generated code's order (GenerateTangentSource).
         const double *r = x + in.aux, *rd = xdot + in.aux, *h = x + in.src, *hd = xdot + in.src;
@@ -346,15 +341,13 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
         }
         break;
       }
-      case Op::kRotFwd1: case Op::kRotFwd2: case Op::kRotFwd3:
-      case Op::kRotBwd1: case Op::kRotBwd2: case Op::kRotBwd3:
-      case Op::kLeverFwd: case Op::kLeverBwd:
+      case plan::Tangent::kBilinear:
         // Bilinear in R and the input: d(K(R) u) = K(R) du + K(dR) u.
         exec(in, x, d, d, mod);
         exec(in, xdot, w, tmp, mod);
         add_tmp(in);
         break;
-      case Op::kModulated: {
+      case plan::Tangent::kModulated: {
         if (in.count <= 1) {
           exec(in, x, d, d, mod);
           exec(in, x, w, tmp, dmod);
@@ -380,7 +373,7 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
         }
         break;
       }
-      default:  // constant linear maps of slots: the same map of their derivatives
+      case plan::Tangent::kLinear:  // constant linear maps of slots: the same map of their derivatives
         exec(in, x, d, d, mod);
         break;
     }
@@ -405,14 +398,14 @@ void CompiledModel::AssembleConstraintMatrix(double t, const double* x, Workspac
       for (int st : cg.starts)
         for (int j = 0; j < cg.size; ++j) lin[plan_[st].dst + j] = j == k ? 1.0 : 0.0;
       for (int q : cg.closure)
-        Exec(plan_[q], t, x, lin, lin, mod, lam, c, sum_terms_.data(), sum_signs_.data(), source_fns_.data());
+        Exec(plan_[q], t, x, lin, lin, mod, lam);
       double* bc = b + b_offset_[col];
       double* vc = v + b_offset_[col];
       for (int gi : cg.momenta) {
         const Gather& gt = gathers_[gi];
         for (int r = 0; r < gt.size; ++r) bc[r] = gt.sign * lin[gt.effort + r];
         const Instr& flow = plan_[flow_instr_of_block_[gi]];  // f = M^-1 p, applied to p = bc
-        StateKernel(flow, c, x + flow.aux, bc, vc);
+        plan::Traits(flow.op).state(flow, c, x + flow.aux, bc, vc);
         bc += gt.size;
         vc += gt.size;
       }
@@ -809,7 +802,7 @@ void CompiledModel::CalcConstrained(double t, const double* x, double* xdot, Wor
     return;
   }
   for (int k : reaction_plan_)
-    Exec(plan_[k], t, x, w, w, mod, ws.lambda.data(), coef_.data(), sum_terms_.data(), sum_signs_.data(), source_fns_.data());
+    Exec(plan_[k], t, x, w, w, mod, ws.lambda.data());
   for (int gi : reaction_gathers_) EvalGather(gathers_[gi], x, w, xdot);
 }
 

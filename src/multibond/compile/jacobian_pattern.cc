@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/core/error.h"
 
 namespace multibond {
 namespace {
@@ -67,74 +68,29 @@ void CompiledModel::BuildJacobianPattern() {
     const ModulusEval& me = moduli_[index];
     return me.kind == Modulus::Kind::kConstant ? Deps{} : Range(me.rotation, 9);
   };
+  // What each instruction's outputs depend on, from its row of the operation table: its inputs
+  // (a state block, slots, a junction's terms; a source reads none), component by component or
+  // all of them, plus the orientation or modulus it reads.
   for (const Instr& in : plan_) {
-    // Component-wise instructions: output k reads input component k only.
-    auto componentwise = [&](int size, auto&& inputs_of) {
-      for (int k = 0; k < size; ++k) {
-        Deps d;
-        inputs_of(k, d);
-        slot[in.dst + k] = std::move(d);
-      }
+    const plan::OpTraits& op = plan::Traits(in.op);
+    MB_ASSERT(op.reads != plan::Reads::kMultipliers, "multipliers in a plan without constraints");
+    auto input = [&](int k) {  // input component k
+      Deps d;
+      if (op.reads == plan::Reads::kState) d = {in.src + k};
+      else if (op.reads == plan::Reads::kSlots) d = slot[in.src + k];
+      else if (op.reads == plan::Reads::kSumTerms)
+        for (int j = 0; j < in.count; ++j) Merge(d, slot[sum_terms_[in.coef + j] + k]);
+      return d;
     };
-    Deps all;  // every output reads every input
-    switch (in.op) {
-      case Op::kSource:
-        break;
-      case Op::kStateScale:
-      case Op::kStateScale3:
-      case Op::kStateDiag3:
-        componentwise(in.n, [&](int k, Deps& d) { d = {in.src + k}; });
-        continue;
-      case Op::kStateMatrix:
-        all = Range(in.src, in.n);
-        break;
-      case Op::kIFlowRotated:
-      case Op::kIFlowRotatedDiag:
-        all = Range(in.src, 3);
-        Merge(all, Range(in.aux, 9));
-        break;
-      case Op::kScale:
-      case Op::kScale1:
-      case Op::kScale3:
-      case Op::kDiag2:
-      case Op::kDiag3:
-      case Op::kCopy1:
-      case Op::kCopy3:
-        componentwise(in.n, [&](int k, Deps& d) { d = slot[in.src + k]; });
-        continue;
-      case Op::kSum:
-      case Op::kSum1:
-      case Op::kSum3:
-        componentwise(in.n, [&](int k, Deps& d) {
-          for (int j = 0; j < in.count; ++j) Merge(d, slot[sum_terms_[in.coef + j] + k]);
-        });
-        continue;
-      case Op::kMat13:
-      case Op::kMat23:
-      case Op::kMat33:
-      case Op::kMat31:
-      case Op::kMat32:
-      case Op::kMatrix:
-        all = slots(in.src, in.m);
-        break;
-      case Op::kRotFwd1:
-      case Op::kRotFwd2:
-      case Op::kRotFwd3:
-      case Op::kRotBwd1:
-      case Op::kRotBwd2:
-      case Op::kRotBwd3:
-      case Op::kLeverFwd:
-      case Op::kLeverBwd:
-        all = slots(in.src, in.m);
-        Merge(all, Range(in.aux, 9));
-        break;
-      case Op::kModulated:
-        all = slots(in.src, in.m);
-        Merge(all, modulus(in.modulus));
-        break;
-      case Op::kMultiplier:
-        return;  // not reached: constrained models stop above
+    if (op.coupling == plan::Coupling::kComponentwise && op.reads != plan::Reads::kNothing) {
+      for (int k = 0; k < in.n; ++k) slot[in.dst + k] = input(k);
+      continue;
     }
+    Deps all;  // every output reads every input
+    if (op.reads == plan::Reads::kState) all = Range(in.src, in.n);
+    else if (op.reads == plan::Reads::kSlots) all = slots(in.src, in.m);
+    if (op.rotation) Merge(all, Range(in.aux, 9));
+    if (op.modulus) Merge(all, modulus(in.modulus));
     for (int k = 0; k < in.n; ++k) slot[in.dst + k] = all;
   }
 

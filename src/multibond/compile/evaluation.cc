@@ -1,0 +1,271 @@
+/// \file
+/// The evaluation of a compiled model (docs/design.md, "The evaluation plan"): the workspace,
+/// the moduli, the plan run by the interpreter (the operation table's kernels) or the generated
+/// code, algebraic loops solved around it, the state derivatives' gathers, the projection.
+
+#include <algorithm>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "multibond/compile/compiled_model.h"
+#include "multibond/compile/exact_sum.h"
+
+namespace multibond {
+
+void CompiledModel::Project(double* x) const {
+  using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+  for (const StateBlock& b : blocks_) {
+    if (b.kind != StateBlock::Kind::kOrientation) continue;
+    Eigen::Map<Rm3> r(x + b.offset);
+    // One Bjorck iteration maps a deviation e = |R^T R - I| to about (3/4) e^2; a second one is
+    // only needed when e is not small (a step's drift is below 1e-8 even at loose tolerances).
+    for (int k = 0; k < 2; ++k) {
+      const Rm3 rtr = r.transpose() * r;
+      const bool close = (rtr - Rm3::Identity()).cwiseAbs().maxCoeff() < 1e-6;
+      const Rm3 next = 0.5 * r * (3.0 * Rm3::Identity() - rtr);
+      r = next;
+      if (close) break;
+    }
+  }
+}
+
+Workspace CompiledModel::MakeWorkspace() const {
+  Workspace ws;
+  ws.slots.assign(num_slots_, 0.0);
+  ws.moduli.assign(num_moduli_, 0.0);
+  if (num_tear_ > 0) {
+    ws.tear.a.setZero(num_tear_, num_tear_);
+    ws.tear.c0.setZero(num_tear_);
+    ws.tear.z.setZero(num_tear_);
+    ws.tear.lu = Eigen::PartialPivLU<Eigen::MatrixXd>(num_tear_);
+  }
+  if (!constraints_.empty()) {
+    const int m = num_lambda_;
+    ws.lambda.assign(m, 0.0);
+    ws.con.dslots.assign(num_slots_, 0.0);
+    ws.con.dmoduli.assign(num_moduli_, 0.0);
+    ws.con.lin.assign(num_slots_, 0.0);
+    ws.con.xdot.assign(num_states(), 0.0);
+    ws.con.b.assign(b_rows_.size(), 0.0);
+    ws.con.v.assign(b_rows_.size(), 0.0);
+    ws.con.w.assign(static_cast<size_t>(m) * m, 0.0);
+    ws.con.rhs.assign(m, 0.0);
+    ws.con.scale.assign(m, 0.0);
+    ws.con.perm.assign(m, 0);
+    ws.con.nullspace.assign(static_cast<size_t>(m) * m, 0.0);
+    ws.con.gram.assign(static_cast<size_t>(m) * m, 0.0);
+    ws.con.proj.assign(m, 0.0);
+    ws.con.weight.assign(m, 0.0);
+    ws.con.factor.assign(factor_.values(), 0.0);
+    ws.con.y.assign(factor_.size(), 0.0);
+    ws.con.factored_at.assign(num_states(), 0.0);
+  }
+  return ws;
+}
+
+void CompiledModel::EvalModuli(const double* x, double* out, bool derivative) const {
+  for (int index : needed_moduli_) {
+    const ModulusEval& me = moduli_[index];
+    if (derivative && me.kind == Modulus::Kind::kConstant) {
+      std::fill(out + me.out, out + me.out + me.rows * me.cols, 0.0);
+      continue;
+    }
+    // Core 3x3 (or constant) factor, then the left selection and the scale.
+    Eigen::Matrix3d core;
+    if (me.kind != Modulus::Kind::kConstant) {
+      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(x + me.rotation);
+      if (me.kind == Modulus::Kind::kRotation) {
+        core = me.transpose ? Eigen::Matrix3d(r.transpose()) : Eigen::Matrix3d(r);
+      } else {
+        const Eigen::Vector3d a = r * me.lever;  // lever arm in the inertial frame
+        core << 0, a.z(), -a.y(), -a.z(), 0, a.x(), a.y(), -a.x(), 0;  // -[a x]
+      }
+    }
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    Eigen::Map<RowMajor> m(out + me.out, me.rows, me.cols);
+    if (me.kind == Modulus::Kind::kConstant) {
+      // The constant factor has the modulus' columns and as many rows as `left` has columns.
+      if (me.left >= 0) {
+        const int inner = me.constant_rows;
+        m.noalias() = me.scale * Eigen::Map<const RowMajor>(coef_.data() + me.left, me.rows, inner) *
+                      Eigen::Map<const RowMajor>(coef_.data() + me.constant, inner, me.cols);
+      } else {
+        m = me.scale * Eigen::Map<const RowMajor>(coef_.data() + me.constant, me.rows, me.cols);
+      }
+    } else {
+      if (me.right >= 0) core = core * Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(coef_.data() + me.right);
+      if (me.left >= 0)
+        m.noalias() = me.scale * Eigen::Map<const RowMajor>(coef_.data() + me.left, me.rows, 3) *
+                      core.leftCols(me.cols);
+      else
+        m = me.scale * core.leftCols(me.cols);
+    }
+    if (me.out_inverse >= 0 && !derivative) {
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> inv(out + me.out_inverse, me.rows, me.cols);
+      if (me.kind == Modulus::Kind::kRotation && me.left < 0 && me.right < 0)
+        inv = m.transpose() / (me.scale * me.scale);  // a scaled rotation: inverse by transpose
+      else if (me.rows == 3 && me.cols == 3) {
+        using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+        Eigen::Map<Rm3>(out + me.out_inverse) = Eigen::Map<const Rm3>(out + me.out).inverse();
+      } else
+        inv = m.inverse();
+    }
+  }
+}
+
+namespace {
+// The generated code's view of the source functions (see codegen.cc).
+double EvalSource(const void* fns, int i, double t) { return static_cast<const TimeFunction*>(fns)[i](t); }
+double EvalSourceDerivative(const void* fns, int i, double t) { return static_cast<const TimeFunction*>(fns)[i].Derivative(t); }
+}  // namespace
+
+CompiledModel::SourceTable CompiledModel::Sources() const { return {source_fns_.data(), &EvalSource, &EvalSourceDerivative}; }
+
+void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot, Workspace& ws) const {
+  if (!constraints_.empty()) {
+    CalcConstrained(t, x, xdot, ws, /*share=*/false);  // the motion does not depend on the split
+    return;
+  }
+  if (!generated_fast_) {
+    CalcDerivatives(t, x, xdot, ws);
+    return;
+  }
+  if (!needed_moduli_.empty()) EvalModuli(x, ws.moduli.data());
+  const SourceTable sources = Sources();
+  reinterpret_cast<void (*)(double, const double*, double*, const double*, const SourceTable*)>(generated_fast_)(
+      t, x, xdot, ws.moduli.data(), &sources);
+}
+
+
+void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Workspace& ws) const {
+  if (!constraints_.empty()) {
+    CalcConstrained(t, x, xdot, ws, /*share=*/true);
+    return;
+  }
+  EvalPlan(t, x, xdot, ws);
+}
+
+void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace& ws) const {
+  double* w = ws.slots.data();
+  double* mod = ws.moduli.data();
+  if (!needed_moduli_.empty()) EvalModuli(x, mod);
+  if (!tears_.empty()) {
+    EvalTorn(t, x, ws);
+    for (const Gather& gt : gathers_) EvalGather(gt, x, w, xdot);
+    return;
+  }
+  if (generated_) {
+    const SourceTable sources = Sources();
+    reinterpret_cast<void (*)(double, const double*, double*, double*, const double*, const SourceTable*)>(generated_)(
+        t, x, xdot, w, mod, &sources);
+    return;
+  }
+  const plan::ExecArgs args{t, x, w, w, mod, ws.lambda.data(), tables()};
+  for (const Instr& in : plan_) plan::Exec(in, args);
+  for (const Gather& gt : gathers_) EvalGather(gt, x, w, xdot);
+}
+
+void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
+  double* w = ws.slots.data();
+  auto exec = [&](const Instr& in) {
+    Exec(in, t, x, w, w, ws.moduli.data(), ws.lambda.data());
+  };
+  auto run = [&] {
+    for (const Instr& in : plan_) exec(in);
+  };
+  auto run_closure = [&] {  // what depends on the unknowns; every other slot keeps its value
+    for (int at : tear_closure_) exec(plan_[at]);
+  };
+  // Every instruction is linear in the slots it reads, so what the torn variables' writers compute
+  // is affine in the unknowns z: c(z) = c0 + A z. One pass of the plan at z = 0 and one of the
+  // unknowns' closure per unknown give c0 and A; then (I - A) z = c0, and a last pass of the
+  // closure with z makes every slot consistent.
+  auto set_unknowns = [&](const double* z) {
+    int k = 0;
+    for (const Tear& tr : tears_)
+      for (int i = 0; i < tr.size; ++i) w[tr.slot + i] = z ? z[k++] : 0.0;
+  };
+  auto computed = [&](double* out) {
+    int k = 0;
+    for (const Tear& tr : tears_)
+      for (int i = 0; i < tr.size; ++i) out[k++] = w[tr.shadow + i];
+  };
+  Workspace::TearScratch& s = ws.tear;
+  set_unknowns(nullptr);
+  run();
+  computed(s.c0.data());
+  for (int j = 0; j < num_tear_; ++j) {
+    // Probed at the scale of the unknown, so that c(probe) - c0 keeps its digits whatever the units.
+    const double probe = std::max(1.0, std::abs(s.c0[j]));
+    s.z.setZero();
+    s.z[j] = probe;
+    set_unknowns(s.z.data());
+    run_closure();
+    computed(s.a.col(j).data());
+    s.a.col(j) = (s.a.col(j) - s.c0) / probe;
+  }
+  s.a = -s.a;
+  s.a.diagonal().array() += 1.0;
+  s.lu.compute(s.a);
+  s.z.noalias() = s.lu.solve(s.c0);
+  // A loop whose gain is 1 (I - A singular) has no unique solution: the model is ill-posed there.
+  // Judged from U's pivots (no allocation, unlike rcond()); non-finite inputs (a diverging trial
+  // state) pass through as they would without a loop, for the integrator to reject.
+  if (s.a.allFinite() && s.c0.allFinite()) {
+    const auto pivots = s.lu.matrixLU().diagonal().cwiseAbs();
+    if (!(pivots.minCoeff() > 1e-13 * std::max(1.0, pivots.maxCoeff()))) {
+      std::string names;
+      for (const AlgebraicLoop& loop : algebraic_loops_) names += (names.empty() ? "" : ", ") + loop.torn;
+      throw std::runtime_error(fmt::format("the algebraic loop through {} has no unique solution at t = {} (its "
+                                           "linear system is singular: smallest pivot {:.3g})", names, t, pivots.minCoeff()));
+    }
+  }
+  set_unknowns(s.z.data());
+  run_closure();
+}
+
+void CompiledModel::EvalGather(const Gather& gt, const double* x, const double* w, double* xdot) {
+  double* out = xdot + gt.state;
+  switch (gt.kind) {
+    case StateBlock::Kind::kMomentum:
+    case StateBlock::Kind::kDisplacement:
+      for (int k = 0; k < gt.size; ++k) out[k] = gt.sign * w[gt.effort + k];
+      break;
+    case StateBlock::Kind::kIntegral:
+      for (int k = 0; k < gt.size; ++k) out[k] = w[gt.flow + k];
+      break;
+    case StateBlock::Kind::kOrientation: {
+      // dR/dt = [w x] R  (- g (R R^T - I) R: zero on SO(3), pulls a drifting R back). Written out
+      // term by term as the generated code is (codegen.cc, EmitGather): the same operations in
+      // the same operations in the same order, the same chains (exact_sum.h).
+      const double* om = w + gt.flow;
+      const double* r = x + gt.state;
+      if (gt.sign > 0.0) {
+        double s[9] = {0.0, -om[2], om[1], om[2], 0.0, -om[0], -om[1], om[0], 0.0};
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) {
+            const double rrt = Dot3(r[3 * i], r[3 * j], r[3 * i + 1], r[3 * j + 1], r[3 * i + 2], r[3 * j + 2]);
+            s[3 * i + j] = MulAdd(-gt.sign, rrt - (i == j ? 1.0 : 0.0), s[3 * i + j]);
+          }
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) out[3 * i + j] = Dot3(s[3 * i], r[j], s[3 * i + 1], r[3 + j], s[3 * i + 2], r[6 + j]);
+      } else {
+        // ([w x] R)_ij = w_{i+1} R_{i+2,j} - w_{i+2} R_{i+1,j}
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j)
+            out[3 * i + j] = MulAdd(-om[(i + 2) % 3], r[3 * ((i + 1) % 3) + j], om[(i + 1) % 3] * r[3 * ((i + 2) % 3) + j]);
+      }
+      break;
+    }
+    case StateBlock::Kind::kWork:
+    case StateBlock::Kind::kDissipation: {
+      double p = kSumStart;
+      for (int k = 0; k < gt.size; ++k) p = AddProduct(p, w[gt.effort + k], w[gt.flow + k]);
+      out[0] = gt.sign * p;
+      break;
+    }
+  }
+}
+
+}  // namespace multibond
