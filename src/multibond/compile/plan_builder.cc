@@ -9,25 +9,10 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/core/union_find.h"
 
 namespace multibond {
 namespace {
-
-class UnionFind {
- public:
-  explicit UnionFind(int n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
-  int Root(int i) {
-    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
-    return i;
-  }
-  void Merge(int a, int b) {
-    a = Root(a), b = Root(b);
-    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
-  }
-
- private:
-  std::vector<int> parent_;
-};
 
 bool IsIdentityTransformer(const Element& e) {
   if (e.kind != ElementKind::kTF) return false;
@@ -51,12 +36,12 @@ void CompiledModel::AssignSlots() {
     const Element& e = g.element(i);
     if (IsJunction(e.kind)) {
       const int parity = e.kind == ElementKind::kZero ? 0 : 1;
-      for (int b : e.bonds) uf.Merge(2 * e.bonds.front() + parity, 2 * b + parity);
+      for (int b : e.bonds) uf.Unite(2 * e.bonds.front() + parity, 2 * b + parity);
     } else if (IsIdentityTransformer(e)) {
       // An identity TF passes effort and flow unchanged: both sides share their slots.
       const int in = structure_.port_in[i], out = structure_.port_out[i];
-      uf.Merge(2 * in, 2 * out);
-      uf.Merge(2 * in + 1, 2 * out + 1);
+      uf.Unite(2 * in, 2 * out);
+      uf.Unite(2 * in + 1, 2 * out + 1);
     }
   }
   std::vector<int> class_of_root(2 * nb, -1);
