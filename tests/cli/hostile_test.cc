@@ -24,6 +24,7 @@
 #include <gtest/gtest.h>
 
 #include "support/cli_runner.h"
+#include "support/corpus_header.h"
 #include "support/temp_dir.h"
 
 namespace multibond {
@@ -44,20 +45,9 @@ struct Case {
   std::vector<std::string> expect, absent;
 };
 
-std::string Trim(const std::string& s) {
-  const auto a = s.find_first_not_of(" \t\r"), z = s.find_last_not_of(" \t\r");
-  return a == std::string::npos ? std::string() : s.substr(a, z - a + 1);
-}
-
 Case ReadCase(const fs::path& file) {
   Case c;
-  std::ifstream in(file, std::ios::binary);
-  std::string line;
-  while (std::getline(in, line) && line.rfind('#', 0) == 0) {
-    const std::string body = Trim(line.substr(1));
-    const auto colon = body.find(':');
-    if (colon == std::string::npos) continue;
-    const std::string key = body.substr(0, colon), value = Trim(body.substr(colon + 1));
+  for (const auto& [key, value] : testing::ReadCorpusHeader(file)) {
     if (key == "hostile") c.hostile = value;
     else if (key == "args") c.args = value;
     else if (key == "exit") c.exit = std::stoi(value);

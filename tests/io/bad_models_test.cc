@@ -16,6 +16,7 @@
 
 #include <gtest/gtest.h>
 
+#include "support/corpus_header.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
 
@@ -42,21 +43,10 @@ struct Expectation {
   int errors = -1;  ///< how many errors in all, when the header says (-1: not checked)
 };
 
-std::string Trim(const std::string& s) {
-  const auto a = s.find_first_not_of(" \t\r"), z = s.find_last_not_of(" \t\r");
-  return a == std::string::npos ? std::string() : s.substr(a, z - a + 1);
-}
-
 /// Reads the header: the leading comment lines "# key: value".
 Expectation ReadHeader(const fs::path& file) {
   Expectation x;
-  std::ifstream in(file);
-  std::string line;
-  while (std::getline(in, line) && line.rfind('#', 0) == 0) {
-    const std::string body = Trim(line.substr(1));
-    const auto colon = body.find(':');
-    if (colon == std::string::npos) continue;
-    const std::string key = body.substr(0, colon), value = Trim(body.substr(colon + 1));
+  for (const auto& [key, value] : testing::ReadCorpusHeader(file)) {
     if (key == "expect") x.expect = value;
     else if (key == "line") x.line = std::stoi(value);
     else if (key == "code") x.code = value;

@@ -88,18 +88,28 @@ std::string ValidUtf8(std::string_view s) {
   });
 }
 
+namespace {
+
+/// The five characters of markup (HTML, and DOT's HTML-like labels) as entities; false for others.
+bool EscapeMarkup(char32_t c, std::string& out) {
+  switch (c) {
+    case '&': out += "&amp;"; return true;
+    case '<': out += "&lt;"; return true;
+    case '>': out += "&gt;"; return true;
+    case '"': out += "&quot;"; return true;
+    case '\'': out += "&#39;"; return true;
+    default: return false;
+  }
+}
+
+}  // namespace
+
 std::string HtmlEscape(std::string_view s) {
   return Map(s, [](char32_t c, std::string& out) {
-    switch (c) {
-      case '&': out += "&amp;"; return true;
-      case '<': out += "&lt;"; return true;
-      case '>': out += "&gt;"; return true;
-      case '"': out += "&quot;"; return true;
-      case '\'': out += "&#39;"; return true;
-      case '\n': out += '\n'; return true;
-      case '\t': out += '\t'; return true;
-      default: return false;
-    }
+    if (EscapeMarkup(c, out)) return true;
+    if (c != '\n' && c != '\t') return false;
+    out += static_cast<char>(c);
+    return true;
   });
 }
 
@@ -150,15 +160,10 @@ std::string DotString(std::string_view s) {
 
 std::string DotHtmlText(std::string_view s) {
   return Map(s, [](char32_t c, std::string& out) {
-    switch (c) {
-      case '&': out += "&amp;"; return true;
-      case '<': out += "&lt;"; return true;
-      case '>': out += "&gt;"; return true;
-      case '"': out += "&quot;"; return true;
-      case '\'': out += "&#39;"; return true;
-      case '\n': out += "<BR/>"; return true;
-      default: return false;
-    }
+    if (EscapeMarkup(c, out)) return true;
+    if (c != '\n') return false;
+    out += "<BR/>";
+    return true;
   });
 }
 
