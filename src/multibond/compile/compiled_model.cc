@@ -38,6 +38,7 @@ void CompiledModel::Build() {
   BuildConstraints(deps.reads, deps.writes);  // constraints.cc
   FindIndependentConstraints();
   BuildJacobianPattern();  // jacobian_pattern.cc
+  IndexVariables();        // state_layout.cc
   GenerateCode();
 }
 

@@ -13,6 +13,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -228,6 +229,8 @@ class CompiledModel {
   void AssignSlots();
   /// The state vector: blocks, names, units and initial values (state_layout.cc).
   void LayoutStates();
+  /// FindVariable's indexes, made at the end of Build (state_layout.cc).
+  void IndexVariables();
   /// The energy account's terms: each I's and C's matrix (I^-1 or K) and term (energy_account.cc).
   void AccountEnergy();
   /// The moduli of the MTF and MGY; returns per element its index in moduli_ or -1 (plan_builder.cc).
@@ -455,6 +458,9 @@ class CompiledModel {
   } factor_;
 
   std::vector<StateBlock> blocks_;
+  /// A state block's name ("mass.p", "A.R") -> its first block, and a named bond -> its index: a
+  /// search over every block per lookup made laying out the columns of a 5,000-body model quadratic.
+  std::unordered_map<std::string, int> block_by_name_, bond_by_name_;
   std::vector<std::string> state_names_, state_units_;
   Eigen::VectorXd x0_;
   std::vector<int> element_block_;  ///< per element: its state block (I, C) or -1

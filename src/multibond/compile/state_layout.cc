@@ -125,18 +125,29 @@ double CompiledModel::derivative_sign(const StateBlock& b) const {
   return graph_.PowerSign(graph_.element(b.owner).bonds.front(), b.owner);
 }
 
+/// The name a state block is found by: its state's name, or for a vector or an orientation the
+/// common part before the last '.' ("A.R" for A.R.11 ... A.R.33).
+static std::string BlockName(const StateBlock& b, const std::vector<std::string>& state_names) {
+  const std::string& first = state_names[b.offset];
+  return b.size > 1 || b.kind == StateBlock::Kind::kOrientation ? first.substr(0, first.rfind('.')) : first;
+}
+
+void CompiledModel::IndexVariables() {
+  block_by_name_.clear();
+  bond_by_name_.clear();
+  for (int i = 0; i < static_cast<int>(blocks_.size()); ++i) block_by_name_.emplace(BlockName(blocks_[i], state_names_), i);  // the first kept
+  for (int b = 0; b < graph_.num_bonds(); ++b)
+    if (!graph_.bond(b).name.empty()) bond_by_name_.emplace(graph_.bond(b).name, b);
+}
+
 std::optional<VariableRef> CompiledModel::FindVariable(const std::string& name) const {
   // States by full name of their block ("mass.p", "A.R", "A.r").
-  for (const StateBlock& b : blocks_) {
-    const std::string& first = state_names_[b.offset];
-    std::string base = first;
-    if (b.size > 1 || b.kind == StateBlock::Kind::kOrientation) base = first.substr(0, first.rfind('.'));
-    if (base == name) {
-      VariableRef v{VariableRef::In::kState, b.offset, b.size, state_units_[b.offset], {}};
-      for (int k = 0; k < b.size; ++k)
-        if (state_names_[b.offset + k] != base) v.components.push_back(state_names_[b.offset + k].substr(base.size() + 1));
-      return v;
-    }
+  if (const auto it = block_by_name_.find(name); it != block_by_name_.end()) {
+    const StateBlock& b = blocks_[it->second];
+    VariableRef v{VariableRef::In::kState, b.offset, b.size, state_units_[b.offset], {}};
+    for (int k = 0; k < b.size; ++k)
+      if (state_names_[b.offset + k] != name) v.components.push_back(state_names_[b.offset + k].substr(name.size() + 1));
+    return v;
   }
   const auto dot = name.rfind('.');
   if (dot == std::string::npos) return std::nullopt;
@@ -144,13 +155,11 @@ std::optional<VariableRef> CompiledModel::FindVariable(const std::string& name) 
   const int e = graph_.Find(owner);
   if (e < 0) {
     // A named bond: "<bond>.e" or "<bond>.f".
-    for (int b = 0; b < graph_.num_bonds(); ++b) {
-      if (graph_.bond(b).name != owner || (var != "e" && var != "f")) continue;
-      const int cls = var == "e" ? effort_class_[b] : flow_class_[b];
-      return VariableRef{VariableRef::In::kSlot, class_offset_[cls], class_size_[cls], class_units_[cls],
-                         ComponentNames(class_size_[cls])};
-    }
-    return std::nullopt;
+    const auto it = bond_by_name_.find(owner);
+    if (it == bond_by_name_.end() || (var != "e" && var != "f")) return std::nullopt;
+    const int b = it->second;
+    const int cls = var == "e" ? effort_class_[b] : flow_class_[b];
+    return VariableRef{VariableRef::In::kSlot, class_offset_[cls], class_size_[cls], class_units_[cls], ComponentNames(class_size_[cls])};
   }
   const Element& el = graph_.element(e);
   int cls = -1;
