@@ -182,6 +182,26 @@ int BondGraph::AddAux(AuxState a) {
   return id;
 }
 
+int BondGraph::AddSignal(Signal s) {
+  if (signal_index_.count(s.name) || aux_index_.count(s.name) || index_.count(s.name)) {
+    Diagnostic d;
+    d.where = s.where;
+    d.element = s.name;
+    d.message = "duplicate name (an element, state or signal of that name exists already)";
+    d.hint = "give every element, state and signal a unique name";
+    throw ModelError(d);
+  }
+  const int id = static_cast<int>(signals_.size());
+  signal_index_[s.name] = id;
+  signals_.push_back(std::move(s));
+  return id;
+}
+
+int BondGraph::FindSignal(const std::string& name) const {
+  auto it = signal_index_.find(name);
+  return it == signal_index_.end() ? -1 : it->second;
+}
+
 int BondGraph::Find(const std::string& name) const {
   const auto it = index_.find(name);
   return it == index_.end() ? -1 : it->second;

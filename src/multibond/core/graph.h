@@ -13,6 +13,7 @@
 ///  - 0-junction: common effort, sum of signed flows (in +, out -) = 0;
 ///    1-junction: common flow, sum of signed efforts = 0.
 
+#include <cmath>
 #include <map>
 #include <optional>
 #include <string>
@@ -22,6 +23,7 @@
 #include <Eigen/Dense>
 
 #include "multibond/core/error.h"
+#include "multibond/core/expression.h"
 #include "multibond/core/time_function.h"
 
 namespace multibond {
@@ -76,6 +78,15 @@ struct Modulus {
   std::string ToString() const;
 };
 
+/// A formula of a model (docs/model-format.md, "Expressions"): its text as written, its tree and
+/// where it stands in the file (the column of its first character). `root` null = not given.
+struct Formula {
+  std::string text;
+  expr::NodePtr root;
+  SourceLocation where;
+  bool given() const { return root != nullptr; }
+};
+
 /// A source value: one time function per component (a single function is broadcast).
 struct SourceValue {
   std::vector<TimeFunction> components;
@@ -102,6 +113,20 @@ struct Element {
   /// elastic structure would share it (least complementary energy); without, by W's diagonal.
   Eigen::VectorXd compliance;
   Eigen::VectorXd initial;    ///< I: p(0); C: q(0) (empty = zero)
+  // --- Expressions (scalar bonds). In a law, the element's own variables are named `q`, `p`,
+  // `e`, `f` (its effort is sigma e, its flow f: see the sign rules above); a law may also use
+  // parameters (already folded into numbers by the loader), `t` and other model variables. ---
+  /// C: effort of q; I: flow of p; R: effort of f.
+  Formula law_effort;
+  /// R: flow of e. (An R given both ways uses the one its causality needs.)
+  Formula law_flow;
+  /// C: stored energy of q; I: of p. The law is its derivative (compile/symbolic.h).
+  Formula energy;
+  /// Se, Sf: the value as a formula of `t` and model variables, one per component (one: every
+  /// component); replaces `source`. TF, GY: the scalar ratio as a formula (replaces `param`).
+  std::vector<Formula> value;
+  /// R only: may deliver power (e f < 0 allowed); otherwise e f < 0 during a run is an error.
+  bool active = false;
   /// I, C: the name of the state (default "<name>.p" for I, "<name>.q" for C). The rigid-body
   /// library names a body's momenta "B.p" and "B.h" this way.
   std::string state_name;
@@ -123,8 +148,22 @@ struct Bond {
 struct AuxState {
   enum class Kind {
     kOrientation,  ///< dR/dt = [w x] R, w = the 3-dimensional flow of `of`; R stored as 9 entries
-    kIntegral,     ///< dx/dt = f, the flow of `of`
+    kIntegral,     ///< dx/dt = f, the flow of `of`; or, with `rate` given, dx/dt = rate
+    kLag,          ///< time_constant dx/dt = input - x (a first-order lag of a signal)
+    kPid,          ///< a PID controller of the signal `input` (the error): see Pid
   };
+  /// kIntegral with a formula (a signal state): the rate; kLag, kPid: the input signal.
+  Formula rate, input;
+  double time_constant = 0.0;  ///< kLag
+  /// kPid, with e the input: u_raw = kp e + ki i + kd (e - d) / tf, u = clamp(u_raw, u_min, u_max);
+  /// states i (`<name>.i`): di/dt = e + (u - u_raw) / (ki tt) (back-calculation anti-windup;
+  /// tt = 0 picks sqrt(kd / ki) with a D part, else kp / ki, else 1 s) and, with kd > 0 (then
+  /// tf > 0), d (`<name>.d`): dd/dt = (e - d) / tf, the derivative filter. The output is read
+  /// as `<name>.u`. Without ki the i state stays 0.
+  struct Pid {
+    double kp = 0.0, ki = 0.0, kd = 0.0, tf = 0.0, tt = 0.0;
+    double u_min = -HUGE_VAL, u_max = HUGE_VAL;
+  } pid;
   std::string name;
   Kind kind = Kind::kIntegral;
   std::string of;
@@ -134,6 +173,15 @@ struct AuxState {
   /// kOrientation: gain g > 0 adds -g (R R^T - I) R to dR/dt, which vanishes on the rotation
   /// group and pulls a drifting R back to it (0 = plain integration).
   double stabilization = 0.0;
+  SourceLocation where;
+};
+
+/// A signal: a named variable without power, defined by a formula of model variables, time and
+/// other signals (sensors, set-points, control laws). Read by its name, like `j.f`.
+struct Signal {
+  std::string name;
+  Formula value;
+  std::string unit;  ///< "" = dimensionless or unknown
   SourceLocation where;
 };
 
@@ -185,6 +233,10 @@ class BondGraph {
   }
   int AddAux(AuxState a);
   void AddOutput(OutputDecl o) { outputs_.push_back(std::move(o)); }
+  /// Adds a signal; throws ModelError on a duplicate name.
+  int AddSignal(Signal s);
+  const std::vector<Signal>& signals() const { return signals_; }
+  int FindSignal(const std::string& name) const;
 
   const std::string& name() const { return name_; }
   void set_source_file(std::string f) { source_file_ = std::move(f); }
@@ -216,6 +268,8 @@ class BondGraph {
   std::vector<Bond> bonds_;
   std::vector<AuxState> aux_;
   std::vector<OutputDecl> outputs_;
+  std::vector<Signal> signals_;
+  std::unordered_map<std::string, int> signal_index_;
   std::unordered_map<std::string, int> index_;      ///< element name -> index (O(1) Find)
   std::unordered_map<std::string, int> aux_index_;  ///< state name -> index
 };

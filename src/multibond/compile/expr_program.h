@@ -1,0 +1,71 @@
+#pragma once
+/// \file
+/// An expression compiled for the right-hand side: a flat program of steps over registers,
+/// whose inputs are resolved to where their values live at evaluation time (time, a state entry,
+/// a workspace slot, a constant). The interpreter (Run) and the code generator (EmitProgram)
+/// perform the same operations in the same order with the same function bodies, so both give
+/// the same bits (compiled with -ffp-contract=off on both sides). Running allocates nothing.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "multibond/core/expression.h"
+
+namespace multibond::expr {
+
+/// Where a name's value is read from when the program runs.
+struct Input {
+  enum class In : unsigned char { kTime, kState, kSlot, kConstant };
+  In in = In::kConstant;
+  int offset = 0;      ///< kState: index in x; kSlot: index in the workspace slots
+  double value = 0.0;  ///< kConstant
+};
+
+/// Resolves a name of the tree (the node, for its offset in error messages) to an input. It
+/// throws (ModelError, with the place and a hint) for a name it does not know; `t` and `pi`
+/// reach it too (the usual answers: {kTime}, {kConstant, M_PI}).
+using Resolver = std::function<Input(const Node& name)>;
+
+/// One step: regs[dst] = op(regs[a], regs[b], regs[c]) or a load.
+struct Step {
+  enum class Op : unsigned char { kLoad, kConst, kNeg, kAdd, kSub, kMul, kDiv, kPow, kCall };
+  Op op = Op::kConst;
+  Fn fn = Fn::kSin;  ///< kCall
+  int dst = 0;
+  int a = 0, b = 0, c = 0;  ///< argument registers (kCall: up to 3, by arity)
+  Input input;              ///< kLoad
+  double value = 0.0;       ///< kConst
+};
+
+struct Program {
+  std::vector<Step> steps;
+  int num_regs = 0;  ///< at most kMaxRegs
+  int result = 0;    ///< the register that holds the value at the end
+  std::vector<Input> inputs;  ///< every distinct input read (for the plan's dependencies)
+};
+inline constexpr int kMaxRegs = 256;
+
+/// Compiles a tree; constant subtrees are folded (with the same Apply, so folding changes no
+/// bit). Throws what the resolver throws, or ModelError(code "expr.too_large") beyond kMaxRegs.
+Program CompileProgram(const Node& root, const Resolver& resolve);
+
+/// Runs a program. `x` the state, `w` the workspace slots. No allocation (registers on the stack).
+double Run(const Program& p, double t, const double* x, const double* w);
+
+/// Names of the arrays in generated code.
+struct EmitNames {
+  const char* t = "t";
+  const char* x = "x";
+  const char* w = "w";
+};
+/// The program as C++ statements that declare `const double <prefix>k` registers and end with
+/// the value in `<prefix><result>`; returns the name of the result. `prefix` must be unique in
+/// the enclosing scope (e.g. "e12_"). Function calls use the helpers of ProgramPreamble().
+std::string EmitProgram(const Program& p, const std::string& prefix, const EmitNames& names, std::string& out);
+
+/// C++ text defining the helper functions generated code calls (mb_sign, mb_clamp, ...), with
+/// the very bodies Apply uses; written once at the top of a generated file.
+std::string ProgramPreamble();
+
+}  // namespace multibond::expr

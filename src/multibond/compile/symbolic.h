@@ -1,0 +1,35 @@
+#pragma once
+/// \file
+/// Symbolic work on expression trees, done by GiNaC (no algebra system of our own): a law
+/// derived from an energy function, an energy from a law, the derivative a Newton solve needs.
+/// Trees go in and trees come out (core/expression.h); GiNaC stays behind this header.
+
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "multibond/core/expression.h"
+
+namespace multibond::expr {
+
+/// d(root)/d(name), simplified (GiNaC's normal form), as a tree. Names other than `name` are
+/// kept as names. sign and abs differentiate as GiNaC does (abs' = sign where x != 0).
+NodePtr Differentiate(const Node& root, const std::string& name);
+
+/// The integral of root over `name` from 0 to the name itself, as a tree, when GiNaC finds it in
+/// closed form (polynomials, and what GiNaC's integral::eval_integ handles); nullopt otherwise.
+std::optional<NodePtr> IntegrateFromZero(const Node& root, const std::string& name);
+
+/// The definite integral of root over `name` from 0 to `upper` by GiNaC's numerical quadrature,
+/// with the other names given by `value` (nullopt: unknown). For laws without a closed-form
+/// integral; not for the right-hand side (it allocates).
+double IntegrateNumerically(const Node& root, const std::string& name, double upper,
+                            const std::function<std::optional<double>(const std::string&)>& value);
+
+/// True if the tree refers to `name` (after simplification: x - x does not).
+bool DependsOn(const Node& root, const std::string& name);
+
+/// The tree simplified by GiNaC, as a tree.
+NodePtr Simplify(const Node& root);
+
+}  // namespace multibond::expr

@@ -1,0 +1,107 @@
+#pragma once
+/// \file
+/// Expressions in models (docs/model-format.md, "Expressions"): the one grammar, its syntax tree
+/// and its table of functions. A formula in a model file is parsed once, here, into a tree;
+/// everything else works on the tree: parameters are evaluated from it (io/), laws are
+/// differentiated and integrated from it (compile/symbolic.h, GiNaC), and the right-hand side is
+/// compiled from it into a flat program that the interpreter runs and the code generator writes
+/// as C++ (compile/expr_program.h). Model text never reaches generated code: names become array
+/// offsets and numbers become exact hexadecimal literals.
+///
+/// Grammar (precedence from low to high; `^` is right-associative, unary minus binds looser
+/// than `^`, so -x^2 = -(x^2)):
+///   expr    = term { ("+" | "-") term }
+///   term    = unary { ("*" | "/") unary }
+///   unary   = ("-" | "+") unary | power
+///   power   = primary [ "^" unary ]
+///   primary = number | name | name "(" [ expr { "," expr } ] ")" | "(" expr ")"
+///   number  = digits [ "." digits ] [ ("e" | "E") [ "+" | "-" ] digits ]  (also ".5", "2.")
+///   name    = ident { "." ( ident | digits ) }      ident = (letter | "_") { letter | digit | "_" }
+/// Reserved names: `t` (time, s), `pi`, `e` is NOT reserved (it is a variable in a law).
+
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace multibond::expr {
+
+/// Functions of the grammar. The table (expression.cc) gives each its name, its number of
+/// arguments and its value; the interpreter, the code generator and the symbolic layer all read
+/// that one table.
+enum class Fn : unsigned char {
+  kSin, kCos, kTan, kAsin, kAcos, kAtan, kAtan2, kSinh, kCosh, kTanh, kExp, kLog, kSqrt, kAbs,
+  kSign, kMin, kMax,
+  // helpers (documented in docs/model-format.md): hypot(x, y); clamp(x, lo, hi);
+  // smoothabs(x, eps) = sqrt(x^2 + eps^2); smoothsign(x, eps) = x / sqrt(x^2 + eps^2)
+  kHypot, kClamp, kSmoothAbs, kSmoothSign,
+};
+inline constexpr int kNumFns = static_cast<int>(Fn::kSmoothSign) + 1;
+
+struct FunctionInfo {
+  Fn fn;
+  const char* name;  ///< as written in a model: "atan2"
+  int arity;
+};
+/// The row of a function, or nullptr for an unknown name.
+const FunctionInfo* FindFunction(std::string_view name);
+const FunctionInfo& Info(Fn fn);
+/// Every function name, for "did you mean" hints.
+std::vector<std::string> FunctionNames();
+
+/// One node of the tree. Immutable once built; shared between trees.
+struct Node;
+using NodePtr = std::shared_ptr<const Node>;
+struct Node {
+  enum class Kind : unsigned char { kNumber, kName, kNeg, kAdd, kSub, kMul, kDiv, kPow, kCall };
+  Kind kind = Kind::kNumber;
+  double value = 0.0;         ///< kNumber
+  std::string name;           ///< kName: "L", "spring.q", "J.omega.z", "t", "pi"
+  Fn fn = Fn::kSin;           ///< kCall
+  std::vector<NodePtr> args;  ///< operands (1 for kNeg, 2 for binary, the call's arguments)
+  int offset = 0;             ///< byte offset of the node's first character in the formula's text
+};
+
+/// Building trees in code (laws derived by the engine, a lag's rate, a transformer's equation).
+NodePtr Number(double v);
+NodePtr Name(std::string name);
+NodePtr Unary(Node::Kind kind, NodePtr a);  ///< kNeg
+NodePtr Binary(Node::Kind kind, NodePtr a, NodePtr b);
+NodePtr Call(Fn fn, std::vector<NodePtr> args);
+
+/// A syntax error: where in the text (byte offset), what, and a hint ("did you mean 'sqrt'?").
+struct ParseError {
+  int offset = 0;
+  std::string message;
+  std::string hint;
+};
+
+/// Parses one formula. Returns the tree, or the first error. Bounded: at most 4096 bytes of text
+/// and a nesting depth of 64 (an error beyond either). Unknown functions and wrong numbers of
+/// arguments are errors here; names are not resolved here (see Names).
+struct ParseResult {
+  NodePtr root;                       ///< null on error
+  std::optional<ParseError> error;
+};
+ParseResult Parse(std::string_view text);
+
+/// The distinct names a tree refers to, in order of first appearance (with the node of the first
+/// appearance, for its offset). `t` and `pi` are included when used.
+std::vector<const Node*> Names(const Node& root);
+
+/// The tree as a formula, fully readable and parseable again ("k1*q + k3*q^3"), with the fewest
+/// parentheses the precedence needs; numbers in the shortest form that reads back exactly.
+std::string Format(const Node& root);
+
+/// Evaluates a tree whose names are all given by `value` (nullopt: unknown name). `t` and `pi`
+/// are passed to `value` like any name (pi is then M_PI unless `value` says otherwise).
+/// Throws std::domain_error naming the unknown name.
+double Evaluate(const Node& root, const std::function<std::optional<double>(const std::string&)>& value);
+
+/// The value of f at its arguments: the one definition every engine uses (the interpreter calls
+/// it; the generated code calls functions with the same bodies, see expr_program.h).
+double Apply(Fn fn, const double* args);
+
+}  // namespace multibond::expr
