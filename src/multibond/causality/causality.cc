@@ -81,6 +81,7 @@ class Scap {
   bool Invertible(int i) const {
     const Element& e = g_.element(i);
     if (e.kind == ElementKind::kMTF || e.kind == ElementKind::kMGY) return e.modulus.invertible();
+    if (!e.value.empty()) return true;  // a ratio given by a formula: divided by when run backward
     if (e.param.is_scalar) return e.param.scalar != 0.0;
     const Eigen::MatrixXd& m = e.param.matrix;
     return m.rows() == m.cols() && Eigen::FullPivLU<Eigen::MatrixXd>(m).isInvertible();

@@ -20,11 +20,13 @@ void CompiledModel::Build() {
   PrepareConstraintGraph();  // structure, causality; ideal constraints become effort sources
   AssignSlots();             // slot classes, their names; the multipliers' offsets
   LayoutStates();            // state blocks, names, units, initial values
+  IndexVariables();          // state_layout.cc: FindVariable's indexes (formulas read variables)
   AccountEnergy();           // each I's and C's stored-energy matrix and term
   const std::vector<int> modulus_of = PlanModuli();
   const PlanDeps deps = OrderPlan(EmitInstructions(modulus_of));  // plan_, tears_, tear_closure_
   needed_moduli_ = plan::Specialize(plan_, coef_, sum_terms_, sum_signs_, moduli_);
   BuildGathers();
+  CheckFormulaUse();  // formulas.cc
   if (!tears_.empty() && !constraints_.empty()) {
     Diagnostic d;
     d.code = "causality.algebraic_loop";
@@ -38,7 +40,6 @@ void CompiledModel::Build() {
   BuildConstraints(deps.reads, deps.writes);  // constraints.cc
   FindIndependentConstraints();
   BuildJacobianPattern();  // jacobian_pattern.cc
-  IndexVariables();        // state_layout.cc
   GenerateCode();
 }
 

@@ -85,6 +85,9 @@ struct StateBlock {
   int owner;   ///< element index (I, C, source, R) or aux index (orientation, integral)
   int offset;  ///< first entry in the state vector
   int size;
+  /// Signal states (a rate formula, a lag, a PID): the slot class their derivative copies; -1 =
+  /// by kind (derivative_source).
+  int rate_class = -1;
 };
 
 /// Where a named variable lives and how to read it.
@@ -99,7 +102,7 @@ struct VariableRef {
 
 /// One step of the plan, described symbolically for `multibond equations`.
 struct Definition {
-  enum class Kind { kSource, kMomentumFlow, kStiffnessEffort, kLinear, kSum };
+  enum class Kind { kSource, kMomentumFlow, kStiffnessEffort, kLinear, kSum, kFormula };
   Kind kind;
   int element;  ///< the element that computes it
   struct Term {
@@ -108,6 +111,7 @@ struct Definition {
     std::string coef;  ///< symbol of the coefficient ("" = 1)
   };
   std::vector<Term> terms;
+  std::string formula = {};  ///< kFormula: the formula as evaluated (core/expression.h Format)
 };
 
 class CompiledModel {
@@ -193,6 +197,14 @@ class CompiledModel {
   /// Reads a variable after CalcDerivatives has filled `ws` at state x.
   void Read(const VariableRef& v, const double* x, const Workspace& ws, double* out) const;
 
+  // --- formulas (compile/formulas.cc) ---
+  bool has_formulas() const { return !programs_.empty(); }
+  /// Evaluates the plan at (t, x) with the interpreter and names the first formula whose value is
+  /// not finite although what it reads is: "the formula of spring (effort law) `k/q` gives inf at
+  /// t = 1.5 s (reads spring.q = 0)". Empty if none (the cause is elsewhere). Allocates: for the
+  /// failure path only.
+  std::string DiagnoseFormulas(double t, const double* x, Workspace& ws) const;
+
   // --- energy account (from the state; the workspace must have been filled at x) ---
   double StoredEnergy(int element, const double* x) const;  ///< I or C
   /// Every I's and C's stored energy in one pass (what an output row needs): per_term receives
@@ -254,6 +266,40 @@ class CompiledModel {
   /// Compiles and loads the generated code when options_.generate_code asks (rhs_engine_ says how).
   void GenerateCode();
 
+  // --- Formulas (compile/formulas.cc; docs/model-format.md, "Expressions") ---
+  /// Slot classes of one slot beyond the bonds': each signal, and the rates and outputs of the
+  /// signal states (`pid.u`); made at the end of AssignSlots.
+  void AssignSignalSlots();
+  int AddSignalClass(const std::string& name, const std::string& unit, bool visible);
+  /// A formula's own names (an element's law: q, p, e, f) and what it is, for messages.
+  struct FormulaScope {
+    const Formula* formula = nullptr;  ///< where it stands in the file
+    int element = -1;
+    std::string what;  ///< "the effort law of spring"
+  };
+  /// Compiles a tree (own names already substituted) into programs_; returns its index.
+  int CompileFormula(const expr::NodePtr& root, const FormulaScope& scope);
+  /// The instruction that computes one slot class from formulas, with the classes it reads.
+  struct FormulaInstr {
+    plan::Instr in;
+    int out_class;
+    std::vector<int> reads;
+    Definition def;
+  };
+  /// True if the element's equations are formulas (then FormulaInstructions makes them).
+  static bool HasFormulas(const Element& e);
+  std::vector<FormulaInstr> FormulaInstructions(int element);
+  /// The signals' and signal states' instructions.
+  std::vector<FormulaInstr> SignalInstructions();
+  /// kExpr over programs `first` .. `first + n` into class `out`.
+  FormulaInstr MakeFormulaInstr(int element, int out_class, int first, int n);
+  /// Stored energy of a storage element given by a formula (or, for a law without a closed-form
+  /// integral, by quadrature of its law): its program or law, made by AccountEnergy.
+  /// energy_terms_[term]'s program or law, for the storage element `element`.
+  void AccountFormulaEnergy(int element, int term);
+  /// Refuses what formulas do not support yet: ideal constraints, solved algebraic loops through them.
+  void CheckFormulaUse() const;
+
   // The plan's data and its operation table (operations.h).
   using Op = plan::Op;
   using Instr = plan::Instr;
@@ -273,7 +319,9 @@ class CompiledModel {
   /// One state block's derivative from the slots `w` (and x, for orientations).
   static void EvalGather(const Gather& gt, const double* x, const double* w, double* xdot);
   /// The tables the plan's instructions refer to (coefficients, sum terms, source functions).
-  plan::Tables tables() const { return {coef_.data(), sum_terms_.data(), sum_signs_.data(), source_fns_.data()}; }
+  plan::Tables tables() const {
+    return {coef_.data(), sum_terms_.data(), sum_signs_.data(), source_fns_.data(), programs_.data()};
+  }
   /// One instruction of the plan (the operation table's interpreter kernel): reads slots from
   /// `win`, writes its output slot in `wout` (the same array in the plain pass).
   void Exec(const Instr& in, double t, const double* x, const double* win, double* wout, const double* mod,
@@ -463,6 +511,10 @@ class CompiledModel {
   std::unordered_map<std::string, int> block_by_name_, bond_by_name_;
   std::vector<std::string> state_names_, state_units_;
   Eigen::VectorXd x0_;
+  std::vector<expr::Program> programs_;  ///< the formulas' programs (kExpr, energy terms)
+  std::unordered_map<std::string, int> signal_class_;  ///< signal name ("u", "pid.u") -> its slot class
+  std::unordered_map<std::string, int> internal_class_;  ///< the signal states' rates ("lag.rate") -> class
+  std::vector<int> class_of_slot_;  ///< per workspace slot: its class (formulas' dependencies)
   std::vector<int> element_block_;  ///< per element: its state block (I, C) or -1
   std::vector<int> aux_block_;      ///< per aux state
   std::vector<Eigen::MatrixXd> energy_matrix_;  ///< per element: I^-1 (I) or K (C); Ib^-1 for rotated I
@@ -472,7 +524,15 @@ class CompiledModel {
     int rotation;  ///< state offset of the body's orientation (rotated inertia), or -1
     int coef;      ///< offset in energy_coef_ of the size x size matrix (row-major)
     bool kinetic;
+    int program = -1;  ///< a formula's energy: its program in programs_ (then coef is unused)
+    int law = -1;      ///< a law without a closed-form energy: index in energy_laws_ (quadrature)
   };
+  /// Laws in the state's own name whose energy is their integral from 0, found by quadrature.
+  struct EnergyLaw {
+    expr::NodePtr law;
+    std::string name;
+  };
+  std::vector<EnergyLaw> energy_laws_;
   std::vector<EnergyTerm> energy_terms_;
   std::vector<double> energy_coef_;
   std::vector<int> energy_term_of_element_;  ///< index in energy_terms_, or -1

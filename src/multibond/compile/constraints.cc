@@ -376,6 +376,9 @@ void CompiledModel::Tangent(double t, const double* x, const double* xdot, Works
       case plan::Tangent::kLinear:  // constant linear maps of slots: the same map of their derivatives
         exec(in, x, d, d, mod);
         break;
+      case plan::Tangent::kNone:  // formulas: refused with constraints (CheckFormulaUse)
+        MB_ASSERT(false, "a formula in the constraints' tangent pass");
+        break;
     }
   }
 }

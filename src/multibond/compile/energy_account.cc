@@ -2,7 +2,10 @@
 /// The energy account (docs/design.md, "Energy account"): each I's and C's stored energy from the
 /// state, and the sources' work and the resistors' dissipation integrated as states.
 
+#include <cmath>
+
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/symbolic.h"
 
 namespace multibond {
 
@@ -12,6 +15,7 @@ void CompiledModel::AccountEnergy() {
   for (const StateBlock& blk : blocks_) {
     if (blk.kind != StateBlock::Kind::kMomentum && blk.kind != StateBlock::Kind::kDisplacement) continue;
     const Element& e = g.element(blk.owner);
+    if (HasFormulas(e)) continue;  // its energy is a formula (AccountFormulaEnergy)
     const int n = blk.size;
     const Eigen::MatrixXd p = e.param.AsMatrix(n, n);
     energy_matrix_[blk.owner] = blk.kind == StateBlock::Kind::kMomentum ? Eigen::MatrixXd(p.inverse()) : p;
@@ -27,6 +31,7 @@ void CompiledModel::AccountEnergy() {
     energy_term_of_element_.resize(g.num_elements(), -1);
     energy_term_of_element_[blk.owner] = static_cast<int>(energy_terms_.size());
     energy_terms_.push_back(et);
+    if (HasFormulas(e)) AccountFormulaEnergy(blk.owner, static_cast<int>(energy_terms_.size()) - 1);  // formulas.cc
   }
 }
 
@@ -34,6 +39,15 @@ double CompiledModel::EnergyOf(const EnergyTerm& et, const double* x) const {
   // 1/2 s^T E s with E = I^-1 or K (row-major in energy_coef_); a body's angular momentum is
   // taken to its frame first (h_b = R^T h), where its inertia is constant. No allocation: these
   // run at every output time.
+  if (et.program >= 0) return expr::Run(programs_[et.program], 0.0, x, nullptr);
+  if (et.law >= 0) {
+    // A law without a closed-form integral: its energy by quadrature from 0 (output times only).
+    const EnergyLaw& el = energy_laws_[et.law];
+    return expr::IntegrateNumerically(*el.law, el.name, x[et.state], [](const std::string& n) -> std::optional<double> {
+      if (n == "pi") return M_PI;
+      return std::nullopt;
+    });
+  }
   const double* s = x + et.state;
   double hb[3];
   if (et.rotation >= 0) {

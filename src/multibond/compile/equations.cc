@@ -209,7 +209,7 @@ class EquationWriter {
     if (torn_[c]) return true;
     const Definition::Kind k = Def(c).kind;
     return k == Definition::Kind::kSource || k == Definition::Kind::kMomentumFlow ||
-           k == Definition::Kind::kStiffnessEffort;
+           k == Definition::Kind::kStiffnessEffort || k == Definition::Kind::kFormula;
   }
 
   /// Slot classes in evaluation order (inputs before outputs), ties broken by index.
@@ -280,6 +280,8 @@ class EquationWriter {
   Expr Leaf(int c) const {
     if (torn_[c]) return Ref(c);
     const Definition& d = Def(c);
+    // A formula (signals have no element), shown as written in named variables.
+    if (d.kind == Definition::Kind::kFormula) return MakeLeaf(d.formula, "\\mathtt{" + LatexEscape(d.formula) + "}");
     const Element& el = g_.element(d.element);
     const std::string& n = el.name;
     const std::string state = StateOf(el);

@@ -205,4 +205,17 @@ void EmitMultiplier(const Instr& in, const EmitArgs& a) {
                              a.names.multipliers ? fmt::format("lam[{}]", in.coef + k) : std::string("0.0")));
 }
 
+void EmitExpr(const Instr& in, const EmitArgs& a) {
+  // Each program in its own block: its registers are named after the slot it writes.
+  for (int k = 0; k < in.n; ++k) {
+    std::string body;
+    const std::string result = expr::EmitProgram(a.tables.programs[in.coef + k], fmt::format("f{}_", in.dst + k),
+                                                 expr::EmitNames{"t", a.names.x, a.names.in}, body);
+    Line(*a.out, "{");
+    *a.out += body;
+    Line(*a.out, fmt::format("{} = {};", Out(a, in.dst + k), result));
+    Line(*a.out, "}");
+  }
+}
+
 }  // namespace multibond::plan::kernels

@@ -265,4 +265,8 @@ void ExecMultiplier(const Instr& in, const ExecArgs& a) {
   for (int k = 0; k < in.n; ++k) a.wout[in.dst + k] = a.lambda[in.coef + k];
 }
 
+void ExecExpr(const Instr& in, const ExecArgs& a) {
+  for (int k = 0; k < in.n; ++k) a.wout[in.dst + k] = expr::Run(a.tables.programs[in.coef + k], a.t, a.x, a.win);
+}
+
 }  // namespace multibond::plan::kernels

@@ -41,6 +41,7 @@ void ExecSum(const Instr& in, const ExecArgs& a);
 void ExecSum1(const Instr& in, const ExecArgs& a);
 void ExecSum3(const Instr& in, const ExecArgs& a);
 void ExecMultiplier(const Instr& in, const ExecArgs& a);
+void ExecExpr(const Instr& in, const ExecArgs& a);
 
 // State kernels as C++ (EmitStateFn).
 void EmitStateScale(const Instr& in, const double* c, const std::function<std::string(int)>& src,
@@ -65,5 +66,6 @@ void EmitModulated(const Instr& in, const EmitArgs& a);
 void EmitCopy(const Instr& in, const EmitArgs& a);
 void EmitSum(const Instr& in, const EmitArgs& a);
 void EmitMultiplier(const Instr& in, const EmitArgs& a);
+void EmitExpr(const Instr& in, const EmitArgs& a);
 
 }  // namespace multibond::plan::kernels

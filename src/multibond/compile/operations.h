@@ -16,6 +16,7 @@
 
 #include <Eigen/Dense>
 
+#include "multibond/compile/expr_program.h"
 #include "multibond/core/graph.h"
 #include "multibond/core/time_function.h"
 
@@ -33,6 +34,8 @@ enum class Op : unsigned char {
   kMat13, kMat23, kMat33, kMat31, kMat32,
   kRotFwd1, kRotFwd2, kRotFwd3, kRotBwd1, kRotBwd2, kRotBwd3, kLeverFwd, kLeverBwd,
   kSum1, kSum3, kCopy1, kCopy3,
+  // formulas (docs/model-format.md, "Expressions"): dst[k] = program coef + k, of t, x and slots
+  kExpr,
   // ideal constraints: dst = the multipliers of one constraint (Workspace::lambda + coef)
   kMultiplier,
 };
@@ -77,6 +80,7 @@ struct Tables {
   const int* sum_terms = nullptr;     ///< sums: workspace offsets of the terms
   const double* sum_signs = nullptr;  ///< sums: their signs
   const TimeFunction* sources = nullptr;
+  const expr::Program* programs = nullptr;  ///< formulas (kExpr: programs coef .. coef + n)
 };
 
 /// What one evaluation of an instruction reads and writes: reads slots from `win`, writes its
@@ -116,6 +120,7 @@ enum class Reads : unsigned char {
   kSlots,        ///< slots src .. src + m
   kSumTerms,     ///< the slots listed in sum_terms[coef .. coef + count]
   kMultipliers,  ///< lambda[coef .. coef + n]
+  kProgram,      ///< the inputs of programs coef .. coef + n (time, states, slots)
 };
 
 /// How the outputs depend on the inputs (the Jacobian pattern).
@@ -133,6 +138,7 @@ enum class Tangent : unsigned char {
   kBilinear,        ///< bilinear in R and the input: K(R) du + K(dR) u
   kModulated,       ///< M u: M du + dM u; M^-1 u: M^-1 (du - dM y)
   kLinear,          ///< a constant linear map of slots: the same map of their derivatives
+  kNone,            ///< not derived (formulas): a model with ideal constraints refuses them
 };
 
 /// The state kernel of an instruction that reads a state block s: dst = E s (or R Ib^-1 R^T s

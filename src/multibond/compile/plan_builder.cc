@@ -15,7 +15,7 @@ namespace multibond {
 namespace {
 
 bool IsIdentityTransformer(const Element& e) {
-  if (e.kind != ElementKind::kTF) return false;
+  if (e.kind != ElementKind::kTF || !e.value.empty()) return false;
   if (e.param.is_scalar) return e.param.scalar == 1.0;
   const Eigen::MatrixXd& m = e.param.matrix;
   return m.rows() == m.cols() && m == Eigen::MatrixXd::Identity(m.rows(), m.cols());
@@ -84,6 +84,8 @@ void CompiledModel::AssignSlots() {
     name_class(effort_class_[b], g.bond(b).name + ".e");
     name_class(flow_class_[b], g.bond(b).name + ".f");
   }
+
+  AssignSignalSlots();  // formulas.cc: signals, signal states' rates
 
   // --- Ideal constraints: one multiplier per dimension of each. ---
   for (ConstraintGroup& cg : constraints_) {
@@ -200,8 +202,13 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
     emit(in, out_class, {in_class}, {Definition::Kind::kLinear, element, {{in_class, 1.0, symbol}}});
   };
 
+  auto emit_formula = [&](FormulaInstr& fi) { emit(fi.in, fi.out_class, std::move(fi.reads), std::move(fi.def)); };
   for (int i = 0; i < g.num_elements(); ++i) {
     const Element& e = g.element(i);
+    if (HasFormulas(e)) {  // formulas.cc
+      for (FormulaInstr& fi : FormulaInstructions(i)) emit_formula(fi);
+      continue;
+    }
     switch (e.kind) {
       case ElementKind::kSe:
       case ElementKind::kSf: {
@@ -356,6 +363,7 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
       }
     }
   }
+  for (FormulaInstr& fi : SignalInstructions()) emit_formula(fi);
   for (int c = 0; c < nclasses; ++c)
     MB_ASSERT(writer[c] >= 0, "slot '" + class_names_[c] + "' has no writer after causality");
 

@@ -47,6 +47,24 @@ void CompiledModel::LayoutStates() {
   }
   for (size_t a = 0; a < g.aux_states().size(); ++a) {
     const AuxState& s = g.aux_states()[a];
+    if (s.kind == AuxState::Kind::kLag || s.kind == AuxState::Kind::kPid ||
+        (s.kind == AuxState::Kind::kIntegral && s.rate.given())) {
+      // A signal state: its derivative is a formula's slot (formulas.cc, AssignSignalSlots).
+      auto signal_state = [&](const std::string& name, const std::string& rate, double initial) {
+        const int blk = add_block(StateBlock::Kind::kIntegral, static_cast<int>(a), 1, name, {}, s.unit.empty() ? "-" : s.unit);
+        blocks_[blk].rate_class = internal_class_.at(rate);
+        x0.push_back(initial);
+        return blk;
+      };
+      const double initial = s.initial.size() == 1 ? s.initial(0, 0) : 0.0;
+      if (s.kind == AuxState::Kind::kPid) {
+        aux_block_[a] = signal_state(s.name + ".i", s.name + ".i.rate", initial);
+        if (s.pid.kd > 0.0) signal_state(s.name + ".d", s.name + ".d.rate", 0.0);
+      } else {
+        aux_block_[a] = signal_state(s.name, s.name + ".rate", initial);
+      }
+      continue;
+    }
     const int of = g.Find(s.of);
     const int b = g.element(of).bonds.front(), n = dim[b];
     if (s.kind == AuxState::Kind::kOrientation) {
@@ -108,6 +126,7 @@ void CompiledModel::BuildGathers() {
 }
 
 int CompiledModel::derivative_source(const StateBlock& b) const {
+  if (b.rate_class >= 0) return b.rate_class;
   switch (b.kind) {
     case StateBlock::Kind::kMomentum:
       return effort_class_[graph_.element(b.owner).bonds.front()];
@@ -141,6 +160,9 @@ void CompiledModel::IndexVariables() {
 }
 
 std::optional<VariableRef> CompiledModel::FindVariable(const std::string& name) const {
+  // Signals ("u", "pid.u"): a slot of their own.
+  if (const auto it = signal_class_.find(name); it != signal_class_.end())
+    return VariableRef{VariableRef::In::kSlot, class_offset_[it->second], 1, class_units_[it->second], {}};
   // States by full name of their block ("mass.p", "A.R", "A.r").
   if (const auto it = block_by_name_.find(name); it != block_by_name_.end()) {
     const StateBlock& b = blocks_[it->second];

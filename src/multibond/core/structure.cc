@@ -26,6 +26,8 @@ int OwnDim(const Element& e) {
     if (e.kind == ElementKind::kI && !e.rotation.empty()) return 3;
     if (!e.param.is_scalar) return e.param.rows();
     if (IsSource(e.kind) && e.source.components.size() > 1) return static_cast<int>(e.source.components.size());
+    if (IsSource(e.kind) && e.value.size() > 1) return static_cast<int>(e.value.size());
+    if (e.law_effort.given() || e.law_flow.given() || e.energy.given()) return 1;  // laws are scalar
     if (e.initial.size() > 1) return static_cast<int>(e.initial.size());
   }
   return 0;
@@ -166,7 +168,10 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
       bad("parameter is not a finite number", "give a finite value");
       continue;
     }
-    switch (e.kind) {
+    const bool formulas = e.law_effort.given() || e.law_flow.given() || e.energy.given() || !e.value.empty();
+    if (formulas && IsSource(e.kind) && e.value.size() != 1 && static_cast<int>(e.value.size()) != n)
+      bad(fmt::format("source has {} formulas but its bond is {}-dimensional", e.value.size(), n), "give one formula per component, or one for all");
+    switch (formulas ? ElementKind::kOne : e.kind) {  // an element given by formulas has no parameters to check
       case ElementKind::kI:
         if (m ? !IsPositiveDefinite(*m) : !(v > 0))
           bad(m ? "inertia matrix must be symmetric positive definite" : fmt::format("inertia must be > 0 (got {:g})", v),
@@ -208,6 +213,7 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
       bad(fmt::format("initial value has {} components, the bond {}", e.initial.size(), n), "give one initial value per component");
   }
   for (const AuxState& a : g.aux_states()) {
+    if (a.kind == AuxState::Kind::kLag || a.kind == AuxState::Kind::kPid || a.rate.given()) continue;  // signal states integrate formulas
     const int of = g.Find(a.of);
     if (of < 0) {
       sink.Error(a.where, a.name, fmt::format("state integrates the flow of '{}', which does not exist", a.of), "name a 1-junction or a one-port element");

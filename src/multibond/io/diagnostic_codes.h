@@ -46,6 +46,14 @@ enum class Outcome {
   X(kParamShape, "param.shape", kModelError, "a constraint with a number of compliances that fits none of its components")   \
   X(kParamSingular, "param.singular", kModelError, "a resistor in conductance causality with a singular resistance")         \
   X(kExprTooLarge, "expr.too_large", kModelError, "a formula that needs more than 256 intermediate values at once")       \
+  X(kExprUnknownVariable, "expr.unknown_variable", kModelError,                                                               \
+    "a name in a formula that is no parameter, signal, state or variable of the model (found when it is compiled)")           \
+  X(kExprVectorLaw, "expr.vector_law", kModelError, "a law given by a formula on a bond of more than one component")          \
+  X(kExprUnsupported, "expr.unsupported", kModelError,                                                                         \
+    "a formula where formulas are not supported yet: with ideal constraints, or in an algebraic loop solved by tearing")      \
+  X(kLawEnergy, "law.energy", kModelError, "a stored energy that is not a function of its element's own state alone")         \
+  X(kLawForm, "law.form", kModelError,                                                                                         \
+    "a resistor whose causality needs the form of its law (effort of f, or flow of e) that is not given")                    \
   X(kCausalityConflict, "causality.conflict", kModelError,                                                                     \
     "two elements impose the same effort or flow (two Se on a 0-junction, two Sf on a 1-junction, both ports of a two-port " \
     "given the same variable)")                                                                                                \

@@ -15,6 +15,17 @@
 
 namespace multibond {
 
+void ModelSystem::CheckFormulas(double t, const double* x, const double* xdot) {
+  const int n = model_.num_states();
+  bool finite = true;
+  for (int i = 0; i < n; ++i) finite = finite && std::isfinite(xdot[i]);
+  if (finite) return;
+  for (int i = 0; i < n; ++i)
+    if (!std::isfinite(x[i])) return;  // a diverging trial state: the integrator's to reject
+  const std::string why = model_.DiagnoseFormulas(t, x, ws_);
+  if (!why.empty()) throw FormulaFault(why);
+}
+
 namespace {
 
 /// How to compute one output column. Built together with the column names, so that a name and
@@ -397,6 +408,13 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   // Derivatives that are already infinite or NaN at the start (parameters or initial values that
   // overflow) would only make the solver fail at a step size of zero, or at t = NaN, with its own
   // words: said here by name.
+  if (started && !xdot.allFinite() && model.has_formulas() && x.allFinite()) {
+    if (const std::string why = model.DiagnoseFormulas(options.t_start, x.data(), ws); !why.empty()) {
+      summary.status = RunStatus::kFailed;
+      summary.message = fmt::format("at t = {:.9g} s: {}", options.t_start, why);
+      started = false;
+    }
+  }
   if (started && !xdot.allFinite()) {
     summary.status = RunStatus::kFailed;
     summary.message = fmt::format("at t = {:.9g} s: the derivatives of the initial state are not finite (infinite or NaN): {}; "

@@ -34,14 +34,23 @@ class ModelSystem : public OdeSystem {
   void CalcDerivatives(double t, const double* x, double* xdot) override {
     if (stop_ && stop_->load(std::memory_order_relaxed)) throw RunInterrupted();
     model_.CalcStateDerivatives(t, x, xdot, ws_);
+    if (model_.has_formulas()) CheckFormulas(t, x, xdot);
   }
   bool has_invariants() const override { return model_.has_invariants(); }
   /// Orientations onto SO(3) and, with ideal constraints, momenta onto the constraints at t.
   void Project(double t, double* x) override { model_.Project(t, x, ws_); }
   const JacobianPattern* jacobian_pattern() const override { return model_.jacobian_pattern(); }
   Workspace& workspace() { return ws_; }
+  /// Thrown when a formula gives a value that is not finite from finite inputs (a division by
+  /// zero, the root of a negative number): the run stops there with the element, the formula and
+  /// the time, instead of the integrator's step-size failure.
+  struct FormulaFault : std::runtime_error {
+    using std::runtime_error::runtime_error;
+  };
 
  private:
+  /// A non-finite derivative from a finite state: a formula's fault? (simulator.cc)
+  void CheckFormulas(double t, const double* x, const double* xdot);
   const CompiledModel& model_;
   Workspace ws_;
   const std::atomic<bool>* stop_;

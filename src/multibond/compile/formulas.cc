@@ -1,0 +1,469 @@
+/// \file
+/// Formulas into the plan (docs/design.md, "Formulas"): the signals' slots, the names a formula
+/// may read, and the kExpr instructions of elements whose laws, values or ratios are formulas,
+/// of signals and of signal states (a rate's integral, a lag, a PID). A formula is a tree
+/// (core/expression.h); the engine writes its own equations as trees too (a transformer's
+/// `r f1`, a lag's `(u - x) / T`), so that one compiler (compile/expr_program.h) turns every one
+/// into a program for the interpreter and the code generator alike.
+
+#include <cmath>
+#include <functional>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "multibond/compile/compiled_model.h"
+#include "multibond/compile/symbolic.h"
+
+namespace multibond {
+namespace {
+
+using expr::Node;
+using expr::NodePtr;
+
+// Names the engine gives the slots and states it reads in the trees it writes. The parser reads
+// identifiers only, so no model formula can name them.
+NodePtr SlotRef(int offset) { return expr::Name("#w" + std::to_string(offset)); }
+NodePtr StateRef(int offset) { return expr::Name("#x" + std::to_string(offset)); }
+
+/// The tree with every name that `replace` answers replaced (the rest kept; offsets kept).
+NodePtr Substitute(const NodePtr& n, const std::function<NodePtr(const Node&)>& replace) {
+  if (n->kind == Node::Kind::kName) {
+    NodePtr r = replace(*n);
+    return r ? r : n;
+  }
+  if (n->args.empty()) return n;
+  auto copy = std::make_shared<Node>(*n);
+  bool changed = false;
+  for (NodePtr& a : copy->args) {
+    NodePtr b = Substitute(a, replace);
+    changed = changed || b != a;
+    a = std::move(b);
+  }
+  return changed ? NodePtr(copy) : n;
+}
+
+/// `name` in the tree becomes `by`.
+NodePtr Replace(const NodePtr& n, const std::string& name, const NodePtr& by) {
+  return Substitute(n, [&](const Node& m) { return m.name == name ? by : nullptr; });
+}
+
+NodePtr Signed(double sign, NodePtr a) { return sign < 0 ? expr::Unary(Node::Kind::kNeg, std::move(a)) : a; }
+
+SourceLocation At(const Formula* f, int offset) {
+  if (!f) return {};
+  SourceLocation w = f->where;
+  if (w.known()) w.column += offset;
+  return w;
+}
+
+/// The readable form of a tree: the engine's own names shown as the variables they are.
+std::string Readable(const Node& root, const std::function<std::string(const std::string&)>& name_of) {
+  NodePtr shown = Substitute(std::make_shared<Node>(root), [&](const Node& m) -> NodePtr {
+    if (m.name.empty() || m.name[0] != '#') return nullptr;
+    return expr::Name(name_of(m.name));
+  });
+  return expr::Format(*shown);
+}
+
+}  // namespace
+
+bool CompiledModel::HasFormulas(const Element& e) {
+  return e.law_effort.given() || e.law_flow.given() || e.energy.given() || !e.value.empty();
+}
+
+int CompiledModel::AddSignalClass(const std::string& name, const std::string& unit, bool visible) {
+  const int c = static_cast<int>(class_offset_.size());
+  class_offset_.push_back(num_slots_);
+  class_size_.push_back(1);
+  class_units_.push_back(unit.empty() ? "-" : unit);
+  class_names_.push_back(name);
+  num_slots_ += 1;
+  (visible ? signal_class_ : internal_class_).emplace(name, c);
+  return c;
+}
+
+void CompiledModel::AssignSignalSlots() {
+  const BondGraph& g = graph_;
+  for (const Signal& s : g.signals()) AddSignalClass(s.name, s.unit, true);
+  for (const AuxState& a : g.aux_states()) {
+    switch (a.kind) {
+      case AuxState::Kind::kIntegral:
+        if (a.rate.given()) AddSignalClass(a.name + ".rate", "", false);
+        break;
+      case AuxState::Kind::kLag:
+        AddSignalClass(a.name + ".rate", "", false);
+        break;
+      case AuxState::Kind::kPid:
+        AddSignalClass(a.name + ".e", "", false);
+        AddSignalClass(a.name + ".u_raw", "", false);
+        AddSignalClass(a.name + ".u", "", true);
+        AddSignalClass(a.name + ".i.rate", "", false);
+        if (a.pid.kd > 0.0) AddSignalClass(a.name + ".d.rate", "", false);
+        break;
+      case AuxState::Kind::kOrientation:
+        break;
+    }
+  }
+  class_of_slot_.assign(num_slots_, -1);
+  for (int c = 0; c < num_slot_classes(); ++c)
+    for (int k = 0; k < class_size_[c]; ++k) class_of_slot_[class_offset_[c] + k] = c;
+}
+
+int CompiledModel::CompileFormula(const NodePtr& root, const FormulaScope& scope) {
+  auto fail = [&](const Node& n, const std::string& code, const std::string& message, const std::string& hint) {
+    Diagnostic d;
+    d.code = code;
+    d.where = At(scope.formula, n.offset);
+    d.element = scope.element >= 0 ? graph_.element(scope.element).name : "";
+    d.message = message;
+    d.hint = hint;
+    if (scope.formula) d.details.push_back("in " + scope.what + ": " + scope.formula->text);
+    throw ModelError(d);
+  };
+  const expr::Resolver resolve = [&](const Node& n) -> expr::Input {
+    const std::string& name = n.name;
+    if (name.size() > 2 && name[0] == '#') {
+      const int offset = std::stoi(name.substr(2));
+      return {name[1] == 'w' ? expr::Input::In::kSlot : expr::Input::In::kState, offset, 0.0};
+    }
+    if (name == "t") return {expr::Input::In::kTime, 0, 0.0};
+    if (name == "pi") return {expr::Input::In::kConstant, 0, M_PI};
+    if (const auto it = signal_class_.find(name); it != signal_class_.end())
+      return {expr::Input::In::kSlot, class_offset_[it->second], 0.0};
+    auto read = [&](const VariableRef& v, int k) {
+      return expr::Input{v.in == VariableRef::In::kState ? expr::Input::In::kState : expr::Input::In::kSlot, v.offset + k, 0.0};
+    };
+    if (const auto v = FindVariable(name)) {
+      if (v->size == 1) return read(*v, 0);
+      fail(n, "expr.unknown_variable", fmt::format("'{}' has {} components; a formula reads one", name, v->size),
+           fmt::format("name a component: {}.{}", name, v->components.empty() ? "1" : v->components.front()));
+    }
+    if (const auto dot = name.rfind('.'); dot != std::string::npos) {
+      if (const auto v = FindVariable(name.substr(0, dot))) {
+        const std::string comp = name.substr(dot + 1);
+        for (int k = 0; k < static_cast<int>(v->components.size()); ++k)
+          if (v->components[k] == comp) return read(*v, k);
+        std::string list;
+        for (const std::string& c : v->components) list += (list.empty() ? "" : ", ") + c;
+        fail(n, "expr.unknown_variable", fmt::format("'{}' has no component '{}'", name.substr(0, dot), comp),
+             list.empty() ? "it is a scalar: leave the component out" : "its components are " + list);
+      }
+    }
+    fail(n, "expr.unknown_variable", fmt::format("unknown name '{}' in {}", name, scope.what),
+         "a formula reads parameters, signals, t, pi and model variables such as spring.q, j.f or gear.e2 "
+         "(`multibond check` lists them); in a law, the element's own variable is q (C), p (I), f or e (R)");
+    return {};
+  };
+  programs_.push_back(expr::CompileProgram(*root, resolve));
+  return static_cast<int>(programs_.size()) - 1;
+}
+
+CompiledModel::FormulaInstr CompiledModel::MakeFormulaInstr(int element, int out_class, int first, int n) {
+  FormulaInstr fi;
+  fi.in = Instr{};
+  fi.in.op = Op::kExpr;
+  fi.in.element = element;
+  fi.in.n = n;
+  fi.in.m = 0;
+  fi.in.coef = first;
+  fi.out_class = out_class;
+  for (int k = 0; k < n; ++k)
+    for (const expr::Input& put : programs_[first + k].inputs)
+      if (put.in == expr::Input::In::kSlot) fi.reads.push_back(class_of_slot_[put.offset]);
+  fi.def.kind = Definition::Kind::kFormula;
+  fi.def.element = element;
+  return fi;
+}
+
+std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int i) {
+  const BondGraph& g = graph_;
+  const Element& e = g.element(i);
+  const auto& dim = structure_.bond_dim;
+  std::vector<FormulaInstr> out;
+  auto name_of = [&](const std::string& internal) -> std::string {
+    const int offset = std::stoi(internal.substr(2));
+    if (internal[1] == 'x') return state_names_[offset];
+    return class_names_[class_of_slot_[offset]];
+  };
+  // One program per output component, from `tree(k)`, into class `out_class`.
+  auto emit = [&](int out_class, int n, const std::function<NodePtr(int)>& tree, const Formula* f, const std::string& what) {
+    const int first = static_cast<int>(programs_.size());
+    std::string shown;
+    for (int k = 0; k < n; ++k) {
+      const NodePtr t = tree(k);
+      CompileFormula(t, FormulaScope{f, i, what});
+      if (k == 0) shown = Readable(*t, name_of);
+    }
+    FormulaInstr fi = MakeFormulaInstr(i, out_class, first, n);
+    fi.def.formula = shown;
+    out.push_back(std::move(fi));
+  };
+  auto scalar_only = [&](int b, const Formula& f) {
+    if (dim[b] == 1) return;
+    Diagnostic d;
+    d.code = "expr.vector_law";
+    d.where = f.where;
+    d.element = e.name;
+    d.message = fmt::format("a law given by a formula needs a scalar bond; this one has {} components", dim[b]);
+    d.hint = "split the element into scalar ones, or give a matrix instead of a formula";
+    throw ModelError(d);
+  };
+
+  switch (e.kind) {
+    case ElementKind::kSe:
+    case ElementKind::kSf: {
+      const int b = e.bonds.front();
+      const int cls = e.kind == ElementKind::kSe ? effort_class_[b] : flow_class_[b];
+      const std::string what = fmt::format("the {} of {}", e.kind == ElementKind::kSe ? "effort" : "flow", e.name);
+      emit(cls, dim[b], [&](int k) { return e.value[e.value.size() == 1 ? 0 : k].root; }, &e.value.front(), what);
+      break;
+    }
+    case ElementKind::kC:
+    case ElementKind::kI: {
+      const bool inertia = e.kind == ElementKind::kI;
+      const int b = e.bonds.front();
+      const Formula& given = e.energy.given() ? e.energy : inertia ? e.law_flow : e.law_effort;
+      scalar_only(b, given);
+      const char* own = inertia ? "p" : "q";
+      NodePtr law = given.root;
+      if (e.energy.given()) {
+        // The law is the energy's derivative in the element's own state; the energy must be a
+        // function of that state alone (else the account would not balance).
+        if (!expr::DependsOn(*e.energy.root, own)) {
+          Diagnostic d;
+          d.code = "law.energy";
+          d.where = e.energy.where;
+          d.element = e.name;
+          d.message = fmt::format("the stored energy '{}' is not a function of {}", e.energy.text, own);
+          d.hint = fmt::format("write the energy in the element's own {} ({})", inertia ? "momentum" : "displacement", own);
+          throw ModelError(d);
+        }
+        for (const Node* n : expr::Names(*e.energy.root))
+          if (n->name != own && n->name != "pi") {
+            Diagnostic d;
+            d.code = "law.energy";
+            d.where = At(&e.energy, n->offset);
+            d.element = e.name;
+            d.message = fmt::format("the stored energy may depend on {} and parameters only, not on '{}'", own, n->name);
+            d.hint = "a stored energy is a function of the element's own state; use a law (`effort:`/`flow:`) for other dependencies";
+            throw ModelError(d);
+          }
+        law = expr::Differentiate(*e.energy.root, own);
+      }
+      const int state = blocks_[element_block_[i]].offset;
+      const double sigma = inertia ? 1.0 : g.PowerSign(b, i);
+      const NodePtr tree = Signed(sigma, Replace(law, own, StateRef(state)));
+      const std::string what = fmt::format("the {} law of {}", inertia ? "flow" : "effort", e.name);
+      emit(inertia ? flow_class_[b] : effort_class_[b], 1, [&](int) { return tree; }, &given, what);
+      break;
+    }
+    case ElementKind::kR: {
+      const int b = e.bonds.front();
+      const double sigma = g.PowerSign(b, i);
+      const bool effort_out = !causality_.EffortInto(g, b, i);
+      const Formula& law = effort_out ? e.law_effort : e.law_flow;
+      if (!law.given()) {
+        const Formula& other = effort_out ? e.law_flow : e.law_effort;
+        Diagnostic d;
+        d.code = "law.form";
+        d.where = other.where;
+        d.element = e.name;
+        d.message = effort_out ? "the causality gives this resistor its flow and needs its effort, but only `flow:` (of e) is given"
+                               : "the causality gives this resistor its effort and needs its flow, but only `effort:` (of f) is given";
+        d.hint = effort_out ? "add `effort:` as a formula of f (the inverse law)" : "add `flow:` as a formula of e (the inverse law)";
+        throw ModelError(d);
+      }
+      scalar_only(b, law);
+      // The resistor sees the effort sigma e and the flow f (graph.h's sign rules).
+      if (effort_out) {
+        const NodePtr tree = Signed(sigma, Replace(law.root, "f", SlotRef(class_offset_[flow_class_[b]])));
+        emit(effort_class_[b], 1, [&](int) { return tree; }, &law, "the effort law of " + e.name);
+      } else {
+        const NodePtr tree = Replace(law.root, "e", Signed(sigma, SlotRef(class_offset_[effort_class_[b]])));
+        emit(flow_class_[b], 1, [&](int) { return tree; }, &law, "the flow law of " + e.name);
+      }
+      break;
+    }
+    case ElementKind::kTF:
+    case ElementKind::kGY: {
+      // A scalar ratio r(t, x, ...): TF f2 = r f1, e1 = r e2 (or e2 = e1 / r, f1 = f2 / r);
+      // GY e2 = r f1, e1 = r f2 (or f2 = e1 / r, f1 = e2 / r).
+      const int b1 = structure_.port_in[i], b2 = structure_.port_out[i];
+      const bool gyrator = e.kind == ElementKind::kGY;
+      const bool forward = !causality_.EffortInto(g, b1, i);
+      const NodePtr r = e.value.front().root;
+      struct Eq { int out, in; };
+      Eq eq[2];
+      if (!gyrator) {
+        eq[0] = forward ? Eq{flow_class_[b2], flow_class_[b1]} : Eq{effort_class_[b2], effort_class_[b1]};
+        eq[1] = forward ? Eq{effort_class_[b1], effort_class_[b2]} : Eq{flow_class_[b1], flow_class_[b2]};
+      } else {
+        eq[0] = forward ? Eq{effort_class_[b2], flow_class_[b1]} : Eq{flow_class_[b2], effort_class_[b1]};
+        eq[1] = forward ? Eq{effort_class_[b1], flow_class_[b2]} : Eq{flow_class_[b1], effort_class_[b2]};
+      }
+      for (const Eq& q : eq) {
+        const int n = class_size_[q.out];
+        emit(q.out, n, [&](int k) {
+          const NodePtr u = SlotRef(class_offset_[q.in] + k);
+          return forward ? expr::Binary(Node::Kind::kMul, r, u) : expr::Binary(Node::Kind::kDiv, u, r);
+        }, &e.value.front(), "the ratio of " + e.name);
+      }
+      break;
+    }
+    default: {
+      Diagnostic d;
+      d.code = "expr.unsupported";
+      d.where = e.where;
+      d.element = e.name;
+      d.message = fmt::format("a {} cannot be given by a formula", KindName(e.kind));
+      throw ModelError(d);
+    }
+  }
+  return out;
+}
+
+std::vector<CompiledModel::FormulaInstr> CompiledModel::SignalInstructions() {
+  const BondGraph& g = graph_;
+  std::vector<FormulaInstr> out;
+  auto cls = [&](const std::string& name) { return internal_class_.at(name); };
+  auto name_of = [&](const std::string& internal) -> std::string {
+    const int offset = std::stoi(internal.substr(2));
+    if (internal[1] == 'x') return state_names_[offset];
+    return class_names_[class_of_slot_[offset]];
+  };
+  auto emit = [&](int out_class, const NodePtr& tree, const Formula* f, const std::string& what) {
+    const int first = CompileFormula(tree, FormulaScope{f, -1, what});
+    FormulaInstr fi = MakeFormulaInstr(-1, out_class, first, 1);
+    fi.def.formula = Readable(*tree, name_of);
+    out.push_back(std::move(fi));
+  };
+  using K = Node::Kind;
+  auto num = [](double v) { return expr::Number(v); };
+  for (const Signal& s : g.signals()) emit(signal_class_.at(s.name), s.value.root, &s.value, "the signal " + s.name);
+  for (size_t a = 0; a < g.aux_states().size(); ++a) {
+    const AuxState& s = g.aux_states()[a];
+    const StateBlock& blk = blocks_[aux_block_[a]];
+    const NodePtr self = StateRef(blk.offset);
+    switch (s.kind) {
+      case AuxState::Kind::kIntegral:
+        if (s.rate.given()) emit(blk.rate_class, s.rate.root, &s.rate, "the rate of " + s.name);
+        break;
+      case AuxState::Kind::kLag: {
+        const NodePtr rate = expr::Binary(K::kDiv, expr::Binary(K::kSub, s.input.root, self), num(s.time_constant));
+        emit(blk.rate_class, rate, &s.input, "the input of " + s.name);
+        break;
+      }
+      case AuxState::Kind::kPid: {
+        const AuxState::Pid& p = s.pid;
+        const int c_e = cls(s.name + ".e"), c_raw = cls(s.name + ".u_raw"), c_u = signal_class_.at(s.name + ".u");
+        emit(c_e, s.input.root, &s.input, "the input of " + s.name);
+        const NodePtr e = SlotRef(class_offset_[c_e]);
+        NodePtr raw = expr::Binary(K::kAdd, expr::Binary(K::kMul, num(p.kp), e), expr::Binary(K::kMul, num(p.ki), self));
+        NodePtr d_rate;
+        if (p.kd > 0.0) {
+          const NodePtr d = StateRef(blocks_[aux_block_[a] + 1].offset);
+          d_rate = expr::Binary(K::kDiv, expr::Binary(K::kSub, e, d), num(p.tf));
+          raw = expr::Binary(K::kAdd, raw, expr::Binary(K::kMul, num(p.kd), d_rate));
+        }
+        emit(c_raw, raw, &s.input, "the controller " + s.name);
+        const NodePtr r = SlotRef(class_offset_[c_raw]);
+        const bool lo = std::isfinite(p.u_min), hi = std::isfinite(p.u_max);
+        const NodePtr u = lo && hi ? expr::Call(expr::Fn::kClamp, {r, num(p.u_min), num(p.u_max)})
+                          : lo     ? expr::Call(expr::Fn::kMax, {r, num(p.u_min)})
+                          : hi     ? expr::Call(expr::Fn::kMin, {r, num(p.u_max)})
+                                   : r;
+        emit(c_u, u, &s.input, "the output of " + s.name);
+        // Back-calculation: while the output is limited, the integral is pulled back at the rate
+        // 1 / tt (Astrom and Hagglund); tt defaults to sqrt(Ti Td) = sqrt(kd / ki), else Ti = kp / ki.
+        const double tt = p.tt > 0.0 ? p.tt : p.kd > 0.0 && p.ki > 0.0 ? std::sqrt(p.kd / p.ki) : p.ki > 0.0 && p.kp > 0.0 ? p.kp / p.ki : 1.0;
+        const NodePtr i_rate =
+            p.ki > 0.0 ? expr::Binary(K::kAdd, e, expr::Binary(K::kDiv, expr::Binary(K::kSub, SlotRef(class_offset_[c_u]), r), num(p.ki * tt)))
+                       : num(0.0);
+        emit(blk.rate_class, i_rate, &s.input, "the integral of " + s.name);
+        if (p.kd > 0.0) emit(blocks_[aux_block_[a] + 1].rate_class, d_rate, &s.input, "the derivative filter of " + s.name);
+        break;
+      }
+      case AuxState::Kind::kOrientation:
+        break;
+    }
+  }
+  return out;
+}
+
+void CompiledModel::AccountFormulaEnergy(int element, int term) {
+  const Element& e = graph_.element(element);
+  EnergyTerm& et = energy_terms_[term];
+  const char* own = e.kind == ElementKind::kI ? "p" : "q";
+  std::optional<NodePtr> energy;
+  const Formula* f = &e.energy;
+  if (e.energy.given()) {
+    energy = e.energy.root;
+  } else {
+    f = e.kind == ElementKind::kI ? &e.law_flow : &e.law_effort;
+    energy = expr::IntegrateFromZero(*f->root, own);
+  }
+  if (energy) {
+    et.program = CompileFormula(Replace(*energy, own, StateRef(et.state)), FormulaScope{f, element, "the stored energy of " + e.name});
+  } else {
+    et.law = static_cast<int>(energy_laws_.size());
+    energy_laws_.push_back({f->root, own});
+  }
+}
+
+void CompiledModel::CheckFormulaUse() const {
+  if (programs_.empty()) return;
+  auto refuse = [&](int element, const std::string& message, const std::string& hint) {
+    Diagnostic d;
+    d.code = "expr.unsupported";
+    if (element >= 0) {
+      d.where = graph_.element(element).where;
+      d.element = graph_.element(element).name;
+    }
+    d.message = message;
+    d.hint = hint;
+    throw ModelError(d);
+  };
+  for (const Instr& in : plan_) {
+    if (in.op != Op::kExpr) continue;
+    if (!constraints_.empty())
+      refuse(in.element, "formulas in a model with ideal constraints are not supported yet",
+             "use compliant joints (constraints: compliant), or constant parameters");
+  }
+  for (int at : tear_closure_)
+    if (plan_[at].op == Op::kExpr)
+      refuse(plan_[at].element, "an algebraic loop runs through a formula; only linear loops are solved",
+             "add a storage element in the loop, or break it with a lag (states: {kind: lag})");
+}
+
+std::string CompiledModel::DiagnoseFormulas(double t, const double* x, Workspace& ws) const {
+  double* w = ws.slots.data();
+  if (!needed_moduli_.empty()) EvalModuli(x, ws.moduli.data());
+  const plan::ExecArgs args{t, x, w, w, ws.moduli.data(), ws.lambda.data(), tables()};
+  for (const Instr& in : plan_) {
+    plan::Exec(in, args);
+    if (in.op != Op::kExpr) continue;
+    for (int k = 0; k < in.n; ++k) {
+      if (std::isfinite(w[in.dst + k])) continue;
+      const expr::Program& p = programs_[in.coef + k];
+      std::string reads;
+      bool inputs_finite = true;
+      for (const expr::Input& put : p.inputs) {
+        if (put.in != expr::Input::In::kState && put.in != expr::Input::In::kSlot) continue;
+        const bool state = put.in == expr::Input::In::kState;
+        const double v = state ? x[put.offset] : w[put.offset];
+        inputs_finite = inputs_finite && std::isfinite(v);
+        const std::string name = state ? state_names_[put.offset] : class_names_[class_of_slot_[put.offset]];
+        reads += fmt::format("{}{} = {:.9g}", reads.empty() ? "" : ", ", name, v);
+      }
+      if (!inputs_finite) continue;  // a diverging state: not this formula's fault
+      const int cls = class_of_slot_[in.dst];
+      const std::string who = in.element >= 0 ? graph_.element(in.element).name : class_names_[cls];
+      return fmt::format("the formula of {} for {} `{}` gives {} at t = {:.9g} s{}", who, class_names_[cls],
+                         definitions_[cls].formula, w[in.dst + k], t, reads.empty() ? "" : " (it reads " + reads + ")");
+    }
+  }
+  return {};
+}
+
+}  // namespace multibond

@@ -1,0 +1,321 @@
+// Formulas in the plan (compile/formulas.cc): nonlinear storage from an energy or a law, nonlinear
+// resistors, sources and ratios of model variables, signals and signal states, each against a
+// closed form or a conservation law; the interpreter and the generated code give the same bits;
+// and the located errors.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "multibond/compile/compiled_model.h"
+#include "multibond/compile/equations.h"
+#include "multibond/sim/simulator.h"
+
+namespace multibond {
+namespace {
+
+using ::testing::HasSubstr;
+
+Formula F(const std::string& text) {
+  const expr::ParseResult r = expr::Parse(text);
+  EXPECT_FALSE(r.error) << text << ": " << (r.error ? r.error->message : "");
+  return Formula{text, r.root, SourceLocation{"model.yaml", 7, 20}};
+}
+
+RecordingObserver Simulated(const CompiledModel& m, double t_end, double dt, Method method = Method::kDormandPrince) {
+  RunOptions o;
+  o.t_end = t_end;
+  o.dt = dt;
+  o.integrator.method = method;
+  o.integrator.rtol = 1e-11;
+  o.integrator.atol = 1e-13;
+  RecordingObserver rec;
+  const RunSummary s = Simulate(m, o, rec);
+  EXPECT_EQ(s.status, RunStatus::kOk) << s.message;
+  return rec;
+}
+
+/// Times at which column `name` crosses zero downwards, by linear interpolation between samples.
+std::vector<double> DownCrossings(const RecordingObserver& rec, const std::string& name) {
+  const int c = rec.Index(name), t = rec.Index("time");
+  std::vector<double> out;
+  for (size_t k = 1; k < rec.rows().size(); ++k) {
+    const double a = rec.rows()[k - 1][c], b = rec.rows()[k][c];
+    if (a > 0 && b <= 0) {
+      const double ta = rec.rows()[k - 1][t], tb = rec.rows()[k][t];
+      out.push_back(ta + (tb - ta) * a / (a - b));
+    }
+  }
+  return out;
+}
+
+/// A mass m on a spring whose energy is `energy` (of q), released from q0.
+BondGraph Oscillator(const std::string& energy_or_law, bool is_energy, double m, double q0) {
+  BondGraph g("oscillator");
+  g.AddJunction("v", ElementKind::kOne);
+  g.AddI("mass", Param::Scalar(m));
+  Element spring;
+  spring.name = "spring";
+  spring.kind = ElementKind::kC;
+  (is_energy ? spring.energy : spring.law_effort) = F(energy_or_law);
+  spring.initial = Eigen::VectorXd::Constant(1, q0);
+  g.Add(spring);
+  g.Connect("v", "mass");
+  g.Connect("v", "spring");
+  return g;
+}
+
+/// Simpson's rule on n (even) intervals: the test's own quadrature of closed-form integrals.
+template <typename Fn>
+double Simpson(Fn f, double a, double b, int n) {
+  const double h = (b - a) / n;
+  double s = f(a) + f(b);
+  for (int k = 1; k < n; ++k) s += (k % 2 ? 4.0 : 2.0) * f(a + k * h);
+  return s * h / 3.0;
+}
+
+TEST(Formulas, DuffingFromItsEnergyKeepsItAndHasTheEnergyIntegralsPeriod) {
+  // V(q) = 1/2 k1 q^2 + 1/4 k3 q^4 with k1 = 1, k3 = 10; m = 1, from rest at q0 = 1.
+  const double k1 = 1.0, k3 = 10.0, q0 = 1.0, m = 1.0;
+  auto V = [&](double q) { return 0.5 * k1 * q * q + 0.25 * k3 * q * q * q * q; };
+  const auto model = CompiledModel::Compile(Oscillator("1/2*1*q^2 + 1/4*10*q^4", true, m, q0));
+  // T = 4 int_0^q0 dq / sqrt(2 (V(q0) - V(q)) / m), with q = q0 sin(th) to lift the singularity.
+  const double period = 4.0 * Simpson([&](double th) {
+    const double c = std::cos(th);
+    const double d = V(q0) - V(q0 * std::sin(th));
+    return d > 0 ? q0 * c / std::sqrt(2.0 * d / m) : q0 / std::sqrt(q0 * (k1 * q0 + k3 * q0 * q0 * q0) / m);
+  }, 0.0, M_PI / 2, 20000);
+  const RecordingObserver rec = Simulated(*model, 3.0 * period, 1e-4);
+  const std::vector<double> down = DownCrossings(rec, "spring.q");
+  ASSERT_GE(down.size(), 3u);
+  EXPECT_NEAR(down[2] - down[1], period, 1e-6 * period);
+  // Energy: kinetic + the formula's stored energy stays V(q0) (nothing dissipates).
+  const int ek = rec.Index("energy.kinetic"), ep = rec.Index("energy.potential");
+  for (const auto& row : rec.rows()) EXPECT_NEAR(row[ek] + row[ep], V(q0), 1e-8);
+  EXPECT_NEAR(rec.rows().front()[ep], V(q0), 1e-15);
+}
+
+TEST(Formulas, ALawsEnergyIsItsIntegralInClosedFormOrByQuadrature) {
+  // effort = k1 q + k3 q^3: stored energy 1/2 k1 q^2 + 1/4 k3 q^4 (GiNaC integrates it).
+  const auto poly = CompiledModel::Compile(Oscillator("q + 10*q^3", false, 1.0, 0.5));
+  Eigen::VectorXd x = poly->MakeInitialState();
+  EXPECT_NEAR(poly->PotentialEnergy(x.data()), 0.5 * 0.25 + 2.5 * 0.0625, 1e-15);
+  // effort = tanh(q): energy log(cosh(q)) (quadrature).
+  const auto soft = CompiledModel::Compile(Oscillator("tanh(q)", false, 1.0, 0.8));
+  x = soft->MakeInitialState();
+  EXPECT_NEAR(soft->PotentialEnergy(x.data()), std::log(std::cosh(0.8)), 1e-12);
+}
+
+/// A pendulum: J = m L^2, gravity's torque -m g L sin(theta) as a source of theta's formula.
+BondGraph Pendulum(double theta0) {
+  BondGraph g("pendulum");
+  g.AddJunction("w", ElementKind::kOne);
+  g.AddI("J", Param::Scalar(1.0));
+  Element gravity;
+  gravity.name = "gravity";
+  gravity.kind = ElementKind::kSe;
+  gravity.value = {F("-1*9.81*1*sin(theta)")};
+  g.Add(gravity);
+  g.Connect("gravity", "w");
+  g.Connect("w", "J");
+  AuxState theta;
+  theta.name = "theta";
+  theta.kind = AuxState::Kind::kIntegral;
+  theta.of = "w";
+  theta.unit = "rad";
+  theta.initial = Eigen::MatrixXd::Constant(1, 1, theta0);
+  g.AddAux(theta);
+  return g;
+}
+
+TEST(Formulas, PendulumPeriodIsTheEllipticIntegrals) {
+  for (const double theta0 : {0.5, 2.0, 2.9}) {
+    const auto model = CompiledModel::Compile(Pendulum(theta0));
+    const double period = 4.0 * std::sqrt(1.0 / 9.81) * std::comp_ellint_1(std::sin(theta0 / 2));
+    const RecordingObserver rec = Simulated(*model, 2.2 * period, 1e-4);
+    const std::vector<double> down = DownCrossings(rec, "theta");
+    ASSERT_GE(down.size(), 2u);
+    EXPECT_NEAR(down[1] - down[0], period, 1e-6 * period) << "theta0 = " << theta0;
+  }
+}
+
+TEST(Formulas, TorricelliDrainHasALinearSquareRoot) {
+  // dV/dt = -Cd a sqrt(2 g V / A): sqrt(V) = sqrt(V0) - Cd a / 2 sqrt(2 g / A) t.
+  const double A = 2.0, Cd = 0.6, a = 0.01, rho = 1000.0, g0 = 9.81, V0 = 2.0;
+  BondGraph g("tank");
+  g.AddJunction("p", ElementKind::kZero);
+  Element tank;
+  tank.name = "tank";
+  tank.kind = ElementKind::kC;
+  tank.law_effort = F("1000*9.81*q/2");
+  tank.initial = Eigen::VectorXd::Constant(1, V0);
+  g.Add(tank);
+  Element orifice;
+  orifice.name = "orifice";
+  orifice.kind = ElementKind::kR;
+  orifice.law_flow = F("0.6*0.01*sign(e)*sqrt(2*abs(e)/1000)");
+  g.Add(orifice);
+  g.Connect("p", "tank");
+  g.Connect("p", "orifice");
+  const auto model = CompiledModel::Compile(g);
+  const double rate = Cd * a / 2.0 * std::sqrt(2.0 * g0 / A);
+  const double t_empty = std::sqrt(V0) / rate;
+  const RecordingObserver rec = Simulated(*model, 0.8 * t_empty, 1.0);
+  for (const auto& row : rec.rows()) {
+    const double t = row[rec.Index("time")], v = row[rec.Index("tank.q")];
+    EXPECT_NEAR(std::sqrt(v), std::sqrt(V0) - rate * t, 1e-8) << "t = " << t;
+  }
+  // Work in = stored + dissipated: the orifice dissipates what the tank loses.
+  const double stored0 = rho * g0 / A * V0 * V0 / 2;
+  EXPECT_NEAR(rec.Last("energy.potential") + rec.Last("orifice.dissipated"), stored0, 1e-6 * stored0);
+  (void)rho;
+}
+
+TEST(Formulas, ALagFollowsItsInputAndAPiControllerItsSetPoint) {
+  BondGraph g("signals");
+  Signal r;
+  r.name = "setpoint";
+  r.value = F("2");
+  g.AddSignal(r);
+  AuxState lag;
+  lag.name = "lagged";
+  lag.kind = AuxState::Kind::kLag;
+  lag.input = F("setpoint");
+  lag.time_constant = 0.5;
+  g.AddAux(lag);
+  // Plant dx/dt = u, PI with kp = 2, ki = 1 on e = r - x: critically damped,
+  // x(t) = r - r (1 - t) e^-t.
+  AuxState pid;
+  pid.name = "pid";
+  pid.kind = AuxState::Kind::kPid;
+  pid.input = F("setpoint - x");
+  pid.pid.kp = 2.0;
+  pid.pid.ki = 1.0;
+  g.AddAux(pid);
+  AuxState x;
+  x.name = "x";
+  x.kind = AuxState::Kind::kIntegral;
+  x.rate = F("pid.u");
+  g.AddAux(x);
+  const auto model = CompiledModel::Compile(g);
+  const RecordingObserver rec = Simulated(*model, 5.0, 0.01);
+  for (const auto& row : rec.rows()) {
+    const double t = row[rec.Index("time")];
+    EXPECT_NEAR(row[rec.Index("lagged")], 2.0 * (1.0 - std::exp(-t / 0.5)), 1e-8) << t;
+    EXPECT_NEAR(row[rec.Index("x")], 2.0 - 2.0 * (1.0 - t) * std::exp(-t), 1e-8) << t;
+  }
+}
+
+TEST(Formulas, APidsOutputStaysWithinItsLimits) {
+  BondGraph g("limited");
+  AuxState pid;
+  pid.name = "pid";
+  pid.kind = AuxState::Kind::kPid;
+  pid.input = F("10 - x");
+  pid.pid.kp = 5.0;
+  pid.pid.ki = 2.0;
+  pid.pid.u_min = -1.0;
+  pid.pid.u_max = 1.0;
+  g.AddAux(pid);
+  AuxState x;
+  x.name = "x";
+  x.kind = AuxState::Kind::kIntegral;
+  x.rate = F("pid.u");
+  g.AddAux(x);
+  const auto model = CompiledModel::Compile(g);
+  Workspace ws = model->MakeWorkspace();
+  Eigen::VectorXd xv = model->MakeInitialState(), xdot(model->num_states());
+  model->CalcDerivatives(0.0, xv.data(), xdot.data(), ws);
+  double u = 0.0;
+  model->Read(*model->FindVariable("pid.u"), xv.data(), ws, &u);
+  EXPECT_EQ(u, 1.0);  // saturated: the raw output is 5 * 10
+  // While saturated, x = t and, by back-calculation with tt = kp / ki (ki tt = kp = 5), the
+  // integral obeys di/dt = e + (1 - u_raw) / 5 = (1 - 2 i) / 5: i = (1 - e^(-2t/5)) / 2, bounded
+  // (without anti-windup it would grow as the integral of 10 - t, to ~50). The output leaves the
+  // limit when 5 (10 - t) + 2 i = 1, just before t = 10; then x settles at 10.
+  const RecordingObserver rec = Simulated(*model, 40.0, 0.01, Method::kBdf);
+  for (const auto& row : rec.rows()) {
+    const double t = row[rec.Index("time")];
+    if (t > 9.0) break;
+    EXPECT_NEAR(row[rec.Index("x")], t, 1e-8) << t;
+    EXPECT_NEAR(row[rec.Index("pid.i")], 0.5 * (1.0 - std::exp(-0.4 * t)), 1e-8) << t;
+  }
+  EXPECT_NEAR(rec.Last("x"), 10.0, 1e-6);
+  // The same loop with the back-calculation switched off (tt huge): the wound-up integral
+  // overshoots far more.
+  auto peak = [](const RecordingObserver& r) {
+    double p = 0.0;
+    for (const auto& row : r.rows()) p = std::max(p, row[r.Index("x")]);
+    return p - 10.0;
+  };
+  BondGraph wound = g;
+  AuxState loose = wound.aux_states()[0];
+  BondGraph g2("wound");
+  loose.pid.tt = 1e12;
+  g2.AddAux(loose);
+  g2.AddAux(wound.aux_states()[1]);
+  const RecordingObserver rec2 = Simulated(*CompiledModel::Compile(g2), 40.0, 0.01, Method::kBdf);
+  EXPECT_GT(peak(rec2), 10.0 * peak(rec));
+}
+
+TEST(Formulas, InterpreterAndGeneratedCodeGiveTheSameBits) {
+  CompileOptions jit;
+  jit.generate_code = true;
+  for (BondGraph g : {Pendulum(2.0), Oscillator("1/2*q^2 + 5/2*q^4", true, 1.0, 1.0)}) {
+    const auto interpreted = CompiledModel::Compile(g);
+    const auto generated = CompiledModel::Compile(g, jit);
+    ASSERT_TRUE(generated->uses_generated_code()) << generated->rhs_engine();
+    const RecordingObserver a = Simulated(*interpreted, 3.0, 0.01), b = Simulated(*generated, 3.0, 0.01);
+    ASSERT_EQ(a.rows().size(), b.rows().size());
+    for (size_t k = 0; k < a.rows().size(); ++k) EXPECT_EQ(a.rows()[k], b.rows()[k]) << "row " << k;
+  }
+}
+
+TEST(Formulas, EquationsShowTheFormula) {
+  const auto model = CompiledModel::Compile(Pendulum(1.0));
+  const std::string text = FormatEquations(*model, EquationFormat::kText);
+  EXPECT_THAT(text, HasSubstr("sin(theta)"));
+}
+
+ModelError CompileError(const BondGraph& g, const CompileOptions& o = {}) {
+  try {
+    CompiledModel::Compile(g, o);
+  } catch (const ModelError& e) {
+    return e;
+  }
+  ADD_FAILURE() << "compiled";
+  return ModelError(Diagnostic{});
+}
+
+TEST(Formulas, AnUnknownNameIsLocatedInTheFormula) {
+  BondGraph g = Pendulum(1.0);
+  g.element(g.Find("gravity")).value = {F("-9.81*sin(thetta)")};
+  const Diagnostic d = CompileError(g).diagnostics().front();
+  EXPECT_EQ(d.code, "expr.unknown_variable");
+  EXPECT_EQ(d.where.line, 7);
+  EXPECT_EQ(d.where.column, 20 + 10);  // the column of "thetta"
+  EXPECT_THAT(d.message, HasSubstr("thetta"));
+}
+
+TEST(Formulas, AnEnergyMustBeAFunctionOfItsOwnStateAlone) {
+  EXPECT_EQ(CompileError(Oscillator("5*t", true, 1.0, 1.0)).diagnostics().front().code, "law.energy");
+  EXPECT_EQ(CompileError(Oscillator("q^2 + mass.p", true, 1.0, 1.0)).diagnostics().front().code, "law.energy");
+}
+
+TEST(Formulas, AResistorWithoutTheFormItsCausalityNeedsSaysWhichToAdd) {
+  BondGraph g("r");
+  g.AddSf("push", SourceValue{{TimeFunction::Constant(1.0)}});
+  Element r;
+  r.name = "r";
+  r.kind = ElementKind::kR;
+  r.law_flow = F("e^3");
+  g.Add(r);
+  g.Connect("push", "r");
+  const Diagnostic d = CompileError(g).diagnostics().front();
+  EXPECT_EQ(d.code, "law.form");
+  EXPECT_THAT(d.hint, HasSubstr("effort:"));
+}
+
+}  // namespace
+}  // namespace multibond
