@@ -49,23 +49,26 @@ void CompiledModel::GenerateCode() {
     // Every part of a constrained evaluation as generated code, in one library: the plan at zero
     // multipliers (step 1 of CalcConstrained), its tangent (step 2), B's columns and W's
     // L D L^T (step 3) and what the multipliers reach (step 4).
+    const bool has_factor = constraints_.factor().factor_size() > 0;
     const JitResult jit = CompileAndLoad(GenerateSource(/*with_fast=*/false) + GenerateColumnsSource() +
-                                             (factor_.size() > 0 ? GenerateFactorSource() : "") + GenerateTangentSource() +
+                                             (has_factor ? GenerateFactorSource() : "") + GenerateTangentSource() +
                                              GenerateReactSource(),
                                          "multibond_bcols");
-    void* factor = jit.symbol && factor_.size() > 0 ? dlsym(jit.library.get(), "multibond_ldlt_factor") : nullptr;
-    void* solve = jit.symbol && factor_.size() > 0 ? dlsym(jit.library.get(), "multibond_ldlt_solve") : nullptr;
+    void* factor = jit.symbol && has_factor ? dlsym(jit.library.get(), "multibond_ldlt_factor") : nullptr;
+    void* solve = jit.symbol && has_factor ? dlsym(jit.library.get(), "multibond_ldlt_solve") : nullptr;
     void* plan = jit.symbol ? dlsym(jit.library.get(), "multibond_rhs") : nullptr;
     void* tangent = jit.symbol ? dlsym(jit.library.get(), "multibond_tangent") : nullptr;
     void* react = jit.symbol ? dlsym(jit.library.get(), "multibond_react") : nullptr;
-    if (jit.symbol && plan && tangent && react && ((factor && solve) || factor_.size() == 0)) {
-      generated_factor_ = reinterpret_cast<GeneratedFactor>(factor);
-      generated_solve_ = reinterpret_cast<GeneratedSolve>(solve);
-      generated_bcols_ = reinterpret_cast<GeneratedColumns>(jit.symbol);
+    if (jit.symbol && plan && tangent && react && ((factor && solve) || !has_factor)) {
+      ConstraintSolver::Generated g;
+      g.factor = reinterpret_cast<ConstraintFactor::GeneratedFactor>(factor);
+      g.solve = reinterpret_cast<ConstraintFactor::GeneratedSolve>(solve);
+      g.columns = reinterpret_cast<ConstraintSolver::GeneratedColumns>(jit.symbol);
+      g.tangent = reinterpret_cast<ConstraintSolver::GeneratedTangent>(tangent);
+      g.react = reinterpret_cast<ConstraintSolver::GeneratedReact>(react);
+      g.library = jit.library;
+      constraints_.UseGenerated(std::move(g));
       generated_ = reinterpret_cast<GeneratedRhs>(plan);  // no generated_fast_: CalcStateDerivatives must solve
-      generated_tangent_ = reinterpret_cast<GeneratedTangent>(tangent);
-      generated_react_ = reinterpret_cast<GeneratedReact>(react);
-      generated_constraints_library_ = jit.library;
       rhs_engine_ = "generated code for the plan at zero multipliers, its tangent, the constraint matrix and its L D L^T, "
                     "and what the multipliers reach (" + jit.description + ")";
     } else {

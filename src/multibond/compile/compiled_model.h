@@ -19,6 +19,7 @@
 #include <Eigen/Dense>
 
 #include "multibond/causality/causality.h"
+#include "multibond/compile/constraint_solver.h"
 #include "multibond/compile/operations.h"
 #include "multibond/core/graph.h"
 #include "multibond/core/ode_system.h"
@@ -45,31 +46,9 @@ struct Workspace {
   std::vector<double> slots;
   std::vector<double> moduli;
   /// Ideal constraints only (empty otherwise): the constraint efforts (multipliers) of the last
-  /// evaluation, and the scratch that solving for them needs.
+  /// evaluation, and the scratch that solving for them needs (compile/constraint_factor.h).
   std::vector<double> lambda;
-  struct ConstraintScratch {
-    std::vector<double> dslots, dmoduli;  ///< time derivatives of slots and moduli (tangent pass)
-    std::vector<double> lin;              ///< response of the slots to one unit multiplier
-    std::vector<double> xdot;             ///< dx/dt with the multipliers at zero
-    std::vector<double> b;                ///< per multiplier: its momentum-rate response (compressed)
-    std::vector<double> v;                ///< per multiplier: the flow response M^-1 b (compressed)
-    std::vector<double> w, rhs, scale;    ///< the m x m system W lambda = rhs, and its scaling
-    std::vector<int> perm;
-    int rank = 0;                         ///< of the last pivoted solve
-    /// ShareRedundantEfforts: N's columns (m each, at most m), N^T C N and N^T C lambda, weights.
-    std::vector<double> nullspace, gram, proj, weight;
-    /// W on the independent constraints, factorised in place in its fixed sparse pattern
-    /// (CompiledModel::IndependentFactor): D^-1, L, L D.
-    std::vector<double> factor;
-    std::vector<double> y;                ///< the solution in the factor's order
-    /// The time and state at which b, v and factor were last formed, when `factored`: a solve at
-    /// that very time and state reuses them (B and W depend on the orientations only, so an
-    /// output time's projection, which changes momenta, leaves them right for the evaluation
-    /// that follows it).
-    std::vector<double> factored_at;
-    double factored_t = 0.0;
-    bool factored = false;
-  } con;
+  ConstraintScratch con;
   /// Algebraic loops only (empty otherwise): the affine map of the torn variables and its solve.
   struct TearScratch {
     Eigen::MatrixXd a;  ///< A, then I - A
@@ -88,6 +67,15 @@ struct StateBlock {
   /// Signal states (a rate formula, a lag, a PID): the slot class their derivative copies; -1 =
   /// by kind (derivative_source).
   int rate_class = -1;
+};
+
+/// How one state block's derivative is read from the slots (CompiledModel::EvalGather): the
+/// effort (momenta, displacements) or flow (orientations, integrals) it reads, or both (work,
+/// dissipation), and a sign (an orientation's: its stabilisation gain, 0 = none).
+struct StateGather {
+  StateBlock::Kind kind;
+  int state, size, effort, flow, rotation;
+  double sign;
 };
 
 /// Where a named variable lives and how to read it.
@@ -139,7 +127,7 @@ class CompiledModel {
 
   // --- ideal constraints (docs/design.md): constraint efforts solved at every evaluation ---
   bool has_constraints() const { return !constraints_.empty(); }
-  int num_multipliers() const { return num_lambda_; }
+  int num_multipliers() const { return constraints_.num_multipliers(); }
   /// Velocity-level residual of every constraint at (t, x), |g - target| (max norm); fills ws.
   double ConstraintResidual(double t, const double* x, Workspace& ws) const;
   /// Names of the constraints ("S1_held.rigid", "J2.cut"), one per constraint group.
@@ -152,14 +140,15 @@ class CompiledModel {
   /// `multibond_rhs(t, x, xdot, w, moduli, ctx)` with every offset and coefficient a literal.
   std::string GenerateSource(bool with_fast = true) const;
   std::string GenerateBody() const;
-  /// C++ source of the constraint system's sparse L D L^T for the pattern fixed at compile time:
-  /// `multibond_ldlt_factor(b, v, factor)` (1 on success) and `multibond_ldlt_solve(rhs,
-  /// lambda, factor, y)`.
+  /// C++ source of the constraint system's sparse L D L^T for the pattern fixed at compile time
+  /// (ConstraintFactor::GenerateSource): `multibond_ldlt_factor(b, v, factor)` (1 on success)
+  /// and `multibond_ldlt_solve(rhs, lambda, factor, y)`.
   std::string GenerateFactorSource() const;
-  /// C++ source of B's columns (AssembleConstraintMatrix): `multibond_bcols(x, lin, mod, b, v)`.
+  /// C++ source of B's columns (ConstraintSolver's AssembleConstraintMatrix):
+  /// `multibond_bcols(x, lin, mod, b, v)`.
   std::string GenerateColumnsSource() const;
   /// C++ source of the constraints' tangent pass and of what the multipliers reach (steps 2 and 4
-  /// of CalcConstrained): `multibond_tangent` and `multibond_react`.
+  /// of ConstraintSolver::Solve): `multibond_tangent` and `multibond_react`.
   std::string GenerateTangentSource() const;
   std::string GenerateReactSource() const;
   /// How the right-hand side is evaluated: "generated code (<library>)" or "interpreter (<why>)".
@@ -305,11 +294,7 @@ class CompiledModel {
   using Instr = plan::Instr;
   using ModulusEval = plan::ModulusEval;
   using CodeNames = plan::CodeNames;
-  struct Gather {
-    StateBlock::Kind kind;
-    int state, size, effort, flow, rotation;
-    double sign;
-  };
+  using Gather = StateGather;
 
   /// The moduli at x; with `derivative`, their time derivatives dM/dt given x = dx/dt (every
   /// modulus is linear in its orientation state; constants give zero; no inverses).
@@ -328,40 +313,20 @@ class CompiledModel {
             const double* lambda) const {
     plan::Exec(in, plan::ExecArgs{t, x, win, wout, mod, lambda, tables()});
   }
-  /// Ideal constraints: the graph rewriting before the plan, and the plan's constraint tables.
+  /// Ideal constraints (constraints.cc): the graph rewriting before the plan (declares each
+  /// constraint to constraints_), then the solver's tables from the ordered plan and its
+  /// independent set at the initial state.
   void PrepareConstraintGraph();
   void BuildConstraints(const std::vector<std::vector<int>>& plan_reads, const std::vector<int>& plan_writes);
+  void FindIndependentConstraints();
+  /// A constrained evaluation: the plan at lambda = 0 (step 1), then the solver (steps 2-4).
   /// `share`: split a statically indeterminate reaction between redundant constraints as an
-  /// elastic structure would (ShareRedundantEfforts); the motion does not depend on it, so the
+  /// elastic structure would (ConstraintFactor::Share); the motion does not depend on it, so the
   /// integrator's evaluations skip it and the output times' do it.
   void CalcConstrained(double t, const double* x, double* xdot, Workspace& ws, bool share) const;
-  /// d/dt along (xdot, d/dt sources) of the slots the constraints' flows depend on (tangent_plan_),
-  /// into ws.con.dslots; the other entries are not written.
-  void Tangent(double t, const double* x, const double* xdot, Workspace& ws) const;
-  /// B (momentum-rate response to each unit multiplier), V = M^-1 B and W = B^T V at x.
-  void AssembleConstraintMatrix(double t, const double* x, Workspace& ws) const;
-  /// B's columns at (t, x) (AssembleConstraintMatrix) and lambda from W lambda = ws.con.rhs: the
-  /// sparse L D L^T on the independent set, else the pivoted solve. When ws holds B and the
-  /// factor for this very x (Workspace::ConstraintScratch::factored_at), the solve only.
-  void SolveConstraintsAt(double t, const double* x, Workspace& ws) const;
-  bool FactorIndependent(Workspace& ws) const;  ///< L D L^T of W on the independent set; false: not definite
-  void SolveFactored(Workspace& ws) const;      ///< lambda from the factor and ws.con.rhs
-  /// out (m, zero off the independent set) from the factor and rhs (m; read on the independent set).
-  void SolveFactored(const double* rhs, double* out, Workspace& ws) const;
-  /// Redundant constraints (W singular) leave lambda free along the null space N of B, which
-  /// moves nothing. After a solve, picks the lambda + N alpha that minimises the complementary
-  /// energy sum_j c_j lambda_j^2 (Menabrea): c_j the compliance 1/K of the coupling the
-  /// constraint replaces, or W_jj when a constraint has none (units agree: effort times flow
-  /// rate). The result does not depend on which set was chosen independent. No allocation.
-  void ShareRedundantEfforts(Workspace& ws) const;
-  void FormFullW(Workspace& ws) const;  ///< W (m x m) from B and V in ws
-  /// Solves W y = rhs in place (rhs in ws.con.rhs) by a scaled, pivoted LDL^T; pivots below a
-  /// relative 1e-11 are redundant constraints and get a zero multiplier.
-  void SolvePivoted(Workspace& ws) const;
-  /// The constraints independent at the initial state (the rest are redundant there).
-  void FindIndependentConstraints();
-  /// g(x) - target(t) of every multiplier component, from filled slots, into `out`.
-  void ConstraintValues(double t, const double* w, double* out) const;
+  /// What the constraint solver reads of this model at run time; `sources` as Sources() makes it.
+  struct SourceTable;
+  ConstraintSolver::PlanView ConstraintPlan(const SourceTable* sources) const;
   /// jacobian_pattern_ from the plan's reads and writes (compile/jacobian_pattern.cc).
   void BuildJacobianPattern();
   /// The state-derivative gathers, from the state layout and the slot classes.
@@ -424,86 +389,12 @@ class CompiledModel {
     double (*deriv)(const void*, int, double);
   };
   SourceTable Sources() const;
-  /// Tangent (constraints.cc) as generated code:
-  /// (t, x, xdot, slots, dslots, moduli, dmoduli, sources).
-  using GeneratedTangent = void (*)(double, const double*, const double*, const double*, double*, const double*,
-                                    const double*, const void*);
-  GeneratedTangent generated_tangent_ = nullptr;
-  /// Step 4 of CalcConstrained as generated code: (t, x, xdot, slots, moduli, lambda, sources).
-  using GeneratedReact = void (*)(double, const double*, double*, double*, const double*, const double*, const void*);
-  GeneratedReact generated_react_ = nullptr;
-  /// FactorIndependent and SolveFactored as generated code (null: interpreted), for models with
-  /// ideal constraints: (b, v, factor) -> 1 on success; (rhs, lambda, factor, y).
-  using GeneratedFactor = int (*)(const double*, const double*, double*);
-  using GeneratedSolve = void (*)(const double*, double*, double*, double*);
-  GeneratedFactor generated_factor_ = nullptr;
-  GeneratedSolve generated_solve_ = nullptr;
-  /// AssembleConstraintMatrix as generated code: (x, lin, moduli, b, v).
-  using GeneratedColumns = void (*)(const double*, double*, const double*, double*, double*);
-  GeneratedColumns generated_bcols_ = nullptr;
-  std::shared_ptr<void> generated_constraints_library_;
   std::string rhs_engine_ = "interpreter";
 
-  /// An ideal constraint: an Sf marked `constraint` (now an effort source of unknown effort), or
-  /// a pair of such sources that cut the bond of a storage element in derivative causality.
-  /// Its velocity-level equation: g = sum over members of s_k (f_k - v_k(t)) = 0, with s_k = +1
-  /// if the member's bond points away from it (lambda g is the power it delivers).
-  struct ConstraintGroup {
-    std::string name;
-    int element = -1;  ///< the constraint source (or, for a cut, the storage element)
-    int size = 0;
-    int lambda = 0;    ///< offset in Workspace::lambda
-    struct Member { int flow; double sign; int source_fn; };  ///< source_fn: -1 = no target
-    std::vector<Member> members;
-    std::vector<int> starts;    ///< plan indices of its multiplier instructions (two for a cut)
-    std::vector<int> closure;   ///< plan indices reached by its multiplier (effort side)
-    std::vector<int> momenta;   ///< momentum gathers (indices in gathers_) it reaches
-  };
-  std::vector<ConstraintGroup> constraints_;
-  int num_lambda_ = 0;
-  int num_momenta_ = 0;                 ///< momentum states (B's rows)
-  std::vector<int> momentum_row_;       ///< per state: row in B, or -1
-  std::vector<int> b_offset_;           ///< per multiplier: offset of its compressed column
-  std::vector<int> b_rows_;             ///< compressed columns' momentum state offsets
-  std::vector<int> reaction_plan_;     ///< plan indices the multipliers reach (their instructions too), in order
-  std::vector<int> reaction_gathers_;  ///< gathers that read a slot the multipliers reach
-  std::vector<int> tangent_plan_;      ///< plan indices the constraints' flows depend on, in order
-  std::vector<int> flow_instr_of_block_;  ///< per momentum gather: its I-flow instruction in plan_
-  struct WPair { int i, j, begin, end; };  ///< a nonzero of W and its range in w_terms_
-  std::vector<WPair> w_pairs_;
-  /// W's entry for `pr`: the products of B's and V's entries over the rows its columns share.
-  double WEntry(const WPair& pr, const double* b, const double* v) const;
-  /// Redundancy at t = 0 (FindIndependentConstraints): the multipliers outside the factor's
-  /// independent set, and the w_pairs_ that ShareRedundantEfforts needs on the factored path (W's
-  /// diagonal and every entry in a redundant multiplier's row or column).
-  std::vector<int> dependent_;
-  std::vector<int> share_pairs_;
-  /// Per multiplier: the compliance (1/K) of the coupling it replaces, when every constraint
-  /// declares one (else empty: W's diagonal weighs the split instead).
-  std::vector<double> lambda_compliance_;
-  std::vector<std::pair<int, int>> w_terms_;  ///< (position in column i, position in column j)
-  /// W on the multipliers of an independent set at t = 0 (all, if none is redundant) is
-  /// factorised as L D L^T with a pattern fixed at compile time (constraints
-  /// touch one or two bodies, so W and L are sparse). Positions are the factor's order (minimum
-  /// degree). Workspace::con.factor holds D^-1 (one per position), then L's strict lower triangle
-  /// row by row (CSR), then the same entries times their column's pivot (L D, Crout's form).
-  struct IndependentFactor {
-    /// factor[target] += x[a] y[b] + x[a + 1] y[b + 1] + x[a + 2] y[b + 2] (Dot3) or x[a] y[b]
-    /// (Dot1): sparse dot products cut into runs of three consecutive positions (a 3-vector
-    /// constraint or momentum) and single ones, so that the loops have fixed trip counts.
-    struct Dot { int target, a, b; };
-    std::vector<int> multiplier;  ///< per position: the multiplier (one of the independent set)
-    std::vector<int> row_offset;  ///< per row of L: its range in cols (size + 1)
-    std::vector<int> cols;        ///< columns of L's strict lower triangle, sorted within a row
-    std::vector<Dot> w3, w1;      ///< W = B^T V: a = position in b, b = position in v; target in factor
-    /// Per entry e of L: sum_k L(i, k) (L D)(j, k) over its rows' common columns k < j, in
-    /// l3[l3_offset[e]..] and l1[l1_offset[e]..] (a, b: entries of L; target unused).
-    std::vector<int> l3_offset, l1_offset;
-    std::vector<Dot> l3, l1;
-    int size() const { return static_cast<int>(multiplier.size()); }
-    int entries() const { return static_cast<int>(cols.size()); }
-    int values() const { return size() + 2 * entries(); }  ///< length of con.factor
-  } factor_;
+  /// Ideal constraints: their declarations, tables and solver (compile/constraint_solver.h);
+  /// empty without constraints. Its generated code (GenerateCode) is its own.
+  using ConstraintGroup = ConstraintSolver::Group;
+  ConstraintSolver constraints_;
 
   std::vector<StateBlock> blocks_;
   /// A state block's name ("mass.p", "A.R") -> its first block, and a named bond -> its index: a

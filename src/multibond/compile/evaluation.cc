@@ -40,27 +40,7 @@ Workspace CompiledModel::MakeWorkspace() const {
     ws.tear.z.setZero(num_tear_);
     ws.tear.lu = Eigen::PartialPivLU<Eigen::MatrixXd>(num_tear_);
   }
-  if (!constraints_.empty()) {
-    const int m = num_lambda_;
-    ws.lambda.assign(m, 0.0);
-    ws.con.dslots.assign(num_slots_, 0.0);
-    ws.con.dmoduli.assign(num_moduli_, 0.0);
-    ws.con.lin.assign(num_slots_, 0.0);
-    ws.con.xdot.assign(num_states(), 0.0);
-    ws.con.b.assign(b_rows_.size(), 0.0);
-    ws.con.v.assign(b_rows_.size(), 0.0);
-    ws.con.w.assign(static_cast<size_t>(m) * m, 0.0);
-    ws.con.rhs.assign(m, 0.0);
-    ws.con.scale.assign(m, 0.0);
-    ws.con.perm.assign(m, 0);
-    ws.con.nullspace.assign(static_cast<size_t>(m) * m, 0.0);
-    ws.con.gram.assign(static_cast<size_t>(m) * m, 0.0);
-    ws.con.proj.assign(m, 0.0);
-    ws.con.weight.assign(m, 0.0);
-    ws.con.factor.assign(factor_.values(), 0.0);
-    ws.con.y.assign(factor_.size(), 0.0);
-    ws.con.factored_at.assign(num_states(), 0.0);
-  }
+  if (!constraints_.empty()) constraints_.SizeScratch(ws, num_slots_, num_moduli_, num_states());
   return ws;
 }
 

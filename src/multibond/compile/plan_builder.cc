@@ -88,11 +88,7 @@ void CompiledModel::AssignSlots() {
   AssignSignalSlots();  // formulas.cc: signals, signal states' rates
 
   // --- Ideal constraints: one multiplier per dimension of each. ---
-  for (ConstraintGroup& cg : constraints_) {
-    cg.size = dim[cg.members.front().flow];  // still the member's bond (BuildConstraints maps it)
-    cg.lambda = num_lambda_;
-    num_lambda_ += cg.size;
-  }
+  constraints_.AssignMultipliers(dim);
 }
 
 std::vector<int> CompiledModel::PlanModuli() {
@@ -219,9 +215,7 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
           in.op = Op::kMultiplier;
           in.element = i;
           in.n = n;
-          for (const ConstraintGroup& cg : constraints_)
-            for (const auto& m : cg.members)
-              if (m.flow == b) in.coef = cg.lambda;
+          in.coef = constraints_.MultiplierOf(b);
           emit(in, effort_class_[b], {}, {Definition::Kind::kSource, i, {}});
           break;
         }

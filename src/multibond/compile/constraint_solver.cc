@@ -1,0 +1,440 @@
+// The ideal-constraint solver (constraint_solver.h; docs/design.md, "Ideal constraints"): its
+// tables, built from the plan, and steps 2-4 of a constrained evaluation around the plan.
+//
+// The junction structure conserves power, so g depends on the momenta as B^T M^-1 p, where B
+// (momentum rate per unit multiplier) is read off the plan. At every evaluation:
+//   1. the plan at lambda = 0 gives dx/dt (the model's own evaluation);
+//   2. a tangent pass (the time derivative along dx/dt, with dR/dt for the moduli, of every slot
+//      the constraints' flows depend on) gives dg/dt at lambda = 0;
+//   3. W = B^T M^-1 B, and W lambda = dv/dt - dg/dt|lambda=0 makes dg/dt = 0 (index reduction to
+//      the acceleration level, exactly: no finite differences), by a sparse L D L^T;
+//   4. what the multipliers reach, again with lambda: dx/dt and every effort, reactions included.
+// Drift of g (the velocity-level constraint) is removed after every step by ProjectMomenta.
+
+#include "multibond/compile/constraint_solver.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "multibond/compile/compiled_model.h"
+#include "multibond/compile/exact_sum.h"
+
+namespace multibond {
+
+using plan::Instr;
+using plan::Op;
+
+void ConstraintSolver::Add(std::string name, int element, std::vector<Group::Member> members) {
+  Group cg;
+  cg.name = std::move(name);
+  cg.element = element;
+  cg.members = std::move(members);
+  groups_.push_back(std::move(cg));
+}
+
+void ConstraintSolver::AssignMultipliers(const std::vector<int>& bond_dim) {
+  for (Group& cg : groups_) {
+    cg.size = bond_dim[cg.members.front().flow];  // still the member's bond (Build maps it)
+    cg.lambda = num_lambda_;
+    num_lambda_ += cg.size;
+  }
+}
+
+int ConstraintSolver::MultiplierOf(int bond) const {
+  int lambda = 0;
+  for (const Group& cg : groups_)
+    for (const auto& m : cg.members)
+      if (m.flow == bond) lambda = cg.lambda;
+  return lambda;
+}
+
+std::vector<std::string> ConstraintSolver::names() const {
+  std::vector<std::string> out;
+  for (const Group& cg : groups_) out.push_back(cg.name);
+  return out;
+}
+
+void ConstraintSolver::Build(const BuildInput& in) {
+  if (groups_.empty()) return;
+  const BondGraph& g = in.graph;
+  const std::vector<Instr>& plan = in.plan;
+  const std::vector<StateGather>& gathers = in.gathers;
+  const int np = static_cast<int>(plan.size());
+  const int num_classes = static_cast<int>(in.class_offset.size());
+  // Members: bond -> flow slot; targets -> source functions.
+  targets_.clear();
+  for (Group& cg : groups_) {
+    for (auto& m : cg.members) {
+      const int bond = m.flow;
+      m.flow = in.class_offset[in.flow_class[bond]];
+      if (m.target == 0) {
+        const Element& e = g.element(cg.element);
+        m.target = static_cast<int>(targets_.size());
+        for (int k = 0; k < cg.size; ++k)
+          targets_.push_back(e.source.components.empty() ? TimeFunction::Constant(0.0)
+                             : e.source.components.size() == 1 ? e.source.components[0] : e.source.components[k]);
+      }
+    }
+  }
+  // The couplings' compliances, when every constraint declares one (ConstraintFactor::Share).
+  std::vector<double> compliance;
+  bool all_compliant = true;
+  for (const Group& cg : groups_) all_compliant &= g.element(cg.element).compliance.size() > 0;
+  if (all_compliant)
+    for (const Group& cg : groups_) {
+      const Element& e = g.element(cg.element);
+      if (e.compliance.size() != 1 && e.compliance.size() != cg.size)
+        throw ModelError(Diagnostic{Diagnostic::Severity::kError, e.where, e.name,
+                                    fmt::format("the constraint has {} components but {} compliances", cg.size, e.compliance.size()),
+                                    "give one compliance, or one per component", {}, "param.shape"});
+      for (int k = 0; k < cg.size; ++k) compliance.push_back(e.compliance[e.compliance.size() == 1 ? 0 : k]);
+    }
+  // The momentum gathers and the instruction that computes each inertia's flow.
+  std::vector<int> flow_instr_of_element(g.num_elements(), -1);
+  for (int k = 0; k < np; ++k) {
+    const Op op = plan[k].op;
+    if (plan::Traits(op).reads == plan::Reads::kState)
+      if (g.element(plan[k].element).kind == ElementKind::kI) flow_instr_of_element[plan[k].element] = k;
+  }
+  flow_instr_of_block_.assign(gathers.size(), -1);
+  for (size_t gi = 0; gi < gathers.size(); ++gi)
+    if (gathers[gi].kind == StateBlock::Kind::kMomentum) flow_instr_of_block_[gi] = flow_instr_of_element[in.blocks[gi].owner];
+
+  std::vector<char> member_flow(in.num_slots, 0), other_rate(in.num_slots, 0);
+  for (const Group& cg : groups_)
+    for (const auto& m : cg.members)
+      for (int k = 0; k < cg.size; ++k) member_flow[m.flow + k] = 1;
+  for (const StateGather& gt : gathers) {
+    if (gt.kind == StateBlock::Kind::kOrientation || gt.kind == StateBlock::Kind::kIntegral)
+      for (int k = 0; k < (gt.kind == StateBlock::Kind::kOrientation ? 3 : gt.size); ++k) other_rate[gt.flow + k] = 1;
+    if (gt.kind == StateBlock::Kind::kDisplacement)
+      for (int k = 0; k < gt.size; ++k) other_rate[gt.effort + k] = 1;
+  }
+
+  std::vector<int> b_offset, b_rows;
+  for (Group& cg : groups_) {
+    // The multiplier's instructions (two for a cut), then every instruction reading what they reach.
+    std::vector<char> reached(num_classes, 0);
+    cg.starts.clear();
+    for (int k = 0; k < np; ++k)
+      if (plan[k].op == Op::kMultiplier && plan[k].coef == cg.lambda) {
+        cg.starts.push_back(k);
+        reached[in.plan_writes[k]] = 1;
+      }
+    MB_ASSERT(!cg.starts.empty(), "constraint without its multiplier instruction");
+    cg.closure.clear();
+    for (int k = 0; k < np; ++k)
+      for (int c : in.plan_reads[k])
+        if (reached[c]) {
+          reached[in.plan_writes[k]] = 1;
+          cg.closure.push_back(k);
+          break;
+        }
+    for (int c = 0; c < num_classes; ++c) {
+      if (!reached[c]) continue;
+      bool bad = false;
+      for (int k = 0; k < in.class_size[c]; ++k) bad |= member_flow[in.class_offset[c] + k] || other_rate[in.class_offset[c] + k];
+      if (bad) {
+        const Element& e = g.element(cg.element);
+        throw ModelError(Diagnostic{
+            Diagnostic::Severity::kError, e.where, e.name,
+            fmt::format("the ideal constraint '{}' changes the flow '{}' through a resistor or gyrator: a constraint whose "
+                        "flows depend on its own effort is not supported", cg.name, in.class_names[c]),
+            "make this coupling compliant (a C and an R instead of the constraint)", {}, "constraint.unsupported"});
+      }
+    }
+    for (size_t gi = 0; gi < gathers.size(); ++gi)
+      if (gathers[gi].kind == StateBlock::Kind::kMomentum)
+        for (int c = 0; c < num_classes; ++c)
+          if (reached[c] && in.class_offset[c] == gathers[gi].effort) cg.momenta.push_back(static_cast<int>(gi));
+    for (int k = 0; k < cg.size; ++k) {
+      b_offset.push_back(static_cast<int>(b_rows.size()));
+      for (int gi : cg.momenta)
+        for (int r = 0; r < gathers[gi].size; ++r) b_rows.push_back(gathers[gi].state + r);
+    }
+  }
+  b_offset.push_back(static_cast<int>(b_rows.size()));
+  // What the multipliers reach, all constraints together: the second pass of an evaluation (with
+  // lambda) re-runs only these instructions and gathers; every other slot keeps its value from
+  // the pass at lambda = 0, which is what a full pass would compute again.
+  std::vector<char> in_reaction(np, 0), reached_slot(in.num_slots, 0);
+  for (const Group& cg : groups_) {
+    for (int k : cg.starts) in_reaction[k] = 1;
+    for (int k : cg.closure) in_reaction[k] = 1;
+  }
+  reaction_plan_.clear();
+  for (int k = 0; k < np; ++k)
+    if (in_reaction[k]) {
+      reaction_plan_.push_back(k);
+      const int c = in.plan_writes[k];
+      std::fill(reached_slot.begin() + in.class_offset[c], reached_slot.begin() + in.class_offset[c] + in.class_size[c], 1);
+    }
+  // The tangent pass is read only at the constraints' flows: it runs the instructions those flows
+  // depend on (the flow side of the plan), not the efforts that only feed momentum rates.
+  std::vector<char> feeds_flow(num_classes, 0);
+  for (const Group& cg : groups_)
+    for (const auto& m : cg.members)
+      for (int c = 0; c < num_classes; ++c)
+        if (in.class_offset[c] <= m.flow && m.flow < in.class_offset[c] + in.class_size[c]) feeds_flow[c] = 1;
+  tangent_plan_.clear();
+  for (int k = np - 1; k >= 0; --k)
+    if (feeds_flow[in.plan_writes[k]]) {
+      tangent_plan_.push_back(k);
+      for (int c : in.plan_reads[k]) feeds_flow[c] = 1;
+    }
+  std::reverse(tangent_plan_.begin(), tangent_plan_.end());
+  reaction_gathers_.clear();
+  for (size_t gi = 0; gi < gathers.size(); ++gi) {
+    const StateGather& gt = gathers[gi];
+    const bool effort = gt.kind == StateBlock::Kind::kMomentum || gt.kind == StateBlock::Kind::kDisplacement ||
+                        gt.kind == StateBlock::Kind::kWork || gt.kind == StateBlock::Kind::kDissipation;
+    const bool flow = gt.kind != StateBlock::Kind::kMomentum && gt.kind != StateBlock::Kind::kDisplacement;
+    bool reads_reached = false;
+    for (int k = 0; k < (gt.kind == StateBlock::Kind::kOrientation ? 3 : gt.size); ++k)
+      reads_reached |= (effort && reached_slot[gt.effort + k]) || (flow && reached_slot[gt.flow + k]);
+    if (reads_reached) reaction_gathers_.push_back(static_cast<int>(gi));
+  }
+  // B's sparsity and W's nonzeros (the pairs of columns that share momentum rows).
+  factor_ = ConstraintFactor(std::move(b_offset), std::move(b_rows), std::move(compliance));
+}
+
+void ConstraintSolver::FindIndependent(const PlanView& view, const double* x, Workspace& ws) {
+  if (groups_.empty()) return;
+  AssembleConstraintMatrix(view, 0.0, x, ws);
+  factor_.FindIndependent(ws.con);
+}
+
+void ConstraintSolver::SizeScratch(Workspace& ws, int num_slots, int num_moduli, int num_states) const {
+  ws.lambda.assign(num_lambda_, 0.0);
+  ws.con.dslots.assign(num_slots, 0.0);
+  ws.con.dmoduli.assign(num_moduli, 0.0);
+  ws.con.lin.assign(num_slots, 0.0);
+  ws.con.xdot.assign(num_states, 0.0);
+  factor_.SizeScratch(ws.con);
+  ws.con.factored_at.assign(num_states, 0.0);
+}
+
+void ConstraintSolver::UseGenerated(Generated generated) {
+  generated_ = std::move(generated);
+  factor_.UseGenerated(generated_.factor, generated_.solve);
+}
+
+void ConstraintSolver::ConstraintValues(double t, const double* w, double* out) const {
+  for (const Group& cg : groups_)
+    for (int k = 0; k < cg.size; ++k) {
+      double v = 0.0;
+      for (const auto& m : cg.members) v += m.sign * (w[m.flow + k] - (m.target >= 0 ? targets_[m.target + k](t) : 0.0));
+      out[cg.lambda + k] = v;
+    }
+}
+
+void ConstraintSolver::Tangent(const PlanView& view, double t, const double* x, const double* xdot, Workspace& ws) const {
+  const double* w = ws.slots.data();
+  double* d = ws.con.dslots.data();
+  double* tmp = ws.con.lin.data();  // scratch for second terms; restored to zero below
+  const double* mod = ws.moduli.data();
+  const double* dmod = ws.con.dmoduli.data();  // the model's step 1 made dM/dt
+  if (generated_.tangent) {
+    generated_.tangent(t, x, xdot, w, d, mod, dmod, view.sources);
+    return;
+  }
+  const double* c = view.tables.coef;
+  const double* lam = ws.lambda.data();
+  auto exec = [&](const Instr& in, const double* xs, const double* win, double* wout, const double* m) {
+    plan::Exec(in, plan::ExecArgs{t, xs, win, wout, m, lam, view.tables});
+  };
+  auto add_tmp = [&](const Instr& in) {
+    for (int k = 0; k < in.n; ++k) {
+      d[in.dst + k] += tmp[in.dst + k];
+      tmp[in.dst + k] = 0.0;
+    }
+  };
+  for (int index : tangent_plan_) {
+    const Instr& in = view.plan[index];
+    switch (plan::Traits(in.op).tangent) {
+      case plan::Tangent::kSourceRate:
+        for (int k = 0; k < in.n; ++k) d[in.dst + k] = view.tables.sources[in.coef + k].Derivative(t);
+        break;
+      case plan::Tangent::kZero:
+        for (int k = 0; k < in.n; ++k) d[in.dst + k] = 0.0;  // efforts only: never reaches a constraint's flow
+        break;
+      case plan::Tangent::kStateRate:
+        exec(in, xdot, d, d, mod);
+        break;
+      case plan::Tangent::kRotatedInertia: {
+        // f = R Ib^-1 R^T h  ->  df = dR a + R Ib^-1 (dR^T h + R^T dh),  a = Ib^-1 R^T h; written
+        // out term by term in the generated code's order (CompiledModel::GenerateTangentSource).
+        const double *r = x + in.aux, *rd = xdot + in.aux, *h = x + in.src, *hd = xdot + in.src;
+        auto ib = [&](int i, int j) {
+          return in.op == Op::kIFlowRotatedDiag ? (i == j ? c[in.coef + i] : 0.0) : c[in.coef + 3 * i + j];
+        };
+        double hb[3], dhb[3], a[3], da[3];
+        for (int i = 0; i < 3; ++i) {
+          hb[i] = Dot3(r[i], h[0], r[3 + i], h[1], r[6 + i], h[2]);
+          dhb[i] = kSumStart;
+          for (int k = 0; k < 3; ++k) dhb[i] = AddProduct(dhb[i], rd[3 * k + i], h[k]);
+          for (int k = 0; k < 3; ++k) dhb[i] = AddProduct(dhb[i], r[3 * k + i], hd[k]);
+        }
+        for (int i = 0; i < 3; ++i) {
+          a[i] = AddTerm(AddTerm(AddTerm(kSumStart, ib(i, 0), hb[0]), ib(i, 1), hb[1]), ib(i, 2), hb[2]);
+          da[i] = AddTerm(AddTerm(AddTerm(kSumStart, ib(i, 0), dhb[0]), ib(i, 1), dhb[1]), ib(i, 2), dhb[2]);
+        }
+        for (int i = 0; i < 3; ++i) {
+          double s = kSumStart;
+          for (int k = 0; k < 3; ++k) s = AddProduct(s, rd[3 * i + k], a[k]);
+          for (int k = 0; k < 3; ++k) s = AddProduct(s, r[3 * i + k], da[k]);
+          d[in.dst + i] = s;
+        }
+        break;
+      }
+      case plan::Tangent::kBilinear:
+        // Bilinear in R and the input: d(K(R) u) = K(R) du + K(dR) u.
+        exec(in, x, d, d, mod);
+        exec(in, xdot, w, tmp, mod);
+        add_tmp(in);
+        break;
+      case plan::Tangent::kModulated: {
+        if (in.count <= 1) {
+          exec(in, x, d, d, mod);
+          exec(in, x, w, tmp, dmod);
+          add_tmp(in);
+        } else {
+          // y = M^-1 u (mode 2) or M^-T u (mode 3): dy = M^-1 (du - dM y) (or transposed).
+          const plan::ModulusEval& me = view.moduli[in.modulus];
+          const double* dm = dmod + me.out;
+          const double* y = w + in.dst;
+          double z[16];
+          MB_ASSERT(in.m <= 16, "modulated inverse larger than 16");
+          for (int r = 0; r < in.m; ++r) {
+            double s = d[in.src + r];
+            for (int k = 0; k < in.n; ++k) s = AddProduct(s, -(in.count == 2 ? dm[r * in.n + k] : dm[k * in.m + r]), y[k]);
+            z[r] = s;
+          }
+          const double* a = mod + in.coef;
+          for (int r = 0; r < in.n; ++r) {
+            double s = kSumStart;
+            for (int k = 0; k < in.m; ++k) s = AddProduct(s, in.count == 2 ? a[r * in.m + k] : a[k * in.n + r], z[k]);
+            d[in.dst + r] = s;
+          }
+        }
+        break;
+      }
+      case plan::Tangent::kLinear:  // constant linear maps of slots: the same map of their derivatives
+        exec(in, x, d, d, mod);
+        break;
+      case plan::Tangent::kNone:  // formulas: refused with constraints (CompiledModel::CheckFormulaUse)
+        MB_ASSERT(false, "a formula in the constraints' tangent pass");
+        break;
+    }
+  }
+}
+
+void ConstraintSolver::AssembleConstraintMatrix(const PlanView& view, double t, const double* x, Workspace& ws) const {
+  if (generated_.columns) {
+    generated_.columns(x, ws.con.lin.data(), ws.moduli.data(), ws.con.b.data(), ws.con.v.data());
+    return;
+  }
+  double* lin = ws.con.lin.data();
+  double* b = ws.con.b.data();
+  double* v = ws.con.v.data();
+  const double* mod = ws.moduli.data();
+  const double* c = view.tables.coef;
+  const double* lam = ws.lambda.data();
+  // B, column by column: a unit multiplier through its closure (everything else is zero in lin).
+  const std::vector<Instr>& plan = view.plan;
+  const std::vector<int>& b_offset = factor_.column_offset();
+  for (const Group& cg : groups_) {
+    for (int k = 0; k < cg.size; ++k) {
+      const int col = cg.lambda + k;
+      for (int st : cg.starts)
+        for (int j = 0; j < cg.size; ++j) lin[plan[st].dst + j] = j == k ? 1.0 : 0.0;
+      for (int q : cg.closure)
+        plan::Exec(plan[q], plan::ExecArgs{t, x, lin, lin, mod, lam, view.tables});
+      double* bc = b + b_offset[col];
+      double* vc = v + b_offset[col];
+      for (int gi : cg.momenta) {
+        const StateGather& gt = view.gathers[gi];
+        for (int r = 0; r < gt.size; ++r) bc[r] = gt.sign * lin[gt.effort + r];
+        const Instr& flow = plan[flow_instr_of_block_[gi]];  // f = M^-1 p, applied to p = bc
+        plan::Traits(flow.op).state(flow, c, x + flow.aux, bc, vc);
+        bc += gt.size;
+        vc += gt.size;
+      }
+      for (int q : cg.closure) std::fill(lin + plan[q].dst, lin + plan[q].dst + plan[q].n, 0.0);
+      for (int st : cg.starts) std::fill(lin + plan[st].dst, lin + plan[st].dst + cg.size, 0.0);
+    }
+  }
+}
+
+void ConstraintSolver::SolveAt(const PlanView& view, double t, const double* x, Workspace& ws) const {
+  const int n = view.num_states;
+  if (ws.con.factored && t == ws.con.factored_t && std::equal(x, x + n, ws.con.factored_at.begin())) {
+    factor_.Solve(ws.con.rhs.data(), ws.lambda.data(), ws.con);
+    return;
+  }
+  AssembleConstraintMatrix(view, t, x, ws);
+  ws.con.factored = factor_.factor_size() > 0 && factor_.Factor(ws.con);
+  if (ws.con.factored) {
+    factor_.Solve(ws.con.rhs.data(), ws.lambda.data(), ws.con);
+    std::copy(x, x + n, ws.con.factored_at.begin());
+    ws.con.factored_t = t;
+    return;
+  }
+  factor_.FormFull(ws.con);
+  factor_.SolvePivoted(ws.con, ws.lambda.data());
+}
+
+void ConstraintSolver::Solve(const PlanView& view, double t, const double* x, double* xdot, Workspace& ws, bool share) const {
+  Tangent(view, t, x, xdot, ws);
+  double* rhs = ws.con.rhs.data();
+  const double* d = ws.con.dslots.data();
+  for (const Group& cg : groups_)
+    for (int k = 0; k < cg.size; ++k) {
+      double r = 0.0;
+      for (const auto& mb : cg.members)
+        r -= mb.sign * (d[mb.flow + k] - (mb.target >= 0 ? targets_[mb.target + k].Derivative(t) : 0.0));
+      rhs[cg.lambda + k] = r;
+    }
+  SolveAt(view, t, x, ws);
+  if (share) factor_.Share(ws.con, ws.lambda.data());
+  // Step 4: only what the multipliers reach changes (Build, reaction_plan_).
+  double* w = ws.slots.data();
+  const double* mod = ws.moduli.data();
+  if (generated_.react) {
+    generated_.react(t, x, xdot, w, mod, ws.lambda.data(), view.sources);
+    return;
+  }
+  for (int k : reaction_plan_)
+    plan::Exec(view.plan[k], plan::ExecArgs{t, x, w, w, mod, ws.lambda.data(), view.tables});
+  for (int gi : reaction_gathers_) view.gather(view.gathers[gi], x, w, xdot);
+}
+
+double ConstraintSolver::Residual(double t, Workspace& ws) const {
+  ConstraintValues(t, ws.slots.data(), ws.con.rhs.data());
+  double worst = 0.0;
+  for (int i = 0; i < num_lambda_; ++i) worst = std::max(worst, std::abs(ws.con.rhs[i]));
+  return worst;
+}
+
+void ConstraintSolver::ProjectMomenta(const PlanView& view, double t, double* x, Workspace& ws) const {
+  // g is affine in p with dg/dp = B^T M^-1: p += B mu with W mu = -g restores g = 0 exactly,
+  // changing the kinetic energy least.
+  ConstraintValues(t, ws.slots.data(), ws.con.rhs.data());
+  for (int i = 0; i < num_lambda_; ++i) ws.con.rhs[i] = -ws.con.rhs[i];
+  SolveAt(view, t, x, ws);
+  const std::vector<int>& b_offset = factor_.column_offset();
+  const std::vector<int>& b_rows = factor_.rows();
+  for (int col = 0; col < num_lambda_; ++col) {
+    const double mu = ws.lambda[col];
+    if (mu == 0.0) continue;
+    for (int q = b_offset[col]; q < b_offset[col + 1]; ++q) x[b_rows[q]] += ws.con.b[q] * mu;
+  }
+  // Only momenta moved (the rows of B): B and the factor stay right for x, which the evaluation
+  // at an output time, right after this, reuses.
+  if (ws.con.factored) std::copy(x, x + view.num_states, ws.con.factored_at.begin());
+  std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
+}
+
+}  // namespace multibond

@@ -1,0 +1,179 @@
+#pragma once
+/// \file
+/// The ideal-constraint solver (docs/design.md, "Ideal constraints"): the constraint efforts
+/// (Lagrange multipliers) of a compiled model, solved at every evaluation around its plan.
+///
+/// A constraint is an effort source of unknown effort lambda (a multiplier), from an Sf marked
+/// `constraint` or from the cut of a storage element in derivative causality (two sources, one
+/// on each side, sharing lambda). Its equation: g = sum_k s_k (f_k - v_k(t)) = 0 over its
+/// members' flows. The solver is declared by the graph pass (Add), numbered with the slots
+/// (AssignMultipliers, MultiplierOf), built from the ordered plan (Build: every table it needs
+/// is its own), then given the initial state (FindIndependent). At every evaluation the model
+/// runs its plan at lambda = 0 (step 1) and the solver does the rest (Solve):
+///   2. a tangent pass: dg/dt at lambda = 0, exactly (no finite differences);
+///   3. B's columns (the momentum rate per unit multiplier, from each multiplier's closure in
+///      the plan), W = B^T M^-1 B, and W lambda = dv/dt - dg/dt|lambda=0 (ConstraintFactor);
+///   4. what the multipliers reach, again with lambda: dx/dt and every effort.
+/// ProjectMomenta removes the drift of g after a step; Residual measures it.
+/// The model's parts it reads are named in BuildInput (at compile time) and PlanView (at run
+/// time); the workspace it writes is the model's (Workspace::lambda and Workspace::con).
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "multibond/compile/constraint_factor.h"
+#include "multibond/compile/operations.h"
+#include "multibond/core/time_function.h"
+
+namespace multibond {
+
+class BondGraph;
+struct StateBlock;
+struct StateGather;
+struct Workspace;
+
+class ConstraintSolver {
+ public:
+  /// An ideal constraint: an Sf marked `constraint` (now an effort source of unknown effort), or
+  /// a pair of such sources that cut the bond of a storage element in derivative causality.
+  /// Its velocity-level equation: g = sum over members of s_k (f_k - v_k(t)) = 0, with s_k = +1
+  /// if the member's bond points away from it (lambda g is the power it delivers).
+  struct Group {
+    std::string name;
+    int element = -1;  ///< the constraint source (or, for a cut, the storage element)
+    int size = 0;
+    int lambda = 0;    ///< offset in Workspace::lambda
+    /// flow: the member's bond until Build, then its flow's slot; target: until Build 0 (the
+    /// Sf's source functions are the flow's target) or -1 (none: a cut's sides agree), then the
+    /// offset of its target functions in the solver's own table, or -1.
+    struct Member {
+      int flow;
+      double sign;
+      int target;
+    };
+    std::vector<Member> members;
+    std::vector<int> starts;    ///< plan indices of its multiplier instructions (two for a cut)
+    std::vector<int> closure;   ///< plan indices reached by its multiplier (effort side)
+    std::vector<int> momenta;   ///< momentum gathers (indices in the gathers) it reaches
+  };
+
+  /// What Build reads of the compiled model: the ordered plan with the slot classes each
+  /// instruction reads and writes, the state blocks and their gathers (parallel), the slot
+  /// classes, and the graph (the constraints' elements: targets, compliances, locations).
+  struct BuildInput {
+    const BondGraph& graph;
+    const std::vector<plan::Instr>& plan;
+    const std::vector<std::vector<int>>& plan_reads;  ///< per instruction: the slot classes it reads
+    const std::vector<int>& plan_writes;              ///< per instruction: the slot class it writes
+    const std::vector<StateBlock>& blocks;
+    const std::vector<StateGather>& gathers;          ///< one per state block
+    const std::vector<int>& class_offset;             ///< per slot class: its first slot
+    const std::vector<int>& class_size;
+    const std::vector<std::string>& class_names;
+    const std::vector<int>& flow_class;               ///< per bond: its flow's slot class
+    int num_slots;
+  };
+
+  /// What the run-time methods read of the compiled model (made per call: references only).
+  struct PlanView {
+    const std::vector<plan::Instr>& plan;
+    plan::Tables tables;  ///< coefficients, sum terms, the plan's source functions
+    const std::vector<plan::ModulusEval>& moduli;
+    const std::vector<StateGather>& gathers;
+    /// One state block's derivative from the slots w (and x, for orientations).
+    void (*gather)(const StateGather& gt, const double* x, const double* w, double* xdot);
+    const void* sources;  ///< the source functions as the generated code calls them
+    int num_states;
+  };
+
+  // --- declared before the plan ---
+  /// A constraint of the graph pass: its name, element and members (bond, sign, target 0 or -1).
+  void Add(std::string name, int element, std::vector<Group::Member> members);
+  /// One multiplier per dimension of each constraint (its first member's bond's dimension), in
+  /// order of declaration.
+  void AssignMultipliers(const std::vector<int>& bond_dim);
+  /// The offset in Workspace::lambda of the constraint that `bond` is a member of (0 if none).
+  int MultiplierOf(int bond) const;
+
+  // --- built from the plan ---
+  /// The tables: members' slots and targets, each multiplier's closure and the momenta it
+  /// reaches, B's sparsity, the tangent pass, what the multipliers reach. Throws ModelError
+  /// (`constraint.unsupported`: a constraint whose flows depend on its own effort;
+  /// `param.shape`: compliances that do not match the constraint's components).
+  void Build(const BuildInput& in);
+  /// The constraints independent at the initial state x (the rest are redundant there), and the
+  /// factor's pattern. `ws` holds the plan's evaluation at x with lambda = 0.
+  void FindIndependent(const PlanView& view, const double* x, Workspace& ws);
+  /// Sizes Workspace::lambda and Workspace::con (MakeWorkspace).
+  void SizeScratch(Workspace& ws, int num_slots, int num_moduli, int num_states) const;
+  /// The generated code of steps 2-4 (null: interpreted), and the library that holds it.
+  /// tangent: (t, x, xdot, slots, dslots, moduli, dmoduli, sources);
+  /// react: (t, x, xdot, slots, moduli, lambda, sources); columns: (x, lin, moduli, b, v).
+  using GeneratedTangent = void (*)(double, const double*, const double*, const double*, double*, const double*,
+                                    const double*, const void*);
+  using GeneratedReact = void (*)(double, const double*, double*, double*, const double*, const double*, const void*);
+  using GeneratedColumns = void (*)(const double*, double*, const double*, double*, double*);
+  struct Generated {
+    GeneratedTangent tangent = nullptr;
+    GeneratedReact react = nullptr;
+    GeneratedColumns columns = nullptr;
+    ConstraintFactor::GeneratedFactor factor = nullptr;
+    ConstraintFactor::GeneratedSolve solve = nullptr;
+    std::shared_ptr<void> library;  ///< keeps the shared object loaded
+  };
+  void UseGenerated(Generated generated);
+
+  // --- run time (no allocation) ---
+  /// Steps 2-4, after the model's step 1: ws holds the plan at (t, x) with lambda = 0, xdot its
+  /// dx/dt, ws.con.dmoduli the moduli's time derivatives. Writes lambda, the slots they reach
+  /// and dx/dt. `share`: split a statically indeterminate reaction between redundant
+  /// constraints as an elastic structure would (ConstraintFactor::Share); the motion does not
+  /// depend on it, so the integrator's evaluations skip it and the output times' do it.
+  void Solve(const PlanView& view, double t, const double* x, double* xdot, Workspace& ws, bool share) const;
+  /// The momenta of x onto the velocity constraints by the kinetic-energy metric: p += B mu with
+  /// W mu = -g(t, x), exact in one solve (g is affine in p). ws holds the plan at (t, x) with
+  /// lambda = 0; lambda is left zero.
+  void ProjectMomenta(const PlanView& view, double t, double* x, Workspace& ws) const;
+  /// |g - target| (max norm) from ws, which holds the plan at (t, x) with lambda = 0.
+  double Residual(double t, Workspace& ws) const;
+
+  // --- what it holds ---
+  bool empty() const { return groups_.empty(); }
+  int num_multipliers() const { return num_lambda_; }
+  std::vector<std::string> names() const;  ///< one per constraint
+  const std::vector<Group>& groups() const { return groups_; }
+  const ConstraintFactor& factor() const { return factor_; }
+  /// Per multiplier: the offset of its compressed column in ConstraintScratch::b and v (m + 1).
+  const std::vector<int>& column_offset() const { return factor_.column_offset(); }
+  /// Per momentum gather: the plan index of its inertia's flow instruction (f = M^-1 p), else -1.
+  const std::vector<int>& flow_instr_of_block() const { return flow_instr_of_block_; }
+  const std::vector<int>& tangent_plan() const { return tangent_plan_; }        ///< plan indices, in order
+  const std::vector<int>& reaction_plan() const { return reaction_plan_; }      ///< plan indices, in order
+  const std::vector<int>& reaction_gathers() const { return reaction_gathers_; }  ///< gather indices
+
+ private:
+  /// d/dt along (xdot, d/dt sources) of the slots the constraints' flows depend on
+  /// (tangent_plan_), into ws.con.dslots; the other entries are not written.
+  void Tangent(const PlanView& view, double t, const double* x, const double* xdot, Workspace& ws) const;
+  /// B (momentum-rate response to each unit multiplier) and V = M^-1 B at x, into ws.con.b, v.
+  void AssembleConstraintMatrix(const PlanView& view, double t, const double* x, Workspace& ws) const;
+  /// B's columns at (t, x) and lambda from W lambda = ws.con.rhs: the sparse L D L^T on the
+  /// independent set, else the pivoted solve. When ws holds B and the factor for this very x
+  /// (ConstraintScratch::factored_at), the solve only.
+  void SolveAt(const PlanView& view, double t, const double* x, Workspace& ws) const;
+  /// g(x) - target(t) of every multiplier component, from filled slots, into `out`.
+  void ConstraintValues(double t, const double* w, double* out) const;
+
+  std::vector<Group> groups_;
+  int num_lambda_ = 0;
+  std::vector<TimeFunction> targets_;  ///< the prescribed flows' functions (Member::target)
+  std::vector<int> reaction_plan_;     ///< plan indices the multipliers reach (their instructions too), in order
+  std::vector<int> reaction_gathers_;  ///< gathers that read a slot the multipliers reach
+  std::vector<int> tangent_plan_;      ///< plan indices the constraints' flows depend on, in order
+  std::vector<int> flow_instr_of_block_;
+  ConstraintFactor factor_;            ///< B's sparsity, W and its solves
+  Generated generated_;
+};
+
+}  // namespace multibond
