@@ -154,6 +154,10 @@ TEST(Expression, ErrorsSayWhereAndWhat) {
   EXPECT_EQ(e.hint, "did you mean 'sin'?");
   EXPECT_EQ(ErrorOf("smothabs(x, 1)").hint, "did you mean 'smoothabs'?");
   EXPECT_EQ(ErrorOf("frobnicate(x)").hint, "");
+  EXPECT_EQ(ErrorOf("Sin(x)").hint, "did you mean 'sin'?");
+  EXPECT_EQ(ErrorOf("arctan(x)").hint, "did you mean 'atan'?");
+  EXPECT_EQ(ErrorOf("ln(x)").hint, "write log(x) (the natural logarithm)");
+  EXPECT_EQ(ErrorOf("pow(x, 2)").hint, "write x^y");
   EXPECT_EQ(ErrorOf("spring.f(x)").message, "unknown function 'spring.f'");
   e = ErrorOf("1 + atan2(1)");
   EXPECT_EQ(e.offset, 4);
@@ -291,6 +295,50 @@ TEST(Expression, FormatReadsBackToTheSameTextAndValue) {
     const double a = Evaluate(*tree, value), b = Evaluate(*again.root, value);
     EXPECT_TRUE(Bits(a) == Bits(b) || (std::isnan(a) && std::isnan(b))) << text << ": " << a << " vs " << b;
   }
+}
+
+// What fuzz/expression_fuzzer.cc checks, on random text and on valid formulas with random edits:
+// a tree or a located error, and a tree formats to text that reads back to the same text.
+TEST(Expression, RandomTextGivesATreeOrALocatedError) {
+  std::mt19937_64 rng(99);
+  const std::string alphabet = "0123456789.eE+-*/^(),_ abcpqtxz\t\n\x01\xc3\xa9#$";
+  const std::vector<std::string> seeds = {"k1*q + k3*q^3", "-x^2^-y", "clamp(3*q, -1, 2)/(1e-3 + .5)",
+                                          "atan2(spring.q, J.omega.z)", "smoothsign(f, 1e-3)*F_c + c*f"};
+  int trees = 0, errors = 0;
+  for (int i = 0; i < 20000; ++i) {
+    std::string text;
+    if (i % 2 == 0) {
+      const int n = std::uniform_int_distribution<int>(0, 40)(rng);
+      for (int k = 0; k < n; ++k) text += alphabet[std::uniform_int_distribution<size_t>(0, alphabet.size() - 1)(rng)];
+    } else {
+      text = seeds[static_cast<size_t>(i / 2) % seeds.size()];
+      for (int edits = std::uniform_int_distribution<int>(1, 3)(rng); edits > 0; --edits) {
+        const size_t at = std::uniform_int_distribution<size_t>(0, text.size())(rng);
+        const char c = alphabet[std::uniform_int_distribution<size_t>(0, alphabet.size() - 1)(rng)];
+        switch (std::uniform_int_distribution<int>(0, 2)(rng)) {
+          case 0: text.insert(at, 1, c); break;
+          case 1: if (at < text.size()) text.erase(at, 1); break;
+          default: if (at < text.size()) text[at] = c;
+        }
+      }
+    }
+    const ParseResult r = Parse(text);
+    if (!r.root) {
+      ++errors;
+      ASSERT_TRUE(r.error.has_value()) << text;
+      EXPECT_FALSE(r.error->message.empty()) << text;
+      EXPECT_GE(r.error->offset, 0) << text;
+      EXPECT_LE(r.error->offset, static_cast<int>(text.size())) << text;
+      continue;
+    }
+    ++trees;
+    const std::string formatted = Format(*r.root);
+    const ParseResult again = Parse(formatted);
+    ASSERT_TRUE(again.root) << text << " -> " << formatted;
+    EXPECT_EQ(Format(*again.root), formatted) << text;
+  }
+  EXPECT_GT(trees, 1000);
+  EXPECT_GT(errors, 1000);
 }
 
 TEST(Expression, NamesInOrderOfFirstAppearance) {

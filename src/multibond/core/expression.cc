@@ -115,6 +115,17 @@ int EditDistance(std::string_view a, std::string_view b) {
 /// "did you mean 'sin'?" for a function name at most 2 edits away (1 for names of 1 or 2
 /// letters), or "".
 std::string FunctionHint(std::string_view word) {
+  // Names other languages use.
+  static constexpr std::pair<std::string_view, std::string_view> kOther[] = {
+      {"ln", "write log(x) (the natural logarithm)"},
+      {"log10", "write log(x)/log(10)"},
+      {"pow", "write x^y"},
+      {"sgn", "did you mean 'sign'?"},
+      {"step", "write (1 + sign(x))/2 for a unit step of x"},
+      {"heaviside", "write (1 + sign(x))/2 for a unit step of x"},
+  };
+  for (const auto& [name, hint] : kOther)
+    if (word == name) return std::string(hint);
   const FunctionInfo* best = nullptr;
   int best_d = word.size() <= 2 ? 2 : 3;
   for (const FunctionInfo& f : kFunctions) {
