@@ -96,15 +96,29 @@ TEST(Formulas, DuffingFromItsEnergyKeepsItAndHasTheEnergyIntegralsPeriod) {
   EXPECT_NEAR(rec.rows().front()[ep], V(q0), 1e-15);
 }
 
+std::string CompileErrorOf(const BondGraph& g) {
+  try {
+    CompiledModel::Compile(g);
+  } catch (const ModelError& e) {
+    return e.diagnostics().front().code;
+  }
+  return "compiled";
+}
+
 TEST(Formulas, ALawsEnergyIsItsIntegralInClosedFormOrByQuadrature) {
   // effort = k1 q + k3 q^3: stored energy 1/2 k1 q^2 + 1/4 k3 q^4 (GiNaC integrates it).
   const auto poly = CompiledModel::Compile(Oscillator("q + 10*q^3", false, 1.0, 0.5));
   Eigen::VectorXd x = poly->MakeInitialState();
   EXPECT_NEAR(poly->PotentialEnergy(x.data()), 0.5 * 0.25 + 2.5 * 0.0625, 1e-15);
-  // effort = tanh(q): energy log(cosh(q)) (quadrature).
-  const auto soft = CompiledModel::Compile(Oscillator("tanh(q)", false, 1.0, 0.8));
-  x = soft->MakeInitialState();
-  EXPECT_NEAR(soft->PotentialEnergy(x.data()), std::log(std::cosh(0.8)), 1e-12);
+  // effort = tanh(q): energy log(cosh(q)) (no closed form found: quadrature of the law).
+  for (const double q0 : {0.25, 0.8, 2.0, -1.5, 4.0}) {
+    const auto soft = CompiledModel::Compile(Oscillator("tanh(q)", false, 1.0, q0));
+    x = soft->MakeInitialState();
+    EXPECT_NEAR(soft->PotentialEnergy(x.data()), std::log(std::cosh(q0)), 1e-13 * std::log(std::cosh(q0))) << q0;
+  }
+  // A storage law of anything but its own state is refused: its energy would not be a function
+  // of the state.
+  EXPECT_EQ(CompileErrorOf(Oscillator("q*(1 + t)", false, 1.0, 1.0)), "law.energy");
 }
 
 /// A pendulum: J = m L^2, gravity's torque -m g L sin(theta) as a source of theta's formula.

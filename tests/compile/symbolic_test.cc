@@ -74,29 +74,6 @@ TEST(Symbolic, NoClosedFormIsNoAnswer) {
   EXPECT_FALSE(IntegrateFromZero(*Tree("c*sin(q^2)"), "q").has_value());
 }
 
-TEST(Symbolic, NumericalEnergyOfANonPolynomialLaw) {
-  // The energy of the law F = tanh(q) is log(cosh(q)).
-  for (const double q : {0.25, 1.0, 2.0, -1.5, 4.0}) {
-    const double e = IntegrateNumerically(*Tree("tanh(q)"), "q", q, [](const std::string&) { return std::nullopt; });
-    EXPECT_NEAR(e, std::log(std::cosh(q)), 1e-12) << q;
-  }
-  // With parameters: F = c tanh(q/a), energy c a log(cosh(q/a)).
-  const auto params = [](const std::string& name) -> std::optional<double> {
-    if (name == "c") return 3.0;
-    if (name == "a") return 0.5;
-    return std::nullopt;
-  };
-  EXPECT_NEAR(IntegrateNumerically(*Tree("c*tanh(q/a)"), "q", 1.2, params), 3.0 * 0.5 * std::log(std::cosh(1.2 / 0.5)), 1e-12);
-  EXPECT_NEAR(IntegrateNumerically(*Tree("sin(pi*q)"), "q", 0.5, params), 1.0 / std::numbers::pi, 1e-12);
-  EXPECT_EQ(IntegrateNumerically(*Tree("tanh(q)"), "q", 0.0, params), 0.0);
-  try {
-    IntegrateNumerically(*Tree("tanh(q/b)"), "q", 1.0, params);
-    ADD_FAILURE() << "no error for an unknown name";
-  } catch (const std::domain_error& e) {
-    EXPECT_THAT(e.what(), HasSubstr("'b'"));
-  }
-}
-
 /// d/dq of f against a central difference at points away from the kinks.
 void ExpectDerivative(const std::string& f, const std::vector<double>& points, const Values& params = {}) {
   const NodePtr tree = Tree(f);

@@ -416,14 +416,9 @@ class CompiledModel {
     int coef;      ///< offset in energy_coef_ of the size x size matrix (row-major)
     bool kinetic;
     int program = -1;  ///< a formula's energy: its program in programs_ (then coef is unused)
-    int law = -1;      ///< a law without a closed-form energy: index in energy_laws_ (quadrature)
+    int law = -1;      ///< a law without a closed-form energy: its program of x[0] (quadrature)
   };
-  /// Laws in the state's own name whose energy is their integral from 0, found by quadrature.
-  struct EnergyLaw {
-    expr::NodePtr law;
-    std::string name;
-  };
-  std::vector<EnergyLaw> energy_laws_;
+
   std::vector<EnergyTerm> energy_terms_;
   std::vector<double> energy_coef_;
   std::vector<int> energy_term_of_element_;  ///< index in energy_terms_, or -1

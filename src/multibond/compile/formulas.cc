@@ -227,6 +227,20 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
       scalar_only(b, given);
       const char* own = inertia ? "p" : "q";
       NodePtr law = given.root;
+      // A storage element is conservative: its law (or energy) is a function of its own state
+      // and constants alone, so that its stored energy is a function of the state.
+      for (const Node* n : expr::Names(*given.root))
+        if (n->name != own && n->name != "pi") {
+          Diagnostic d;
+          d.code = "law.energy";
+          d.where = At(&given, n->offset);
+          d.element = e.name;
+          d.message = fmt::format("the {} of a storage element may depend on {} and parameters only, not on '{}'",
+                                  e.energy.given() ? "stored energy" : "law", own, n->name);
+          d.hint = "a stored energy is a function of the element's own state; for other dependencies use a source or a "
+                   "transformer given by a formula";
+          throw ModelError(d);
+        }
       if (e.energy.given()) {
         // The law is the energy's derivative in the element's own state; the energy must be a
         // function of that state alone (else the account would not balance).
@@ -239,16 +253,6 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
           d.hint = fmt::format("write the energy in the element's own {} ({})", inertia ? "momentum" : "displacement", own);
           throw ModelError(d);
         }
-        for (const Node* n : expr::Names(*e.energy.root))
-          if (n->name != own && n->name != "pi") {
-            Diagnostic d;
-            d.code = "law.energy";
-            d.where = At(&e.energy, n->offset);
-            d.element = e.name;
-            d.message = fmt::format("the stored energy may depend on {} and parameters only, not on '{}'", own, n->name);
-            d.hint = "a stored energy is a function of the element's own state; use a law (`effort:`/`flow:`) for other dependencies";
-            throw ModelError(d);
-          }
         law = expr::Differentiate(*e.energy.root, own);
       }
       const int state = blocks_[element_block_[i]].offset;
@@ -403,12 +407,9 @@ void CompiledModel::AccountFormulaEnergy(int element, int term) {
     f = e.kind == ElementKind::kI ? &e.law_flow : &e.law_effort;
     energy = expr::IntegrateFromZero(*f->root, own);
   }
-  if (energy) {
-    et.program = CompileFormula(Replace(*energy, own, StateRef(et.state)), FormulaScope{f, element, "the stored energy of " + e.name});
-  } else {
-    et.law = static_cast<int>(energy_laws_.size());
-    energy_laws_.push_back({f->root, own});
-  }
+  const FormulaScope scope{f, element, "the stored energy of " + e.name};
+  if (energy) et.program = CompileFormula(Replace(*energy, own, StateRef(et.state)), scope);
+  else et.law = CompileFormula(Replace(f->root, own, StateRef(0)), scope);  // integrated over x[0] (LawEnergy)
 }
 
 void CompiledModel::CheckFormulaUse() const {

@@ -451,32 +451,6 @@ std::optional<NodePtr> IntegrateFromZero(const Node& root, const std::string& na
   return Tidy(result);
 }
 
-double IntegrateNumerically(const Node& root, const std::string& name, double upper,
-                            const std::function<std::optional<double>(const std::string&)>& value) {
-  std::lock_guard lock(GinacLock());
-  Symbols symbols;
-  GiNaC::ex f = ToEx(root, symbols);
-  GiNaC::lst given;
-  for (const Node* n : Names(root)) {
-    if (n->name == name || n->name == "pi") continue;
-    const std::optional<double> v = value(n->name);
-    if (!v) throw std::domain_error(fmt::format("unknown name '{}'", n->name));
-    given.append(symbols.Symbol(n->name) == FromDouble(*v));
-  }
-  f = f.subs(given);
-  if (const std::optional<double> pi = value("pi")) f = f.subs(GiNaC::Pi == FromDouble(*pi));
-  // Adaptive Simpson to a relative error of 1e-14 (GiNaC's default, 1e-8, is far too coarse for
-  // an energy compared with the integrator's tolerances).
-  GiNaC::ex r;
-  try {
-    r = GiNaC::adaptivesimpson(symbols.Symbol(name), 0, FromDouble(upper), f, 1e-14).evalf();
-  } catch (const std::exception& e) {  // an integrand that is no number, or too rough
-    throw std::domain_error(fmt::format("integrating {} over {} from 0 to {}: {}", Format(root), name, upper, e.what()));
-  }
-  if (!IsReal(r)) throw std::domain_error(fmt::format("the integral of {} has no real value", Format(root)));
-  return Num(r).to_double();
-}
-
 bool DependsOn(const Node& root, const std::string& name) {
   std::lock_guard lock(GinacLock());
   Symbols symbols;

@@ -26,12 +26,6 @@ NodePtr Differentiate(const Node& root, const std::string& name);
 /// closed form (polynomials, and what GiNaC's integral::eval_integ handles); nullopt otherwise.
 std::optional<NodePtr> IntegrateFromZero(const Node& root, const std::string& name);
 
-/// The definite integral of root over `name` from 0 to `upper` by GiNaC's numerical quadrature,
-/// with the other names given by `value` (nullopt: unknown). For laws without a closed-form
-/// integral; not for the right-hand side (it allocates).
-double IntegrateNumerically(const Node& root, const std::string& name, double upper,
-                            const std::function<std::optional<double>(const std::string&)>& value);
-
 /// True if the tree refers to `name` (after simplification: x - x does not).
 bool DependsOn(const Node& root, const std::string& name);
 
