@@ -59,8 +59,9 @@ struct EmitNames {
   const char* x = "x";
   const char* w = "w";
 };
-/// The program as C++ statements that declare `const double <prefix>k` registers and end with
-/// the value in `<prefix><result>`; returns the name of the result. `prefix` must be unique in
+/// The program as C++ statements that declare `const double <prefix>k` values (k the step: each
+/// step writes a new constant) and end with the program's value in the one whose name is
+/// returned. `prefix` must be unique in
 /// the enclosing scope (e.g. "e12_"). Function calls use the helpers of ProgramPreamble().
 std::string EmitProgram(const Program& p, const std::string& prefix, const EmitNames& names, std::string& out);
 

@@ -86,6 +86,9 @@ struct ParseResult {
   std::optional<ParseError> error;
 };
 ParseResult Parse(std::string_view text);
+inline constexpr int kMaxFormulaBytes = 4096;
+/// Parentheses, calls, signs and exponents nested in one another.
+inline constexpr int kMaxFormulaDepth = 64;
 
 /// The distinct names a tree refers to, in order of first appearance (with the node of the first
 /// appearance, for its offset). `t` and `pi` are included when used.
@@ -103,5 +106,17 @@ double Evaluate(const Node& root, const std::function<std::optional<double>(cons
 /// The value of f at its arguments: the one definition every engine uses (the interpreter calls
 /// it; the generated code calls functions with the same bodies, see expr_program.h).
 double Apply(Fn fn, const double* args);
+
+/// The value of base^exponent, the `^` operator, in every engine: an exponent of exactly 2 or 3
+/// is a product (x*x, (x*x)*x), -1 a quotient (1/x), anything else std::pow. A compiler turns
+/// pow(x, 2.0) and pow(x, -1.0) into x*x and 1/x by itself, which can differ from the library's
+/// pow in the last bit; writing them so in both engines keeps the interpreter and the generated
+/// code equal (and saves a call on the common q^2, q^3).
+double Power(double base, double exponent);
+
+/// C++ text defining mb_<name> for every function (mb_sin, ..., mb_smoothsign) and mb_pow: the
+/// very definitions Apply and Power run (one macro is both compiled and written out), for the
+/// top of generated code (compile/expr_program.h, ProgramPreamble). Needs <cmath>.
+const char* FunctionDefinitions();
 
 }  // namespace multibond::expr

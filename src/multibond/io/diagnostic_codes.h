@@ -53,6 +53,7 @@ enum class Outcome {
     "initial values, non-finite numbers, a rotation or lever that is no state")                                              \
   X(kParamShape, "param.shape", kModelError, "a constraint with a number of compliances that fits none of its components")   \
   X(kParamSingular, "param.singular", kModelError, "a resistor in conductance causality with a singular resistance")         \
+  X(kExprTooLarge, "expr.too_large", kModelError, "a formula that needs more than 256 intermediate values at once")       \
   X(kCausalityConflict, "causality.conflict", kModelError,                                                                     \
     "two elements impose the same effort or flow (two Se on a 0-junction, two Sf on a 1-junction, both ports of a two-port " \
     "given the same variable)")                                                                                                \

@@ -1,0 +1,309 @@
+// Programs of formulas (compile/expr_program.h): the interpreter gives the tree's value to the bit,
+// constants are folded without changing a bit, running allocates nothing, and the generated C++
+// (compiled by the project's JIT) gives the interpreter's bits for every function and operator.
+
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <limits>
+#include <new>
+#include <numbers>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "multibond/compile/expr_program.h"
+#include "multibond/compile/jit.h"
+#include "multibond/core/error.h"
+#include "support/temp_dir.h"
+
+namespace {
+std::atomic<long> g_allocations{0};
+}  // namespace
+
+void* operator new(std::size_t n) {
+  ++g_allocations;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t n) { return operator new(n); }
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+void operator delete[](void* p) noexcept { std::free(p); }
+void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+
+namespace multibond::expr {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::uint64_t Bits(double v) { return std::bit_cast<std::uint64_t>(v); }
+
+/// x0..x2 are states, w0..w1 workspace slots, k a constant parameter (2.5), t the time, pi.
+Input Resolve(const Node& n) {
+  if (n.name == "t") return {Input::In::kTime, 0, 0.0};
+  if (n.name == "pi") return {Input::In::kConstant, 0, std::numbers::pi};
+  if (n.name == "k") return {Input::In::kConstant, 0, 2.5};
+  if (n.name.size() == 2 && n.name[0] == 'x') return {Input::In::kState, n.name[1] - '0', 0.0};
+  if (n.name.size() == 2 && n.name[0] == 'w') return {Input::In::kSlot, n.name[1] - '0', 0.0};
+  Diagnostic d;
+  d.message = fmt::format("unknown name '{}' at offset {}", n.name, n.offset);
+  throw ModelError(d);
+}
+
+/// The same, with k as a workspace slot (w[2]) instead of a constant: nothing to fold.
+Input ResolveUnfolded(const Node& n) {
+  if (n.name == "k") return {Input::In::kSlot, 2, 0.0};
+  if (n.name == "pi") return {Input::In::kSlot, 3, 0.0};
+  return Resolve(n);
+}
+
+NodePtr Tree(const std::string& text) {
+  const ParseResult r = Parse(text);
+  EXPECT_TRUE(r.root) << text << ": " << (r.error ? r.error->message : "");
+  return r.root;
+}
+
+/// Every operator and function on values only known at run time, and some laws.
+const std::vector<std::string> kFormulas = {
+    "x0 + x1", "x0 - x1", "x0*x1", "x0/x1", "-x0", "x0^x1", "abs(x0)^x1", "x0^2", "x0^3", "x0^-1", "x0^0.5", "x0^4",
+    "2^x0", "sin(x0)", "cos(x0)", "tan(x0)", "asin(x0)", "acos(x0)", "atan(x0)", "atan2(x0, x1)", "sinh(x0)",
+    "cosh(x0)", "tanh(x0)", "exp(x0)", "log(x0)", "sqrt(x0)", "abs(x0)", "sign(x0)", "min(x0, x1)", "max(x0, x1)",
+    "hypot(x0, x1)", "clamp(x0, x1, x2)", "smoothabs(x0, w0)", "smoothsign(x0, w0)", "smoothabs(x0, 1e-3)",
+    "smoothsign(x0*x1 + x2, 1e-3)",
+    // a product and a sum: fused nowhere
+    "x0*x1 + x2", "x2 - x0*x1", "x0*x1 + x2*w0 + w1*t",
+    // laws and sources
+    "1/2*k*x0^2 + 1/4*k*x0^4", "k*x0 + k^2*x0^3", "sin(x0)*cos(x0) + tan(t)", "exp(-t/w1)*cos(2*pi*t)",
+    "sqrt(x0*x0 + x1*x1) - hypot(x0, x1)", "clamp(k*x0, -w0, w0) + min(max(x1, -1), 1)",
+    "atan2(sin(x0), cos(x1))^2 + log(abs(x2) + 1e-300)", "(x0 - x1)/(x2 + w0)*(t - k)", "-x0^2 - -x1",
+    "sign(x0 - x1)*smoothabs(x2, w0)^1.5", "cosh(x0)^2 - sinh(x0)^2",
+};
+
+/// Inputs of every kind: ordinary, large, tiny, zeros of both signs, out of the functions' domains.
+double RandomValue(std::mt19937_64& rng) {
+  switch (std::uniform_int_distribution<int>(0, 9)(rng)) {
+    case 0: return 0.0;
+    case 1: return -0.0;
+    case 2: return std::uniform_real_distribution<double>(-1e3, 1e3)(rng);
+    case 3: return std::uniform_real_distribution<double>(-1e-8, 1e-8)(rng);
+    case 4: return std::ldexp(std::uniform_real_distribution<double>(-1, 1)(rng), std::uniform_int_distribution<int>(-1000, 1000)(rng));
+    case 5: return std::round(std::uniform_real_distribution<double>(-4, 4)(rng));
+    default: return std::uniform_real_distribution<double>(-3, 3)(rng);
+  }
+}
+
+struct Inputs {
+  double t = 0.0;
+  double x[3] = {};
+  double w[4] = {};
+};
+
+Inputs RandomInputs(std::mt19937_64& rng) {
+  Inputs in;
+  in.t = RandomValue(rng);
+  for (double& v : in.x) v = RandomValue(rng);
+  in.w[0] = RandomValue(rng);
+  in.w[1] = RandomValue(rng);
+  in.w[2] = 2.5;
+  in.w[3] = std::numbers::pi;
+  return in;
+}
+
+double EvaluateAt(const Node& root, const Inputs& in) {
+  return Evaluate(root, [&](const std::string& name) -> std::optional<double> {
+    if (name == "t") return in.t;
+    if (name == "k") return 2.5;
+    if (name[0] == 'x') return in.x[name[1] - '0'];
+    if (name[0] == 'w') return in.w[name[1] - '0'];
+    return std::nullopt;  // pi
+  });
+}
+
+TEST(ExprProgram, RunGivesTheTreesValueToTheBit) {
+  std::mt19937_64 rng(7);
+  for (const std::string& f : kFormulas) {
+    const NodePtr tree = Tree(f);
+    const Program p = CompileProgram(*tree, Resolve);
+    for (int trial = 0; trial < 2000; ++trial) {
+      const Inputs in = RandomInputs(rng);
+      const double run = expr::Run(p, in.t, in.x, in.w), eval = EvaluateAt(*tree, in);
+      ASSERT_EQ(Bits(run), Bits(eval)) << f << ": " << run << " vs " << eval << " at x0 = " << in.x[0];
+    }
+  }
+}
+
+TEST(ExprProgram, ComputesTheAnalyticValue) {
+  // A Duffing spring's law, and its energy, at q = 3 with k = 2.5.
+  const double x[3] = {3.0, 0.0, 0.0};
+  EXPECT_EQ(expr::Run(CompileProgram(*Tree("k*x0 + k^2*x0^3"), Resolve), 0.0, x, nullptr), 2.5 * 3 + 6.25 * 27);
+  EXPECT_EQ(expr::Run(CompileProgram(*Tree("1/2*k*x0^2"), Resolve), 0.0, x, nullptr), 11.25);
+  EXPECT_EQ(expr::Run(CompileProgram(*Tree("t*x0 - 1"), Resolve), 2.0, x, nullptr), 5.0);
+}
+
+TEST(ExprProgram, FoldsConstantsWithoutChangingABit) {
+  const Program folded = CompileProgram(*Tree("sin(k*pi/7)*x0 + (2^0.5*k - exp(-k))"), Resolve);
+  // sin(k*pi/7) and 2^0.5*k - exp(-k) are constants: one multiply-add of x0 is left.
+  int calls = 0, consts = 0, loads = 0;
+  for (const Step& s : folded.steps) {
+    calls += s.op == Step::Op::kCall || s.op == Step::Op::kPow;
+    consts += s.op == Step::Op::kConst;
+    loads += s.op == Step::Op::kLoad;
+  }
+  EXPECT_EQ(calls, 0);
+  EXPECT_EQ(consts, 2);
+  EXPECT_EQ(loads, 1);
+  ASSERT_EQ(folded.inputs.size(), 1u);
+  EXPECT_EQ(folded.inputs[0].in, Input::In::kState);
+  EXPECT_EQ(folded.inputs[0].offset, 0);
+  // Everything constant: one step.
+  const Program constant = CompileProgram(*Tree("k*pi + atan2(1, 2)"), Resolve);
+  ASSERT_EQ(constant.steps.size(), 1u);
+  EXPECT_EQ(constant.steps[0].op, Step::Op::kConst);
+  EXPECT_TRUE(constant.inputs.empty());
+  EXPECT_EQ(expr::Run(constant, 0, nullptr, nullptr), 2.5 * std::numbers::pi + std::atan2(1.0, 2.0));
+  // Folded or computed at run time (k and pi read from slots), every formula gives the same bits.
+  std::mt19937_64 rng(11);
+  for (const std::string& f : kFormulas) {
+    const NodePtr tree = Tree(f);
+    const Program a = CompileProgram(*tree, Resolve), b = CompileProgram(*tree, ResolveUnfolded);
+    for (int trial = 0; trial < 200; ++trial) {
+      const Inputs in = RandomInputs(rng);
+      ASSERT_EQ(Bits(expr::Run(a, in.t, in.x, in.w)), Bits(expr::Run(b, in.t, in.x, in.w))) << f;
+    }
+  }
+}
+
+TEST(ExprProgram, RegistersAreReusedAndBounded) {
+  std::string sum = "x0";
+  for (int i = 0; i < 300; ++i) sum += fmt::format(" + x{}*w{}", i % 3, i % 2);  // (within 4096 bytes)
+  const Program p = CompileProgram(*Tree(sum), Resolve);
+  EXPECT_EQ(p.num_regs, 3);  // the running sum and the two factors of the next product
+  EXPECT_EQ(p.inputs.size(), 5u);
+  // A sum nested to the right keeps every left operand waiting: beyond kMaxRegs it is refused.
+  NodePtr deep = Name("x0");
+  for (int i = 0; i < kMaxRegs; ++i) deep = Binary(Node::Kind::kAdd, Name("x1"), deep);
+  try {
+    CompileProgram(*deep, Resolve);
+    ADD_FAILURE() << "no error for " << kMaxRegs + 1 << " registers";
+  } catch (const ModelError& e) {
+    ASSERT_EQ(e.diagnostics().size(), 1u);
+    EXPECT_EQ(e.diagnostics()[0].code, "expr.too_large");
+    EXPECT_THAT(e.diagnostics()[0].message, HasSubstr("more than 256 intermediate values"));
+  }
+  // One fewer fits.
+  NodePtr fits = Name("x0");
+  for (int i = 0; i < kMaxRegs - 1; ++i) fits = Binary(Node::Kind::kAdd, Name("x1"), fits);
+  EXPECT_EQ(CompileProgram(*fits, Resolve).num_regs, kMaxRegs);
+}
+
+TEST(ExprProgram, TheResolversErrorComesThrough) {
+  try {
+    CompileProgram(*Tree("x0 + nope"), Resolve);
+    ADD_FAILURE() << "no error";
+  } catch (const ModelError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("unknown name 'nope' at offset 5"));
+  }
+}
+
+TEST(ExprProgram, RunningAllocatesNothing) {
+  std::vector<Program> programs;
+  for (const std::string& f : kFormulas) programs.push_back(CompileProgram(*Tree(f), Resolve));
+  const Inputs in{0.5, {0.1, -0.2, 0.3}, {0.4, 0.5, 2.5, std::numbers::pi}};
+  double sink = 0.0;
+  const long before = g_allocations.load();
+  for (const Program& p : programs) sink += expr::Run(p, in.t, in.x, in.w);
+  EXPECT_EQ(g_allocations.load() - before, 0);
+  EXPECT_FALSE(std::isinf(sink));
+}
+
+TEST(ExprProgram, EmitsExactLiteralsAndTheHelpers) {
+  std::string out;
+  const std::string result = EmitProgram(CompileProgram(*Tree("0.1*x0 + sin(w1)/t"), Resolve), "e7_", EmitNames{}, out);
+  EXPECT_EQ(out,
+            "  const double e7_0 = x[0];\n"
+            "  const double e7_1 = (0x1.999999999999ap-4);\n"  // a constant is written where it is used
+            "  const double e7_2 = e7_1 * e7_0;\n"
+            "  const double e7_3 = w[1];\n"
+            "  const double e7_4 = mb_sin(e7_3);\n"
+            "  const double e7_5 = t;\n"
+            "  const double e7_6 = e7_4 / e7_5;\n"
+            "  const double e7_7 = e7_2 + e7_6;\n");
+  EXPECT_EQ(result, "e7_7");
+  // Infinities and NaNs as their bits.
+  out.clear();
+  const std::string inf = EmitProgram(CompileProgram(*Tree("1/0"), Resolve), "c_", EmitNames{"tt", "xs", "ws"}, out);
+  EXPECT_EQ(out, "  const double c_0 = (__builtin_bit_cast(double, 0x7ff0000000000000ULL));\n");
+  EXPECT_EQ(inf, "c_0");
+  const std::string pre = ProgramPreamble();
+  EXPECT_THAT(pre, HasSubstr("#include <cmath>"));
+  EXPECT_THAT(pre, HasSubstr("static inline double mb_smoothsign(double x, double eps) { return x / std::sqrt(x * x + eps * eps); }"));
+}
+
+/// The C++ compiler the JIT would use ($MULTIBOND_CXX, else c++ on the PATH), or "".
+std::string Compiler() {
+  if (const char* cxx = std::getenv("MULTIBOND_CXX"); cxx && *cxx) return cxx;
+  const char* path = std::getenv("PATH");
+  std::string dirs = path ? path : "";
+  for (size_t start = 0; start <= dirs.size();) {
+    const size_t end = std::min(dirs.find(':', start), dirs.size());
+    const std::filesystem::path candidate = std::filesystem::path(dirs.substr(start, end - start)) / "c++";
+    if (access(candidate.c_str(), X_OK) == 0) return candidate.string();
+    start = end + 1;
+  }
+  return "";
+}
+
+TEST(ExprProgram, GeneratedCodeGivesTheInterpretersBits) {
+  if (Compiler().empty()) GTEST_SKIP() << "no C++ compiler (c++ on the PATH or $MULTIBOND_CXX): nothing to compare";
+  testing::TempDir cache("multibond-expr-jit");
+  const char* old = std::getenv("MULTIBOND_CACHE");
+  const std::string old_cache = old ? old : "";
+  setenv("MULTIBOND_CACHE", cache.path().c_str(), 1);
+
+  std::vector<Program> programs;
+  std::string source = ProgramPreamble();
+  source += "extern \"C\" void all_formulas(double t, const double* x, const double* w, double* out) {\n";
+  for (size_t k = 0; k < kFormulas.size(); ++k) {
+    programs.push_back(CompileProgram(*Tree(kFormulas[k]), Resolve));
+    const std::string r = EmitProgram(programs.back(), fmt::format("f{}_", k), EmitNames{}, source);
+    source += fmt::format("  out[{}] = {};\n", k, r);
+  }
+  source += "}\n";
+  const JitResult jit = CompileAndLoad(source, "all_formulas");
+  if (old) setenv("MULTIBOND_CACHE", old_cache.c_str(), 1);
+  else unsetenv("MULTIBOND_CACHE");
+  ASSERT_NE(jit.symbol, nullptr) << jit.description << "\n" << source;
+  const auto all = reinterpret_cast<void (*)(double, const double*, const double*, double*)>(jit.symbol);
+
+  std::mt19937_64 rng(2024);
+  std::vector<double> out(kFormulas.size());
+  long compared = 0, nans = 0;
+  for (int trial = 0; trial < 20000; ++trial) {
+    const Inputs in = RandomInputs(rng);
+    all(in.t, in.x, in.w, out.data());
+    for (size_t k = 0; k < kFormulas.size(); ++k) {
+      const double interpreted = expr::Run(programs[k], in.t, in.x, in.w);
+      ASSERT_EQ(Bits(out[k]), Bits(interpreted))
+          << kFormulas[k] << ": generated " << out[k] << ", interpreted " << interpreted << " at t = " << in.t
+          << ", x = " << in.x[0] << " " << in.x[1] << " " << in.x[2] << ", w = " << in.w[0] << " " << in.w[1];
+      ++compared;
+      nans += std::isnan(interpreted);
+    }
+  }
+  EXPECT_EQ(compared, 20000 * static_cast<long>(kFormulas.size()));
+  EXPECT_GT(nans, 0);  // the domains' edges were reached too
+}
+
+}  // namespace
+}  // namespace multibond::expr
