@@ -1,5 +1,6 @@
 #include "multibond/io/element_reader.h"
 
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 
@@ -16,11 +17,15 @@ namespace {
 
 const std::vector<std::string> kCommonKeys = {"type", "dim", "domain", "components", "description"};
 
-/// A plain number or a submodel's $parameter: not a formula.
+/// A plain number (YAML's .nan and .inf included: refused as numbers) or a submodel's
+/// $parameter: not a formula.
 bool IsPlainValue(const YAML::Node& n) {
   if (!n.IsScalar()) return true;
   const std::string& s = n.Scalar();
   if (s.empty() || s[0] == '$') return true;
+  std::string word = s.substr(s[0] == '-' || s[0] == '+' ? 1 : 0);
+  for (char& c : word) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (word == ".nan" || word == ".inf") return true;
   const char* begin = s.c_str();
   char* end = nullptr;
   (void)std::strtod(begin, &end);

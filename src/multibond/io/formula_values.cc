@@ -12,6 +12,7 @@
 #include <numbers>
 #include <set>
 #include <stdexcept>
+#include <string_view>
 
 #include <fmt/format.h>
 
@@ -33,7 +34,7 @@ const char* ParseErrorCode(const std::string& text, const expr::ParseError& e) {
   size_t i = static_cast<size_t>(std::max(e.offset, 0));
   if (i >= text.size() || !(std::isalpha(static_cast<unsigned char>(text[i])) || text[i] == '_')) return codes::kExprSyntax;
   size_t j = i;
-  while (j < text.size() && IsIdentChar(text[j])) ++j;
+  while (j < text.size() && (IsIdentChar(text[j]) || text[j] == '.')) ++j;
   const std::string name = text.substr(i, j - i);
   while (j < text.size() && (text[j] == ' ' || text[j] == '\t')) ++j;
   if (j >= text.size() || text[j] != '(') return codes::kExprSyntax;
@@ -85,11 +86,14 @@ expr::NodePtr ValueReader::Parse(const YAML::Node& n, const std::string& text, c
   const std::string shown = PrintableExcerpt(text);
   const std::string message = number ? fmt::format("expected a number, got '{}': as a formula, {}", shown, e.message)
                                      : fmt::format("the formula '{}' does not read: {}", shown, e.message);
+  const char* code = ParseErrorCode(text, e);
+  // A number with a unit ("2 kg") is the likelier mistake where a number is expected.
   std::string hint = e.hint;
-  if (hint.empty())
-    hint = number ? "write a plain number such as 1.5 or 2e-3 (in SI units, without the unit), or a formula of parameters such as 2*L"
-                  : "see the grammar of formulas in docs/model-format.md, 'Expressions'";
-  sink_.Error(ParseErrorCode(text, e), At(n, e.offset), element, message, hint);
+  if (number && std::string_view(code) == codes::kExprSyntax)
+    hint = "write a plain number such as 1.5 or 2e-3 (in SI units, without the unit), or a formula of parameters such as 2*L";
+  else if (hint.empty())
+    hint = "see the grammar of formulas in docs/model-format.md, 'Expressions'";
+  sink_.Error(code, At(n, e.offset), element, message, hint);
   return nullptr;
 }
 
@@ -98,7 +102,7 @@ void ValueReader::UnknownName(const YAML::Node& n, const expr::Node& name, const
   std::vector<std::string> candidates;
   for (const ModelParameter& p : cx_.parameters) candidates.push_back(p.name);
   candidates.insert(candidates.end(), more.begin(), more.end());
-  const std::string guess = DidYouMean(name.name, candidates);
+  const std::string guess = DidYouMeanName(name.name, candidates);
   std::string hint;
   if (!guess.empty()) hint = fmt::format("did you mean '{}'?", guess);
   else if (!own_hint.empty()) hint = own_hint;
@@ -113,6 +117,7 @@ void ValueReader::UnknownName(const YAML::Node& n, const expr::Node& name, const
 
 double ValueReader::Constant(const YAML::Node& n, const std::string& text, const std::string& element, const Env& env, bool* ok) {
   auto failed = [&] {
+    cx_.unread_numbers.insert(element);
     if (ok) *ok = false;
     return 0.0;
   };

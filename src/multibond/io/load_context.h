@@ -64,6 +64,8 @@ struct LoadContext {
   /// Every auxiliary state declared so far and in the scope being read (qualified names): a bare
   /// name in a formula is one of these, or a parameter, a signal or an element's own variable.
   std::unordered_set<std::string> state_names;
+  /// The elements with a number that could not be read (said where it is; its value is 0).
+  std::unordered_set<std::string> unread_numbers;
 
   /// The parameter called `name`, or nullptr.
   const ModelParameter* FindParameter(const std::string& name) const {

@@ -76,10 +76,11 @@ LoadedModel Load(LoadContext& cx, const std::vector<ParameterOverride>& override
   if (sink.has_errors()) {
     // Report the parameter problems of what could be read too, so that one pass shows them all.
     // (Structural problems of a partly read graph would mostly be echoes of the errors above.)
+    // An element with a number that could not be read (said) is not said again to be out of range.
     DiagnosticSink structural;
     AnalyzeStructure(cx.graph, out.compile.default_domain, structural);
     for (const auto& d : structural.diagnostics())
-      if (d.code == codes::kParamRange) sink.Add(d);
+      if (d.code == codes::kParamRange && !cx.unread_numbers.count(d.element)) sink.Add(d);
   }
   sink.ThrowIfErrors();
   for (const auto& d : sink.diagnostics())

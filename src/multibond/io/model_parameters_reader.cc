@@ -89,12 +89,12 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
       } else {
         e.value = v;
       }
-      if (e.value && !e.value.IsScalar()) {
+      if (!e.failed && !e.value.IsScalar()) {
         sink_.Error(Loc(e.value), name, fmt::format("a parameter is a number or a formula, not {}", Describe(e.value)),
                     "write e.g. L: 0.5 or k: \"4*L\"");
         e.failed = true;
       }
-      if (e.value && e.value.IsScalar()) e.p.text = e.value.Scalar();
+      if (!e.failed) e.p.text = e.value.Scalar();
       index[name] = entries.size();  // a name given twice is a YAML error (yaml.duplicate_key)
       entries.push_back(std::move(e));
     }
@@ -106,7 +106,7 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
     if (it == index.end()) {
       std::vector<std::string> names;
       for (const Entry& e : entries) names.push_back(e.p.name);
-      const std::string guess = DidYouMean(o.name, names);
+      const std::string guess = DidYouMeanName(o.name, names);
       throw std::invalid_argument(fmt::format(
           "the model has no parameter '{}'{}", PrintableExcerpt(o.name),
           !guess.empty() ? fmt::format(": did you mean '{}'?", guess)
@@ -160,7 +160,7 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
       const bool variable = id == "t" || id.find('.') != std::string::npos || IsReservedInFormulas(id) || cx_.signal_names.count(id);
       std::vector<std::string> names;
       for (const Entry& x : entries) names.push_back(x.p.name);
-      const std::string guess = DidYouMean(id, names);
+      const std::string guess = DidYouMeanName(id, names);
       if (e.p.set)
         set_error(e, variable ? fmt::format("'{}' is {}: a parameter is a constant", id, id == "t" ? "time" : "a variable of the model")
                               : fmt::format("the model has no parameter '{}'{}", id, guess.empty() ? "" : fmt::format(": did you mean '{}'?", guess)));
@@ -171,7 +171,8 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
                               : fmt::format("a parameter is a constant: it cannot depend on '{}', a variable of the model", PrintableExcerpt(id)),
                     "a quantity that changes in time is a signal (under 'signals:') or a formula in an element's law");
       else
-        UnknownName(e.value, *name, e.p.name, {}, "");
+        sink_.Error(codes::kParamUnknown, At(e.value, name->offset), e.p.name, fmt::format("unknown parameter '{}'", PrintableExcerpt(id)),
+                    !guess.empty() ? fmt::format("did you mean '{}'?", guess) : fmt::format("the model's parameters are: {}", NameList(entries)));
     }
   }
 

@@ -108,6 +108,7 @@ std::string ValueReader::Domain(const YAML::Node& n, const std::string& element)
 double ValueReader::Number(const YAML::Node& n, const std::string& element, const Env& env, bool* ok) {
   auto fail = [&](const std::string& msg, const std::string& hint) {
     sink_.Error(Loc(n), element, msg, hint);
+    cx_.unread_numbers.insert(element);
     if (ok) *ok = false;
     return 0.0;
   };
