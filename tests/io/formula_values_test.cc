@@ -104,6 +104,28 @@ bonds: [push -> a.v, a.v -> b.v]
   EXPECT_EQ(Find(lm, "b.mass").param.scalar, 8.0);
 }
 
+TEST(FormulaValues, ADollarInsideAFormulaIsExplained) {
+  const std::string yaml = R"y(model: m
+submodels:
+  cart:
+    parameters: {m: 1.0}
+    ports: [v]
+    elements:
+      v:    {type: "1"}
+      mass: {type: I, inertia: 2*$m}
+    bonds: [v -> mass]
+elements:
+  push: {type: Se, effort: 1.0}
+  a:    {type: cart}
+bonds: [push -> a.v]
+)y";
+  const Diagnostic d = WithCode(LoadErrors(yaml), "expr.syntax");
+  EXPECT_EQ(d.element, "a.mass");
+  EXPECT_EQ(d.where.line, 8);
+  EXPECT_EQ(d.where.column, 34);
+  EXPECT_EQ(d.hint, "in a formula, a submodel's parameter is named without '$' (2*m, not 2*$m)");
+}
+
 TEST(FormulaValues, UnknownParameterAtItsCharacterWithDidYouMean) {
   // Line 8 is "  mass:   {type: I, inertia: 2*LL}": the value starts at column 30, 'LL' at 32.
   Diagnostic d = WithCode(LoadErrors(Msd("{type: I, inertia: 2*LL}")), "param.unknown");

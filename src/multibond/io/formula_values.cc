@@ -93,6 +93,8 @@ expr::NodePtr ValueReader::Parse(const YAML::Node& n, const std::string& text, c
     hint = "write a plain number such as 1.5 or 2e-3 (in SI units, without the unit), or a formula of parameters such as 2*L";
   else if (hint.empty())
     hint = "see the grammar of formulas in docs/model-format.md, 'Expressions'";
+  if (static_cast<size_t>(e.offset) < text.size() && text[e.offset] == '$')
+    hint = "in a formula, a submodel's parameter is named without '$' (2*m, not 2*$m)";
   sink_.Error(code, At(n, e.offset), element, message, hint);
   return nullptr;
 }
