@@ -172,6 +172,13 @@ int Check(const CheckArgs& a) {
   CausalAssignment c = AssignCausality(view, s);
   if (lm.mechanism) ExplainInMechanismTerms(*lm.mechanism, c.diagnostics);
   std::cout << fmt::format("model '{}' ({}): {} elements, {} bonds\n\n", g.name(), path, g.num_elements(), g.num_bonds());
+  if (!lm.parameters.empty()) {
+    std::cout << fmt::format("parameters ({}):\n", lm.parameters.size());
+    for (const ModelParameter& q : lm.parameters)
+      std::cout << fmt::format("  {} = {:.10g}{}{}{}\n", q.name, q.value, q.unit.empty() || q.unit == "-" ? "" : " " + q.unit,
+                               q.is_formula() ? fmt::format("  (= {})", q.text) : "", q.set ? "  (set on the command line)" : "");
+    std::cout << '\n';
+  }
   std::cout << "causality (the causal stroke is at the element that receives the effort):\n";
   for (int b = 0; b < g.num_bonds(); ++b) {
     const Bond& bond = g.bond(b);

@@ -58,6 +58,12 @@ void AddLoadOptions(CLI::App* cmd, LoadArgs& a) {
       ->type_name("NAME=VALUE")
       ->expected(1)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  cmd->add_option("--set", a.sets,
+                  "NAME=VALUE: give the model's parameter NAME the value VALUE, a number or a formula of the other "
+                  "parameters (repeatable; the file's value is replaced; docs/model-format.md, 'Parameters')")
+      ->type_name("NAME=VALUE")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
 }
 
 InputLimits ParseLimits(const std::vector<std::string>& assignments) {
@@ -72,8 +78,29 @@ InputLimits ParseLimits(const std::vector<std::string>& assignments) {
   return limits;
 }
 
-LoadedModel Load(const std::string& path, const LoadArgs& a) {
-  LoadedModel lm = LoadModelFile(path, ParseLimits(a.limits));
+std::vector<ParameterOverride> ParseSets(const std::vector<std::string>& assignments, const char* option) {
+  std::vector<ParameterOverride> out;
+  for (const std::string& a : assignments) {
+    try {
+      out.push_back(ParseParameterAssignment(a));
+    } catch (const std::invalid_argument& e) {
+      throw CliExit{kExitUsage, fmt::format("{} {}", option, e.what())};
+    }
+  }
+  return out;
+}
+
+LoadedModel Load(const std::string& path, const LoadArgs& a, const std::vector<std::string>& extra_sets, const char* extra_option) {
+  std::vector<ParameterOverride> sets = ParseSets(a.sets);
+  for (ParameterOverride& o : ParseSets(extra_sets, extra_option ? extra_option : "--set")) sets.push_back(std::move(o));
+  LoadedModel lm;
+  try {
+    lm = LoadModelFile(path, ParseLimits(a.limits), sets);
+  } catch (const std::invalid_argument& e) {
+    // A parameter set on the command line that the model does not have, or a value that does not read.
+    const std::string option = extra_sets.empty() ? "--set" : a.sets.empty() ? extra_option : fmt::format("--set or {}", extra_option);
+    throw CliExit{kExitUsage, fmt::format("{}: {} (model {})", option, e.what(), path)};
+  }
   PrintDiagnostics(lm.warnings);
   if (a.constraints) lm.compile.ideal_constraints = *a.constraints == "ideal";
   if (a.loops) lm.compile.solve_algebraic_loops = *a.loops == "solve";

@@ -37,12 +37,19 @@ struct LoadArgs {
   std::optional<std::string> constraints;  ///< --constraints ideal|compliant over the file's
   std::optional<std::string> loops;        ///< --algebraic-loops solve|error over the file's
   std::vector<std::string> limits;         ///< --limit NAME=VALUE
+  std::vector<std::string> sets;           ///< --set NAME=VALUE: the model's parameters
 };
 void AddLoadOptions(CLI::App* cmd, LoadArgs& a);
 /// The limits given with --limit over the defaults; a bad one is a usage error.
 InputLimits ParseLimits(const std::vector<std::string>& assignments);
-/// Loads a model with the command's options, printing its warnings.
-LoadedModel Load(const std::string& path, const LoadArgs& a);
+/// The parameter values given with --set (`option` names the option in messages); a malformed
+/// one is a usage error.
+std::vector<ParameterOverride> ParseSets(const std::vector<std::string>& assignments, const char* option = "--set");
+/// Loads a model with the command's options, printing its warnings. A --set that names no
+/// parameter of the model, or whose value does not read, is a usage error (64). `extra_sets`
+/// (compare's --set-a, --set-b) apply after the command's --set.
+LoadedModel Load(const std::string& path, const LoadArgs& a, const std::vector<std::string>& extra_sets = {},
+                 const char* extra_option = nullptr);
 
 void PrintDiagnostics(const std::vector<Diagnostic>& ds);
 /// Prints a model's errors; 74 when the file could not be read, else 1.

@@ -23,6 +23,7 @@ namespace fs = std::filesystem;
 
 struct CompareCommand {
   RunArgs run;
+  std::vector<std::string> set_a, set_b;  ///< parameters of A only, of B only (after --set, which is both's)
   std::string a, b, out;
   std::string sort = "diff";
   std::optional<int> top;
@@ -30,8 +31,8 @@ struct CompareCommand {
 
 int Compare(const CompareCommand& c) {
   // Both models are loaded and compiled, and the report's folder checked, before anything runs.
-  PreparedRun pa = PrepareRun(c.a, c.run);
-  PreparedRun pb = PrepareRun(c.b, c.run);
+  PreparedRun pa = PrepareRun(c.a, c.run, c.set_a, "--set-a");
+  PreparedRun pb = PrepareRun(c.b, c.run, c.set_b, "--set-b");
   if (pa.options.t_end != pb.options.t_end || pa.options.dt != pb.options.dt)
     throw CliExit{kExitUsage, fmt::format("the models' output grids differ (A: t_end {:g} s, dt {:g} s; B: t_end {:g} s, dt {:g} s): "
                                           "give --t-end and --dt",
@@ -134,6 +135,16 @@ Command AddCompareCommand(CLI::App& app) {
       ->check(CLI::IsMember({"diff", "name"}));
   cmd->add_option("--top", c->top, "report only the first N columns")->check(kPositive);
   AddRunOptions(cmd, c->run);
+  cmd->add_option("--set-a", c->set_a,
+                  "NAME=VALUE: a parameter of A only, after --set (which sets both models' parameters); e.g. the same "
+                  "file twice with --set-b k=200 compares two values of k")
+      ->type_name("NAME=VALUE")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  cmd->add_option("--set-b", c->set_b, "NAME=VALUE: a parameter of B only, after --set")
+      ->type_name("NAME=VALUE")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   return {cmd, [c](const std::vector<std::string>&) { return Compare(*c); }, [c] { return !c->out.empty(); }};
 }
 

@@ -60,6 +60,16 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   // What the compiled model has, whichever way (rigid parts, Sf constraints, cut inertias).
   record["constraint_efforts"] = model->num_multipliers();
   record["algebraic_loops_solved"] = model->algebraic_loops().size();
+  // The parameters as the run used them: final values, units, formulas, and which were set.
+  nlohmann::json parameters = nlohmann::json::object();
+  for (const ModelParameter& q : lm.parameters) {
+    nlohmann::json& j = parameters[q.name];
+    j["value"] = q.value;
+    j["unit"] = q.unit;
+    if (q.is_formula()) j["formula"] = q.text;
+    j["set"] = q.set;
+  }
+  record["parameters"] = std::move(parameters);
   // Published together, run.json last: it records the size and hash of the results.csv it goes
   // with, and a results.csv without a run.json beside it is from a command that did not finish.
   record["results"] = DataFileRecord("results.csv", csv.bytes(), csv.sha256());

@@ -39,8 +39,8 @@ void AddRunOptions(CLI::App* cmd, RunArgs& a) {
 
 /// A model loaded and compiled, with its run options resolved: the command line over the model
 /// file's `simulation:` section over the built-in defaults.
-PreparedRun PrepareRun(const std::string& path, const RunArgs& a) {
-  PreparedRun p{Load(path, a.load), nullptr, {}, {}, {}};
+PreparedRun PrepareRun(const std::string& path, const RunArgs& a, const std::vector<std::string>& extra_sets, const char* extra_option) {
+  PreparedRun p{Load(path, a.load, extra_sets, extra_option), nullptr, {}, {}, {}};
   CompileOptions co = p.lm.compile;
   co.generate_code = a.jit != "off";
   p.model = CompiledModel::Compile(p.lm.graph, co);
@@ -122,6 +122,8 @@ std::string RunSettings(const PreparedRun& p) {
   if (i.max_step > 0) s += fmt::format(", max_step {:g}", i.max_step);
   if (p.model->has_constraints()) s += fmt::format(", ideal constraints ({} efforts)", p.model->num_multipliers());
   if (!p.model->algebraic_loops().empty()) s += ", algebraic loops solved";
+  for (const ModelParameter& q : p.lm.parameters)
+    if (q.set) s += fmt::format(", {} = {}", q.name, q.text);  // --set, --set-a, --set-b
   return s;
 }
 

@@ -33,7 +33,9 @@ struct PreparedRun {
 
 /// Throws ModelError (bad model, bad output), CliExit 64 (unknown solver, options the run would
 /// refuse) or 74 (--jit on without a working compiler).
-PreparedRun PrepareRun(const std::string& path, const RunArgs& a);
+/// `extra_sets`: parameter values for this model only (compare's --set-a, --set-b), after --set.
+PreparedRun PrepareRun(const std::string& path, const RunArgs& a, const std::vector<std::string>& extra_sets = {},
+                       const char* extra_option = nullptr);
 
 /// What to try after a failed run, from what failed and with which settings.
 std::string FailureHint(const RunOptions& o, const std::string& message);

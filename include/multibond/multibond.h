@@ -13,6 +13,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "multibond/core/error.h"  // Diagnostic, SourceLocation, ModelError, SolverError
@@ -116,13 +117,22 @@ class Simulation {
   std::unique_ptr<Impl> impl_;
 };
 
+/// Values for a model file's top-level parameters (docs/model-format.md, "Parameters"), as
+/// `multibond run --set NAME=VALUE` gives them: {name, value}, each value a number ("0.5") or a
+/// formula of the other parameters ("2*L0"). They replace the file's values before anything of the
+/// model is read, so every value computed from a parameter follows.
+using ParameterValues = std::vector<std::pair<std::string, std::string>>;
+
 /// A model: loaded from YAML (docs/model-format.md), parameters set, built, simulated.
 class Model {
  public:
   /// Throws ModelError with every problem found (file:line:column, element, code, hint); an
   /// input beyond `limits` is one with the code "limit.<name>" where the loader checks it.
-  static Model FromFile(const std::string& path, const InputLimits& limits = {});
-  static Model FromString(const std::string& yaml, const std::string& file = "<string>", const InputLimits& limits = {});
+  /// Throws std::invalid_argument for a parameter of `parameters` that the file does not declare
+  /// (with a did-you-mean) or whose value does not read.
+  static Model FromFile(const std::string& path, const InputLimits& limits = {}, const ParameterValues& parameters = {});
+  static Model FromString(const std::string& yaml, const std::string& file = "<string>", const InputLimits& limits = {},
+                          const ParameterValues& parameters = {});
   Model(Model&&) noexcept;
   Model& operator=(Model&&) noexcept;
   ~Model();
@@ -130,6 +140,10 @@ class Model {
   const std::string& name() const;
   const std::vector<Diagnostic>& warnings() const;  ///< problems that do not stop the model
   std::vector<std::string> element_names() const;
+  /// The file's top-level parameters, in the order of the file, and the value of one (as loaded:
+  /// the file's, or the one given to FromFile). Throws std::invalid_argument for an unknown name.
+  std::vector<std::string> parameter_names() const;
+  double parameter(std::string_view name) const;
 
   /// Sets an element's parameter: I inertia, C stiffness, R resistance, TF/GY ratio (a scalar
   /// means scalar * identity), or an Se/Sf source's constant value (every component). Unbuilds

@@ -32,6 +32,32 @@ TEST(ApiModel, MassSpringDamperFollowsTheClosedForm) {
   EXPECT_LT(std::abs(r.summary().energy_residual), 1e-6);
 }
 
+TEST(ApiModel, TheFilesParametersAreGivenValuesWhenLoading) {
+  // The model with named parameters: k and the force from them; k = 400 given when loading.
+  std::string yaml = test::MassSpringDamper();
+  yaml.replace(yaml.find("elements:"), 0, "parameters: {k: 100.0, F: k/100}\n");
+  yaml.replace(yaml.find("effort: 1.000000"), 16, "effort: F");
+  yaml.replace(yaml.find("stiffness: 100.000000"), 21, "stiffness: k");
+  Model model = Model::FromString(yaml, "msd.yaml", {}, {{"k", "2*200"}});
+  EXPECT_EQ(model.parameter_names(), (std::vector<std::string>{"k", "F"}));
+  EXPECT_EQ(model.parameter("k"), 400.0);
+  EXPECT_EQ(model.parameter("F"), 4.0);  // follows k
+  model.Build(Interpreted());
+  const Results r = model.Simulate();
+  ASSERT_TRUE(r.ok()) << r.summary().message;
+  const auto t = r.times();
+  const auto x = r.column("spring.q");
+  for (size_t i = 0; i < r.rows(); i += 20) EXPECT_NEAR(x[i], test::Position(t[i], 400.0, 4.0), 1e-9) << "t = " << t[i];
+  // A name the file does not declare, and one the model does not have.
+  try {
+    (void)Model::FromString(yaml, "msd.yaml", {}, {{"kk", "1"}});
+    ADD_FAILURE() << "an unknown parameter was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("did you mean 'k'?"));
+  }
+  EXPECT_THROW((void)model.parameter("kk"), std::invalid_argument);
+}
+
 TEST(ApiModel, OptionsOverTheFileOverTheDefaults) {
   Model model = Model::FromString(test::MassSpringDamper());
   SimulationOptions o;

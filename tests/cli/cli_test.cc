@@ -924,3 +924,130 @@ TEST_F(CliTest, SigtermWhileTheGeneratedCodeCompilesEndsTheCompilerAndExits143) 
 }
 
 }  // namespace
+
+// --set NAME=VALUE: the model's named parameters from the command line.
+class CliSetTest : public CliTest {
+ protected:
+  /// A mass pushed from rest by a constant force F: its velocity at t = 1 s is F/m.
+  fs::path Push() const {
+    fs::create_directories(dir_);
+    const fs::path model = dir_ / "push.yaml";
+    std::ofstream(model) << "model: push\n"
+                            "domain: translation\n"
+                            "parameters:\n"
+                            "  m: {value: 2.0, unit: kg, description: the mass}\n"
+                            "  F: 3.0\n"
+                            "  F2: 2*F\n"
+                            "elements:\n"
+                            "  force: {type: Se, effort: F}\n"
+                            "  j:     {type: \"1\"}\n"
+                            "  mass:  {type: I, inertia: m}\n"
+                            "bonds: [force -> j, j -> mass]\n"
+                            "outputs: [{name: v, variable: j.f}]\n"
+                            "simulation: {t_end: 1.0, dt: 0.5, rtol: 1.0e-10, atol: 1.0e-12}\n";
+    return model;
+  }
+  /// The last value of the column `name` of `folder`/results.csv.
+  static double LastValue(const fs::path& folder, const std::string& name) {
+    std::istringstream csv(Read(folder / "results.csv"));
+    std::string header, line, last;
+    std::getline(csv, header);
+    while (std::getline(csv, line))
+      if (!line.empty()) last = line;
+    auto cells = [](const std::string& row) {
+      std::vector<std::string> out;
+      std::stringstream ss(row);
+      for (std::string c; std::getline(ss, c, ',');) out.push_back(c);
+      return out;
+    };
+    const std::vector<std::string> names = cells(header), values = cells(last);
+    for (size_t k = 0; k < names.size() && k < values.size(); ++k)
+      if (names[k].rfind(name + " [", 0) == 0) return std::stod(values[k]);
+    ADD_FAILURE() << "no column " << name << " in " << header;
+    return 0.0;
+  }
+};
+
+TEST_F(CliSetTest, SetChangesTheResultAndRunJsonRecordsTheParameters) {
+  const fs::path model = Push();
+  const fs::path a = dir_ / "a", b = dir_ / "b";
+  ASSERT_EQ(Cli("run " + model.string() + " -q -o " + a.string()).code, 0);
+  EXPECT_NEAR(LastValue(a, "v"), 3.0 / 2.0, 1e-9);  // F/m
+  const Result r = Cli("run " + model.string() + " -q -o " + b.string() + " --set m=4 --set F=m/2");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NEAR(LastValue(b, "v"), 2.0 / 4.0, 1e-9);  // F = m/2 = 2, m = 4
+  const auto run = nlohmann::json::parse(Read(b / "run.json"));
+  const auto& p = run["parameters"];
+  ASSERT_EQ(p.size(), 3u);
+  EXPECT_EQ(p["m"]["value"], 4.0);
+  EXPECT_EQ(p["m"]["unit"], "kg");
+  EXPECT_EQ(p["m"]["set"], true);
+  EXPECT_FALSE(p["m"].contains("formula"));
+  EXPECT_EQ(p["F"]["value"], 2.0);
+  EXPECT_EQ(p["F"]["formula"], "m/2");
+  EXPECT_EQ(p["F"]["set"], true);
+  EXPECT_EQ(p["F2"]["value"], 4.0);  // 2*F follows
+  EXPECT_EQ(p["F2"]["formula"], "2*F");
+  EXPECT_EQ(p["F2"]["set"], false);
+  EXPECT_EQ(p["F2"]["unit"], "");
+}
+
+TEST_F(CliSetTest, AnUnknownOrBadSetIsAUsageErrorAndNothingIsWritten) {
+  const fs::path model = Push();
+  Result r = Cli("run " + model.string() + " -o " + (dir_ / "out").string() + " --set mm=4");
+  EXPECT_EQ(r.code, 64);
+  EXPECT_THAT(r.out, HasSubstr("error: --set: the model has no parameter 'mm': did you mean 'm'?"));
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+  r = Cli("check " + model.string() + " --set x=1");
+  EXPECT_EQ(r.code, 64);
+  EXPECT_THAT(r.out, HasSubstr("the model has no parameter 'x' (its parameters: m, F, F2)"));
+  r = Cli("check " + model.string() + " --set m");
+  EXPECT_EQ(r.code, 64);
+  EXPECT_THAT(r.out, HasSubstr("error: --set 'm' is not NAME=VALUE"));
+  r = Cli("equations " + model.string() + " --set m=2*");
+  EXPECT_EQ(r.code, 64);
+  EXPECT_THAT(r.out, HasSubstr("parameter 'm' set to '2*': the formula ends early"));
+  r = Cli("check " + model.string() + " --set F=F2");
+  EXPECT_EQ(r.code, 64);
+  EXPECT_THAT(r.out, HasSubstr("the parameters set make a cycle: F (set) -> F2 -> F"));
+  // A value the model refuses is the model's error (1), at the element.
+  r = Cli("check " + model.string() + " --set m=-1");
+  EXPECT_EQ(r.code, 1);
+  EXPECT_THAT(r.out, HasSubstr("mass: inertia must be > 0 (got -1)"));
+}
+
+TEST_F(CliSetTest, CheckListsTheParametersAndEquationsTakesSet) {
+  const fs::path model = Push();
+  const Result r = Cli("check " + model.string() + " --set m=2.5");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("parameters (3):\n  m = 2.5 kg  (set on the command line)\n  F = 3\n  F2 = 6  (= 2*F)\n"));
+  const Result eq = Cli("equations " + model.string() + " --set F=5");
+  EXPECT_EQ(eq.code, 0) << eq.out;
+}
+
+TEST_F(CliSetTest, CompareSetsBothOrOneModel) {
+  const fs::path model = Push();
+  // The same file twice, B with another mass: v differs by F/2 - F/4 = 0.75 at the end, the
+  // momentum F t not at all.
+  Result r = Cli("compare " + model.string() + " " + model.string() + " --set-b m=4 --sort name");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("atol 1e-12, m = 4)"));
+  auto row = [&](const std::string& column) {
+    const auto at = r.out.find("\n  " + column + " [");
+    return at == std::string::npos ? std::string() : r.out.substr(at + 1, r.out.find('\n', at + 1) - at - 1);
+  };
+  EXPECT_THAT(row("v"), ::testing::MatchesRegex(" +v \\[m/s\\] +0\\.75 +1 +1\\.5 +0\\.5"));
+  const std::string momentum = row("mass.p");
+  ASSERT_NE(momentum.find(']'), std::string::npos) << r.out;
+  EXPECT_LT(std::stod(momentum.substr(momentum.find(']') + 1)), 1e-12);  // rounding only
+  // --set applies to both: no difference left.
+  r = Cli("compare " + model.string() + " " + model.string() + " --set m=4");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("largest relative difference: 0 "));
+  r = Cli("compare " + model.string() + " " + Example("mass_spring_damper.yaml") + " --set m=4");
+  EXPECT_EQ(r.code, 64);
+  EXPECT_THAT(r.out, HasSubstr("the model has no parameter 'm' (it declares no parameters)"));
+  r = Cli("compare " + model.string() + " " + model.string() + " --set-a q=4");
+  EXPECT_EQ(r.code, 64);
+  EXPECT_THAT(r.out, HasSubstr("error: --set-a: the model has no parameter 'q'"));
+}

@@ -175,7 +175,7 @@ bonds: [s -> m, s -> nowhere]
   for (const auto& d : ds) all += d.ToString() + "\n";
   EXPECT_THAT(all, HasSubstr("m.yaml:3:"));
   EXPECT_THAT(all, HasSubstr("'.nan' is not a finite number"));
-  EXPECT_THAT(all, HasSubstr("expected a number, got 'abc'"));
+  EXPECT_THAT(all, HasSubstr("m.yaml:4:28: error: r: unknown parameter 'abc'"));  // a word is read as a formula of parameters
   EXPECT_THAT(all, HasSubstr("unknown element type 'Q'"));
   EXPECT_THAT(all, HasSubstr("Se needs 'effort'"));
   EXPECT_THAT(all, HasSubstr("nowhere: bond refers to an element that does not exist"));

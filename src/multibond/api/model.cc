@@ -38,13 +38,10 @@ struct Model::Impl {
 
 namespace {
 
-/// The loader with the input limits. The loader takes InputLimits (io/limits.h) on the branch that
-/// bounds its input; until that is merged here, it is called without them (the run's step limit
-/// applies either way). Text and file name alike: `source` is a path or YAML.
-template <class Load>
-LoadedModel LoadWithin(Load load, const std::string& source, const std::string& file, const InputLimits& limits) {
-  if constexpr (requires { load(source, file, limits); }) return load(source, file, limits);
-  else return load(source, file);
+std::vector<ParameterOverride> Overrides(const ParameterValues& values) {
+  std::vector<ParameterOverride> out;
+  for (const auto& [name, value] : values) out.push_back({name, value});
+  return out;
 }
 
 }  // namespace
@@ -54,27 +51,34 @@ Model::Model(Model&&) noexcept = default;
 Model& Model::operator=(Model&&) noexcept = default;
 Model::~Model() = default;
 
-Model Model::FromFile(const std::string& path, const InputLimits& limits) {
+Model Model::FromFile(const std::string& path, const InputLimits& limits, const ParameterValues& parameters) {
   auto impl = std::make_unique<Impl>();
-  impl->lm = LoadWithin([](const std::string& p, const std::string&, const auto&... l) -> decltype(LoadModelFile(p, l...)) {
-    return LoadModelFile(p, l...);
-  }, path, path, limits);
+  impl->lm = LoadModelFile(path, limits, Overrides(parameters));
   impl->limits = limits;
   return Model(std::move(impl));
 }
 
-Model Model::FromString(const std::string& yaml, const std::string& file, const InputLimits& limits) {
+Model Model::FromString(const std::string& yaml, const std::string& file, const InputLimits& limits, const ParameterValues& parameters) {
   auto impl = std::make_unique<Impl>();
-  impl->lm = LoadWithin([](const std::string& y, const std::string& f, const auto&... l) -> decltype(LoadModelString(y, f, l...)) {
-    return LoadModelString(y, f, l...);
-  }, yaml, file,
-                        limits);
+  impl->lm = LoadModelString(yaml, file, limits, Overrides(parameters));
   impl->limits = limits;
   return Model(std::move(impl));
 }
 
 const std::string& Model::name() const { return impl_->lm.graph.name(); }
 const std::vector<Diagnostic>& Model::warnings() const { return impl_->lm.warnings; }
+
+std::vector<std::string> Model::parameter_names() const {
+  std::vector<std::string> names;
+  for (const ModelParameter& p : impl_->lm.parameters) names.push_back(p.name);
+  return names;
+}
+
+double Model::parameter(std::string_view name) const {
+  for (const ModelParameter& p : impl_->lm.parameters)
+    if (p.name == name) return p.value;
+  ThrowUnknownName("parameter", name, parameter_names());
+}
 
 std::vector<std::string> Model::element_names() const {
   std::vector<std::string> names;

@@ -27,9 +27,17 @@ enum class Outcome {
   X(kYamlSelfAlias, "yaml.self_alias", kModelError, "an alias inside the node of its own anchor")                             \
   X(kTextEncoding, "text.encoding", kModelError, "a byte that is not UTF-8, or a control character, in the file")            \
   X(kNameInvalid, "name.invalid", kModelError, "a name outside the identifier grammar, or a reserved one")                   \
-  X(kNameDuplicate, "name.duplicate", kModelError, "a bond named twice, or named like an element")                           \
+  X(kNameDuplicate, "name.duplicate", kModelError, "a bond named twice, or named like an element; a parameter, signal or state named like another")                           \
   X(kUnitInvalid, "unit.invalid", kModelError, "a unit outside the unit grammar")                                            \
   X(kSubmodelRecursive, "submodel.recursive", kModelError, "a submodel that contains itself, directly or through others")     \
+  X(kParamUnknown, "param.unknown", kModelError,                                                                               \
+    "a name in a formula that is no parameter (nor, where a formula may change in time, a variable, signal or state)")          \
+  X(kParamCycle, "param.cycle", kModelError, "parameters whose formulas depend on each other in a cycle")                      \
+  X(kExprSyntax, "expr.syntax", kModelError, "a formula outside the grammar of expressions (an operator missing, a bracket left open)") \
+  X(kExprUnknownFunction, "expr.unknown_function", kModelError, "a formula that calls a function the grammar does not have")  \
+  X(kExprArity, "expr.arity", kModelError, "a function called with the wrong number of arguments")                           \
+  X(kExprNotConstant, "expr.not_constant", kModelError,                                                                        \
+    "time or a model variable in a formula where a constant is needed (a parameter, a number of an element)")                 \
   X(kLimitFileSize, "limit.file-size", kModelError, "the limit file-size exceeded")                                          \
   X(kLimitYamlNodes, "limit.yaml-nodes", kModelError, "the limit yaml-nodes exceeded")                                       \
   X(kLimitDepth, "limit.depth", kModelError, "the limit depth exceeded")                                                     \

@@ -37,4 +37,12 @@ std::string DidYouMean(const std::string& word, const std::vector<std::string>& 
   return best_d <= std::max<int>(1, static_cast<int>(word.size()) / 3) || best_d <= 2 ? best : "";
 }
 
+std::string DidYouMeanName(const std::string& word, const std::vector<std::string>& candidates) {
+  const std::string guess = DidYouMean(word, candidates);
+  for (const char c : guess)
+    for (const char w : word)
+      if (std::tolower(static_cast<unsigned char>(c)) == std::tolower(static_cast<unsigned char>(w))) return guess;
+  return "";
+}
+
 }  // namespace multibond

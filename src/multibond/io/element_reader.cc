@@ -1,9 +1,12 @@
 #include "multibond/io/element_reader.h"
 
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
 
 #include <fmt/format.h>
 
+#include "multibond/core/identifier.h"
 #include "multibond/core/structure.h"
 #include "multibond/io/diagnostic_codes.h"
 #include "multibond/io/did_you_mean.h"
@@ -14,7 +17,85 @@ namespace {
 
 const std::vector<std::string> kCommonKeys = {"type", "dim", "domain", "components", "description"};
 
+/// A plain number (YAML's .nan and .inf included: refused as numbers) or a submodel's
+/// $parameter: not a formula.
+bool IsPlainValue(const YAML::Node& n) {
+  if (!n.IsScalar()) return true;
+  const std::string& s = n.Scalar();
+  if (s.empty() || s[0] == '$') return true;
+  std::string word = s.substr(s[0] == '-' || s[0] == '+' ? 1 : 0);
+  for (char& c : word) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (word == ".nan" || word == ".inf") return true;
+  const char* begin = s.c_str();
+  char* end = nullptr;
+  (void)std::strtod(begin, &end);
+  return end == begin + s.size();
+}
+
+/// The hint of a value that must be constant, per kind: where its law goes instead.
+std::string LawKeysHint(ElementKind k) {
+  switch (k) {
+    case ElementKind::kSe: return "a value that changes in time is a formula: effort: \"F0*sin(2*pi*f0*t)\" (docs/model-format.md, 'Expressions')";
+    case ElementKind::kSf: return "a value that changes in time is a formula: flow: \"v0*sin(2*pi*f0*t)\" (docs/model-format.md, 'Expressions')";
+    case ElementKind::kI: return "an inertia that is not constant is a law: 'flow:' (a formula of p) or 'energy:', instead of 'inertia:'";
+    case ElementKind::kC: return "a stiffness that is not constant is a law: 'effort:' (a formula of q) or 'energy:', instead of 'stiffness:'";
+    case ElementKind::kR: return "a resistance that is not constant is a law: 'effort:' (a formula of f) or 'flow:' (a formula of e), instead of 'resistance:'";
+    case ElementKind::kTF:
+    case ElementKind::kGY: return "a ratio that changes is a scalar formula: ratio: \"...\" (a matrix ratio is constant)";
+    case ElementKind::kMTF:
+    case ElementKind::kMGY: return "a modulus changes through its orientation state only; a scalar ratio that changes is a TF or GY with ratio: \"...\"";
+    default: return "";
+  }
+}
+
 }  // namespace
+
+/// A law or a value written as a formula. A formula of parameters only is folded into `*constant`
+/// (when given) and the formula is not kept; returns false after a reported problem.
+bool ElementReader::ReadLaw(const YAML::Node& n, const std::string& name, const FormulaScope& scope, Formula* law, double* constant) {
+  std::optional<Formula> f = ReadFormula(n, name, scope);
+  if (!f) return false;
+  if (constant) {
+    if (const std::optional<double> v = ConstantValue(*f)) {
+      if (!std::isfinite(*v)) {
+        sink_.Error(codes::kParamRange, f->where, name, fmt::format("the formula '{}' gives {:g}: not a finite number", PrintableExcerpt(f->text), *v),
+                    "check the formula and the parameters it uses");
+        return false;
+      }
+      *constant = *v;
+      return true;
+    }
+  }
+  *law = std::move(*f);
+  return true;
+}
+
+/// An Se's or Sf's value: time functions (a number, {step: ...}, ...), formulas (text that is not
+/// a number), or a list with one of either per component. A formula of parameters only is a
+/// constant time function. Formulas go to `value`, one per component, with the component's
+/// `source` entry a placeholder constant 0; a time function's `value` entry is not given.
+void ElementReader::ReadSourceValue(const YAML::Node& n, Element& e, const FormulaScope& scope, const Env& env) {
+  const std::vector<YAML::Node> items = n.IsSequence() ? std::vector<YAML::Node>(n.begin(), n.end()) : std::vector<YAML::Node>{n};
+  std::vector<Formula> formulas(items.size());
+  bool any = false;
+  for (std::size_t i = 0; i < items.size(); ++i) {
+    const YAML::Node& item = items[i];
+    if (IsPlainValue(item)) {
+      e.source.components.push_back(ReadTimeFunction(item, e.name, env));
+      continue;
+    }
+    double constant = 0.0;
+    Formula law;
+    if (ReadLaw(item, e.name, scope, &law, &constant) && !law.given()) {
+      e.source.components.push_back(TimeFunction::Constant(constant));
+      continue;
+    }
+    e.source.components.push_back(TimeFunction::Constant(0.0));
+    any = any || law.given();
+    formulas[i] = std::move(law);
+  }
+  if (any) e.value = std::move(formulas);
+}
 
 void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec, const SourceLocation& where, const std::string& prefix,
                                 const Env& env) {
@@ -40,6 +121,9 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
   e.name = name;
   e.kind = *kind;
   e.where = where;
+  law_keys_hint_ = LawKeysHint(e.kind);
+  auto scope = [&](std::vector<std::string> own, const char* what) { return FormulaScope{&env, prefix, std::move(own), what}; };
+  const char* law_key = nullptr;  // the first key of the element that gives a law (a formula of its own variables)
   std::vector<std::string> keys = kCommonKeys;
   if (IsTwoPort(e.kind)) keys = {"type", "description"};  // dimensions come from the ratio; domains may differ per port
   auto require = [&](const char* key, const char* hint) {
@@ -68,19 +152,38 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
         }
       }
       if (require(key, e.kind == ElementKind::kSe ? "e.g. effort: 1.0 or effort: {step: 1.0}" : "e.g. flow: 0 or flow: {sine: {amplitude: 1, frequency: 2}}"))
-        e.source = ReadSource(spec[key], name, env);
+        ReadSourceValue(spec[key], e, scope({}, e.kind == ElementKind::kSe ? "Se's effort" : "Sf's flow"), env);
       break;
     }
-    case ElementKind::kI:
-      keys.insert(keys.end(), {"inertia", "p0", "rotation"});
-      if (require("inertia", "e.g. inertia: 2.0 (kg, kg m^2, H, ...)")) e.param = ReadParam(spec["inertia"], name, env);
+    case ElementKind::kI: {
+      keys.insert(keys.end(), {"inertia", "p0", "rotation", "flow", "energy"});
+      const int given = (spec["inertia"] ? 1 : 0) + (spec["flow"] ? 1 : 0) + (spec["energy"] ? 1 : 0);
+      if (given > 1) sink_.Error(where, name, "give one of 'inertia', 'flow' and 'energy'", "'flow' and 'energy' are laws: a formula of p instead of a constant inertia");
+      if (spec["flow"] || spec["energy"]) {
+        law_key = spec["flow"] ? "flow" : "energy";
+        e.param = Param::Scalar(1.0);  // not used: the law is
+        if (spec["flow"]) ReadLaw(spec["flow"], name, scope({"p"}, "I's flow law (a formula of its momentum p)"), &e.law_effort, nullptr);
+        else ReadLaw(spec["energy"], name, scope({"p"}, "I's energy (a formula of its momentum p)"), &e.energy, nullptr);
+      } else if (require("inertia", "e.g. inertia: 2.0 (kg, kg m^2, H, ...)")) {
+        e.param = ReadParam(spec["inertia"], name, env);
+      }
       if (spec["p0"]) e.initial = Vector(spec["p0"], name, env);
       if (spec["rotation"]) e.rotation = Qualify(prefix, Str(spec["rotation"], name));
       break;
+    }
     case ElementKind::kC:
-      keys.insert(keys.end(), {"stiffness", "compliance", "q0"});
+      keys.insert(keys.end(), {"stiffness", "compliance", "q0", "effort", "energy"});
       if (spec["stiffness"] && spec["compliance"]) sink_.Error(where, name, "give either 'stiffness' or 'compliance', not both");
-      if (spec["compliance"]) {
+      if ((spec["effort"] || spec["energy"]) &&
+          (spec["stiffness"] ? 1 : 0) + (spec["compliance"] ? 1 : 0) + (spec["effort"] ? 1 : 0) + (spec["energy"] ? 1 : 0) > 1)
+        sink_.Error(where, name, "give one of 'stiffness', 'compliance', 'effort' and 'energy'",
+                    "'effort' and 'energy' are laws: a formula of q instead of a constant stiffness");
+      if (spec["effort"] || spec["energy"]) {
+        law_key = spec["effort"] ? "effort" : "energy";
+        e.param = Param::Scalar(1.0);  // not used: the law is
+        if (spec["effort"]) ReadLaw(spec["effort"], name, scope({"q"}, "C's effort law (a formula of its displacement q)"), &e.law_effort, nullptr);
+        else ReadLaw(spec["energy"], name, scope({"q"}, "C's energy (a formula of its displacement q)"), &e.energy, nullptr);
+      } else if (spec["compliance"]) {
         Param c = ReadParam(spec["compliance"], name, env);
         // The stiffness is its inverse; a bad compliance is said once, here, and leaves a stiffness of 1.
         if (c.is_scalar) {
@@ -105,15 +208,38 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
       if (spec["q0"]) e.initial = Vector(spec["q0"], name, env);
       break;
     case ElementKind::kR:
-      keys.push_back("resistance");
-      if (require("resistance", "e.g. resistance: 2.0 (N s/m, N m s/rad, ohm, ...)")) e.param = ReadParam(spec["resistance"], name, env);
+      keys.insert(keys.end(), {"resistance", "effort", "flow", "active"});
+      if (spec["active"]) e.active = Bool(spec["active"], name);
+      if (spec["resistance"] && (spec["effort"] || spec["flow"]))
+        sink_.Error(where, name, "give either 'resistance' or a law ('effort' and/or 'flow'), not both",
+                    "'effort' is a formula of f, 'flow' a formula of e: a resistor that is not linear");
+      if (spec["effort"] || spec["flow"]) {
+        law_key = spec["effort"] ? "effort" : "flow";
+        e.param = Param::Scalar(1.0);  // not used: the law is
+        if (spec["effort"]) ReadLaw(spec["effort"], name, scope({"f"}, "R's effort law (a formula of its flow f)"), &e.law_effort, nullptr);
+        if (spec["flow"]) ReadLaw(spec["flow"], name, scope({"e"}, "R's flow law (a formula of its effort e)"), &e.law_flow, nullptr);
+      } else if (require("resistance", "e.g. resistance: 2.0 (N s/m, N m s/rad, ohm, ...)")) {
+        e.param = ReadParam(spec["resistance"], name, env);
+      }
       break;
     case ElementKind::kTF:
     case ElementKind::kGY:
       keys.push_back("ratio");
       if (require("ratio", "e.g. ratio: 0.25, or a matrix (rows = port 2, columns = port 1)")) {
-        e.param = ReadParam(spec["ratio"], name, env);
-        if (e.param.is_scalar && e.param.scalar == 0.0) sink_.Error(Loc(spec["ratio"]), name, "ratio must not be 0");
+        const YAML::Node r = spec["ratio"];
+        if (!IsPlainValue(r)) {
+          // A formula: of parameters only, a number as any ratio; else the ratio as it changes.
+          double ratio = 1.0;
+          Formula law;
+          e.param = Param::Scalar(1.0);
+          if (ReadLaw(r, name, scope({}, "ratio"), &law, &ratio)) {
+            if (law.given()) e.value = {std::move(law)};
+            else e.param = Param::Scalar(ratio);
+          }
+        } else {
+          e.param = ReadParam(r, name, env);
+        }
+        if (e.param.is_scalar && e.param.scalar == 0.0) sink_.Error(Loc(r), name, "ratio must not be 0");
       }
       break;
     case ElementKind::kMTF:
@@ -134,6 +260,18 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
   if (spec["domain"]) e.domain = Domain(spec["domain"], name);
   if (spec["components"])
     e.components = Components(spec["components"], name);
+  // A law relates one effort and one flow: its bond is scalar (what fixes another dimension here is
+  // said here; one inferred through a junction is said when the model is compiled).
+  if (law_key) {
+    std::string what;
+    if (e.dim > 1) what = fmt::format("'dim' is {}", e.dim);
+    else if (e.initial.size() > 1) what = fmt::format("its initial value has {} entries", e.initial.size());
+    else if (e.components.size() > 1) what = fmt::format("it names {} components", e.components.size());
+    else if (!e.rotation.empty()) what = "it turns with an orientation (a 3-dimensional bond)";
+    if (!what.empty())
+      sink_.Error(codes::kStructureDimension, where, name, fmt::format("a law ('{}') is for a scalar bond, but {}", law_key, what),
+                  "a formula law relates one effort and one flow: use one element per component, or a constant parameter for a vector bond");
+  }
   if (graph_.Find(name) >= 0 || graph_.FindAux(name) >= 0) {
     sink_.Error(where, name, "duplicate name", "give every element and state a unique name");
     return;

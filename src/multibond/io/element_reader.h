@@ -19,6 +19,10 @@ class ElementReader : public ParameterReader {
                    const Env& env);
   /// Warns (constraint.compliance_ignored) when some ideal constraints have a compliance and others none.
   void WarnIfSomeCompliancesAreIgnored();
+
+ private:
+  bool ReadLaw(const YAML::Node& n, const std::string& name, const FormulaScope& scope, Formula* law, double* constant);
+  void ReadSourceValue(const YAML::Node& n, Element& e, const FormulaScope& scope, const Env& env);
 };
 
 }  // namespace multibond

@@ -18,6 +18,7 @@
 #include "multibond/core/error.h"
 #include "multibond/core/graph.h"
 #include "multibond/io/limits.h"
+#include "multibond/io/model_parameters.h"
 #include "multibond/io/name_index.h"
 
 namespace multibond {
@@ -54,6 +55,23 @@ struct LoadContext {
   NameIndex bond_names;                   ///< the bonds named in the file, where
   std::vector<std::string> instantiating;  ///< the submodel types being expanded, outermost first
   std::uint64_t instances_expanded = 0;   ///< submodel instances expanded so far
+
+  /// The top-level parameters, in the order of the file, and their index by name.
+  std::vector<ModelParameter> parameters;
+  std::unordered_map<std::string, std::size_t> parameter_index;
+  /// The names of the top-level signals (known before anything else is read: formulas name them).
+  std::unordered_set<std::string> signal_names;
+  /// Every auxiliary state declared so far and in the scope being read (qualified names): a bare
+  /// name in a formula is one of these, or a parameter, a signal or an element's own variable.
+  std::unordered_set<std::string> state_names;
+  /// The elements with a number that could not be read (said where it is; its value is 0).
+  std::unordered_set<std::string> unread_numbers;
+
+  /// The parameter called `name`, or nullptr.
+  const ModelParameter* FindParameter(const std::string& name) const {
+    const auto it = parameter_index.find(name);
+    return it == parameter_index.end() ? nullptr : &parameters[it->second];
+  }
 
   SourceLocation Loc(const YAML::Mark& m) const {
     if (m.line < 0) return {file, 0, 0};

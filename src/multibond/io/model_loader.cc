@@ -2,6 +2,8 @@
 // (docs/model-format.md), all sharing one LoadContext, and throws every problem found together.
 //   yaml_document      the file's bytes within their limits -> one YAML mapping
 //   settings_reader    domain, constraints, algebraic_loops; later 'simulation'
+//   model_parameters_reader  'parameters' (with the values set from outside), evaluated first:
+//                      every number of the file may be a formula of them (formula_values.cc)
 //   submodel_reader    'submodels'; the scope of the model and of each instance
 //     element_reader   each element with its parameters (parameter_reader: time functions, moduli)
 //     bond_reader      each bond
@@ -18,6 +20,7 @@
 #include "multibond/io/element_reader.h"
 #include "multibond/io/load_context.h"
 #include "multibond/io/mechanism_reader.h"
+#include "multibond/io/model_parameters_reader.h"
 #include "multibond/io/settings_reader.h"
 #include "multibond/io/size_limits.h"
 #include "multibond/io/states_outputs_reader.h"
@@ -30,10 +33,10 @@ namespace {
 
 const std::vector<std::string> kTopKeys = {"model", "description", "domain", "elements", "bonds", "states", "outputs",
                                            "simulation", "submodels", "gravity", "bodies", "joints", "gears", "drives", "points",
-                                           "constraints", "rigid", "algebraic_loops"};
+                                           "constraints", "rigid", "algebraic_loops", "parameters", "signals"};
 
-LoadedModel Load(LoadContext& cx) {
-  LoadedModel out{BondGraph("model"), {}, {}, cx.file, cx.text, {}, nullptr};
+LoadedModel Load(LoadContext& cx, const std::vector<ParameterOverride>& overrides) {
+  LoadedModel out{BondGraph("model"), {}, {}, cx.file, cx.text, {}, nullptr, {}};
   DiagnosticSink& sink = cx.sink;
   const YAML::Node root = YamlDocument(cx).Parse();
   ValueReader values(cx);
@@ -45,6 +48,10 @@ LoadedModel Load(LoadContext& cx) {
   cx.graph.set_source_file(cx.file);
   SettingsReader settings(cx);
   settings.ReadCompileSettings(root, out.compile);
+  // Formulas name signals before they are read (a parameter may not depend on one): their names first.
+  if (root["signals"] && root["signals"].IsMap())
+    for (const auto& kv : root["signals"]) cx.signal_names.insert(kv.first.Scalar());
+  ModelParametersReader(cx).Read(root["parameters"], overrides);
   SubmodelReader scopes(cx);
   if (root["submodels"]) scopes.ReadSubmodelDefs(root["submodels"]);
   const bool mechanism = root["bodies"].IsDefined();
@@ -63,30 +70,34 @@ LoadedModel Load(LoadContext& cx) {
   scopes.ReadScope(root, "", Env{}, 0);
   sizes.CheckGraphSize(root);
   ElementReader(cx).WarnIfSomeCompliancesAreIgnored();
+  if (root["signals"]) StatesOutputsReader(cx).ReadSignals(root["signals"]);
   if (root["outputs"]) StatesOutputsReader(cx).ReadOutputs(root["outputs"]);
   if (root["simulation"]) settings.ReadSimulation(root["simulation"], out.simulation, mechanism);
   if (sink.has_errors()) {
     // Report the parameter problems of what could be read too, so that one pass shows them all.
     // (Structural problems of a partly read graph would mostly be echoes of the errors above.)
+    // An element with a number that could not be read (said) is not said again to be out of range.
     DiagnosticSink structural;
     AnalyzeStructure(cx.graph, out.compile.default_domain, structural);
     for (const auto& d : structural.diagnostics())
-      if (d.code == codes::kParamRange) sink.Add(d);
+      if (d.code == codes::kParamRange && !cx.unread_numbers.count(d.element)) sink.Add(d);
   }
   sink.ThrowIfErrors();
   for (const auto& d : sink.diagnostics())
     if (d.severity == Diagnostic::Severity::kWarning) out.warnings.push_back(d);
   out.graph = std::move(cx.graph);
   out.mechanism = std::move(parts);
+  out.parameters = std::move(cx.parameters);
   return out;
 }
 
 }  // namespace
 
-LoadedModel LoadModelString(const std::string& yaml, const std::string& file, const InputLimits& limits) {
+LoadedModel LoadModelString(const std::string& yaml, const std::string& file, const InputLimits& limits,
+                            const std::vector<ParameterOverride>& parameters) {
   try {
     LoadContext cx(file, yaml, limits);
-    return Load(cx);
+    return Load(cx, parameters);
   } catch (const YAML::Exception& e) {
     // A node of a shape the loader did not expect somewhere it did not check: still a model
     // error, with the place yaml-cpp knows.
@@ -99,8 +110,8 @@ LoadedModel LoadModelString(const std::string& yaml, const std::string& file, co
   }
 }
 
-LoadedModel LoadModelFile(const std::string& path, const InputLimits& limits) {
-  return LoadModelString(ReadModelText(path, limits), path, limits);
+LoadedModel LoadModelFile(const std::string& path, const InputLimits& limits, const std::vector<ParameterOverride>& parameters) {
+  return LoadModelString(ReadModelText(path, limits), path, limits, parameters);
 }
 
 }  // namespace multibond

@@ -12,6 +12,7 @@
 #include "multibond/compile/compiled_model.h"
 #include "multibond/io/did_you_mean.h"
 #include "multibond/io/limits.h"
+#include "multibond/io/model_parameters.h"
 #include "multibond/mech/mechanism.h"
 #include "multibond/solve/integrator.h"
 
@@ -32,6 +33,8 @@ struct LoadedModel {
   std::string text;  ///< the file's content, for hashing and provenance
   std::vector<Diagnostic> warnings;  ///< problems that do not stop the model (e.g. a deflected coupling)
   std::shared_ptr<const mech::Mechanism> mechanism;  ///< the mechanism sections, if any
+  /// The top-level parameters with their final values, in the order of the file.
+  std::vector<ModelParameter> parameters;
 };
 
 /// Adds to each causality diagnostic about a mechanism's elements a line that names the parts on
@@ -43,8 +46,12 @@ void ExplainInMechanismTerms(const mech::Mechanism& m, std::vector<Diagnostic>& 
 /// diagnostic whose code starts with "io.", as is a file that cannot be opened); at most
 /// limits.file_bytes are read. Every bound of `limits` exceeded is a located diagnostic with the
 /// code "limit.<name>" (see InputLimits), bytes that are not UTF-8 one with "text.encoding".
-LoadedModel LoadModelFile(const std::string& path, const InputLimits& limits = {});
+/// `parameters` replace the values of the file's top-level parameters (--set NAME=VALUE); one
+/// that names no parameter of the file, or whose value does not read, is the caller's mistake:
+/// std::invalid_argument (with a did-you-mean).
+LoadedModel LoadModelFile(const std::string& path, const InputLimits& limits = {}, const std::vector<ParameterOverride>& parameters = {});
 /// The same for a model's text; `file` names it in diagnostics.
-LoadedModel LoadModelString(const std::string& yaml, const std::string& file = "<string>", const InputLimits& limits = {});
+LoadedModel LoadModelString(const std::string& yaml, const std::string& file = "<string>", const InputLimits& limits = {},
+                            const std::vector<ParameterOverride>& parameters = {});
 
 }  // namespace multibond

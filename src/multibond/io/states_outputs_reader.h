@@ -1,6 +1,7 @@
 #pragma once
 /// \file
-/// Reading the 'states' section (orientation and integral states) and the 'outputs' section.
+/// Reading the 'states' section (orientation, integral, lag and PID states), the 'outputs' section
+/// and the 'signals' section.
 
 #include <string>
 
@@ -16,6 +17,13 @@ class StatesOutputsReader : public ValueReader {
   void ReadStates(const YAML::Node& n, const std::string& prefix, const Env& env);
   /// The model's outputs.
   void ReadOutputs(const YAML::Node& n);
+  /// The model's signals (top level only), after its elements and states.
+  void ReadSignals(const YAML::Node& n);
+
+ private:
+  /// False, after saying so, when a state's or signal's `name` is a parameter's (or, for a
+  /// signal, an element's or state's; for a state, a signal's): formulas name them bare.
+  bool NameIsFree(const std::string& name, const SourceLocation& where, const char* what);
 };
 
 }  // namespace multibond

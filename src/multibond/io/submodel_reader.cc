@@ -56,6 +56,9 @@ void SubmodelReader::ReadSubmodelDefs(const YAML::Node& n) {
 /// Reads the elements, bonds and states of a model or of a submodel instance under `prefix`.
 void SubmodelReader::ReadScope(const YAML::Node& scope, const std::string& prefix, const Env& env, int depth) {
   if (static_cast<std::uint64_t>(depth) > cx_.limits.depth) return;  // said by CheckExpansion before expanding
+  // The scope's states are named by the formulas of its elements (a bare name of a state is local).
+  if (const YAML::Node states = scope["states"]; states && states.IsMap())
+    for (const auto& kv : states) cx_.state_names.insert(Qualify(prefix, kv.first.Scalar()));
   const YAML::Node elements = scope["elements"];
   if (elements && !elements.IsMap()) {
     sink_.Error(Loc(elements), "elements", "'elements' must be a mapping of names to element specifications",
@@ -121,10 +124,12 @@ void SubmodelReader::InstantiateBody(const std::string& name, const std::string&
   std::vector<std::string> keys = {"type", "description"};
   for (const auto& [p, v] : def.defaults) keys.push_back(p);
   CheckKeys(spec, keys, name);
+  law_keys_hint_ = "a submodel's parameter is a constant: a number or a formula of parameters";
   for (const auto& kv : spec) {
     const std::string key = kv.first.Scalar();
     if (key != "type" && key != "description" && def.defaults.count(key)) env[key] = Number(kv.second, name, outer);
   }
+  law_keys_hint_.clear();
   if (!def.ports_in_error) cx_.instance_ports[name] = def.ports;
   cx_.instances.Add(name, where);
   ReadScope(def.node, name, env, depth + 1);

@@ -104,10 +104,11 @@ std::string ValueReader::Domain(const YAML::Node& n, const std::string& element)
   return d == "generic" ? "" : d;
 }
 
-/// A finite number, or a $parameter of the enclosing submodel.
+/// A finite number, a $parameter of the enclosing submodel, or a formula of parameters.
 double ValueReader::Number(const YAML::Node& n, const std::string& element, const Env& env, bool* ok) {
   auto fail = [&](const std::string& msg, const std::string& hint) {
     sink_.Error(Loc(n), element, msg, hint);
+    cx_.unread_numbers.insert(element);
     if (ok) *ok = false;
     return 0.0;
   };
@@ -123,7 +124,8 @@ double ValueReader::Number(const YAML::Node& n, const std::string& element, cons
   const char* begin = s.c_str();
   char* end = nullptr;
   const double v = std::strtod(begin, &end);
-  if (s.empty() || end != begin + s.size()) return fail(fmt::format("expected a number, got '{}'", s), "write a plain number such as 1.5 or 2e-3");
+  if (s.empty()) return fail("expected a number, got ''", "write a plain number such as 1.5 or 2e-3");
+  if (end != begin + s.size()) return Constant(n, s, element, env, ok);  // a formula of parameters
   if (!std::isfinite(v)) return fail(fmt::format("'{}' is not a finite number", s), "NaN and infinities are not allowed in a model");
   // A subnormal number (0 < |v| < 2.2e-308) is no physical quantity: its inverse is infinite,
   // and arithmetic on it loses its digits.

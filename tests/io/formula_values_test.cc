@@ -1,0 +1,206 @@
+// Numbers written as formulas of parameters (io/formula_values.cc): their values, and every
+// problem in one reported with its code at the character of the formula where it is (the
+// scalar's place in the file plus the offset in its text, past an opening quote).
+
+#include <cmath>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "multibond/io/model_loader.h"
+
+namespace multibond {
+namespace {
+
+using ::testing::HasSubstr;
+
+/// The loader's diagnostics for `yaml` (it must fail).
+std::vector<Diagnostic> LoadErrors(const std::string& yaml) {
+  try {
+    (void)LoadModelString(yaml, "m.yaml");
+  } catch (const ModelError& e) {
+    return e.diagnostics();
+  }
+  ADD_FAILURE() << "expected a ModelError for:\n" << yaml;
+  return {};
+}
+
+/// The first diagnostic with `code`; fails the test if there is none.
+Diagnostic WithCode(const std::vector<Diagnostic>& ds, const std::string& code) {
+  for (const Diagnostic& d : ds)
+    if (d.code == code) return d;
+  std::string all;
+  for (const Diagnostic& d : ds) all += d.ToString() + "\n";
+  ADD_FAILURE() << "no diagnostic with code " << code << " among:\n" << all;
+  return {};
+}
+
+/// A mass-spring-damper whose mass line is `mass_line` (line 8 of the file).
+std::string Msd(const std::string& mass_line, const std::string& spring = "{type: C, stiffness: 100.0}") {
+  return "model: msd\n"                                   // 1
+         "domain: translation\n"                          // 2
+         "parameters: {L: 2.0, k: 100.0, tau: 0.5}\n"     // 3
+         "elements:\n"                                    // 4
+         "  force:  {type: Se, effort: 1.0}\n"            // 5
+         "  j:      {type: \"1\"}\n"                      // 6
+         "  spring: " + spring + "\n"                     // 7
+         "  mass:   " + mass_line + "\n"                  // 8
+         "bonds: [force -> j, j -> mass, j -> spring]\n";
+}
+
+const Element& Find(const LoadedModel& lm, const std::string& name) { return lm.graph.element(lm.graph.Find(name)); }
+
+TEST(FormulaValues, ANumberMayBeAFormulaOfParametersPlainOrQuoted) {
+  const LoadedModel lm = LoadModelString(Msd("{type: I, inertia: 1/12, p0: \"2*pi*L\"}", "{type: C, stiffness: k/L^2}"), "m.yaml");
+  EXPECT_EQ(Find(lm, "mass").param.scalar, 1.0 / 12.0);
+  EXPECT_EQ(Find(lm, "mass").initial[0], 2 * std::numbers::pi * 2.0);
+  EXPECT_EQ(Find(lm, "spring").param.scalar, 100.0 / 4.0);
+}
+
+TEST(FormulaValues, SettingsMatricesAndTimeFunctionsTakeFormulasToo) {
+  const std::string yaml = R"y(model: m
+parameters: {tau: 0.5, F: 3.0}
+elements:
+  force: {type: Se, effort: {step: {value: 2*F, at: tau/2}}}
+  j:     {type: "1"}
+  mass:  {type: I, inertia: [[1/4, 0], [0, "tau"]]}
+bonds: [force -> j, j -> mass]
+simulation: {t_end: 10*tau, dt: tau/100}
+)y";
+  const LoadedModel lm = LoadModelString(yaml, "m.yaml");
+  EXPECT_EQ(*lm.simulation.t_end, 5.0);
+  EXPECT_EQ(*lm.simulation.dt, 0.005);
+  EXPECT_EQ(Find(lm, "mass").param.matrix(0, 0), 0.25);
+  EXPECT_EQ(Find(lm, "mass").param.matrix(1, 1), 0.5);
+  const TimeFunction& f = Find(lm, "force").source.components.at(0);
+  EXPECT_EQ(f(0.2), 0.0);
+  EXPECT_EQ(f(0.25), 6.0);
+}
+
+TEST(FormulaValues, SubmodelParametersKeepDollarNamesAndMayBeNamedInFormulas) {
+  const std::string yaml = R"y(model: m
+parameters: {M: 4.0}
+submodels:
+  cart:
+    parameters: {m: M/2, c: 0.0}
+    ports: [v]
+    elements:
+      v:        {type: "1"}
+      mass:     {type: I, inertia: 2*m}
+      friction: {type: R, resistance: $c}
+    bonds: [v -> mass, v -> friction]
+elements:
+  push: {type: Se, effort: 1.0}
+  a:    {type: cart, c: M/8}
+  b:    {type: cart, m: "M"}
+bonds: [push -> a.v, a.v -> b.v]
+)y";
+  const LoadedModel lm = LoadModelString(yaml, "m.yaml");
+  EXPECT_EQ(Find(lm, "a.mass").param.scalar, 4.0);  // m = M/2 = 2 by default
+  EXPECT_EQ(Find(lm, "a.friction").param.scalar, 0.5);
+  EXPECT_EQ(Find(lm, "b.mass").param.scalar, 8.0);
+}
+
+TEST(FormulaValues, ADollarInsideAFormulaIsExplained) {
+  const std::string yaml = R"y(model: m
+submodels:
+  cart:
+    parameters: {m: 1.0}
+    ports: [v]
+    elements:
+      v:    {type: "1"}
+      mass: {type: I, inertia: 2*$m}
+    bonds: [v -> mass]
+elements:
+  push: {type: Se, effort: 1.0}
+  a:    {type: cart}
+bonds: [push -> a.v]
+)y";
+  const Diagnostic d = WithCode(LoadErrors(yaml), "expr.syntax");
+  EXPECT_EQ(d.element, "a.mass");
+  EXPECT_EQ(d.where.line, 8);
+  EXPECT_EQ(d.where.column, 34);
+  EXPECT_EQ(d.hint, "in a formula, a submodel's parameter is named without '$' (2*m, not 2*$m)");
+}
+
+TEST(FormulaValues, UnknownParameterAtItsCharacterWithDidYouMean) {
+  // Line 8 is "  mass:   {type: I, inertia: 2*LL}": the value starts at column 30, 'LL' at 32.
+  Diagnostic d = WithCode(LoadErrors(Msd("{type: I, inertia: 2*LL}")), "param.unknown");
+  EXPECT_EQ(d.where.line, 8);
+  EXPECT_EQ(d.where.column, 32);
+  EXPECT_EQ(d.element, "mass");
+  EXPECT_THAT(d.message, HasSubstr("unknown parameter 'LL'"));
+  EXPECT_EQ(d.hint, "did you mean 'L'?");
+  // Quoted, the text starts one column later (past the quote), with either quote.
+  d = WithCode(LoadErrors(Msd("{type: I, inertia: \"2*LL\"}")), "param.unknown");
+  EXPECT_EQ(d.where.column, 33);
+  d = WithCode(LoadErrors(Msd("{type: I, inertia: '2 * LL'}")), "param.unknown");
+  EXPECT_EQ(d.where.column, 35);
+}
+
+TEST(FormulaValues, AUnknownNameSharingNoLetterSuggestsNothing) {
+  const Diagnostic d = WithCode(LoadErrors(Msd("{type: I, inertia: 2*z}")), "param.unknown");
+  EXPECT_THAT(d.hint, HasSubstr("the model's parameters are: L, k, tau"));
+}
+
+TEST(FormulaValues, BlockStyleValueColumns) {
+  const std::string yaml = R"y(model: m
+parameters:
+  L: 2.0
+elements:
+  force: {type: Se, effort: 1.0}
+  j: {type: "1"}
+  mass:
+    type: I
+    inertia: "2 * sqrt(L, 2)"
+bonds: [force -> j, j -> mass]
+)y";
+  const Diagnostic d = WithCode(LoadErrors(yaml), "expr.arity");
+  EXPECT_EQ(d.where.line, 9);
+  EXPECT_EQ(d.where.column, 19);  // the quote is at 14, 's' of sqrt at 19
+  EXPECT_THAT(d.message, HasSubstr("sqrt takes 1 argument, not 2"));
+}
+
+TEST(FormulaValues, SyntaxErrorsAndUnknownFunctionsHaveTheirCodes) {
+  Diagnostic d = WithCode(LoadErrors(Msd("{type: I, inertia: \"2*\"}")), "expr.syntax");
+  EXPECT_EQ(d.where.column, 33);  // where the formula ends early
+  EXPECT_THAT(d.message, HasSubstr("expected a number, got '2*': as a formula, the formula ends early"));
+  d = WithCode(LoadErrors(Msd("{type: I, inertia: 2 L}")), "expr.syntax");
+  EXPECT_EQ(d.where.column, 32);
+  EXPECT_THAT(d.message, HasSubstr("missing operator"));
+  d = WithCode(LoadErrors(Msd("{type: I, inertia: \"sn(L)\"}")), "expr.unknown_function");
+  EXPECT_EQ(d.where.column, 31);
+  EXPECT_EQ(d.hint, "did you mean 'sin'?");
+  d = WithCode(LoadErrors(Msd("{type: I, inertia: \"L*atan2(L)\"}")), "expr.arity");
+  EXPECT_EQ(d.where.column, 33);
+}
+
+TEST(FormulaValues, TimeOrAVariableWhereAConstantIsNeededNamesTheLawKeys) {
+  Diagnostic d = WithCode(LoadErrors(Msd("{type: I, inertia: 1.0}", "{type: C, stiffness: \"k*(1 + t)\"}")), "expr.not_constant");
+  EXPECT_EQ(d.where.line, 7);
+  EXPECT_EQ(d.where.column, 40);  // the 't'
+  EXPECT_THAT(d.message, HasSubstr("'t' (time)"));
+  EXPECT_THAT(d.hint, HasSubstr("'effort:' (a formula of q) or 'energy:'"));
+  d = WithCode(LoadErrors(Msd("{type: I, inertia: \"1 + spring.q\"}")), "expr.not_constant");
+  EXPECT_EQ(d.where.column, 35);
+  EXPECT_THAT(d.message, HasSubstr("'spring.q' is a variable of the model"));
+  EXPECT_THAT(d.hint, HasSubstr("'flow:' (a formula of p)"));
+}
+
+TEST(FormulaValues, AFormulaWhoseValueIsNotFiniteIsOutOfRange) {
+  const Diagnostic d = WithCode(LoadErrors(Msd("{type: I, inertia: \"1/(L - 2)\"}")), "param.range");
+  EXPECT_EQ(d.where.column, 31);
+  EXPECT_THAT(d.message, HasSubstr("the formula '1/(L - 2)' gives inf: not a finite number"));
+}
+
+TEST(FormulaValues, ANumberWithAUnitIsStillSaidToBeNoNumber) {
+  const Diagnostic d = WithCode(LoadErrors(Msd("{type: I, inertia: 2 kg}")), "expr.syntax");
+  EXPECT_THAT(d.message, HasSubstr("expected a number, got '2 kg'"));
+  EXPECT_THAT(d.hint, HasSubstr("without the unit"));
+}
+
+}  // namespace
+}  // namespace multibond

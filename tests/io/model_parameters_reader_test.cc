@@ -1,0 +1,187 @@
+// The top-level 'parameters' section (io/model_parameters_reader.cc): numbers and formulas of
+// each other in any order, units and descriptions, cycles, names that are not parameters, and the
+// values given from outside the file (--set, the API).
+
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "multibond/io/model_loader.h"
+
+namespace multibond {
+namespace {
+
+using ::testing::HasSubstr;
+
+/// A model of one mass pushed by a force, with `parameters` (YAML lines, indented by 2) and the
+/// mass's inertia `inertia`.
+std::string Model(const std::string& parameters, const std::string& inertia = "1.0") {
+  return "model: m\n"
+         "parameters:\n" +
+         parameters +
+         "elements:\n"
+         "  force: {type: Se, effort: 1.0}\n"
+         "  j:     {type: \"1\"}\n"
+         "  mass:  {type: I, inertia: " + inertia + "}\n"
+         "bonds: [force -> j, j -> mass]\n";
+}
+
+std::vector<Diagnostic> LoadErrors(const std::string& yaml) {
+  try {
+    (void)LoadModelString(yaml, "m.yaml");
+  } catch (const ModelError& e) {
+    return e.diagnostics();
+  }
+  ADD_FAILURE() << "expected a ModelError for:\n" << yaml;
+  return {};
+}
+
+const ModelParameter& Param(const LoadedModel& lm, const std::string& name) {
+  for (const ModelParameter& p : lm.parameters)
+    if (p.name == name) return p;
+  throw std::out_of_range(name);
+}
+
+/// The message of the std::invalid_argument that loading with `sets` throws ("" if none).
+std::string SetError(const std::string& yaml, const std::vector<ParameterOverride>& sets) {
+  try {
+    (void)LoadModelString(yaml, "m.yaml", {}, sets);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ModelParametersReader, FormulasOfEachOtherInAnyOrderWithUnitsAndDescriptions) {
+  const LoadedModel lm = LoadModelString(Model("  k: {value: \"m*w0^2\", unit: N/m, description: the spring}\n"
+                                               "  w0: 2*pi*f0\n"
+                                               "  m: 2.0\n"
+                                               "  f0: {value: 1.5, unit: Hz}\n",
+                                               "m"),
+                                         "m.yaml");
+  ASSERT_EQ(lm.parameters.size(), 4u);
+  EXPECT_EQ(lm.parameters[0].name, "k");  // in the order of the file
+  const double w0 = 2 * std::numbers::pi * 1.5;
+  EXPECT_EQ(Param(lm, "w0").value, w0);
+  EXPECT_EQ(Param(lm, "k").value, 2.0 * (w0 * w0));
+  EXPECT_EQ(Param(lm, "k").unit, "N/m");
+  EXPECT_EQ(Param(lm, "k").description, "the spring");
+  EXPECT_EQ(Param(lm, "k").text, "m*w0^2");
+  EXPECT_TRUE(Param(lm, "k").is_formula());
+  EXPECT_FALSE(Param(lm, "m").is_formula());
+  EXPECT_EQ(Param(lm, "k").where.line, 3);
+  EXPECT_EQ(Param(lm, "k").where.column, 3);
+  EXPECT_FALSE(Param(lm, "k").set);
+  EXPECT_EQ(lm.graph.element(lm.graph.Find("mass")).param.scalar, 2.0);
+}
+
+TEST(ModelParametersReader, ACycleIsNamedOnceAtItsFirstParameter) {
+  const auto ds = LoadErrors(Model("  x: 1.0\n  a: c + x\n  b: 2*a\n  c: b/2\n  d: a + 1\n"));
+  ASSERT_EQ(ds.size(), 1u) << ds[0].ToString();  // d, which needs the cycle, is not said again
+  EXPECT_EQ(ds[0].code, "param.cycle");
+  EXPECT_EQ(ds[0].where.line, 4);
+  EXPECT_EQ(ds[0].element, "a");
+  EXPECT_THAT(ds[0].message, HasSubstr("a -> c -> b -> a"));
+  const auto self = LoadErrors(Model("  a: a + 1\n"));
+  ASSERT_EQ(self.size(), 1u);
+  EXPECT_THAT(self[0].message, HasSubstr("a -> a"));
+}
+
+TEST(ModelParametersReader, TimeOrAVariableInAParameterIsNotConstant) {
+  // "  T: 2*t": the 't' at column 8; "  U: "1 + mass.p"": 'mass.p' at 11 (past the quote).
+  const auto ds = LoadErrors(Model("  T: 2*t\n  U: \"1 + mass.p\"\n"));
+  ASSERT_EQ(ds.size(), 2u);
+  EXPECT_EQ(ds[0].code, "expr.not_constant");
+  EXPECT_EQ(ds[0].where.line, 3);
+  EXPECT_EQ(ds[0].where.column, 8);
+  EXPECT_THAT(ds[0].message, HasSubstr("cannot depend on 't' (time)"));
+  EXPECT_EQ(ds[1].code, "expr.not_constant");
+  EXPECT_EQ(ds[1].where.column, 11);
+  EXPECT_THAT(ds[1].hint, HasSubstr("signal"));
+}
+
+TEST(ModelParametersReader, AnUnknownNameIsSaidWithDidYouMeanAndItsUsesAreNotSaidAgain) {
+  const auto ds = LoadErrors(Model("  mass0: 2.0\n  m: 2*mas0\n", "m"));
+  ASSERT_EQ(ds.size(), 1u);
+  EXPECT_EQ(ds[0].code, "param.unknown");
+  EXPECT_EQ(ds[0].where.column, 8);
+  EXPECT_EQ(ds[0].hint, "did you mean 'mass0'?");
+}
+
+TEST(ModelParametersReader, ReservedNamesUnitsAndShapesAreChecked) {
+  const auto ds = LoadErrors(Model("  t: 1.0\n  q: 2.0\n  L: {value: 1.0, unit: furlong}\n  M: [1, 2]\n  N: {unit: m}\n"));
+  ASSERT_EQ(ds.size(), 5u);
+  EXPECT_EQ(ds[0].code, "name.invalid");
+  EXPECT_THAT(ds[0].message, HasSubstr("'t' is time"));
+  EXPECT_EQ(ds[1].code, "name.invalid");
+  EXPECT_THAT(ds[1].message, HasSubstr("own variable"));
+  EXPECT_EQ(ds[2].code, "unit.invalid");
+  EXPECT_THAT(ds[3].message, HasSubstr("a parameter is a number or a formula, not a list"));
+  EXPECT_THAT(ds[4].message, HasSubstr("needs 'value'"));
+}
+
+TEST(ModelParametersReader, AFormulaWhoseValueIsNotFiniteIsOutOfRange) {
+  const auto ds = LoadErrors(Model("  a: 0.0\n  b: \"log(a)\"\n"));
+  ASSERT_EQ(ds.size(), 1u);
+  EXPECT_EQ(ds[0].code, "param.range");
+  EXPECT_EQ(ds[0].where.column, 7);
+  EXPECT_THAT(ds[0].message, HasSubstr("gives -inf"));
+}
+
+TEST(ModelParametersReader, ValuesSetFromOutsideReplaceTheFilesAndEverythingFollows) {
+  const std::string yaml = Model("  m0: 2.0\n  m: {value: 2*m0, unit: kg}\n", "m");
+  LoadedModel lm = LoadModelString(yaml, "m.yaml", {}, {{"m0", "3"}});
+  EXPECT_EQ(Param(lm, "m").value, 6.0);
+  EXPECT_TRUE(Param(lm, "m0").set);
+  EXPECT_FALSE(Param(lm, "m").set);
+  EXPECT_EQ(lm.graph.element(lm.graph.Find("mass")).param.scalar, 6.0);
+  // A formula of the other parameters, and the last of two values for one name.
+  lm = LoadModelString(yaml, "m.yaml", {}, {{"m", "1"}, {"m", "m0/4"}});
+  EXPECT_EQ(Param(lm, "m").value, 0.5);
+  EXPECT_EQ(Param(lm, "m").text, "m0/4");
+  EXPECT_EQ(Param(lm, "m").unit, "kg");  // the unit stays the file's
+}
+
+TEST(ModelParametersReader, ABadValueSetFromOutsideIsTheCallersMistake) {
+  const std::string yaml = Model("  m0: 2.0\n  m: 2*m0\n", "m");
+  EXPECT_EQ(SetError(yaml, {{"m1", "3"}}), "the model has no parameter 'm1': did you mean 'm0'?");
+  EXPECT_EQ(SetError(yaml, {{"x", "3"}}), "the model has no parameter 'x' (its parameters: m0, m)");
+  EXPECT_EQ(SetError(Model("  {}\n"), {{"x", "3"}}), "the model has no parameter 'x' (it declares no parameters)");
+  EXPECT_THAT(SetError(yaml, {{"m", "2*"}}), HasSubstr("parameter 'm' set to '2*': the formula ends early"));
+  EXPECT_THAT(SetError(yaml, {{"m", "2*mo"}}), HasSubstr("the model has no parameter 'mo': did you mean 'm0'?"));
+  EXPECT_THAT(SetError(yaml, {{"m", "sin(t)"}}), HasSubstr("'t' is time: a parameter is a constant"));
+  EXPECT_THAT(SetError(yaml, {{"m0", "m/2"}}), HasSubstr("the parameters set make a cycle: m0 (set) -> m -> m0"));
+  EXPECT_THAT(SetError(yaml, {{"m0", "1/0"}}), HasSubstr("not a finite number"));
+  EXPECT_THAT(SetError(yaml, {{"m0", "1e-320"}}), HasSubstr("not a finite, normal number"));
+}
+
+TEST(ModelParametersReader, ParseParameterAssignment) {
+  const ParameterOverride o = ParseParameterAssignment(" k = 2*L0 ");
+  EXPECT_EQ(o.name, "k");
+  EXPECT_EQ(o.value, "2*L0");
+  EXPECT_THROW(ParseParameterAssignment("k"), std::invalid_argument);
+  EXPECT_THROW(ParseParameterAssignment("=3"), std::invalid_argument);
+  EXPECT_THROW(ParseParameterAssignment("k="), std::invalid_argument);
+}
+
+TEST(ModelParametersReader, ALongChainIsEvaluatedWithoutDeepRecursion) {
+  // p0 <- p1 <- ... <- p19999, written last first: a recursive walk would be 20,000 frames deep.
+  std::string parameters;
+  const int n = 20000;
+  for (int i = n - 1; i > 0; --i) parameters += fmt::format("  p{}: p{} + 1\n", i, i - 1);
+  parameters += "  p0: 1.0\n";
+  const auto start = std::chrono::steady_clock::now();
+  const LoadedModel lm = LoadModelString(Model(parameters, fmt::format("p{}", n - 1)), "m.yaml");
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 10.0);
+  EXPECT_EQ(lm.graph.element(lm.graph.Find("mass")).param.scalar, static_cast<double>(n));
+}
+
+}  // namespace
+}  // namespace multibond
