@@ -193,6 +193,9 @@ class CompiledModel {
   /// t = 1.5 s (reads spring.q = 0)". Empty if none (the cause is elsewhere). Allocates: for the
   /// failure path only.
   std::string DiagnoseFormulas(double t, const double* x, Workspace& ws) const;
+  /// After an evaluation filled `ws`: the first resistor given by a formula and not marked
+  /// `active` that delivers power (sigma e f < 0), as a message naming it; empty if none.
+  std::string FindActiveResistor(const Workspace& ws) const;
 
   // --- energy account (from the state; the workspace must have been filled at x) ---
   double StoredEnergy(int element, const double* x) const;  ///< I or C
@@ -403,6 +406,11 @@ class CompiledModel {
   std::vector<std::string> state_names_, state_units_;
   Eigen::VectorXd x0_;
   std::vector<expr::Program> programs_;  ///< the formulas' programs (kExpr, energy terms)
+  struct Passive {
+    int element, effort, flow;  ///< effort and flow slots of its bond
+    double sigma;
+  };
+  std::vector<Passive> passive_;  ///< resistors given by formulas that must not deliver power
   std::unordered_map<std::string, int> signal_class_;  ///< signal name ("u", "pid.u") -> its slot class
   std::unordered_map<std::string, int> internal_class_;  ///< the signal states' rates ("lag.rate") -> class
   std::vector<int> class_of_slot_;  ///< per workspace slot: its class (formulas' dependencies)

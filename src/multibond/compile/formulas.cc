@@ -69,7 +69,10 @@ std::string Readable(const Node& root, const std::function<std::string(const std
 }  // namespace
 
 bool CompiledModel::HasFormulas(const Element& e) {
-  return e.law_effort.given() || e.law_flow.given() || e.energy.given() || !e.value.empty();
+  if (e.law_effort.given() || e.law_flow.given() || e.energy.given()) return true;
+  for (const Formula& f : e.value)
+    if (f.given()) return true;
+  return false;
 }
 
 int CompiledModel::AddSignalClass(const std::string& name, const std::string& unit, bool visible) {
@@ -216,14 +219,34 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
       const int b = e.bonds.front();
       const int cls = e.kind == ElementKind::kSe ? effort_class_[b] : flow_class_[b];
       const std::string what = fmt::format("the {} of {}", e.kind == ElementKind::kSe ? "effort" : "flow", e.name);
-      emit(cls, dim[b], [&](int k) { return e.value[e.value.size() == 1 ? 0 : k].root; }, &e.value.front(), what);
+      // A list may mix formulas and time functions: a constant is a number of the program; other
+      // time functions (steps, ramps, tables) do not mix with formulas in one source.
+      const Formula* first = nullptr;
+      for (const Formula& f : e.value)
+        if (f.given() && !first) first = &f;
+      auto component = [&](int k) -> NodePtr {
+        const size_t at = e.value.size() == 1 ? 0 : static_cast<size_t>(k);
+        if (e.value[at].given()) return e.value[at].root;
+        const TimeFunction& tf = e.source.components[e.source.components.size() == 1 ? 0 : at];
+        if (tf.kind != TimeFunction::Kind::kConstant) {
+          Diagnostic d;
+          d.code = "expr.unsupported";
+          d.where = e.where;
+          d.element = e.name;
+          d.message = "a source mixes formulas with a step, ramp, sine or table in one list";
+          d.hint = "write the time function as a formula of t too (a sine: \"A*sin(2*pi*F*t)\"), or split the source";
+          throw ModelError(d);
+        }
+        return expr::Number(tf.value);
+      };
+      emit(cls, dim[b], component, first, what);
       break;
     }
     case ElementKind::kC:
     case ElementKind::kI: {
       const bool inertia = e.kind == ElementKind::kI;
       const int b = e.bonds.front();
-      const Formula& given = e.energy.given() ? e.energy : inertia ? e.law_flow : e.law_effort;
+      const Formula& given = e.energy.given() ? e.energy : e.law_effort;  // an I's flow law is its law_effort (graph.h)
       scalar_only(b, given);
       const char* own = inertia ? "p" : "q";
       NodePtr law = given.root;
@@ -279,6 +302,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
         throw ModelError(d);
       }
       scalar_only(b, law);
+      if (!e.active) passive_.push_back({i, class_offset_[effort_class_[b]], class_offset_[flow_class_[b]], sigma});
       // The resistor sees the effort sigma e and the flow f (graph.h's sign rules).
       if (effort_out) {
         const NodePtr tree = Signed(sigma, Replace(law.root, "f", SlotRef(class_offset_[flow_class_[b]])));
@@ -404,7 +428,7 @@ void CompiledModel::AccountFormulaEnergy(int element, int term) {
   if (e.energy.given()) {
     energy = e.energy.root;
   } else {
-    f = e.kind == ElementKind::kI ? &e.law_flow : &e.law_effort;
+    f = &e.law_effort;  // C: effort of q; I: flow of p
     energy = expr::IntegrateFromZero(*f->root, own);
   }
   const FormulaScope scope{f, element, "the stored energy of " + e.name};
@@ -462,6 +486,19 @@ std::string CompiledModel::DiagnoseFormulas(double t, const double* x, Workspace
       const std::string who = in.element >= 0 ? graph_.element(in.element).name : class_names_[cls];
       return fmt::format("the formula of {} for {} `{}` gives {} at t = {:.9g} s{}", who, class_names_[cls],
                          definitions_[cls].formula, w[in.dst + k], t, reads.empty() ? "" : " (it reads " + reads + ")");
+    }
+  }
+  return {};
+}
+
+std::string CompiledModel::FindActiveResistor(const Workspace& ws) const {
+  for (const Passive& r : passive_) {
+    const double e = ws.slots[r.effort], f = ws.slots[r.flow];
+    if (r.sigma * e * f < 0.0) {
+      const Element& el = graph_.element(r.element);
+      return fmt::format("the resistor {} delivers power ({} W: e = {:.9g}, f = {:.9g}) although it is not marked active; "
+                         "its law `{}` must give e f >= 0, or mark it `active: true`",
+                         el.name, -r.sigma * e * f, r.sigma * e, f, (el.law_effort.given() ? el.law_effort : el.law_flow).text);
     }
   }
   return {};

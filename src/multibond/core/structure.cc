@@ -27,7 +27,6 @@ int OwnDim(const Element& e) {
     if (!e.param.is_scalar) return e.param.rows();
     if (IsSource(e.kind) && e.source.components.size() > 1) return static_cast<int>(e.source.components.size());
     if (IsSource(e.kind) && e.value.size() > 1) return static_cast<int>(e.value.size());
-    if (e.law_effort.given() || e.law_flow.given() || e.energy.given()) return 1;  // laws are scalar
     if (e.initial.size() > 1) return static_cast<int>(e.initial.size());
   }
   return 0;

@@ -348,6 +348,8 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
     // orientations are its nearest rotations, like the integrated state itself.
     if (project) model.Project(t, x.data(), ws);
     model.CalcDerivatives(t, x.data(), xdot.data(), ws);  // fills every effort and flow at (t, x)
+    if (model.has_formulas())
+      if (const std::string why = model.FindActiveResistor(ws); !why.empty()) throw std::runtime_error(why);
     const CompiledModel::EnergyTotals stored = model.StoredEnergies(x.data(), energies.data());
     const double work = model.Work(x.data()), kin = stored.kinetic, pot = stored.potential;
     const double diss = model.Dissipated(x.data());
