@@ -305,5 +305,30 @@ TEST(ExprProgram, GeneratedCodeGivesTheInterpretersBits) {
   EXPECT_GT(nans, 0);  // the domains' edges were reached too
 }
 
+/// law(u) = target by SolveFor, u read from w[0].
+double Solved(const std::string& law, const std::string& slope, double target) {
+  const Resolver r = [](const Node& n) {
+    return n.name == "u" ? Input{Input::In::kSlot, 0, 0.0} : Input{Input::In::kConstant, 0, 3.141592653589793};
+  };
+  const Program pl = CompileProgram(*Parse(law).root, r), ps = CompileProgram(*Parse(slope).root, r);
+  double w[1] = {0.0};
+  const double u = SolveFor(pl, ps, 0, target, 0.0, nullptr, w);
+  EXPECT_EQ(Bits(w[0]), Bits(u));  // the scratch slot holds the answer, NaN included
+  return u;
+}
+
+TEST(ExprProgram, SolveForFindsTheRootToTheLastBitsOrSaysThereIsNone) {
+  EXPECT_EQ(Solved("u^3", "3*u^2", 8.0), 2.0);
+  EXPECT_EQ(Solved("u^3", "3*u^2", -27.0), -3.0);
+  EXPECT_EQ(Solved("2*u", "2", 0.0), 0.0);
+  // A law with a kink and no slope at 0 (an orifice), far from 0.
+  EXPECT_NEAR(Solved("sign(u)*sqrt(abs(u))", "0.5/sqrt(abs(u))", 1e3), 1e6, 1e6 * 4e-16);
+  // Overflow on the way (an exponential): the infinite side still brackets the root.
+  EXPECT_NEAR(Solved("1e-12*(exp(u/0.025) - 1)", "exp(40*u)/25000000000", 0.5), 0.025 * std::log1p(0.5e12), 4e-16);
+  // No root: u^2 + 1 never reaches -5 (NaN, for the caller to name the formula).
+  EXPECT_TRUE(std::isnan(Solved("u^2 + 1", "2*u", -5.0)));
+  EXPECT_TRUE(std::isnan(Solved("u", "1", std::numeric_limits<double>::quiet_NaN())));
+}
+
 }  // namespace
 }  // namespace multibond::expr

@@ -390,6 +390,8 @@ class CompiledModel {
     const void* fns;
     double (*eval)(const void*, int, double);
     double (*deriv)(const void*, int, double);
+    const void* programs;  ///< the formulas' programs and the solver of laws used backwards (kSolve)
+    double (*solve)(const void*, int, int, int, double, double, const double*, double*);
   };
   SourceTable Sources() const;
   std::string rhs_engine_ = "interpreter";
@@ -413,7 +415,8 @@ class CompiledModel {
   std::vector<Passive> passive_;  ///< resistors given by formulas that must not deliver power
   std::unordered_map<std::string, int> signal_class_;  ///< signal name ("u", "pid.u") -> its slot class
   std::unordered_map<std::string, int> internal_class_;  ///< the signal states' rates ("lag.rate") -> class
-  std::vector<int> class_of_slot_;  ///< per workspace slot: its class (formulas' dependencies)
+  std::vector<int> class_of_slot_;  ///< per workspace slot: its class (formulas' dependencies), -1 for scratch
+  std::unordered_map<int, int> solve_slot_;  ///< resistor -> the scratch slot of its solved law's unknown
   std::vector<int> element_block_;  ///< per element: its state block (I, C) or -1
   std::vector<int> aux_block_;      ///< per aux state
   std::vector<Eigen::MatrixXd> energy_matrix_;  ///< per element: I^-1 (I) or K (C); Ib^-1 for rotated I

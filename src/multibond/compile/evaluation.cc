@@ -100,7 +100,9 @@ double EvalSource(const void* fns, int i, double t) { return static_cast<const T
 double EvalSourceDerivative(const void* fns, int i, double t) { return static_cast<const TimeFunction*>(fns)[i].Derivative(t); }
 }  // namespace
 
-CompiledModel::SourceTable CompiledModel::Sources() const { return {source_fns_.data(), &EvalSource, &EvalSourceDerivative}; }
+CompiledModel::SourceTable CompiledModel::Sources() const {
+  return {source_fns_.data(), &EvalSource, &EvalSourceDerivative, programs_.data(), &expr::SolveForIndexed};
+}
 
 void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot, Workspace& ws) const {
   if (!constraints_.empty()) {

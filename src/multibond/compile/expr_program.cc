@@ -5,6 +5,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <utility>
 
 #include <fmt/format.h>
@@ -225,6 +226,67 @@ double Run(const Program& p, double t, const double* x, const double* w) {
     }
   }
   return regs[p.result];
+}
+
+double SolveFor(const Program& law, const Program& slope, int unknown, double target, double t, const double* x, double* w) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  auto h = [&](double u) {
+    w[unknown] = u;
+    return Run(law, t, x, w) - target;
+  };
+  auto dh = [&](double u) {
+    w[unknown] = u;
+    return Run(slope, t, x, w);
+  };
+  if (!std::isfinite(target)) return w[unknown] = nan;
+  double a = 0.0, ha = h(a);
+  if (ha == 0.0) return 0.0;
+  if (std::isnan(ha)) return w[unknown] = nan;
+  // Bracket the root: outwards from 0 towards where h changes sign (an increasing law: up if
+  // h(0) < 0), the first step from the slope at 0, then doubling.
+  const double dir = ha < 0.0 ? 1.0 : -1.0;
+  const double d0 = dh(0.0);
+  double step = std::isfinite(d0) && d0 > 0.0 ? std::fabs(ha) / d0 : 1.0;
+  if (!(step > 0.0 && std::isfinite(step))) step = 1.0;
+  double b = dir * step, hb = h(b);
+  // An infinite h (an exponential law far out) is a side of the bracket like any other; NaN is not.
+  for (int k = 0; k < 2200 && !std::isnan(hb) && hb != 0.0 && (hb < 0.0) == (ha < 0.0); ++k) {
+    a = b;
+    ha = hb;
+    b *= 2.0;
+    hb = h(b);
+  }
+  if (hb == 0.0) return b;
+  if (std::isnan(hb) || (hb < 0.0) == (ha < 0.0)) return w[unknown] = nan;
+  double lo = ha < 0.0 ? a : b, hi = ha < 0.0 ? b : a;  // h(lo) < 0 < h(hi)
+  double u = b;
+  double hu = hb;
+  // Newton's step where it stays inside the bracket and at least halves the step before the
+  // last, else bisection (Numerical Recipes' rtsafe): never slower than bisection, so the bracket
+  // shrinks to adjacent doubles within ~2,100 iterations from any start.
+  double dx_old = std::fabs(hi - lo), dx = dx_old;
+  for (int it = 0; it < 2200; ++it) {
+    const double du = dh(u);
+    const double mn = std::min(lo, hi), mx = std::max(lo, hi);
+    double next = u - hu / du;
+    const bool bisect = !(next > mn && next < mx) || !(std::fabs(2.0 * hu) <= std::fabs(dx_old * du));
+    dx_old = dx;
+    if (bisect) next = 0.5 * (lo + hi);  // NaN-safe: every test above fails on a NaN
+    dx = std::fabs(next - u);
+    if (next == u || std::nextafter(mn, mx) >= mx) break;
+    u = next;
+    hu = h(u);
+    if (hu == 0.0) break;
+    if (std::isnan(hu)) return w[unknown] = nan;
+    (hu < 0.0 ? lo : hi) = u;
+  }
+  w[unknown] = u;
+  return u;
+}
+
+double SolveForIndexed(const void* programs, int law, int slope, int unknown, double target, double t, const double* x, double* w) {
+  const Program* p = static_cast<const Program*>(programs);
+  return SolveFor(p[law], p[slope], unknown, target, t, x, w);
 }
 
 std::string EmitProgram(const Program& p, const std::string& prefix, const EmitNames& names, std::string& out) {

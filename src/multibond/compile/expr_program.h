@@ -53,6 +53,18 @@ Program CompileProgram(const Node& root, const Resolver& resolve);
 /// Runs a program. `x` the state, `w` the workspace slots. No allocation (registers on the stack).
 double Run(const Program& p, double t, const double* x, const double* w);
 
+/// Solves law(u) = target for u, where the law's program reads u from the scratch slot
+/// w[unknown] (and `slope`, its derivative, likewise): a resistor whose causality needs the
+/// inverse of the law it was given. Newton's method kept inside a bracket (the root is
+/// bracketed first, from u = 0 outwards by doubling steps; a Newton step that leaves the bracket
+/// or has no slope is replaced by bisection), to the last bits of u; NaN if no root is bracketed
+/// (a law that is not monotonic there, or does not reach the target). Leaves w[unknown] = u.
+/// No allocation. The generated code calls this very function (its MbSources::solve), so both
+/// engines give the same bits.
+double SolveFor(const Program& law, const Program& slope, int unknown, double target, double t, const double* x, double* w);
+/// SolveFor with the programs by index in an array of programs: the form generated code calls.
+double SolveForIndexed(const void* programs, int law, int slope, int unknown, double target, double t, const double* x, double* w);
+
 /// Names of the arrays in generated code.
 struct EmitNames {
   const char* t = "t";

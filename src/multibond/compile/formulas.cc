@@ -108,6 +108,14 @@ void CompiledModel::AssignSignalSlots() {
         break;
     }
   }
+  // A resistor whose causality needs the inverse of the one law it was given solves for it
+  // (kSolve): a scratch slot, of no class, holds the unknown while the law is evaluated.
+  for (int i = 0; i < g.num_elements(); ++i) {
+    const Element& e = g.element(i);
+    if (e.kind != ElementKind::kR || !HasFormulas(e)) continue;
+    const bool effort_out = !causality_.EffortInto(g, e.bonds.front(), i);
+    if (!(effort_out ? e.law_effort : e.law_flow).given()) solve_slot_.emplace(i, num_slots_++);
+  }
   class_of_slot_.assign(num_slots_, -1);
   for (int c = 0; c < num_slot_classes(); ++c)
     for (int k = 0; k < class_size_[c]; ++k) class_of_slot_[class_offset_[c] + k] = c;
@@ -173,7 +181,7 @@ CompiledModel::FormulaInstr CompiledModel::MakeFormulaInstr(int element, int out
   fi.out_class = out_class;
   for (int k = 0; k < n; ++k)
     for (const expr::Input& put : programs_[first + k].inputs)
-      if (put.in == expr::Input::In::kSlot) fi.reads.push_back(class_of_slot_[put.offset]);
+      if (put.in == expr::Input::In::kSlot && class_of_slot_[put.offset] >= 0) fi.reads.push_back(class_of_slot_[put.offset]);
   fi.def.kind = Definition::Kind::kFormula;
   fi.def.element = element;
   return fi;
@@ -289,27 +297,47 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
       const int b = e.bonds.front();
       const double sigma = g.PowerSign(b, i);
       const bool effort_out = !causality_.EffortInto(g, b, i);
-      const Formula& law = effort_out ? e.law_effort : e.law_flow;
-      if (!law.given()) {
-        const Formula& other = effort_out ? e.law_flow : e.law_effort;
-        Diagnostic d;
-        d.code = "law.form";
-        d.where = other.where;
-        d.element = e.name;
-        d.message = effort_out ? "the causality gives this resistor its flow and needs its effort, but only `flow:` (of e) is given"
-                               : "the causality gives this resistor its effort and needs its flow, but only `effort:` (of f) is given";
-        d.hint = effort_out ? "add `effort:` as a formula of f (the inverse law)" : "add `flow:` as a formula of e (the inverse law)";
-        throw ModelError(d);
-      }
+      // The form the causality needs (effort of f, or flow of e), else the other one solved for
+      // its input at every evaluation (kSolve).
+      const Formula& direct = effort_out ? e.law_effort : e.law_flow;
+      const Formula& inverse = effort_out ? e.law_flow : e.law_effort;
+      const Formula& law = direct.given() ? direct : inverse;
       scalar_only(b, law);
       if (!e.active) passive_.push_back({i, class_offset_[effort_class_[b]], class_offset_[flow_class_[b]], sigma});
       // The resistor sees the effort sigma e and the flow f (graph.h's sign rules).
-      if (effort_out) {
-        const NodePtr tree = Signed(sigma, Replace(law.root, "f", SlotRef(class_offset_[flow_class_[b]])));
+      const int e_slot = class_offset_[effort_class_[b]], f_slot = class_offset_[flow_class_[b]];
+      if (direct.given() && effort_out) {
+        const NodePtr tree = Signed(sigma, Replace(law.root, "f", SlotRef(f_slot)));
         emit(effort_class_[b], 1, [&](int) { return tree; }, &law, "the effort law of " + e.name);
-      } else {
-        const NodePtr tree = Replace(law.root, "e", Signed(sigma, SlotRef(class_offset_[effort_class_[b]])));
+      } else if (direct.given()) {
+        const NodePtr tree = Replace(law.root, "e", Signed(sigma, SlotRef(e_slot)));
         emit(flow_class_[b], 1, [&](int) { return tree; }, &law, "the flow law of " + e.name);
+      } else {
+        // effort out: g(u) = f, e = sigma u; flow out: r(u) = sigma e, f = u.
+        const char* own = effort_out ? "e" : "f";
+        const int unknown = solve_slot_.at(i);
+        const FormulaScope scope{&law, i, fmt::format("the {} law of {}", effort_out ? "flow" : "effort", e.name)};
+        FormulaInstr fi;
+        fi.in = Instr{};
+        fi.in.op = Op::kSolve;
+        fi.in.element = i;
+        fi.in.n = 1;
+        fi.in.m = 1;
+        fi.in.coef = CompileFormula(Replace(law.root, own, SlotRef(unknown)), scope);
+        fi.in.aux = CompileFormula(Replace(expr::Differentiate(*law.root, own), own, SlotRef(unknown)), scope);
+        fi.in.count = unknown;
+        fi.in.src = effort_out ? f_slot : e_slot;
+        fi.in.transpose = !effort_out && sigma < 0;
+        fi.in.scale = effort_out ? sigma : 1.0;
+        fi.out_class = effort_out ? effort_class_[b] : flow_class_[b];
+        fi.reads.push_back(effort_out ? flow_class_[b] : effort_class_[b]);
+        for (const expr::Input& put : programs_[fi.in.coef].inputs)
+          if (put.in == expr::Input::In::kSlot && class_of_slot_[put.offset] >= 0) fi.reads.push_back(class_of_slot_[put.offset]);
+        fi.def.kind = Definition::Kind::kFormula;
+        fi.def.element = i;
+        fi.def.formula = fmt::format("{} solved from {} = {}", effort_out ? e.name + ".e" : e.name + ".f",
+                                     effort_out ? e.name + ".f" : e.name + ".e", Readable(*law.root, name_of));
+        out.push_back(std::move(fi));
       }
       break;
     }
@@ -450,13 +478,13 @@ void CompiledModel::CheckFormulaUse() const {
     throw ModelError(d);
   };
   for (const Instr& in : plan_) {
-    if (in.op != Op::kExpr) continue;
+    if (in.op != Op::kExpr && in.op != Op::kSolve) continue;
     if (!constraints_.empty())
       refuse(in.element, "formulas in a model with ideal constraints are not supported yet",
              "use compliant joints (constraints: compliant), or constant parameters");
   }
   for (int at : tear_closure_)
-    if (plan_[at].op == Op::kExpr)
+    if (plan_[at].op == Op::kExpr || plan_[at].op == Op::kSolve)
       refuse(plan_[at].element, "an algebraic loop runs through a formula; only linear loops are solved",
              "add a storage element in the loop, or break it with a lag (states: {kind: lag})");
 }
@@ -467,7 +495,7 @@ std::string CompiledModel::DiagnoseFormulas(double t, const double* x, Workspace
   const plan::ExecArgs args{t, x, w, w, ws.moduli.data(), ws.lambda.data(), tables()};
   for (const Instr& in : plan_) {
     plan::Exec(in, args);
-    if (in.op != Op::kExpr) continue;
+    if (in.op != Op::kExpr && in.op != Op::kSolve) continue;
     for (int k = 0; k < in.n; ++k) {
       if (std::isfinite(w[in.dst + k])) continue;
       const expr::Program& p = programs_[in.coef + k];
@@ -478,7 +506,9 @@ std::string CompiledModel::DiagnoseFormulas(double t, const double* x, Workspace
         const bool state = put.in == expr::Input::In::kState;
         const double v = state ? x[put.offset] : w[put.offset];
         inputs_finite = inputs_finite && std::isfinite(v);
-        const std::string name = state ? state_names_[put.offset] : class_names_[class_of_slot_[put.offset]];
+        const std::string name = state                              ? state_names_[put.offset]
+                                 : class_of_slot_[put.offset] >= 0 ? class_names_[class_of_slot_[put.offset]]
+                                                                   : std::string("the unknown");
         reads += fmt::format("{}{} = {:.9g}", reads.empty() ? "" : ", ", name, v);
       }
       if (!inputs_finite) continue;  // a diverging state: not this formula's fault

@@ -89,7 +89,13 @@ void CompiledModel::BuildJacobianPattern() {
     Deps all;  // every output reads every input
     if (op.reads == plan::Reads::kState) all = Range(in.src, in.n);
     else if (op.reads == plan::Reads::kSlots) all = slots(in.src, in.m);
-    else if (op.reads == plan::Reads::kProgram)  // a formula: every state and slot it reads
+    else if (op.reads == plan::Reads::kSolve) {  // a law solved for its input: what it reads, and its target
+      Merge(all, slot[in.src]);
+      for (const expr::Input& put : programs_[in.coef].inputs) {
+        if (put.in == expr::Input::In::kState) Merge(all, {put.offset});
+        else if (put.in == expr::Input::In::kSlot) Merge(all, slot[put.offset]);
+      }
+    } else if (op.reads == plan::Reads::kProgram)  // a formula: every state and slot it reads
       for (int k = 0; k < in.n; ++k)
         for (const expr::Input& put : programs_[in.coef + k].inputs) {
           if (put.in == expr::Input::In::kState) Merge(all, {put.offset});

@@ -218,4 +218,10 @@ void EmitExpr(const Instr& in, const EmitArgs& a) {
   }
 }
 
+void EmitSolve(const Instr& in, const EmitArgs& a) {
+  // The interpreter's very solver, called back (MbSources::solve): the same bits in both engines.
+  Line(*a.out, fmt::format("{} = {} * src->solve(src->programs, {}, {}, {}, {}{}, t, {}, {});", Out(a, in.dst), Lit(in.scale),
+                           in.coef, in.aux, in.count, in.transpose ? "-" : "", In(a, in.src), a.names.x, a.names.out));
+}
+
 }  // namespace multibond::plan::kernels

@@ -269,4 +269,10 @@ void ExecExpr(const Instr& in, const ExecArgs& a) {
   for (int k = 0; k < in.n; ++k) a.wout[in.dst + k] = expr::Run(a.tables.programs[in.coef + k], a.t, a.x, a.win);
 }
 
+void ExecSolve(const Instr& in, const ExecArgs& a) {
+  // The plain pass only (win == wout): the solve writes its scratch slot as it goes.
+  const double target = in.transpose ? -a.win[in.src] : a.win[in.src];
+  a.wout[in.dst] = in.scale * expr::SolveFor(a.tables.programs[in.coef], a.tables.programs[in.aux], in.count, target, a.t, a.x, a.wout);
+}
+
 }  // namespace multibond::plan::kernels

@@ -42,6 +42,7 @@ void ExecSum1(const Instr& in, const ExecArgs& a);
 void ExecSum3(const Instr& in, const ExecArgs& a);
 void ExecMultiplier(const Instr& in, const ExecArgs& a);
 void ExecExpr(const Instr& in, const ExecArgs& a);
+void ExecSolve(const Instr& in, const ExecArgs& a);
 
 // State kernels as C++ (EmitStateFn).
 void EmitStateScale(const Instr& in, const double* c, const std::function<std::string(int)>& src,
@@ -67,5 +68,6 @@ void EmitCopy(const Instr& in, const EmitArgs& a);
 void EmitSum(const Instr& in, const EmitArgs& a);
 void EmitMultiplier(const Instr& in, const EmitArgs& a);
 void EmitExpr(const Instr& in, const EmitArgs& a);
+void EmitSolve(const Instr& in, const EmitArgs& a);
 
 }  // namespace multibond::plan::kernels

@@ -46,6 +46,7 @@ const OpTraits kOpTable[kNumOps] = {
   {Op::kCopy1,            "copy1",              1, 0, Op::kSum,           Reads::kSlots,      Coupling::kComponentwise, false, false, Tangent::kLinear,         k::ExecCopy1,                      k::EmitCopy},
   {Op::kCopy3,            "copy3",              3, 0, Op::kSum,           Reads::kSlots,      Coupling::kComponentwise, false, false, Tangent::kLinear,         k::ExecCopy3,                      k::EmitCopy},
   {Op::kExpr,             "expr",               0, 0, Op::kExpr,          Reads::kProgram,    Coupling::kDense,         false, false, Tangent::kNone,           k::ExecExpr,                       k::EmitExpr},
+  {Op::kSolve,            "solve",              1, 0, Op::kSolve,         Reads::kSolve,      Coupling::kDense,         false, false, Tangent::kNone,           k::ExecSolve,                      k::EmitSolve},
   {Op::kMultiplier,       "multiplier",         0, 0, Op::kMultiplier,    Reads::kMultipliers,Coupling::kComponentwise, false, false, Tangent::kZero,           k::ExecMultiplier,                 k::EmitMultiplier},
 };
 // clang-format on

@@ -36,6 +36,9 @@ enum class Op : unsigned char {
   kSum1, kSum3, kCopy1, kCopy3,
   // formulas (docs/model-format.md, "Expressions"): dst[k] = program coef + k, of t, x and slots
   kExpr,
+  // dst = scale * u with law(u) = (transpose ? -1 : 1) * slot src, law = program coef (reading u
+  // from the scratch slot count), its derivative program aux: a law used the other way round
+  kSolve,
   // ideal constraints: dst = the multipliers of one constraint (Workspace::lambda + coef)
   kMultiplier,
 };
@@ -121,6 +124,7 @@ enum class Reads : unsigned char {
   kSumTerms,     ///< the slots listed in sum_terms[coef .. coef + count]
   kMultipliers,  ///< lambda[coef .. coef + n]
   kProgram,      ///< the inputs of programs coef .. coef + n (time, states, slots)
+  kSolve,        ///< the inputs of program coef, and slot src
 };
 
 /// How the outputs depend on the inputs (the Jacobian pattern).

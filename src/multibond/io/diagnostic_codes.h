@@ -60,8 +60,6 @@ enum class Outcome {
   X(kExprUnsupported, "expr.unsupported", kModelError,                                                                         \
     "a formula where formulas are not supported yet: with ideal constraints, or in an algebraic loop solved by tearing")      \
   X(kLawEnergy, "law.energy", kModelError, "a stored energy that is not a function of its element's own state alone")         \
-  X(kLawForm, "law.form", kModelError,                                                                                         \
-    "a resistor whose causality needs the form of its law (effort of f, or flow of e) that is not given")                    \
   X(kCausalityConflict, "causality.conflict", kModelError,                                                                     \
     "two elements impose the same effort or flow (two Se on a 0-junction, two Sf on a 1-junction, both ports of a two-port " \
     "given the same variable)")                                                                                                \
