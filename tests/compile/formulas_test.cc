@@ -154,25 +154,31 @@ TEST(Formulas, PendulumPeriodIsTheEllipticIntegrals) {
   }
 }
 
-TEST(Formulas, TorricelliDrainHasALinearSquareRoot) {
-  // dV/dt = -Cd a sqrt(2 g V / A): sqrt(V) = sqrt(V0) - Cd a / 2 sqrt(2 g / A) t.
-  const double A = 2.0, Cd = 0.6, a = 0.01, rho = 1000.0, g0 = 9.81, V0 = 2.0;
+/// Torricelli's tank (A = 2 m^2, rho g = 9810 Pa/m, V0 = 2 m^3) draining through an orifice
+/// whose law `law` (R's flow of e, or effort of f) is `text`.
+BondGraph Tank(Formula Element::*law, const std::string& text) {
   BondGraph g("tank");
   g.AddJunction("p", ElementKind::kZero);
   Element tank;
   tank.name = "tank";
   tank.kind = ElementKind::kC;
   tank.law_effort = F("1000*9.81*q/2");
-  tank.initial = Eigen::VectorXd::Constant(1, V0);
+  tank.initial = Eigen::VectorXd::Constant(1, 2.0);
   g.Add(tank);
   Element orifice;
   orifice.name = "orifice";
   orifice.kind = ElementKind::kR;
-  orifice.law_flow = F("0.6*0.01*sign(e)*sqrt(2*abs(e)/1000)");
+  orifice.*law = F(text);
   g.Add(orifice);
   g.Connect("p", "tank");
   g.Connect("p", "orifice");
-  const auto model = CompiledModel::Compile(g);
+  return g;
+}
+
+TEST(Formulas, TorricelliDrainHasALinearSquareRoot) {
+  // dV/dt = -Cd a sqrt(2 g V / A): sqrt(V) = sqrt(V0) - Cd a / 2 sqrt(2 g / A) t.
+  const double A = 2.0, Cd = 0.6, a = 0.01, rho = 1000.0, g0 = 9.81, V0 = 2.0;
+  const auto model = CompiledModel::Compile(Tank(&Element::law_flow, "0.6*0.01*sign(e)*sqrt(2*abs(e)/1000)"));
   const double rate = Cd * a / 2.0 * std::sqrt(2.0 * g0 / A);
   const double t_empty = std::sqrt(V0) / rate;
   const RecordingObserver rec = Simulated(*model, 0.8 * t_empty, 1.0);
@@ -347,21 +353,7 @@ TEST(Formulas, TorricelliWithTheOrificeAsItsPressureDropSolvesForTheFlow) {
   // The orifice given as e = rho/2 (f / (Cd a))^2 (signed): the tank imposes the pressure, so the
   // flow is solved for; the same closed form as with the flow law.
   const double A = 2.0, Cd = 0.6, a = 0.01, g0 = 9.81, V0 = 2.0;
-  BondGraph g("tank");
-  g.AddJunction("p", ElementKind::kZero);
-  Element tank;
-  tank.name = "tank";
-  tank.kind = ElementKind::kC;
-  tank.law_effort = F("1000*9.81*q/2");
-  tank.initial = Eigen::VectorXd::Constant(1, V0);
-  g.Add(tank);
-  Element orifice;
-  orifice.name = "orifice";
-  orifice.kind = ElementKind::kR;
-  orifice.law_effort = F("1000/2*f*abs(f)/(0.6*0.01)^2");
-  g.Add(orifice);
-  g.Connect("p", "tank");
-  g.Connect("p", "orifice");
+  const BondGraph g = Tank(&Element::law_effort, "1000/2*f*abs(f)/(0.6*0.01)^2");
   CompileOptions jit;
   jit.generate_code = true;
   const auto interpreted = CompiledModel::Compile(g), generated = CompiledModel::Compile(g, jit);

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "multibond/io/model_loader.h"
+#include "support/load_errors.h"
 
 namespace multibond {
 namespace {
@@ -16,15 +17,7 @@ namespace {
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 
-std::vector<Diagnostic> LoadErrors(const std::string& yaml) {
-  try {
-    (void)LoadModelString(yaml, "m.yaml");
-  } catch (const ModelError& e) {
-    return e.diagnostics();
-  }
-  ADD_FAILURE() << "expected a ModelError for:\n" << yaml;
-  return {};
-}
+using testing::LoadErrors;
 
 const Element& Find(const LoadedModel& lm, const std::string& name) { return lm.graph.element(lm.graph.Find(name)); }
 

@@ -11,22 +11,14 @@
 #include <gtest/gtest.h>
 
 #include "multibond/io/model_loader.h"
+#include "support/load_errors.h"
 
 namespace multibond {
 namespace {
 
 using ::testing::HasSubstr;
 
-/// The loader's diagnostics for `yaml` (it must fail).
-std::vector<Diagnostic> LoadErrors(const std::string& yaml) {
-  try {
-    (void)LoadModelString(yaml, "m.yaml");
-  } catch (const ModelError& e) {
-    return e.diagnostics();
-  }
-  ADD_FAILURE() << "expected a ModelError for:\n" << yaml;
-  return {};
-}
+using testing::LoadErrors;
 
 /// The first diagnostic with `code`; fails the test if there is none.
 Diagnostic WithCode(const std::vector<Diagnostic>& ds, const std::string& code) {

@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "multibond/io/model_loader.h"
+#include "support/load_errors.h"
 
 namespace multibond {
 namespace {
@@ -33,15 +34,7 @@ std::string Model(const std::string& parameters, const std::string& inertia = "1
          "bonds: [force -> j, j -> mass]\n";
 }
 
-std::vector<Diagnostic> LoadErrors(const std::string& yaml) {
-  try {
-    (void)LoadModelString(yaml, "m.yaml");
-  } catch (const ModelError& e) {
-    return e.diagnostics();
-  }
-  ADD_FAILURE() << "expected a ModelError for:\n" << yaml;
-  return {};
-}
+using testing::LoadErrors;
 
 const ModelParameter& Param(const LoadedModel& lm, const std::string& name) {
   for (const ModelParameter& p : lm.parameters)

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "multibond/io/model_loader.h"
+#include "support/load_errors.h"
 
 namespace multibond {
 namespace {
@@ -17,15 +18,7 @@ namespace {
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 
-std::vector<Diagnostic> LoadErrors(const std::string& yaml) {
-  try {
-    (void)LoadModelString(yaml, "m.yaml");
-  } catch (const ModelError& e) {
-    return e.diagnostics();
-  }
-  ADD_FAILURE() << "expected a ModelError for:\n" << yaml;
-  return {};
-}
+using testing::LoadErrors;
 
 /// "element: message [code]" of each diagnostic.
 std::vector<std::string> Said(const std::vector<Diagnostic>& ds) {

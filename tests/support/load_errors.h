@@ -1,0 +1,24 @@
+#pragma once
+// Test helper: the diagnostics the loader gives for a model that must fail to load.
+
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "multibond/io/model_loader.h"
+
+namespace multibond::testing {
+
+/// The loader's diagnostics for `yaml` (read as "m.yaml"); a test failure if it loads.
+inline std::vector<Diagnostic> LoadErrors(const std::string& yaml) {
+  try {
+    (void)LoadModelString(yaml, "m.yaml");
+  } catch (const ModelError& e) {
+    return e.diagnostics();
+  }
+  ADD_FAILURE() << "expected a ModelError for:\n" << yaml;
+  return {};
+}
+
+}  // namespace multibond::testing
