@@ -419,5 +419,40 @@ TEST(Formulas, AResistorThatDeliversPowerMustBeMarkedActive) {
   EXPECT_NEAR(rec2.Last("mass.p"), std::exp(0.1), 1e-6);  // dp/dt = +0.1 p
 }
 
+TEST(Formulas, AnAlgebraicLoopThroughFormulasIsFoundAndNamed) {
+  // Two signals that read each other.
+  BondGraph g("signals");
+  Signal a, b;
+  a.name = "a";
+  a.value = F("b + 1");
+  a.where = {"model.yaml", 3, 6};
+  b.name = "b";
+  b.value = F("2*a");
+  b.where = {"model.yaml", 4, 6};
+  g.AddSignal(a);
+  g.AddSignal(b);
+  const Diagnostic d = CompileError(g).diagnostics().front();
+  EXPECT_EQ(d.code, "causality.algebraic_loop");
+  EXPECT_TRUE(d.where.line == 3 || d.where.line == 4) << d.where.ToString();
+  EXPECT_THAT(d.details.front(), HasSubstr("signals"));
+  EXPECT_THAT(d.details.back(), HasSubstr("a"));
+  // A source whose effort reads the inertia's effort, which the source itself sets, on a
+  // 1-junction: refused by default, and not solved by tearing either (it is not linear).
+  BondGraph m("push");
+  m.AddJunction("j", ElementKind::kOne);
+  m.AddI("mass", Param::Scalar(1.0));
+  Element push;
+  push.name = "push";
+  push.kind = ElementKind::kSe;
+  push.value = {F("1 + 0.5*mass.e")};
+  m.Add(push);
+  m.Connect("push", "j");
+  m.Connect("j", "mass");
+  EXPECT_EQ(CompileError(m).diagnostics().front().code, "causality.algebraic_loop");
+  CompileOptions solve;
+  solve.solve_algebraic_loops = true;
+  EXPECT_EQ(CompileError(m, solve).diagnostics().front().code, "expr.unsupported");
+}
+
 }  // namespace
 }  // namespace multibond

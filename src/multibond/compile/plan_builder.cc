@@ -426,17 +426,29 @@ CompiledModel::PlanDeps CompiledModel::OrderPlan(const Draft& draft) {
         }
     }
     elements.push_back(elements.front());
+    // The loop's first element; a loop of signals alone has none (element -1): its first signal's
+    // or signal state's place instead.
+    int first = -1;
+    for (int e : elements)
+      if (first < 0 && e >= 0) first = e;
     if (options_.solve_algebraic_loops && tear >= 0) {
       torn[tear] = 1;
-      algebraic_loops_.push_back({FormatPath(g, elements), class_names_[tear], elements.front(), tear});
+      algebraic_loops_.push_back({FormatPath(g, elements), class_names_[tear], first, tear});
       continue;
     }
     Diagnostic d;
-    d.where = g.element(elements.front()).where;
-    d.element = g.element(elements.front()).name;
+    if (first >= 0) {
+      d.where = g.element(first).where;
+      d.element = g.element(first).name;
+    } else {
+      const std::string name = vars.substr(0, vars.find(','));
+      if (const int sig = g.FindSignal(name); sig >= 0) d.where = g.signals()[sig].where;
+      else if (const int aux = g.FindAux(name.substr(0, name.find('.'))); aux >= 0) d.where = g.aux_states()[aux].where;
+      d.element = name;
+    }
     d.code = "causality.algebraic_loop";
     d.message = "algebraic loop: these variables depend on themselves with no storage element in between";
-    d.details.push_back("loop: " + FormatPath(g, elements));
+    d.details.push_back("loop: " + (first >= 0 ? FormatPath(g, elements) : "signals " + vars));
     d.details.push_back("variables: " + vars);
     d.hint = "add a storage element in the loop (a small C or I where the physics has one), merge the resistors into "
              "one, or let multibond solve it (algebraic_loops: solve in the model file, --algebraic-loops solve)";
