@@ -219,6 +219,19 @@ TEST(FormulaUnits, ASumNeedsOneDimensionAndIsReportedAtItsOperator) {
   EXPECT_EQ(UnitOf("k*L + m*L/T^2"), "m kg/s^2");
 }
 
+TEST(FormulaUnits, ALongSumIsCheckedToItsLastTerm) {
+  // 1500 terms (within the 4096 bytes of a formula) nest 1500 deep to the left: they are checked
+  // in a loop. The mismatch is at the last operator.
+  std::string sum = "L";
+  for (int i = 1; i < 1500; ++i) sum += i % 2 ? "+L" : "-L2";
+  EXPECT_EQ(UnitOf(sum), "m");
+  EXPECT_EQ(MismatchAt(sum + "+T"), static_cast<int>(sum.size()));
+  std::string product = "L";
+  for (int i = 1; i <= 1500; ++i) product += i % 2 ? "*L" : "/L2";
+  EXPECT_EQ(UnitOf(product), "m");
+  EXPECT_EQ(MismatchAt(product + "*T+L"), static_cast<int>(product.size()) + 2);
+}
+
 TEST(FormulaUnits, ANumberTakesTheUnitOfTheOtherSideOfASumAndHasNoneInAProduct) {
   EXPECT_EQ(UnitOf("L + 0.5"), "m");
   EXPECT_EQ(UnitOf("1 + L"), "m");

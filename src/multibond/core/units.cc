@@ -229,6 +229,23 @@ class Checker {
 
   FormulaUnit Of(const expr::Node& n) {
     using K = expr::Node::Kind;
+    auto chained = [](K k) { return k == K::kAdd || k == K::kSub || k == K::kMul || k == K::kDiv; };
+    if (chained(n.kind)) {
+      // A long sum or product nests to the left as deep as it is long (a thousand terms): its
+      // left spine is walked in a loop, not by recursion. What nests to the right is bounded by
+      // the parser (kMaxFormulaDepth).
+      std::vector<const expr::Node*> spine;
+      const expr::Node* x = &n;
+      for (; chained(x->kind); x = x->args[0].get()) spine.push_back(x);
+      FormulaUnit left = Of(*x);
+      for (auto it = spine.rbegin(); it != spine.rend(); ++it) {
+        const expr::Node& b = **it;
+        const FormulaUnit right = Of(*b.args[1]);
+        if (b.kind == K::kMul || b.kind == K::kDiv) left = Product(left, right, b.kind == K::kDiv);
+        else left = Same(left, right, *b.args[0], *b.args[1], OperatorOffset(b), b.kind == K::kAdd ? "'+'" : "'-'", nullptr);
+      }
+      return left;
+    }
     switch (n.kind) {
       case K::kNumber: return Number();
       case K::kName: {
@@ -243,13 +260,9 @@ class Checker {
       }
       case K::kNeg: return Of(*n.args[0]);
       case K::kAdd:
-      case K::kSub: {
-        const FormulaUnit a = Of(*n.args[0]);
-        const FormulaUnit b = Of(*n.args[1]);
-        return Same(a, b, *n.args[0], *n.args[1], OperatorOffset(n), n.kind == K::kAdd ? "'+'" : "'-'", nullptr);
-      }
+      case K::kSub:
       case K::kMul:
-      case K::kDiv: return Product(Of(*n.args[0]), Of(*n.args[1]), n.kind == K::kDiv);
+      case K::kDiv: break;  // above
       case K::kPow: return Power(n);
       case K::kCall: return Call(n);
     }

@@ -3,7 +3,7 @@
 /// The one grammar of units a model file may write (a parameter's or an auxiliary state's
 /// `unit:`), see docs/model-format.md, "Names and units"; what a unit of it means (a dimension
 /// over the SI base units and a scale); and the dimension analysis of formulas that checks them
-/// (docs/model-format.md, "Named parameters", units). A unit labels result columns and reaches
+/// (docs/model-format.md, "Units in formulas"). A unit labels result columns and reaches
 /// gnuplot scripts and HTML: only what this grammar accepts may pass.
 ///
 ///   unit    = "-" | "1" | product [ "/" product ]
@@ -69,7 +69,7 @@ bool IsDimensionless(const Dimension& d);
 std::string FormatDimension(const Dimension& d);
 
 // ---------------------------------------------------------------------------------------------
-// Dimension analysis of a formula (docs/model-format.md, "Named parameters"). The rules:
+// Dimension analysis of a formula (docs/model-format.md, "Units in formulas"). The rules:
 //  * a name with a declared unit has that unit; any other name (a parameter without a unit, a
 //    submodel's parameter, time, a variable of the model) is free: it takes whatever unit its
 //    place needs, and nothing is checked through it;
