@@ -188,6 +188,80 @@ TEST(FormulaValues, AFormulaWhoseValueIsNotFiniteIsOutOfRange) {
   EXPECT_THAT(d.message, HasSubstr("the formula '1/(L - 2)' gives inf: not a finite number"));
 }
 
+// Units where they are declared, in element numbers and laws (docs/model-format.md, "Units in
+// formulas"): the parameters with a unit have it, the element's own variables, time and the
+// parameters without a unit are free.
+
+/// A mass-spring-damper whose parameters have units, with the mass line `mass_line` and the
+/// spring line `spring` (lines 12 and 11).
+std::string MsdWithUnits(const std::string& mass_line, const std::string& spring = "{type: C, stiffness: k}") {
+  return "model: msd\n"                                     // 1
+         "domain: translation\n"                            // 2
+         "parameters:\n"                                    // 3
+         "  m:   {value: 2.0, unit: kg}\n"                  // 4
+         "  L:   {value: 0.5, unit: m}\n"                   // 5
+         "  k:   {value: 100.0, unit: N/m}\n"               // 6
+         "  tau: {value: 0.5, unit: s}\n"                   // 7
+         "elements:\n"                                      // 8
+         "  force:  {type: Se, effort: \"k*L*exp(-t/tau)\"}\n"  // 9
+         "  j:      {type: \"1\"}\n"                        // 10
+         "  spring: " + spring + "\n"                       // 11
+         "  mass:   " + mass_line + "\n"                    // 12
+         "bonds: [force -> j, j -> mass, j -> spring]\n";
+}
+
+TEST(FormulaValues, AnElementNumberWithUnitsThatDoNotFitIsAnError) {
+  // Line 12 is '  mass:   {type: I, inertia: "m + L"}': the quote at 30, '+' at 33.
+  const auto ds = LoadErrors(MsdWithUnits("{type: I, inertia: \"m + L\"}"));
+  ASSERT_EQ(ds.size(), 1u) << ds[0].ToString();
+  EXPECT_EQ(ds[0].code, "expr.units");
+  EXPECT_EQ(ds[0].element, "mass");
+  EXPECT_EQ(ds[0].where.line, 12);
+  EXPECT_EQ(ds[0].where.column, 33);
+  EXPECT_EQ(ds[0].message, "the two sides of '+' have different units: 'm' is kg, 'L' is m");
+  // A number of the element: its initial momentum. The quote at 37, the '-' at 47.
+  const Diagnostic p0 = WithCode(LoadErrors(MsdWithUnits("{type: I, inertia: m, p0: \"m*sqrt(L - tau)\"}")), "expr.units");
+  EXPECT_EQ(p0.where.column, 47);
+  EXPECT_EQ(p0.message, "the two sides of '-' have different units: 'L' is m, 'tau' is s");
+}
+
+TEST(FormulaValues, ALawWithUnitsThatDoNotFitIsAnErrorAndItsOwnVariableIsFree) {
+  // Line 11 is '  spring: {type: C, effort: "k*q + sin(L)"}': the quote at 29, 'sin' at 36.
+  const auto ds = LoadErrors(MsdWithUnits("{type: I, inertia: m}", "{type: C, effort: \"k*q + sin(L)\"}"));
+  ASSERT_EQ(ds.size(), 1u) << ds[0].ToString();
+  EXPECT_EQ(ds[0].code, "expr.units");
+  EXPECT_EQ(ds[0].element, "spring");
+  EXPECT_EQ(ds[0].where.line, 11);
+  EXPECT_EQ(ds[0].where.column, 36);
+  EXPECT_EQ(ds[0].message, "sin of 'L', which is m: sin takes a number without dimension (an angle in rad)");
+  // The same model with laws that fit loads: q, t and p are free; L^2 with L in m is an area.
+  const LoadedModel lm = LoadModelString(
+      MsdWithUnits("{type: I, flow: \"p/m\"}", "{type: C, energy: \"k*q^2/2 + k*L^2*(1 - cos(q/L))\"}"), "m.yaml");
+  EXPECT_EQ(lm.graph.element(lm.graph.Find("spring")).energy.text, "k*q^2/2 + k*L^2*(1 - cos(q/L))");
+}
+
+TEST(FormulaValues, ASubmodelsParametersAreFreeAndShadowTheModels) {
+  const std::string yaml = R"y(model: m
+parameters:
+  L: {value: 1.0, unit: m}
+  T: {value: 1.0, unit: s}
+submodels:
+  body:
+    parameters: {T: 1.0}
+    ports: [v]
+    elements:
+      v: {type: "1"}
+      mass: {type: I, inertia: "L + T"}
+    bonds: [v -> mass]
+elements:
+  force: {type: Se, effort: 1.0}
+  a: {type: body, T: 2.0}
+bonds: [force -> a.v]
+)y";
+  const LoadedModel lm = LoadModelString(yaml, "m.yaml");
+  EXPECT_EQ(lm.graph.element(lm.graph.Find("a.mass")).param.scalar, 3.0);
+}
+
 TEST(FormulaValues, ANumberWithAUnitIsStillSaidToBeNoNumber) {
   const Diagnostic d = WithCode(LoadErrors(Msd("{type: I, inertia: 2 kg}")), "expr.syntax");
   EXPECT_THAT(d.message, HasSubstr("expected a number, got '2 kg'"));

@@ -155,6 +155,101 @@ TEST(ModelParametersReader, ABadValueSetFromOutsideIsTheCallersMistake) {
   EXPECT_THAT(SetError(yaml, {{"m0", "1e-320"}}), HasSubstr("not a finite, normal number"));
 }
 
+// Units where they are declared (docs/model-format.md, "Units in formulas"): a mismatch is an
+// error at the character of its operator or function, naming the units on both sides.
+
+TEST(ModelParametersReader, ASumOfALengthAndATimeIsAnErrorAtItsOperator) {
+  // Line 5 is '  x: "L + T"': the quote at column 6, 'L' at 7, '+' at 9.
+  const auto ds = LoadErrors(Model("  L: {value: 1.0, unit: m}\n  T: {value: 2.0, unit: s}\n  x: \"L + T\"\n"));
+  ASSERT_EQ(ds.size(), 1u) << ds[0].ToString();
+  EXPECT_EQ(ds[0].code, "expr.units");
+  EXPECT_EQ(ds[0].element, "x");
+  EXPECT_EQ(ds[0].where.line, 5);
+  EXPECT_EQ(ds[0].where.column, 9);
+  EXPECT_EQ(ds[0].message, "the two sides of '+' have different units: 'L' is m, 'T' is s");
+  EXPECT_THAT(ds[0].hint, HasSubstr("one dimension"));
+  // Unquoted, the formula starts at the column of its value.
+  const auto plain = LoadErrors(Model("  L: {value: 1.0, unit: m}\n  T: {value: 2.0, unit: s}\n  x: 2*L - T/1\n"));
+  ASSERT_EQ(plain.size(), 1u);
+  EXPECT_EQ(plain[0].where.column, 10);
+  EXPECT_EQ(plain[0].message, "the two sides of '-' have different units: '2*L' is m, 'T/1' is s");
+}
+
+TEST(ModelParametersReader, AFormulaGivesTheUnitDeclaredForIt) {
+  const std::string units = "  L: {value: 1.0, unit: m}\n  T: {value: 2.0, unit: s}\n";
+  const LoadedModel lm = LoadModelString(Model(units + "  v: {value: \"L/T\", unit: m/s}\n"), "m.yaml");
+  EXPECT_EQ(Param(lm, "v").value, 0.5);
+  // Line 5 is '  v: {value: "L/T", unit: m}': the quote at column 14, the formula at 15.
+  const auto ds = LoadErrors(Model(units + "  v: {value: \"L/T\", unit: m}\n"));
+  ASSERT_EQ(ds.size(), 1u) << ds[0].ToString();
+  EXPECT_EQ(ds[0].code, "expr.units");
+  EXPECT_EQ(ds[0].element, "v");
+  EXPECT_EQ(ds[0].where.line, 5);
+  EXPECT_EQ(ds[0].where.column, 15);
+  EXPECT_EQ(ds[0].message, "its formula 'L/T' gives m/s, not the unit declared for it, m");
+  // One dimension, another size: the value is not converted.
+  const auto mm = LoadErrors(Model("  d: {value: 5.0, unit: mm}\n  L: {value: d, unit: m}\n"));
+  ASSERT_EQ(mm.size(), 1u);
+  EXPECT_EQ(mm[0].where.column, 14);
+  EXPECT_THAT(mm[0].message, HasSubstr("gives mm: the dimension of the unit declared for it, m, but another size"));
+  // A number factor converts.
+  EXPECT_EQ(Param(LoadModelString(Model("  d: {value: 5.0, unit: mm}\n  L: {value: d/1000, unit: m}\n"), "m.yaml"), "L").value, 0.005);
+  // A unit declared "-" is a number.
+  const auto none = LoadErrors(Model(units + "  r: {value: L, unit: \"-\"}\n"));
+  ASSERT_EQ(none.size(), 1u);
+  EXPECT_EQ(none[0].message, "its formula 'L' gives m, not the unit declared for it, - (a number)");
+}
+
+TEST(ModelParametersReader, AFunctionOfALengthIsAnErrorAtTheFunction) {
+  // Line 4 is '  s: "1 + sin(L)"': the quote at column 6, 's' of sin at 11.
+  const auto ds = LoadErrors(Model("  L: {value: 1.0, unit: m}\n  s: \"1 + sin(L)\"\n  ex: \"exp(L/L0)\"\n  L0: 1.0\n"));
+  ASSERT_EQ(ds.size(), 1u) << ds[0].ToString();  // L/L0: L0 has no unit, nothing is checked through it
+  EXPECT_EQ(ds[0].code, "expr.units");
+  EXPECT_EQ(ds[0].where.line, 4);
+  EXPECT_EQ(ds[0].where.column, 11);
+  EXPECT_EQ(ds[0].message, "sin of 'L', which is m: sin takes a number without dimension (an angle in rad)");
+  // An angle in deg is no angle in rad: the value is not converted.
+  const auto deg = LoadErrors(Model("  th: {value: 30, unit: deg}\n  s: cos(th)\n  c: cos(th*pi/180)\n"));
+  ASSERT_EQ(deg.size(), 1u);
+  EXPECT_EQ(deg[0].element, "s");
+  EXPECT_EQ(deg[0].where.column, 6);
+  EXPECT_THAT(deg[0].hint, HasSubstr("times pi/180"));
+}
+
+TEST(ModelParametersReader, AModelWithConsistentUnitsLoads) {
+  // docs/model-format.md's tuned oscillator, with units on everything.
+  const LoadedModel lm = LoadModelString(Model("  m:    {value: 2.0, unit: kg}\n"
+                                               "  f0:   {value: 1.5, unit: Hz}\n"
+                                               "  k:    {value: \"m*(2*pi*f0)^2\", unit: N/m}\n"
+                                               "  zeta: {value: 0.05, unit: \"-\"}\n"
+                                               "  c:    {value: \"2*zeta*sqrt(k*m)\", unit: N s/m}\n"
+                                               "  g:    {value: 9.81, unit: m/s^2}\n"
+                                               "  x0:   {value: \"m*g/k + 0.001\", unit: m}\n"
+                                               "  E:    {value: \"k*x0^2/2\", unit: J}\n"
+                                               "  w:    {value: \"sqrt(k/m)\", unit: rad/s}\n"
+                                               "  n:    {value: \"min(hypot(k, c*w)/(m*w^2), 2)\", unit: \"1\"}\n"
+                                               "  T:    {value: \"2*pi*sqrt(x0/g)\", unit: s}\n"
+                                               "  ph:   {value: \"atan2(c*w, k) + 0.1\", unit: rad}\n",
+                                               "m"),
+                                         "m.yaml");
+  const double k = 2.0 * std::pow(2 * std::numbers::pi * 1.5, 2);
+  EXPECT_EQ(Param(lm, "k").value, k);
+  EXPECT_EQ(Param(lm, "c").value, 2 * 0.05 * std::sqrt(k * 2.0));
+  // A number has no dimension in a product: 9.81 is not g.
+  const auto ds = LoadErrors(Model("  m: {value: 2.0, unit: kg}\n  k: {value: 100, unit: N/m}\n  x0: {value: \"m*9.81/k\", unit: m}\n"));
+  ASSERT_EQ(ds.size(), 1u);
+  EXPECT_EQ(ds[0].message, "its formula 'm*9.81/k' gives s^2, not the unit declared for it, m");
+}
+
+TEST(ModelParametersReader, AValueSetFromOutsideIsCheckedForUnitsToo) {
+  const std::string yaml = Model("  L: {value: 1.0, unit: m}\n  T: {value: 2.0, unit: s}\n  v: {value: L/T, unit: m/s}\n");
+  EXPECT_EQ(SetError(yaml, {{"v", "L + T"}}), "parameter 'v' set to 'L + T': the two sides of '+' have different units: 'L' is m, "
+                                              "'T' is s (at character 3)");
+  EXPECT_EQ(SetError(yaml, {{"v", "L*T"}}), "parameter 'v' set to 'L*T': its formula 'L*T' gives m s, not the unit declared for it, m/s");
+  EXPECT_EQ(SetError(yaml, {{"v", "2*L/T"}}), "");
+  EXPECT_EQ(SetError(yaml, {{"v", "7"}}), "");  // a number is a value in the unit declared
+}
+
 TEST(ModelParametersReader, ParseParameterAssignment) {
   const ParameterOverride o = ParseParameterAssignment(" k = 2*L0 ");
   EXPECT_EQ(o.name, "k");

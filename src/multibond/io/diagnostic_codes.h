@@ -38,6 +38,8 @@ enum class Outcome {
   X(kExprArity, "expr.arity", kModelError, "a function called with the wrong number of arguments")                           \
   X(kExprNotConstant, "expr.not_constant", kModelError,                                                                        \
     "time or a model variable in a formula where a constant is needed (a parameter, a number of an element)")                 \
+  X(kExprUnits, "expr.units", kModelError,                                                                                     \
+    "units that do not fit where they are declared: a sum of a length and a time, the sine of a length, a parameter whose formula gives another unit than its own") \
   X(kLimitFileSize, "limit.file-size", kModelError, "the limit file-size exceeded")                                          \
   X(kLimitYamlNodes, "limit.yaml-nodes", kModelError, "the limit yaml-nodes exceeded")                                       \
   X(kLimitDepth, "limit.depth", kModelError, "the limit depth exceeded")                                                     \

@@ -17,6 +17,7 @@
 #include <fmt/format.h>
 
 #include "multibond/core/identifier.h"
+#include "multibond/core/units.h"
 #include "multibond/io/diagnostic_codes.h"
 #include "multibond/io/did_you_mean.h"
 #include "multibond/io/yaml_values.h"
@@ -62,6 +63,14 @@ expr::NodePtr NameAt(std::string name, int offset) {
   n->name = std::move(name);
   n->offset = offset;
   return n;
+}
+
+/// The unit declared for a parameter of the model, if any (a name without one is free).
+std::optional<DeclaredUnit> DeclaredUnitOf(const ModelParameter* p) {
+  if (!p || p->unit.empty()) return std::nullopt;
+  const std::optional<Unit> u = ParseUnit(p->unit);  // a unit refused was cleared where it was said
+  if (!u) return std::nullopt;
+  return DeclaredUnit{*u, p->unit};
 }
 
 const char* kConstantHint =
@@ -145,6 +154,20 @@ double ValueReader::Constant(const YAML::Node& n, const std::string& text, const
       UnknownName(n, *name, element, env_names, "");
   }
   if (!good) return failed();
+  // Units where they are declared: a mismatch is said, and the value is still read (it is a
+  // number; what follows from it is checked as usual).
+  const FormulaUnits units = CheckFormulaUnits(
+      *root, text,
+      [&](const std::string& id) -> std::optional<DeclaredUnit> {
+        if (env.count(id)) return std::nullopt;  // a submodel's parameter: no unit
+        return DeclaredUnitOf(cx_.FindParameter(id));
+      },
+      [&](const std::string& id) -> std::optional<double> {
+        if (const auto it = env.find(id); it != env.end()) return it->second;
+        if (const ModelParameter* p = cx_.FindParameter(id)) return p->value;
+        return std::nullopt;
+      });
+  if (units.mismatch) sink_.Error(codes::kExprUnits, At(n, units.mismatch->offset), element, units.mismatch->message, units.mismatch->hint);
   double v = 0.0;
   try {
     v = expr::Evaluate(*root, [&](const std::string& id) -> std::optional<double> {
@@ -226,6 +249,21 @@ std::optional<Formula> ValueReader::ReadFormula(const YAML::Node& n, const std::
   };
   expr::NodePtr resolved = resolve(root);
   if (!good) return std::nullopt;
+  // Units where they are declared: the parameters with one; time, variables, signals, states and
+  // a submodel's parameters are free. A mismatch is said; the formula is still read.
+  const FormulaUnits units = CheckFormulaUnits(
+      *root, text,
+      [&](const std::string& id) -> std::optional<DeclaredUnit> {
+        if (std::find(scope.own.begin(), scope.own.end(), id) != scope.own.end() || env.count(id)) return std::nullopt;
+        return DeclaredUnitOf(cx_.FindParameter(id));
+      },
+      [&](const std::string& id) -> std::optional<double> {
+        if (std::find(scope.own.begin(), scope.own.end(), id) != scope.own.end()) return std::nullopt;
+        if (const auto it = env.find(id); it != env.end()) return it->second;
+        if (const ModelParameter* p = cx_.FindParameter(id)) return p->value;
+        return std::nullopt;
+      });
+  if (units.mismatch) sink_.Error(codes::kExprUnits, At(n, units.mismatch->offset), element, units.mismatch->message, units.mismatch->hint);
   return Formula{text, std::move(resolved), At(n, 0)};
 }
 

@@ -24,6 +24,7 @@ struct Entry {
   ModelParameter p;
   YAML::Node value;
   expr::NodePtr root;               ///< null: a plain number, or not readable
+  std::optional<Unit> unit;         ///< its declared unit (none: free in formulas)
   std::vector<std::size_t> deps;    ///< indices of the parameters its formula names
   bool failed = false;
 };
@@ -77,6 +78,8 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
                         "write SI symbols with an optional prefix, separated by spaces or '*', one '/', whole exponents: "
                         "e.g. m, kg m^2, N/m, rad/s; '-' for none");
             e.p.unit.clear();
+          } else {
+            e.unit = ParseUnit(e.p.unit);
           }
         }
         if (v["description"]) e.p.description = Str(v["description"], name);
@@ -176,6 +179,45 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
     }
   }
 
+  // Units, where declared (docs/model-format.md, "Units in formulas"): the formula of a parameter
+  // is consistent, and gives the unit declared for it. Checked once its dependencies have values
+  // (the exponent of a power is one). A mismatch does not make the value unusable: what depends on
+  // the parameter is still evaluated and checked.
+  auto check_units = [&](const Entry& e) {
+    const FormulaUnits u = CheckFormulaUnits(
+        *e.root, e.p.text,
+        [&](const std::string& id) -> std::optional<DeclaredUnit> {
+          const auto it = index.find(id);
+          if (it == index.end() || !entries[it->second].unit) return std::nullopt;
+          return DeclaredUnit{*entries[it->second].unit, entries[it->second].p.unit};
+        },
+        [&](const std::string& id) -> std::optional<double> {
+          const auto it = index.find(id);
+          if (it == index.end()) return std::nullopt;
+          return entries[it->second].p.value;
+        });
+    if (u.mismatch) {
+      if (e.p.set) set_error(e, fmt::format("{} (at character {})", u.mismatch->message, u.mismatch->offset + 1));
+      sink_.Error(codes::kExprUnits, At(e.value, u.mismatch->offset), e.p.name, u.mismatch->message, u.mismatch->hint);
+      return;
+    }
+    if (!e.unit) return;
+    const UnitMatch match = MatchUnit(u.unit, *e.unit);
+    if (match == UnitMatch::kSame) return;
+    const std::string declared = e.p.unit == "-" || e.p.unit == "1" ? fmt::format("{} (a number)", e.p.unit) : e.p.unit;
+    const std::string what =
+        match == UnitMatch::kDimension
+            ? fmt::format("its formula '{}' gives {}, not the unit declared for it, {}", PrintableExcerpt(e.p.text), DescribeUnit(u.unit), declared)
+            : fmt::format("its formula '{}' gives {}: the dimension of the unit declared for it, {}, but another size (values are not converted)",
+                          PrintableExcerpt(e.p.text), DescribeUnit(u.unit), declared);
+    if (e.p.set) set_error(e, what);
+    sink_.Error(codes::kExprUnits, At(e.value, 0), e.p.name, what,
+                match == UnitMatch::kDimension
+                    ? "check the formula and the units of the parameters it uses, or declare the unit it gives"
+                    : "multiply the formula by its conversion factor (a number times a quantity takes the unit it needs), or "
+                      "declare the unit it gives");
+  };
+
   // Evaluated in the order of their dependencies: a depth-first walk with its own stack (a chain
   // of a hundred thousand parameters is no deeper on the machine's stack than one). A cycle is
   // reported once, at its first parameter in the file, and its members are not evaluated.
@@ -200,6 +242,7 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
       return;
     }
     e.p.value = v;
+    check_units(e);
   };
   auto report_cycle = [&](std::vector<std::size_t> cycle) {
     std::string chain;
