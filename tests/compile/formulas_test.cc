@@ -295,7 +295,20 @@ TEST(Formulas, InterpreterAndGeneratedCodeGiveTheSameBits) {
 TEST(Formulas, EquationsShowTheFormula) {
   const auto model = CompiledModel::Compile(Pendulum(1.0));
   const std::string text = FormatEquations(*model, EquationFormat::kText);
-  EXPECT_THAT(text, HasSubstr("sin(theta)"));
+  EXPECT_THAT(text, HasSubstr("d(J.p)/dt = -1*9.81*1*sin(theta)"));  // as written (F's text)
+  // A storage law at its state, and a signal state's rate with the signals it reads.
+  EXPECT_THAT(FormatEquations(*CompiledModel::Compile(Oscillator("q + 10*q^3", false, 1.0, 0.5)), EquationFormat::kText),
+              HasSubstr("d(mass.p)/dt = -(q + 10*q^3 at q = spring.q)"));
+  BondGraph g("lagged");
+  AuxState lag;
+  lag.name = "lagged";
+  lag.kind = AuxState::Kind::kLag;
+  lag.input = F("sin(t)");
+  lag.time_constant = 0.5;
+  g.AddAux(lag);
+  const std::string lagged = FormatEquations(*CompiledModel::Compile(g), EquationFormat::kText);
+  EXPECT_THAT(lagged, HasSubstr("d(lagged)/dt = (sin(t) - lagged)/0.5"));
+  EXPECT_THAT(lagged, HasSubstr("lagged.rate = (sin(t) - lagged)/0.5"));
 }
 
 ModelError CompileError(const BondGraph& g, const CompileOptions& o = {}) {

@@ -170,6 +170,13 @@ class EquationWriter {
       }
       for (const std::string& c : rows_[r].notes) out += c + "\n";
     }
+    // Signals (and the parts of signal states): formulas of named variables, one line each.
+    std::string signals;
+    for (int c = 0; c < m_.num_slot_classes(); ++c)
+      if (Def(c).kind == Definition::Kind::kFormula && Def(c).element < 0)
+        signals += latex_ ? fmt::format("% signal: {} = {}\n", OneLine(m_.slot_class_name(c)), OneLine(Def(c).formula))
+                          : fmt::format("  {} = {}\n", m_.slot_class_name(c), Def(c).formula);
+    if (!signals.empty()) out += latex_ ? signals : "\nsignals:\n" + signals;
     for (const auto& loop : m_.algebraic_loops()) {
       const std::string text = LoopEquation(loop);
       out += latex_ ? "% " + OneLine(text) + "\n" : "\n" + text + "\n";
@@ -502,7 +509,8 @@ class EquationWriter {
     std::vector<std::string> lines;
     const std::string prefix = latex_ ? "% path: " : "  path: ";
     for (size_t k = 0; k < w.paths.size() && k < static_cast<size_t>(kMaxPaths); ++k)
-      lines.push_back(prefix + OneLine(FormatPath(g_, w.paths[k])));
+      if (const std::string path = FormatPath(g_, w.paths[k]); !path.empty())  // signals have no elements
+        lines.push_back(prefix + OneLine(path));
     if (total > kMaxPaths)
       lines.push_back(fmt::format("{}... and {}{} more", prefix, total - kMaxPaths, total >= kSaturate ? "+" : ""));
     return lines;
@@ -568,6 +576,11 @@ class EquationWriter {
       sign = m_.derivative_sign(blk);
       state = StateOf(g_.element(blk.owner));
       lhs_latex = "\\dot{" + std::string(momentum ? "p" : "q") + "}_{" + Rm(Name(blk.owner)) + "}";
+    } else if (blk.rate_class >= 0) {
+      // A signal state (a rate's integral, a lag, a PID's parts): the derivative is a formula's slot.
+      cls = blk.rate_class;
+      state = m_.state_names()[blk.offset];
+      lhs_latex = "\\frac{d}{dt}" + Rm(state);
     } else {
       // Auxiliary states integrate the flow of `of` (owner is an aux index, not an element).
       const AuxState& aux = g_.aux_states().at(blk.owner);

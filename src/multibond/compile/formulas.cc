@@ -198,13 +198,15 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
     return class_names_[class_of_slot_[offset]];
   };
   // One program per output component, from `tree(k)`, into class `out_class`.
-  auto emit = [&](int out_class, int n, const std::function<NodePtr(int)>& tree, const Formula* f, const std::string& what) {
+  // `shown`: how `multibond equations` writes it ("" = the compiled tree, parameters as numbers);
+  // a formula used as written is shown as written, parameters by name.
+  auto emit = [&](int out_class, int n, const std::function<NodePtr(int)>& tree, const Formula* f, const std::string& what,
+                  std::string shown = {}) {
     const int first = static_cast<int>(programs_.size());
-    std::string shown;
     for (int k = 0; k < n; ++k) {
       const NodePtr t = tree(k);
       CompileFormula(t, FormulaScope{f, i, what});
-      if (k == 0) shown = Readable(*t, name_of);
+      if (k == 0 && shown.empty()) shown = f && t == f->root ? f->text : Readable(*t, name_of);
     }
     FormulaInstr fi = MakeFormulaInstr(i, out_class, first, n);
     fi.def.formula = shown;
@@ -290,7 +292,9 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
       const double sigma = inertia ? 1.0 : g.PowerSign(b, i);
       const NodePtr tree = Signed(sigma, Replace(law, own, StateRef(state)));
       const std::string what = fmt::format("the {} law of {}", inertia ? "flow" : "effort", e.name);
-      emit(inertia ? flow_class_[b] : effort_class_[b], 1, [&](int) { return tree; }, &given, what);
+      const std::string law_text = e.energy.given() ? fmt::format("d({})/d{}", e.energy.text, own) : given.text;
+      const std::string shown = fmt::format("{}({} at {} = {})", sigma < 0 ? "-" : "", law_text, own, state_names_[state]);
+      emit(inertia ? flow_class_[b] : effort_class_[b], 1, [&](int) { return tree; }, &given, what, shown);
       break;
     }
     case ElementKind::kR: {
@@ -308,10 +312,12 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
       const int e_slot = class_offset_[effort_class_[b]], f_slot = class_offset_[flow_class_[b]];
       if (direct.given() && effort_out) {
         const NodePtr tree = Signed(sigma, Replace(law.root, "f", SlotRef(f_slot)));
-        emit(effort_class_[b], 1, [&](int) { return tree; }, &law, "the effort law of " + e.name);
+        emit(effort_class_[b], 1, [&](int) { return tree; }, &law, "the effort law of " + e.name,
+             fmt::format("{}({} at f = {})", sigma < 0 ? "-" : "", law.text, name_of("#w" + std::to_string(f_slot))));
       } else if (direct.given()) {
         const NodePtr tree = Replace(law.root, "e", Signed(sigma, SlotRef(e_slot)));
-        emit(flow_class_[b], 1, [&](int) { return tree; }, &law, "the flow law of " + e.name);
+        emit(flow_class_[b], 1, [&](int) { return tree; }, &law, "the flow law of " + e.name,
+             fmt::format("({} at e = {}{})", law.text, sigma < 0 ? "-" : "", name_of("#w" + std::to_string(e_slot))));
       } else {
         // effort out: g(u) = f, e = sigma u; flow out: r(u) = sigma e, f = u.
         const char* own = effort_out ? "e" : "f";
@@ -391,7 +397,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::SignalInstructions() {
   auto emit = [&](int out_class, const NodePtr& tree, const Formula* f, const std::string& what) {
     const int first = CompileFormula(tree, FormulaScope{f, -1, what});
     FormulaInstr fi = MakeFormulaInstr(-1, out_class, first, 1);
-    fi.def.formula = Readable(*tree, name_of);
+    fi.def.formula = f && tree == f->root ? f->text : Readable(*tree, name_of);
     out.push_back(std::move(fi));
   };
   using K = Node::Kind;
