@@ -62,7 +62,7 @@ TEST(EquationExamplesCli, SetIsRecordedInRunJsonAndReachesTheModel) {
 
 TEST(EquationExamplesCli, GeneratedCodeWritesTheInterpretersResults) {
   TempDir tmp("multibond-equations");
-  for (const char* file : {"pendulum.yaml", "duffing.yaml", "tank.yaml", "motor_pi.yaml"}) {
+  for (const char* file : {"pendulum.yaml", "duffing.yaml", "tank.yaml", "motor_pi.yaml", "speed_dependent_load.yaml"}) {
     SCOPED_TRACE(file);
     std::vector<std::string> sha;
     for (const char* jit : {"off", "on"}) {

@@ -213,10 +213,36 @@ TEST(MotorPiExample, SpeedReachesTheSetPointAndTheVoltageItsSteadyValue) {
   EXPECT_LT(testing::MaxEnergyResidual(r.rec), 1e-8);
 }
 
+// --- speed_dependent_load.yaml: J dw/dt = tau0 - c w - d w^2 ---
+
+TEST(SpeedDependentLoadExample, SpeedFollowsTheRiccatiSolutionToItsSteadyValue) {
+  const ExampleRun r = RunEquationExample("speed_dependent_load.yaml");
+  ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+  const double J = r.Param("J"), tau0 = r.Param("tau0"), c = r.Param("c"), d = r.Param("d");
+  const double root = std::sqrt(c * c + 4.0 * d * tau0);
+  const double w_inf = (root - c) / (2.0 * d), w_2 = -(root + c) / (2.0 * d), tau = J / root;
+  EXPECT_NEAR(w_inf, 21.5037, 1e-4);  // the file's comment
+  EXPECT_NEAR(tau, 1.4704, 1e-4);
+  const int speed = r.rec.Index("speed"), wz = r.rec.Index("flywheel.omega.z");
+  for (const auto& row : r.rec.rows()) {
+    const double e = std::exp(-row[0] / tau);
+    EXPECT_NEAR(row[speed], w_inf * (1.0 - e) / (1.0 - w_inf / w_2 * e), 1e-6) << "t = " << row[0];
+    EXPECT_EQ(row[speed], row[wz]);
+    // The load's torque is the formula of the speed, along z only.
+    EXPECT_EQ(row[r.rec.Index("load.torque.z")], -c * row[speed] - d * row[speed] * std::abs(row[speed])) << "t = " << row[0];
+    EXPECT_EQ(row[r.rec.Index("load.torque.x")], 0.0);
+    EXPECT_EQ(row[r.rec.Index("load.torque.y")], 0.0);
+  }
+  EXPECT_NEAR(r.rec.Last("speed"), w_inf, 1e-6);
+  EXPECT_LT(testing::MaxEnergyResidual(r.rec), 1e-8);
+  // The motor's work is the flywheel's kinetic energy plus the work the load took.
+  EXPECT_NEAR(r.rec.Last("motor.source.work") + r.rec.Last("load.source.work"), 0.5 * J * w_inf * w_inf, 1e-6 * 0.5 * J * w_inf * w_inf);
+}
+
 // --- generated code: the same bits ---
 
 TEST(EquationExamples, GeneratedCodeGivesTheInterpretersBits) {
-  for (const char* file : {"pendulum.yaml", "duffing.yaml", "tank.yaml", "motor_pi.yaml"}) {
+  for (const char* file : {"pendulum.yaml", "duffing.yaml", "tank.yaml", "motor_pi.yaml", "speed_dependent_load.yaml"}) {
     SCOPED_TRACE(file);
     const ExampleRun interpreted = RunEquationExample(file, {}, false), generated = RunEquationExample(file, {}, true);
     ASSERT_EQ(interpreted.rec.summary().status, RunStatus::kOk);
