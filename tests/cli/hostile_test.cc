@@ -6,8 +6,11 @@
 //   # exit: the expected exit code
 //   # expect: a text the output must hold (repeatable)
 //   # absent: a text the output must not hold (repeatable)
+//   # jit: same   (optional) the run succeeds, and again with --jit on instead of --jit off: from
+//           generated code, with results.csv the same to the byte
 // Whatever the case, the command must not crash (no signal), hang (60 s), end in an uncaught
-// exception, or, when it fails, leave results.csv or run.json behind. Inputs that cannot be kept
+// exception, create /tmp/multibond_pwned (the files' attempts at a shell all touch it), or, when
+// it fails, leave results.csv or run.json behind. Inputs that cannot be kept
 // as files (devices, 50 MB) are made by the tests at the end.
 
 #include <sys/stat.h>
@@ -43,6 +46,7 @@ struct Case {
   std::string hostile, args = "run {model} -o {out} -q --jit off";
   int exit = -1;
   std::vector<std::string> expect, absent;
+  bool jit_same = false;
 };
 
 Case ReadCase(const fs::path& file) {
@@ -53,6 +57,7 @@ Case ReadCase(const fs::path& file) {
     else if (key == "exit") c.exit = std::stoi(value);
     else if (key == "expect") c.expect.push_back(value);
     else if (key == "absent") c.absent.push_back(value);
+    else if (key == "jit") c.jit_same = value == "same";
   }
   return c;
 }
@@ -79,6 +84,7 @@ void ExpectContained(const CliResult& r, const fs::path& out) {
   EXPECT_THAT(r.out, Not(HasSubstr("what():")));
   EXPECT_THAT(r.out, Not(HasSubstr("AddressSanitizer")));
   EXPECT_THAT(r.out, Not(HasSubstr("runtime error:")));  // UBSan
+  EXPECT_FALSE(fs::exists("/tmp/multibond_pwned")) << "a shell command of the input ran\n" << r.out;
   if (r.code != 0) {
     EXPECT_FALSE(fs::exists(out / "results.csv")) << "a failed command left results.csv\n" << r.out;
     EXPECT_FALSE(fs::exists(out / "run.json")) << "a failed command left run.json\n" << r.out;
@@ -96,16 +102,29 @@ TEST_P(Hostile, IsAnsweredAsTheHeaderSays) {
   ASSERT_GE(c.exit, 0) << file << " has no '# exit:' line";
   TempDir tmp("multibond-hostile");
   const fs::path out = tmp.path() / "out";
-  std::vector<std::string> args;
-  std::istringstream words(c.args);
-  for (std::string w; words >> w;)
-    args.push_back(Replace(Replace(Replace(w, "{model}", file.string()), "{out}", out.string()), "{dir}", tmp.path().string()));
-  const CliResult r = RunCli(args);
+  auto make_args = [&](const std::string& line, const fs::path& folder) {
+    std::vector<std::string> args;
+    std::istringstream words(line);
+    for (std::string w; words >> w;)
+      args.push_back(Replace(Replace(Replace(w, "{model}", file.string()), "{out}", folder.string()), "{dir}", tmp.path().string()));
+    return args;
+  };
+  const CliResult r = RunCli(make_args(c.args, out));
   SCOPED_TRACE(c.hostile);
   ExpectContained(r, out);
   EXPECT_EQ(r.code, c.exit) << r.out;
   for (const std::string& e : c.expect) EXPECT_THAT(r.out, HasSubstr(e));
   for (const std::string& a : c.absent) EXPECT_THAT(r.out, Not(HasSubstr(a)));
+  if (c.jit_same) {
+    ASSERT_EQ(r.code, 0) << "'# jit: same' needs a run that succeeds";
+    ASSERT_THAT(c.args, HasSubstr("--jit off"));
+    const fs::path out_jit = tmp.path() / "out_jit";
+    const CliResult j = RunCli(make_args(Replace(c.args, "--jit off", "--jit on"), out_jit));
+    ExpectContained(j, out_jit);
+    ASSERT_EQ(j.code, 0) << j.out;
+    EXPECT_THAT(testing::ReadFile(out_jit / "run.json"), HasSubstr("\"rhs_engine\": \"generated code"));
+    EXPECT_EQ(testing::ReadFile(out / "results.csv"), testing::ReadFile(out_jit / "results.csv"));
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Corpus, Hostile, ::testing::ValuesIn(CorpusFiles()), [](const auto& info) {

@@ -5,3 +5,4 @@ multibond_test(physics/ideal_constraints_test.cc LIBS multibond::io LABELS physi
 multibond_test(physics/differential_ideal_test.cc LIBS multibond::io LABELS physics)
 multibond_test(physics/rhs_allocation_test.cc LIBS multibond::io LABELS physics)
 multibond_test(physics/repaired_physics_test.cc LIBS multibond::io LABELS physics)
+multibond_test(physics/equation_examples_test.cc LIBS multibond::io LABELS physics)

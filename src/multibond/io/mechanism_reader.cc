@@ -1,15 +1,37 @@
 #include "multibond/io/mechanism_reader.h"
 
 #include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
 #include <functional>
 #include <map>
+#include <optional>
 
 #include <fmt/format.h>
 
+#include "multibond/core/identifier.h"
 #include "multibond/io/diagnostic_codes.h"
 #include "multibond/io/did_you_mean.h"
 
 namespace multibond {
+
+namespace {
+
+/// A drive's value that is text but no number: a formula (a number, YAML's .nan and .inf, and a
+/// mapping such as {step: 50} are time functions).
+bool IsFormulaText(const YAML::Node& n) {
+  if (!n.IsScalar() || n.Scalar().empty()) return false;
+  const std::string& s = n.Scalar();
+  std::string word = s.substr(s[0] == '-' || s[0] == '+' ? 1 : 0);
+  for (char& c : word) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (word == ".nan" || word == ".inf") return false;
+  char* end = nullptr;
+  (void)std::strtod(s.c_str(), &end);
+  return end != s.c_str() + s.size();
+}
+
+}  // namespace
 
 std::shared_ptr<const mech::Mechanism> MechanismReader::ReadMechanism(const YAML::Node& root) {
   ReadRigid(root);
@@ -18,6 +40,10 @@ std::shared_ptr<const mech::Mechanism> MechanismReader::ReadMechanism(const YAML
   if (!ReadBodies(root, m)) return nullptr;
   if (const YAML::Node joints = root["joints"]) ReadJoints(joints, m);
   if (const YAML::Node gears = root["gears"]) ReadGears(gears, m);
+  // A drive's formula may name the model's states bare, as elements' formulas do: their names
+  // first (the elements' reader adds them again).
+  if (const YAML::Node states = root["states"]; states && states.IsMap())
+    for (const auto& kv : states) cx_.state_names.insert(kv.first.Scalar());
   if (const YAML::Node drives = root["drives"]) ReadDrives(drives, m);
   if (const YAML::Node points = root["points"]) ReadPoints(points, m);
   CheckRigidNames(m);
@@ -238,6 +264,21 @@ void MechanismReader::ReadGears(const YAML::Node& gears, mech::Mechanism& m) {
 }
 
 void MechanismReader::ReadDrives(const YAML::Node& drives, mech::Mechanism& m) {
+  // A drive's value: a time function, or a formula of time, parameters and model variables (into
+  // *formula; one of parameters only is a constant time function).
+  auto read_value = [&](const YAML::Node& n, const std::string& name, Formula* formula) -> TimeFunction {
+    if (!IsFormulaText(n)) return ReadTimeFunction(n, name, Env{});
+    std::optional<Formula> f = ReadFormula(n, name, FormulaScope{nullptr, "", {}, "drive's value"});
+    if (!f) return {};
+    if (const std::optional<double> v = ConstantValue(*f)) {
+      if (std::isfinite(*v)) return TimeFunction::Constant(*v);
+      sink_.Error(codes::kParamRange, f->where, name, fmt::format("the formula '{}' gives {:g}: not a finite number", PrintableExcerpt(f->text), *v),
+                  "check the formula and the parameters it uses");
+      return {};
+    }
+    *formula = std::move(*f);
+    return {};
+  };
   for (const auto& kv : drives) {
     const std::string name = kv.first.Scalar();
     const YAML::Node d = kv.second;
@@ -266,8 +307,8 @@ void MechanismReader::ReadDrives(const YAML::Node& drives, mech::Mechanism& m) {
     if (d["reference"]) drive.reference = d["reference"].Scalar();
     if (d["axis"]) drive.axis = Axis(d["axis"], name);
     else sink_.Error(drive.where, name, "a drive needs an 'axis'");
-    if (d["value"]) drive.value = ReadTimeFunction(d["value"], name, Env{});
-    else sink_.Error(drive.where, name, "a drive needs a 'value' (a number or a time function)");
+    if (d["value"]) drive.value = read_value(d["value"], name, &drive.formula);
+    else sink_.Error(drive.where, name, "a drive needs a 'value' (a number, a time function or a formula)");
     if (d["at"]) drive.point = Vec3(d["at"], name);
     if (velocity) {
       Eigen::VectorXd k, r;

@@ -11,6 +11,8 @@
 
 #include <fmt/format.h>
 
+#include "multibond/core/expression.h"
+
 namespace multibond::mech {
 
 namespace {
@@ -480,6 +482,10 @@ class Expander {
         Bond(axis, diff, d.name + ".spin");
         Element src = Make(d.name + ".source", ElementKind::kSf, 1, angular ? "rotation" : "translation", d.where);
         src.source.components = {d.value};
+        if (d.formula.given()) {
+          src.source.components = {TimeFunction::Constant(0.0)};  // a placeholder: the formula is the value
+          src.value = {d.formula};
+        }
         g_.Add(src);
         Bond(diff, d.name + ".source", d.name + ".source");
         AddCompliance(diff, d.name + ".coupling", Eigen::VectorXd::Constant(1, d.stiffness), Eigen::VectorXd::Constant(1, d.damping),
@@ -496,6 +502,17 @@ class Expander {
         Element src = Make(d.name + ".source", ElementKind::kSe, 3, torque ? "rotation" : "translation", d.where);
         const Eigen::Vector3d a = d.axis.normalized();
         for (int i = 0; i < 3; ++i) src.source.components.push_back(d.value.Scaled(a[i]));
+        if (d.formula.given()) {
+          // Component k is a[k] * formula; a component the axis does not reach is the constant 0.
+          src.value.resize(3);
+          for (int i = 0; i < 3; ++i) {
+            src.source.components[i] = TimeFunction::Constant(0.0);
+            if (a[i] == 0.0) continue;
+            Formula& f = src.value[i];
+            f = d.formula;
+            if (a[i] != 1.0) f.root = expr::Binary(expr::Node::Kind::kMul, expr::Number(a[i]), d.formula.root);
+          }
+        }
         src.components = kXyz;
         g_.Add(src);
         if (torque) {

@@ -111,6 +111,10 @@ struct Drive {
   std::string reference = kGround;  ///< velocity drives: the body the velocity is relative to
   Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  ///< in the reference's frame (torque/force: inertial)
   TimeFunction value;               ///< rad/s, m/s, N m or N along the axis
+  /// The value as a formula of `t` and model variables (e.g. "-c*L.omega.f.z"), used instead of
+  /// `value` when given. The expansion puts it into the source's `value`: a velocity drive's as
+  /// it is, a torque's or force's as axis[k] * formula per component k.
+  Formula formula;
   double stiffness = 0.0, damping = 0.0;  ///< velocity drives' coupling
   Eigen::Vector3d point = Eigen::Vector3d::Zero();  ///< force drives: application point (body frame)
   SourceLocation where;

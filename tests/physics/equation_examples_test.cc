@@ -1,0 +1,257 @@
+// The examples of examples/equations/ (models written with parameters, formulas, laws, states and
+// signals) against their closed forms, each loaded from its file (with parameters set as
+// `--set` would) and run with the file's simulation settings; and the same runs through generated
+// code, which must give the interpreter's bits.
+
+#include <cmath>
+#include <numbers>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "support/example_runner.h"
+
+namespace multibond {
+namespace {
+
+/// A model of examples/equations/ as loaded, and its run with the file's settings.
+struct ExampleRun {
+  LoadedModel model;
+  RecordingObserver rec;
+  /// The value of the file's top-level parameter `name`, as the model uses it.
+  double Param(const std::string& name) const {
+    for (const ModelParameter& p : model.parameters)
+      if (p.name == name) return p.value;
+    throw std::out_of_range("no parameter '" + name + "'");
+  }
+};
+
+ExampleRun RunEquationExample(const std::string& file, const std::vector<ParameterOverride>& set = {}, bool generate_code = false) {
+  ExampleRun r{LoadModelFile(testing::ExamplePath("equations/" + file), {}, set), {}};
+  CompileOptions co = r.model.compile;
+  co.generate_code = generate_code;
+  const auto model = CompiledModel::Compile(r.model.graph, co);
+  // A test that asks for generated code must not pass on the interpreter's fallback.
+  if (generate_code && !model->uses_generated_code())
+    throw std::runtime_error("generated code was asked for and not built: " + model->rhs_engine());
+  const SimulationDefaults& s = r.model.simulation;
+  RunOptions o;
+  o.t_end = s.t_end.value_or(1.0);
+  o.dt = s.dt.value_or(1e-3);
+  o.integrator.method = s.solver ? ParseMethod(*s.solver) : Method::kBdf;
+  o.integrator.rtol = s.rtol.value_or(1e-8);
+  o.integrator.atol = s.atol.value_or(1e-10);
+  o.integrator.fixed_step = s.step.value_or(0.0);
+  o.integrator.max_step = s.max_step.value_or(0.0);
+  Simulate(*model, o, r.rec);
+  return r;
+}
+
+/// The times where the column `x` crosses zero, each found on the cubic Hermite interpolant of
+/// the two samples around it with their values and slopes (`dxdt` times `rate`): its error is of
+/// order dt^4 x'''' / 384, far below the accuracy asked of a period.
+std::vector<double> ZeroCrossings(const RecordingObserver& rec, const std::string& x, const std::string& dxdt, double rate) {
+  const int ix = rec.Index(x), iv = rec.Index(dxdt);
+  std::vector<double> crossings;
+  const auto& rows = rec.rows();
+  for (size_t k = 0; k + 1 < rows.size(); ++k) {
+    const double t0 = rows[k][0], t1 = rows[k + 1][0], h = t1 - t0;
+    const double y0 = rows[k][ix], y1 = rows[k + 1][ix];
+    if (!(y0 != 0.0 && (y0 < 0) != (y1 < 0))) continue;
+    const double m0 = rate * rows[k][iv] * h, m1 = rate * rows[k + 1][iv] * h;
+    auto p = [&](double s) {  // the Hermite cubic on s in [0, 1]
+      const double s2 = s * s, s3 = s2 * s;
+      return (2 * s3 - 3 * s2 + 1) * y0 + (s3 - 2 * s2 + s) * m0 + (-2 * s3 + 3 * s2) * y1 + (s3 - s2) * m1;
+    };
+    double lo = 0.0, hi = 1.0;  // bisection to the last bit: p changes sign on [lo, hi]
+    for (int i = 0; i < 60; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      ((p(mid) < 0) == (y0 < 0) ? lo : hi) = mid;
+    }
+    crossings.push_back(t0 + 0.5 * (lo + hi) * h);
+  }
+  return crossings;
+}
+
+/// The periods measured between crossings two apart (a full swing), for a run that starts at
+/// rest at its largest excursion: the first crossing is at T/4.
+std::vector<double> Periods(const std::vector<double>& crossings) {
+  std::vector<double> periods;
+  for (size_t k = 0; k + 2 < crossings.size(); ++k) periods.push_back(crossings[k + 2] - crossings[k]);
+  return periods;
+}
+
+double MaxAbs(const RecordingObserver& rec, const std::string& column) {
+  double m = 0.0;
+  for (const auto& row : rec.rows()) m = std::max(m, std::abs(row[rec.Index(column)]));
+  return m;
+}
+
+// --- pendulum.yaml: T = 4 sqrt(L/g) K(sin(theta0/2)) ---
+
+TEST(PendulumExample, PeriodIsTheEllipticIntegralAtEveryAmplitude) {
+  for (const char* theta0 : {"0.3", "1.0", "2.0", "2.9"}) {
+    SCOPED_TRACE(std::string("theta0 = ") + theta0);
+    const ExampleRun r = RunEquationExample("pendulum.yaml", {{"theta0", theta0}});
+    ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+    const double L = r.Param("L"), g = r.Param("g"), m = r.Param("m"), th0 = r.Param("theta0");
+    ASSERT_EQ(th0, std::stod(theta0));  // the override reached the model
+    const double period = 4.0 * std::sqrt(L / g) * std::comp_ellint_1(std::sin(th0 / 2.0));
+    // theta integrates w = J.p / (m L^2).
+    const std::vector<double> crossings = ZeroCrossings(r.rec, "theta", "J.p", 1.0 / (m * L * L));
+    ASSERT_GE(crossings.size(), 3u);
+    EXPECT_NEAR(crossings[0], period / 4.0, 1e-6 * period);
+    for (double measured : Periods(crossings)) EXPECT_NEAR(measured, period, 1e-6 * period);
+  }
+}
+
+TEST(PendulumExample, GravitysWorkIsTheLossOfPotentialEnergy) {
+  const ExampleRun r = RunEquationExample("pendulum.yaml", {{"theta0", "2.9"}});
+  ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+  const double L = r.Param("L"), g = r.Param("g"), m = r.Param("m"), th0 = r.Param("theta0");
+  const double mgl = m * g * L;
+  const int theta = r.rec.Index("theta"), work = r.rec.Index("gravity.work"), kinetic = r.rec.Index("energy.kinetic");
+  for (const auto& row : r.rec.rows()) {
+    const double lost = mgl * (std::cos(row[theta]) - std::cos(th0));
+    EXPECT_NEAR(row[work], lost, 1e-8 * mgl) << "t = " << row[0];
+    EXPECT_NEAR(row[kinetic], lost, 1e-8 * mgl) << "t = " << row[0];
+  }
+  EXPECT_LT(testing::MaxEnergyResidual(r.rec), 1e-8);
+}
+
+// --- duffing.yaml: T = 4 int_0^x0 dx / sqrt(2 (V(x0) - V(x)) / m) ---
+
+/// The period by the energy integral with x = x0 sin(th): 2 (V(x0) - V(x)) / m =
+/// x0^2 cos^2(th) (k1 + k3 x0^2 (1 + sin^2 th) / 2) / m, so T = 4 int_0^{pi/2} dth / sqrt((k1 +
+/// k3 x0^2 (1 + sin^2 th) / 2) / m), a smooth integrand, even about 0 and pi/2: the midpoint
+/// rule converges geometrically (checked by halving n, and against the closed form below).
+double DuffingPeriodByQuadrature(double m, double k1, double k3, double x0, int n) {
+  double sum = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double s = std::sin((i + 0.5) * (std::numbers::pi / 2) / n);
+    sum += 1.0 / std::sqrt((k1 + 0.5 * k3 * x0 * x0 * (1.0 + s * s)) / m);
+  }
+  return 4.0 * sum * (std::numbers::pi / 2) / n;
+}
+
+TEST(DuffingExample, PeriodIsTheEnergyIntegral) {
+  const ExampleRun r = RunEquationExample("duffing.yaml");
+  ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+  const double m = r.Param("m"), k1 = r.Param("k1"), k3 = r.Param("k3"), x0 = r.Param("x0");
+  const double period = DuffingPeriodByQuadrature(m, k1, k3, x0, 64);
+  EXPECT_NEAR(period, DuffingPeriodByQuadrature(m, k1, k3, x0, 32), 1e-15 * period);
+  // The same integral in closed form: T = 4 K(k) / sqrt((k1 + k3 x0^2) / m), k^2 = k3 x0^2 / (2 (k1 + k3 x0^2)).
+  const double w2 = (k1 + k3 * x0 * x0) / m;
+  EXPECT_NEAR(period, 4.0 * std::comp_ellint_1(std::sqrt(k3 * x0 * x0 / (2.0 * m * w2))) / std::sqrt(w2), 1e-14 * period);
+  EXPECT_NEAR(period, 2.1918, 1e-4);  // as the file's comment says
+  const std::vector<double> crossings = ZeroCrossings(r.rec, "x", "mass.p", 1.0 / m);
+  ASSERT_GE(crossings.size(), 3u);
+  EXPECT_NEAR(crossings[0], period / 4.0, 1e-6 * period);
+  for (double measured : Periods(crossings)) EXPECT_NEAR(measured, period, 1e-6 * period);
+}
+
+TEST(DuffingExample, EnergyIsConservedToRounding) {
+  const ExampleRun r = RunEquationExample("duffing.yaml");
+  ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+  const double k1 = r.Param("k1"), k3 = r.Param("k3"), x0 = r.Param("x0");
+  const double v0 = 0.5 * k1 * x0 * x0 + 0.25 * k3 * std::pow(x0, 4);
+  EXPECT_EQ(v0, 3.0);
+  EXPECT_LT(MaxAbs(r.rec, "energy.residual"), 1e-13);  // over every sample, t = 0 included
+  const int kinetic = r.rec.Index("energy.kinetic"), potential = r.rec.Index("energy.potential"), x = r.rec.Index("x");
+  for (const auto& row : r.rec.rows()) {
+    EXPECT_NEAR(row[kinetic] + row[potential], v0, 1e-12 * v0) << "t = " << row[0];
+    // The stored energy is the file's V(x) itself.
+    EXPECT_NEAR(row[potential], 0.5 * k1 * row[x] * row[x] + 0.25 * k3 * std::pow(row[x], 4), 1e-14 * v0) << "t = " << row[0];
+  }
+}
+
+// --- tank.yaml: sqrt(V(t)) = sqrt(V0) - Cd a / 2 sqrt(2 g / A) t ---
+
+TEST(TankExample, SquareRootOfTheVolumeFallsLinearly) {
+  const ExampleRun r = RunEquationExample("tank.yaml");
+  ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+  const double A = r.Param("A"), Cd = r.Param("Cd"), a = r.Param("a"), g = r.Param("g"), V0 = r.Param("V0");
+  const double rate = Cd * a / 2.0 * std::sqrt(2.0 * g / A);
+  EXPECT_NEAR(std::sqrt(V0) / rate, 150.5, 0.05);  // the emptying time the file's comment gives
+  const int volume = r.rec.Index("volume"), outflow = r.rec.Index("outflow");
+  for (const auto& row : r.rec.rows()) {
+    const double root = std::sqrt(V0) - rate * row[0];
+    EXPECT_NEAR(std::sqrt(row[volume]), root, 1e-8) << "t = " << row[0];
+    // The orifice's flow, into the R from the 0-junction: Cd a sqrt(2 g V / A).
+    EXPECT_NEAR(row[outflow], Cd * a * std::sqrt(2.0 * g * row[volume] / A), 1e-8 * Cd * a * std::sqrt(2.0 * g * V0 / A)) << "t = " << row[0];
+  }
+  EXPECT_LT(r.rec.Last("volume"), 0.25 * V0);  // the run covers most of the draining
+}
+
+TEST(TankExample, OrificeDissipatesTheStoredEnergyTheTankLoses) {
+  const ExampleRun r = RunEquationExample("tank.yaml");
+  ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+  const double A = r.Param("A"), rho = r.Param("rho"), g = r.Param("g"), V0 = r.Param("V0");
+  const double e0 = rho * g * V0 * V0 / (2.0 * A);  // int_0^V0 rho g q / A dq
+  const int stored = r.rec.Index("energy.potential"), dissipated = r.rec.Index("orifice.dissipated"), volume = r.rec.Index("volume");
+  for (const auto& row : r.rec.rows()) {
+    EXPECT_NEAR(row[stored], rho * g * row[volume] * row[volume] / (2.0 * A), 1e-12 * e0) << "t = " << row[0];
+    EXPECT_NEAR(row[dissipated], e0 - row[stored], 1e-8 * e0) << "t = " << row[0];
+  }
+  EXPECT_GT(r.rec.Last("orifice.dissipated"), 0.9 * e0);
+  EXPECT_LT(testing::MaxEnergyResidual(r.rec), 1e-8);
+}
+
+// --- motor_pi.yaml: at a steady w, V = w (Ra b + k^2) / k ---
+
+TEST(MotorPiExample, SpeedReachesTheSetPointAndTheVoltageItsSteadyValue) {
+  const ExampleRun r = RunEquationExample("motor_pi.yaml");
+  ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+  const double Ra = r.Param("Ra"), k = r.Param("k"), b = r.Param("b"), w = r.Param("w_set");
+  const double voltage = w * (Ra * b + k * k) / k;
+  EXPECT_NEAR(voltage, 5.2, 1e-12);  // the file's comment
+  EXPECT_NEAR(r.rec.Last("speed"), w, 1e-6);
+  EXPECT_NEAR(r.rec.Last("voltage"), voltage, 1e-6);
+  EXPECT_LT(testing::MaxEnergyResidual(r.rec), 1e-8);
+}
+
+// --- speed_dependent_load.yaml: J dw/dt = tau0 - c w - d w^2 ---
+
+TEST(SpeedDependentLoadExample, SpeedFollowsTheRiccatiSolutionToItsSteadyValue) {
+  const ExampleRun r = RunEquationExample("speed_dependent_load.yaml");
+  ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+  const double J = r.Param("J"), tau0 = r.Param("tau0"), c = r.Param("c"), d = r.Param("d");
+  const double root = std::sqrt(c * c + 4.0 * d * tau0);
+  const double w_inf = (root - c) / (2.0 * d), w_2 = -(root + c) / (2.0 * d), tau = J / root;
+  EXPECT_NEAR(w_inf, 21.5037, 1e-4);  // the file's comment
+  EXPECT_NEAR(tau, 1.4704, 1e-4);
+  const int speed = r.rec.Index("speed"), wz = r.rec.Index("flywheel.omega.z");
+  for (const auto& row : r.rec.rows()) {
+    const double e = std::exp(-row[0] / tau);
+    EXPECT_NEAR(row[speed], w_inf * (1.0 - e) / (1.0 - w_inf / w_2 * e), 1e-6) << "t = " << row[0];
+    EXPECT_EQ(row[speed], row[wz]);
+    // The load's torque is the formula of the speed, along z only.
+    EXPECT_EQ(row[r.rec.Index("load.torque.z")], -c * row[speed] - d * row[speed] * std::abs(row[speed])) << "t = " << row[0];
+    EXPECT_EQ(row[r.rec.Index("load.torque.x")], 0.0);
+    EXPECT_EQ(row[r.rec.Index("load.torque.y")], 0.0);
+  }
+  EXPECT_NEAR(r.rec.Last("speed"), w_inf, 1e-6);
+  EXPECT_LT(testing::MaxEnergyResidual(r.rec), 1e-8);
+  // The motor's work is the flywheel's kinetic energy plus the work the load took.
+  EXPECT_NEAR(r.rec.Last("motor.source.work") + r.rec.Last("load.source.work"), 0.5 * J * w_inf * w_inf, 1e-6 * 0.5 * J * w_inf * w_inf);
+}
+
+// --- generated code: the same bits ---
+
+TEST(EquationExamples, GeneratedCodeGivesTheInterpretersBits) {
+  for (const char* file : {"pendulum.yaml", "duffing.yaml", "tank.yaml", "motor_pi.yaml", "speed_dependent_load.yaml"}) {
+    SCOPED_TRACE(file);
+    const ExampleRun interpreted = RunEquationExample(file, {}, false), generated = RunEquationExample(file, {}, true);
+    ASSERT_EQ(interpreted.rec.summary().status, RunStatus::kOk);
+    ASSERT_EQ(generated.rec.summary().status, RunStatus::kOk);
+    ASSERT_EQ(interpreted.rec.rows().size(), generated.rec.rows().size());
+    for (size_t k = 0; k < interpreted.rec.rows().size(); ++k)
+      ASSERT_EQ(interpreted.rec.rows()[k], generated.rec.rows()[k]) << "row " << k;
+  }
+}
+
+}  // namespace
+}  // namespace multibond
