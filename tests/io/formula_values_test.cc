@@ -118,6 +118,23 @@ bonds: [push -> a.v]
   EXPECT_EQ(d.hint, "in a formula, a submodel's parameter is named without '$' (2*m, not 2*$m)");
 }
 
+TEST(FormulaValues, AnErrorInABlockOrEscapedFormulaIsAtItsCharacterOrTheValuesStart) {
+  // A literal block: the character's own line and column; an escaped string: its start (escapes
+  // change the text, so a column inside it would point at the wrong character).
+  const Diagnostic block = WithCode(LoadErrors(Msd("{type: I, inertia: 1.0}\n"
+                                                   "  mass2:\n"
+                                                   "    type: I\n"
+                                                   "    inertia: |\n"
+                                                   "      1 +\n"
+                                                   "      2 + @")),
+                                    "expr.syntax");
+  EXPECT_EQ(block.where.line, 13);
+  EXPECT_EQ(block.where.column, 11);
+  const Diagnostic escaped = WithCode(LoadErrors(Msd("{type: I, inertia: \"\\u0031\\u0031 + @\"}")), "expr.syntax");
+  EXPECT_EQ(escaped.where.line, 8);
+  EXPECT_EQ(escaped.where.column, 30);  // the opening quote
+}
+
 TEST(FormulaValues, UnknownParameterAtItsCharacterWithDidYouMean) {
   // Line 8 is "  mass:   {type: I, inertia: 2*LL}": the value starts at column 30, 'LL' at 32.
   Diagnostic d = WithCode(LoadErrors(Msd("{type: I, inertia: 2*LL}")), "param.unknown");

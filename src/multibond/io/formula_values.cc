@@ -80,11 +80,39 @@ const char* kConstantHint =
 }  // namespace
 
 SourceLocation ValueReader::At(const YAML::Node& n, int offset) const {
+  // The place of the formula's byte `offset` in the file: where the scalar's text stands in the
+  // file as it is (a plain scalar, a quoted one without escapes, a literal block `|`), else the
+  // start of the value (escapes, folding and '' change the text, and a column inside it would
+  // point at the wrong character).
   const YAML::Mark m = n.Mark();
   SourceLocation where = cx_.Loc(m);
-  if (!where.known()) return where;
-  const bool quoted = m.pos >= 0 && static_cast<size_t>(m.pos) < cx_.text.size() && (cx_.text[m.pos] == '"' || cx_.text[m.pos] == '\'');
-  where.column += offset + (quoted ? 1 : 0);
+  if (!where.known() || m.pos < 0 || !n.IsScalar()) return where;
+  const std::string& scalar = n.Scalar();
+  const std::string& raw = cx_.text;
+  const size_t pos = static_cast<size_t>(m.pos);
+  if (offset < 0 || static_cast<size_t>(offset) > scalar.size() || pos >= raw.size()) return where;
+  auto stands_at = [&](size_t at) { return at <= raw.size() && raw.compare(at, scalar.size(), scalar) == 0; };
+  if (stands_at(pos)) return cx_.Location(pos + offset);
+  if ((raw[pos] == '"' || raw[pos] == '\'') && stands_at(pos + 1)) return cx_.Location(pos + 1 + offset);
+  if (raw[pos] == '|') {
+    // A literal block: its lines follow the indicator's line, each indented alike.
+    const size_t first = raw.find('\n', pos);
+    if (first == std::string::npos) return where;
+    size_t line = first + 1;
+    while (line < raw.size() && raw[line] == '\n') ++line;  // blank lines before the content
+    const size_t indent = raw.find_first_not_of(' ', line) - line;
+    size_t at = 0;  // offset in the scalar of the current line's start
+    for (;;) {
+      const size_t end = scalar.find('\n', at);
+      const size_t len = (end == std::string::npos ? scalar.size() : end) - at;
+      if (raw.compare(line + indent, len, scalar, at, len) != 0) return where;
+      if (static_cast<size_t>(offset) <= at + len) return cx_.Location(line + indent + (offset - at));
+      if (end == std::string::npos) return where;
+      at = end + 1;
+      line = raw.find('\n', line) + 1;
+      if (line == 0 || line >= raw.size()) return where;
+    }
+  }
   return where;
 }
 
