@@ -192,6 +192,7 @@ int Check(const CheckArgs& a) {
   for (const auto& d : c.diagnostics)
     if (d.severity == Diagnostic::Severity::kError && d.code != "causality.derivative") only_derivative = false;
   const bool accepted = lm.compile.ideal_constraints && only_derivative;
+  std::string solved;  // said once the model has compiled: it may still refuse them (constraint.unsupported)
   if (accepted) {
     std::vector<Diagnostic> rest;
     for (const auto& d : c.diagnostics)
@@ -199,8 +200,8 @@ int Check(const CheckArgs& a) {
     PrintDiagnostics(rest);
     std::string names;
     for (int e : c.derivative) names += (names.empty() ? "" : ", ") + Describe(g, e);
-    std::cout << fmt::format("\nideal constraints: {} storage element{} in derivative causality, solved exactly: {}\n",
-                             c.derivative.size(), c.derivative.size() == 1 ? "" : "s", names);
+    solved = fmt::format("\nideal constraints: {} storage element{} in derivative causality, solved exactly: {}\n",
+                         c.derivative.size(), c.derivative.size() == 1 ? "" : "s", names);
   } else {
     PrintDiagnostics(c.diagnostics);
   }
@@ -223,6 +224,7 @@ int Check(const CheckArgs& a) {
   }
   const auto model = CompiledModel::Compile(lm.graph, lm.compile);  // also finds algebraic loops
   (void)MakeColumns(*model, false);  // and checks the declared outputs
+  std::cout << solved;
   const std::string causal = model->has_constraints()
                                  ? fmt::format("causal with ideal constraints ({} constraint effort{})", model->num_multipliers(), model->num_multipliers() == 1 ? "" : "s")
                                  : "integrally causal";

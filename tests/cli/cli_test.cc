@@ -745,6 +745,39 @@ TEST_F(CliTest, CheckWithIdealConstraintsAcceptsDerivativeCausality) {
   EXPECT_THAT(r.out, HasSubstr("causal with ideal constraints (1 constraint effort)"));
 }
 
+// Derivative causality is said to be solved only once the model compiles: a C cut next to a
+// formula is refused (formulas are not solved with constraints yet), and check must not claim
+// first that it is solved exactly.
+TEST_F(CliTest, CheckSaysDerivativeCausalityIsSolvedOnlyWhenItIs) {
+  fs::create_directories(dir_);
+  const std::string pair = R"(model: spring_pair
+domain: translation
+constraints: ideal
+elements:
+  mass: {type: I, inertia: 1.0}
+  j:    {type: "1"}
+  z:    {type: "0"}
+  k1:   {type: C, SPRING}
+  k2:   {type: C, stiffness: 5.0}
+bonds: [j -> mass, j -> z, z -> k1, z -> k2]
+)";
+  for (const bool formula : {false, true}) {
+    std::string text = pair;
+    text.replace(text.find("SPRING"), 6, formula ? "effort: 10 * q + q^3" : "stiffness: 10.0");
+    const fs::path model = dir_ / (formula ? "nonlinear.yaml" : "linear.yaml");
+    std::ofstream(model) << text;
+    const Result r = Cli("check " + model.string());
+    if (formula) {
+      EXPECT_EQ(r.code, 1) << r.out;
+      EXPECT_THAT(r.out, Not(HasSubstr("solved exactly")));
+      EXPECT_THAT(r.out, HasSubstr("formulas in a model with ideal constraints are not supported yet, and C 'k2' is in derivative"));
+    } else {
+      EXPECT_EQ(r.code, 0) << r.out;
+      EXPECT_THAT(r.out, HasSubstr("ideal constraints: 1 storage element in derivative causality, solved exactly: C 'k2'"));
+    }
+  }
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------

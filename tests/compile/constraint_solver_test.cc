@@ -250,7 +250,8 @@ struct TwoMasses {
   std::vector<StateGather> gathers;
   std::vector<int> class_offset = {0, 1, 2, 3, 4, 5, 6}, class_size = std::vector<int>(7, 1);
   std::vector<std::string> class_names = {"F.e", "joint.e", "m1.f", "m2.f", "m1.e", "m2.e", "joint.f"};
-  std::vector<int> flow_class = {6};  // bond 0: the joint's
+  std::vector<int> flow_class = {6};    // bond 0: the joint's
+  std::vector<int> effort_class = {1};  // (its effort is the multiplier's)
   std::vector<double> coef;
   std::vector<int> sum_terms = {0, 1, 1, 3, 2};
   std::vector<double> sum_signs = {1.0, -1.0, 1.0, 1.0, -1.0};
@@ -288,7 +289,7 @@ struct TwoMasses {
     // As the compiled model declares, numbers and builds it (bond 0, pointing away from the Sf).
     solver.Add("joint.rigid", joint, {{0, 1.0, 0}});
     solver.AssignMultipliers({1});
-    solver.Build({graph, plan, reads, writes, blocks, gathers, class_offset, class_size, class_names, flow_class, 7});
+    solver.Build({graph, plan, reads, writes, blocks, gathers, class_offset, class_size, class_names, flow_class, effort_class, 7});
   }
   static void Gather(const StateGather& gt, const double*, const double* w, double* xdot) {
     xdot[gt.state] = gt.sign * w[gt.effort];
@@ -321,7 +322,7 @@ TEST(ConstraintSolver, BuildsItsTablesFromThePlan) {
   EXPECT_EQ(s.groups()[0].starts, std::vector<int>{1});
   EXPECT_EQ(s.groups()[0].closure, (std::vector<int>{4, 5}));   // both momentum rates
   EXPECT_EQ(s.groups()[0].momenta, (std::vector<int>{0, 1}));
-  EXPECT_EQ(s.groups()[0].members[0].flow, 6);                  // the bond's flow slot
+  EXPECT_EQ(s.groups()[0].members[0].slot, 6);                  // the bond's flow slot
   EXPECT_EQ(s.tangent_plan(), (std::vector<int>{2, 3, 6}));     // what the joint's flow depends on
   EXPECT_EQ(s.reaction_plan(), (std::vector<int>{1, 4, 5}));
   EXPECT_EQ(s.reaction_gathers(), (std::vector<int>{0, 1}));
@@ -378,6 +379,151 @@ TEST(ConstraintSolver, ProjectionPutsTheMomentaOnTheJointAndKeepsTheirSum) {
   EXPECT_EQ(ws.lambda[0], 0.0) << "the projection leaves no multiplier behind";
   model.EvalPlan(0.0, x, xdot.data(), ws);
   EXPECT_LT(model.solver.Residual(0.0, ws), 1e-15);
+}
+
+
+/// The dual: a flow multiplier. A flow source F fills a 0-junction z holding two springs k1, k2
+/// (one force: k1 q1 = k2 q2); k2's bond is cut into two flow sources sharing mu, the constraint
+/// being that their efforts agree (k2's effort and z's). By hand, one slot per class:
+///   slot 0 F; 1 mu (k2's side); 2 mu (z's side); 3 e_z = k1 q1; 4 k2's effort sigma k2 q2;
+///   5 dq1/dt = F - mu (z's flow balance).
+/// `k2_into`: k2's bond points into k2 (sigma = 1), else away from it (sigma = -1: its kernel
+/// gives -k2 q2, and V = H B = +k2 B must undo that sign).
+struct SpringPair {
+  double k1 = 30.0, k2 = 70.0, flow = 4.0;
+  BondGraph graph;
+  std::vector<plan::Instr> plan;
+  std::vector<std::vector<int>> reads = {{}, {}, {}, {}, {}, {0, 2}};
+  std::vector<int> writes = {0, 1, 2, 3, 4, 5};
+  std::vector<StateBlock> blocks;
+  std::vector<StateGather> gathers;
+  std::vector<int> class_offset = {0, 1, 2, 3, 4, 5}, class_size = std::vector<int>(6, 1);
+  std::vector<std::string> class_names = {"F.f", "k2.cut.f", "k2.cut.rest.f", "z.e", "k2.e", "k1.f"};
+  std::vector<int> flow_class = {0, 5, 1, 2};    // bonds F -> z, z -> k1, k2's, z -> k2.cut.rest
+  std::vector<int> effort_class = {3, 3, 4, 3};
+  std::vector<double> coef;
+  std::vector<int> sum_terms = {0, 2};
+  std::vector<double> sum_signs = {1.0, -1.0};
+  std::vector<TimeFunction> sources;
+  std::vector<plan::ModulusEval> moduli;
+  ConstraintSolver solver;
+
+  explicit SpringPair(bool k2_into) {
+    const double sigma = k2_into ? 1.0 : -1.0;
+    coef = {k1, sigma * k2};
+    sources = {TimeFunction::Constant(flow)};
+    graph.AddSf("F", SourceValue{{TimeFunction::Constant(flow)}});
+    graph.AddJunction("z", ElementKind::kZero);
+    graph.AddC("k1", Param::Scalar(k1));
+    const int spring = graph.AddC("k2", Param::Scalar(k2));
+    const int cut = graph.AddSf("k2.cut", SourceValue{{TimeFunction::Constant(0.0)}});
+    const int rest = graph.AddSf("k2.cut.rest", SourceValue{{TimeFunction::Constant(0.0)}});
+    graph.element(cut).constraint = graph.element(rest).constraint = true;
+    graph.Connect("F", "z");
+    graph.Connect("z", "k1");
+    if (k2_into) graph.Connect("k2.cut", "k2");
+    else graph.Connect("k2", "k2.cut");
+    graph.Connect("z", "k2.cut.rest");
+    auto instr = [](plan::Op op, int dst, int coef, int element) {
+      plan::Instr in{op};
+      in.dst = dst, in.coef = coef, in.element = element;
+      return in;
+    };
+    plan.push_back(instr(plan::Op::kSource, 0, 0, 0));
+    plan.push_back(instr(plan::Op::kMultiplier, 1, 0, cut));
+    plan.push_back(instr(plan::Op::kMultiplier, 2, 0, rest));
+    plan.push_back(instr(plan::Op::kStateScale, 3, 0, 2));
+    plan.back().src = 0;
+    plan.push_back(instr(plan::Op::kStateScale, 4, 1, spring));
+    plan.back().src = 1;
+    plan.push_back(instr(plan::Op::kSum1, 5, 0, 1));
+    plan.back().count = 2;
+    blocks = {{StateBlock::Kind::kDisplacement, 2, 0, 1}, {StateBlock::Kind::kDisplacement, spring, 1, 1}};
+    gathers = {{StateBlock::Kind::kDisplacement, 0, 1, 5, -1, -1, 1.0}, {StateBlock::Kind::kDisplacement, 1, 1, 1, -1, -1, 1.0}};
+    // Members as the graph pass declares them: the bond at each source, +1 when it leaves it.
+    solver.Add("k2.cut", spring, {{2, k2_into ? 1.0 : -1.0, -1}, {3, -1.0, -1}}, /*imposes_flow=*/true);
+    solver.AssignMultipliers({1, 1, 1, 1});
+    solver.Build({graph, plan, reads, writes, blocks, gathers, class_offset, class_size, class_names, flow_class, effort_class, 6});
+  }
+  static void Gather(const StateGather& gt, const double*, const double* w, double* xdot) {
+    xdot[gt.state] = gt.sign * w[gt.effort];
+  }
+  ConstraintSolver::PlanView View() const {
+    return {plan, {coef.data(), sum_terms.data(), sum_signs.data(), sources.data()}, moduli, gathers, &Gather, nullptr, 2};
+  }
+  Workspace MakeWorkspace() const {
+    Workspace ws;
+    ws.slots.assign(6, 0.0);
+    solver.SizeScratch(ws, 6, 0, 2);
+    return ws;
+  }
+  void EvalPlan(double t, const double* x, double* xdot, Workspace& ws) const {
+    std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
+    const ConstraintSolver::PlanView view = View();
+    for (const plan::Instr& in : plan)
+      plan::Exec(in, plan::ExecArgs{t, x, ws.slots.data(), ws.slots.data(), nullptr, ws.lambda.data(), view.tables});
+    for (const StateGather& gt : gathers) Gather(gt, x, ws.slots.data(), xdot);
+  }
+  /// Compile-time set-up at x = 0, then a fresh workspace with the factor's arrays.
+  Workspace Ready() {
+    Workspace ws = MakeWorkspace();
+    const double x0[2] = {0.0, 0.0};
+    std::vector<double> xdot(2);
+    EvalPlan(0.0, x0, xdot.data(), ws);
+    solver.FindIndependent(View(), x0, ws);
+    return MakeWorkspace();
+  }
+};
+
+TEST(ConstraintSolver, AFlowMultiplierConstrainsEfforts) {
+  const SpringPair model(true);
+  const ConstraintSolver& s = model.solver;
+  ASSERT_EQ(s.groups().size(), 1u);
+  EXPECT_TRUE(s.groups()[0].imposes_flow);
+  EXPECT_EQ(s.groups()[0].starts, (std::vector<int>{1, 2}));
+  EXPECT_EQ(s.groups()[0].closure, std::vector<int>{5});        // z's flow balance
+  EXPECT_EQ(s.groups()[0].momenta, (std::vector<int>{0, 1}));   // both displacements: B's rows
+  EXPECT_EQ(s.groups()[0].members[0].slot, 4);                  // k2's effort
+  EXPECT_EQ(s.groups()[0].members[1].slot, 3);                  // z's effort
+  EXPECT_EQ(s.tangent_plan(), (std::vector<int>{3, 4}));        // what the two efforts depend on
+  EXPECT_EQ(s.flow_instr_of_block(), (std::vector<int>{3, 4})); // each spring's effort kernel: V = K B
+  EXPECT_EQ(s.factor().rows(), (std::vector<int>{0, 1}));
+}
+
+TEST(ConstraintSolver, AFlowMultiplierSplitsTheFlowByTheSprings) {
+  // k2 mu = k1 (F - mu): mu = k1 F / (k1 + k2), whichever way k2's bond points.
+  for (const bool into : {true, false}) {
+    SpringPair model(into);
+    Workspace ws = model.Ready();
+    const double x[2] = {0.7, 0.3};  // on the constraint: 30 * 0.7 = 70 * 0.3
+    std::vector<double> xdot(2);
+    model.EvalPlan(0.5, x, xdot.data(), ws);
+    model.solver.Solve(model.View(), 0.5, x, xdot.data(), ws, /*share=*/true);
+    const double mu = model.k1 * model.flow / (model.k1 + model.k2);
+    EXPECT_NEAR(ws.lambda[0], mu, 1e-14 * model.flow) << into;
+    EXPECT_NEAR(xdot[0], model.flow - mu, 1e-14 * model.flow) << into;
+    EXPECT_NEAR(xdot[1], mu, 1e-14 * model.flow) << into;
+    EXPECT_NEAR(model.k1 * xdot[0], model.k2 * xdot[1], 1e-13 * model.flow) << "the forces keep equal";
+  }
+}
+
+TEST(ConstraintSolver, ProjectionPutsTheDisplacementsOnTheCutAndKeepsTheirSum) {
+  // x += B mu with B = (-1, 1) by the potential-energy metric: q1 + q2 (the pair's total
+  // deflection) is kept, and the force becomes k q_total with k = k1 k2 / (k1 + k2).
+  for (const bool into : {true, false}) {
+    SpringPair model(into);
+    Workspace ws = model.Ready();
+    double x[2] = {0.2, 0.0};
+    std::vector<double> xdot(2);
+    model.EvalPlan(0.0, x, xdot.data(), ws);
+    EXPECT_NEAR(model.solver.Residual(0.0, ws), 6.0, 1e-14);
+    model.EvalPlan(0.0, x, xdot.data(), ws);
+    model.solver.ProjectMomenta(model.View(), 0.0, x, ws);
+    EXPECT_NEAR(x[0], 0.14, 1e-15) << into;
+    EXPECT_NEAR(x[1], 0.06, 1e-15) << into;
+    model.EvalPlan(0.0, x, xdot.data(), ws);
+    EXPECT_LT(model.solver.Residual(0.0, ws), 1e-14) << into;
+  }
 }
 
 }  // namespace

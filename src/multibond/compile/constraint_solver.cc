@@ -1,15 +1,16 @@
 // The ideal-constraint solver (constraint_solver.h; docs/design.md, "Ideal constraints"): its
 // tables, built from the plan, and steps 2-4 of a constrained evaluation around the plan.
 //
-// The junction structure conserves power, so g depends on the momenta as B^T M^-1 p, where B
-// (momentum rate per unit multiplier) is read off the plan. At every evaluation:
+// The junction structure conserves power, so g depends on the storage states as B^T H x, where B
+// (the rate of the momenta and displacements per unit multiplier) is read off the plan and H is
+// the storage's energy Hessian (M^-1 for an inertia, K for a compliance). At every evaluation:
 //   1. the plan at lambda = 0 gives dx/dt (the model's own evaluation);
 //   2. a tangent pass (the time derivative along dx/dt, with dR/dt for the moduli, of every slot
 //      the constraints' flows depend on) gives dg/dt at lambda = 0;
-//   3. W = B^T M^-1 B, and W lambda = dv/dt - dg/dt|lambda=0 makes dg/dt = 0 (index reduction to
+//   3. W = B^T H B, and W lambda = dv/dt - dg/dt|lambda=0 makes dg/dt = 0 (index reduction to
 //      the acceleration level, exactly: no finite differences), by a sparse L D L^T;
 //   4. what the multipliers reach, again with lambda: dx/dt and every effort, reactions included.
-// Drift of g (the velocity-level constraint) is removed after every step by ProjectMomenta.
+// Drift of g (affine in the storage states along B) is removed after every step by ProjectMomenta.
 
 #include "multibond/compile/constraint_solver.h"
 
@@ -26,17 +27,18 @@ namespace multibond {
 using plan::Instr;
 using plan::Op;
 
-void ConstraintSolver::Add(std::string name, int element, std::vector<Group::Member> members) {
+void ConstraintSolver::Add(std::string name, int element, std::vector<Group::Member> members, bool imposes_flow) {
   Group cg;
   cg.name = std::move(name);
   cg.element = element;
+  cg.imposes_flow = imposes_flow;
   cg.members = std::move(members);
   groups_.push_back(std::move(cg));
 }
 
 void ConstraintSolver::AssignMultipliers(const std::vector<int>& bond_dim) {
   for (Group& cg : groups_) {
-    cg.size = bond_dim[cg.members.front().flow];  // still the member's bond (Build maps it)
+    cg.size = bond_dim[cg.members.front().slot];  // still the member's bond (Build maps it)
     cg.lambda = num_lambda_;
     num_lambda_ += cg.size;
   }
@@ -46,7 +48,7 @@ int ConstraintSolver::MultiplierOf(int bond) const {
   int lambda = 0;
   for (const Group& cg : groups_)
     for (const auto& m : cg.members)
-      if (m.flow == bond) lambda = cg.lambda;
+      if (m.slot == bond) lambda = cg.lambda;
   return lambda;
 }
 
@@ -63,12 +65,13 @@ void ConstraintSolver::Build(const BuildInput& in) {
   const std::vector<StateGather>& gathers = in.gathers;
   const int np = static_cast<int>(plan.size());
   const int num_classes = static_cast<int>(in.class_offset.size());
-  // Members: bond -> flow slot; targets -> source functions.
+  // Members: bond -> the constrained variable's slot (flow, or effort for a flow multiplier);
+  // targets -> source functions.
   targets_.clear();
   for (Group& cg : groups_) {
     for (auto& m : cg.members) {
-      const int bond = m.flow;
-      m.flow = in.class_offset[in.flow_class[bond]];
+      const int bond = m.slot;
+      m.slot = in.class_offset[cg.imposes_flow ? in.effort_class[bond] : in.flow_class[bond]];
       if (m.target == 0) {
         const Element& e = g.element(cg.element);
         m.target = static_cast<int>(targets_.size());
@@ -91,29 +94,42 @@ void ConstraintSolver::Build(const BuildInput& in) {
                                     "give one compliance, or one per component", {}, "param.shape"});
       for (int k = 0; k < cg.size; ++k) compliance.push_back(e.compliance[e.compliance.size() == 1 ? 0 : k]);
     }
-  // The momentum gathers and the instruction that computes each inertia's flow.
-  std::vector<int> flow_instr_of_element(g.num_elements(), -1);
-  for (int k = 0; k < np; ++k) {
-    const Op op = plan[k].op;
-    if (plan::Traits(op).reads == plan::Reads::kState)
-      if (g.element(plan[k].element).kind == ElementKind::kI) flow_instr_of_element[plan[k].element] = k;
-  }
+  // The storage gathers and the instruction that computes each one's co-energy variable from its
+  // state (an inertia's flow M^-1 p, a compliance's effort sigma K q): V = H B applies it to B.
+  std::vector<int> state_instr_of_element(g.num_elements(), -1);
+  for (int k = 0; k < np; ++k)
+    if (plan::Traits(plan[k].op).reads == plan::Reads::kState && IsStorage(g.element(plan[k].element).kind))
+      state_instr_of_element[plan[k].element] = k;
+  auto storage = [](const StateGather& gt) {
+    return gt.kind == StateBlock::Kind::kMomentum || gt.kind == StateBlock::Kind::kDisplacement;
+  };
   flow_instr_of_block_.assign(gathers.size(), -1);
-  for (size_t gi = 0; gi < gathers.size(); ++gi)
-    if (gathers[gi].kind == StateBlock::Kind::kMomentum) flow_instr_of_block_[gi] = flow_instr_of_element[in.blocks[gi].owner];
-
-  std::vector<char> member_flow(in.num_slots, 0), other_rate(in.num_slots, 0);
-  for (const Group& cg : groups_)
-    for (const auto& m : cg.members)
-      for (int k = 0; k < cg.size; ++k) member_flow[m.flow + k] = 1;
-  for (const StateGather& gt : gathers) {
-    if (gt.kind == StateBlock::Kind::kOrientation || gt.kind == StateBlock::Kind::kIntegral)
-      for (int k = 0; k < (gt.kind == StateBlock::Kind::kOrientation ? 3 : gt.size); ++k) other_rate[gt.flow + k] = 1;
-    if (gt.kind == StateBlock::Kind::kDisplacement)
-      for (int k = 0; k < gt.size; ++k) other_rate[gt.effort + k] = 1;
+  std::vector<char> negate_block(gathers.size(), 0);
+  for (size_t gi = 0; gi < gathers.size(); ++gi) {
+    if (!storage(gathers[gi])) continue;
+    const int owner = in.blocks[gi].owner;
+    flow_instr_of_block_[gi] = state_instr_of_element[owner];
+    // A compliance's kernel gives sigma K q (its bond's effort); H = K.
+    if (gathers[gi].kind == StateBlock::Kind::kDisplacement) negate_block[gi] = g.PowerSign(g.element(owner).bonds.front(), owner) < 0;
   }
+
+  // What no multiplier may reach: a constrained variable (its value would depend on the
+  // multipliers themselves: index 1), and an orientation's rate (the moduli and rotated inertias
+  // depend on the orientation: dg/dt would have a term in lambda that W = B^T H B leaves out).
+  // An integral's rate may be reached: no instruction reads an integral state in a model with
+  // constraints (formulas are refused there), so g does not depend on it; step 4 updates it.
+  std::vector<int> member_of(in.num_slots, -1);
+  std::vector<int> orientation_of(in.num_slots, -1);
+  for (int gi = 0; gi < static_cast<int>(groups_.size()); ++gi)
+    for (const auto& m : groups_[gi].members)
+      for (int k = 0; k < groups_[gi].size; ++k) member_of[m.slot + k] = gi;
+  for (size_t gi = 0; gi < gathers.size(); ++gi)
+    if (gathers[gi].kind == StateBlock::Kind::kOrientation)
+      for (int k = 0; k < 3; ++k) orientation_of[gathers[gi].flow + k] = static_cast<int>(gi);
 
   std::vector<int> b_offset, b_rows;
+  negated_v_.clear();
+  auto gi_of = [&](const Group& cg) { return static_cast<int>(&cg - groups_.data()); };
   for (Group& cg : groups_) {
     // The multiplier's instructions (two for a cut), then every instruction reading what they reach.
     std::vector<char> reached(num_classes, 0);
@@ -132,27 +148,59 @@ void ConstraintSolver::Build(const BuildInput& in) {
           cg.closure.push_back(k);
           break;
         }
+    const Element& e = g.element(cg.element);
+    // A cut (of a storage element) is undone by making that element independent; a rigid
+    // coupling by making it compliant.
+    const bool cut = IsStorage(e.kind);
+    const std::string hint =
+        !cut ? "make this coupling compliant (a C and an R instead of the constraint)"
+        : e.kind == ElementKind::kI
+            ? fmt::format("give I '{}' a momentum of its own: join it to what fixes its flow through a compliant coupling (a C "
+                          "and an R); 'constraints: compliant' shows the causal path", e.name)
+            : fmt::format("give C '{}' a displacement of its own: put a resistor or an inertia between it and what fixes its "
+                          "effort; 'constraints: compliant' shows the causal path", e.name);
+    const char* own = cg.imposes_flow ? "flow" : "effort";
+    auto refuse = [&](const std::string& what) {
+      throw ModelError(Diagnostic{Diagnostic::Severity::kError, e.where, e.name, what, hint, {}, "constraint.unsupported"});
+    };
     for (int c = 0; c < num_classes; ++c) {
       if (!reached[c]) continue;
-      bool bad = false;
-      for (int k = 0; k < in.class_size[c]; ++k) bad |= member_flow[in.class_offset[c] + k] || other_rate[in.class_offset[c] + k];
-      if (bad) {
-        const Element& e = g.element(cg.element);
-        throw ModelError(Diagnostic{
-            Diagnostic::Severity::kError, e.where, e.name,
-            fmt::format("the ideal constraint '{}' changes the flow '{}' through a resistor or gyrator: a constraint whose "
-                        "flows depend on its own effort is not supported", cg.name, in.class_names[c]),
-            "make this coupling compliant (a C and an R instead of the constraint)", {}, "constraint.unsupported"});
+      for (int k = 0; k < in.class_size[c]; ++k) {
+        const int slot = in.class_offset[c] + k;
+        if (member_of[slot] >= 0) {
+          const Group& other = groups_[member_of[slot]];
+          const char* var = other.imposes_flow ? "effort" : "flow";
+          refuse(member_of[slot] == gi_of(cg)
+                     ? fmt::format("the ideal constraint '{}' changes the {} '{}' it constrains through a resistor or gyrator: a "
+                                   "constraint whose {}s depend on its own {} is not supported",
+                                   cg.name, var, in.class_names[c], var, own)
+                     : fmt::format("the ideal constraint '{}' changes the {} '{}' that the constraint '{}' constrains: constraints "
+                                   "whose variables depend on each other's multipliers are not supported",
+                                   cg.name, var, in.class_names[c], other.name));
+        }
+        if (orientation_of[slot] >= 0)
+          refuse(fmt::format("the ideal constraint '{}' changes the angular velocity '{}' that turns the orientation '{}': a "
+                             "constraint whose {} turns an orientation is not supported", cg.name, in.class_names[c],
+                             g.aux_states()[in.blocks[orientation_of[slot]].owner].name, own));
       }
     }
+    // Through a resistor, B is no longer the adjoint of g's dependence on the states (W = B^T H B
+    // would be wrong): refused, wherever the resistor's output goes.
+    for (int k : cg.closure)
+      if (plan[k].element >= 0 && g.element(plan[k].element).kind == ElementKind::kR)
+        refuse(fmt::format("the {} of the ideal constraint '{}' passes through the resistor '{}' (to '{}'): a constraint whose "
+                           "{} acts through a resistor is not supported", own, cg.name, g.element(plan[k].element).name,
+                           in.class_names[in.plan_writes[k]], own));
     for (size_t gi = 0; gi < gathers.size(); ++gi)
-      if (gathers[gi].kind == StateBlock::Kind::kMomentum)
+      if (storage(gathers[gi]))
         for (int c = 0; c < num_classes; ++c)
           if (reached[c] && in.class_offset[c] == gathers[gi].effort) cg.momenta.push_back(static_cast<int>(gi));
     for (int k = 0; k < cg.size; ++k) {
       b_offset.push_back(static_cast<int>(b_rows.size()));
-      for (int gi : cg.momenta)
+      for (int gi : cg.momenta) {
+        if (negate_block[gi]) negated_v_.push_back({static_cast<int>(b_rows.size()), gathers[gi].size});
         for (int r = 0; r < gathers[gi].size; ++r) b_rows.push_back(gathers[gi].state + r);
+      }
     }
   }
   b_offset.push_back(static_cast<int>(b_rows.size()));
@@ -171,18 +219,18 @@ void ConstraintSolver::Build(const BuildInput& in) {
       const int c = in.plan_writes[k];
       std::fill(reached_slot.begin() + in.class_offset[c], reached_slot.begin() + in.class_offset[c] + in.class_size[c], 1);
     }
-  // The tangent pass is read only at the constraints' flows: it runs the instructions those flows
-  // depend on (the flow side of the plan), not the efforts that only feed momentum rates.
-  std::vector<char> feeds_flow(num_classes, 0);
+  // The tangent pass is read only at the constrained variables: it runs the instructions those
+  // depend on (for rigid couplings the flow side of the plan), not what only feeds other rates.
+  std::vector<char> feeds(num_classes, 0);
   for (const Group& cg : groups_)
     for (const auto& m : cg.members)
       for (int c = 0; c < num_classes; ++c)
-        if (in.class_offset[c] <= m.flow && m.flow < in.class_offset[c] + in.class_size[c]) feeds_flow[c] = 1;
+        if (in.class_offset[c] <= m.slot && m.slot < in.class_offset[c] + in.class_size[c]) feeds[c] = 1;
   tangent_plan_.clear();
   for (int k = np - 1; k >= 0; --k)
-    if (feeds_flow[in.plan_writes[k]]) {
+    if (feeds[in.plan_writes[k]]) {
       tangent_plan_.push_back(k);
-      for (int c : in.plan_reads[k]) feeds_flow[c] = 1;
+      for (int c : in.plan_reads[k]) feeds[c] = 1;
     }
   std::reverse(tangent_plan_.begin(), tangent_plan_.end());
   reaction_gathers_.clear();
@@ -225,7 +273,7 @@ void ConstraintSolver::ConstraintValues(double t, const double* w, double* out) 
   for (const Group& cg : groups_)
     for (int k = 0; k < cg.size; ++k) {
       double v = 0.0;
-      for (const auto& m : cg.members) v += m.sign * (w[m.flow + k] - (m.target >= 0 ? targets_[m.target + k](t) : 0.0));
+      for (const auto& m : cg.members) v += m.sign * (w[m.slot + k] - (m.target >= 0 ? targets_[m.target + k](t) : 0.0));
       out[cg.lambda + k] = v;
     }
 }
@@ -258,7 +306,8 @@ void ConstraintSolver::Tangent(const PlanView& view, double t, const double* x, 
         for (int k = 0; k < in.n; ++k) d[in.dst + k] = view.tables.sources[in.coef + k].Derivative(t);
         break;
       case plan::Tangent::kZero:
-        for (int k = 0; k < in.n; ++k) d[in.dst + k] = 0.0;  // efforts only: never reaches a constraint's flow
+        // A multiplier: its part of dg/dt is W lambda (it never reaches a constrained variable).
+        for (int k = 0; k < in.n; ++k) d[in.dst + k] = 0.0;
         break;
       case plan::Tangent::kStateRate:
         exec(in, xdot, d, d, mod);
@@ -332,8 +381,14 @@ void ConstraintSolver::Tangent(const PlanView& view, double t, const double* x, 
 }
 
 void ConstraintSolver::AssembleConstraintMatrix(const PlanView& view, double t, const double* x, Workspace& ws) const {
+  // A compliance whose bond points away from it: its kernel gave -K b.
+  auto negate = [&] {
+    for (const auto& [offset, size] : negated_v_)
+      for (int r = 0; r < size; ++r) ws.con.v[offset + r] = -ws.con.v[offset + r];
+  };
   if (generated_.columns) {
     generated_.columns(x, ws.con.lin.data(), ws.moduli.data(), ws.con.b.data(), ws.con.v.data());
+    negate();
     return;
   }
   double* lin = ws.con.lin.data();
@@ -342,7 +397,8 @@ void ConstraintSolver::AssembleConstraintMatrix(const PlanView& view, double t, 
   const double* mod = ws.moduli.data();
   const double* c = view.tables.coef;
   const double* lam = ws.lambda.data();
-  // B, column by column: a unit multiplier through its closure (everything else is zero in lin).
+  // B, column by column: a unit multiplier through its closure (everything else is zero in lin),
+  // and V = H B by each storage element's own kernel.
   const std::vector<Instr>& plan = view.plan;
   const std::vector<int>& b_offset = factor_.column_offset();
   for (const Group& cg : groups_) {
@@ -357,7 +413,7 @@ void ConstraintSolver::AssembleConstraintMatrix(const PlanView& view, double t, 
       for (int gi : cg.momenta) {
         const StateGather& gt = view.gathers[gi];
         for (int r = 0; r < gt.size; ++r) bc[r] = gt.sign * lin[gt.effort + r];
-        const Instr& flow = plan[flow_instr_of_block_[gi]];  // f = M^-1 p, applied to p = bc
+        const Instr& flow = plan[flow_instr_of_block_[gi]];  // f = M^-1 p (or e = sigma K q), applied to bc
         plan::Traits(flow.op).state(flow, c, x + flow.aux, bc, vc);
         bc += gt.size;
         vc += gt.size;
@@ -366,6 +422,7 @@ void ConstraintSolver::AssembleConstraintMatrix(const PlanView& view, double t, 
       for (int st : cg.starts) std::fill(lin + plan[st].dst, lin + plan[st].dst + cg.size, 0.0);
     }
   }
+  negate();
 }
 
 void ConstraintSolver::SolveAt(const PlanView& view, double t, const double* x, Workspace& ws) const {
@@ -394,7 +451,7 @@ void ConstraintSolver::Solve(const PlanView& view, double t, const double* x, do
     for (int k = 0; k < cg.size; ++k) {
       double r = 0.0;
       for (const auto& mb : cg.members)
-        r -= mb.sign * (d[mb.flow + k] - (mb.target >= 0 ? targets_[mb.target + k].Derivative(t) : 0.0));
+        r -= mb.sign * (d[mb.slot + k] - (mb.target >= 0 ? targets_[mb.target + k].Derivative(t) : 0.0));
       rhs[cg.lambda + k] = r;
     }
   SolveAt(view, t, x, ws);
@@ -419,8 +476,9 @@ double ConstraintSolver::Residual(double t, Workspace& ws) const {
 }
 
 void ConstraintSolver::ProjectMomenta(const PlanView& view, double t, double* x, Workspace& ws) const {
-  // g is affine in p with dg/dp = B^T M^-1: p += B mu with W mu = -g restores g = 0 exactly,
-  // changing the kinetic energy least.
+  // g is affine in the storage states along B, with dg/dx = B^T H there: x += B mu with
+  // W mu = -g restores g = 0 exactly, by the least change of energy (kinetic for momenta,
+  // potential for displacements).
   ConstraintValues(t, ws.slots.data(), ws.con.rhs.data());
   for (int i = 0; i < num_lambda_; ++i) ws.con.rhs[i] = -ws.con.rhs[i];
   SolveAt(view, t, x, ws);
@@ -431,8 +489,8 @@ void ConstraintSolver::ProjectMomenta(const PlanView& view, double t, double* x,
     if (mu == 0.0) continue;
     for (int q = b_offset[col]; q < b_offset[col + 1]; ++q) x[b_rows[q]] += ws.con.b[q] * mu;
   }
-  // Only momenta moved (the rows of B): B and the factor stay right for x, which the evaluation
-  // at an output time, right after this, reuses.
+  // Only storage states moved (the rows of B): B and the factor stay right for x, which the
+  // evaluation at an output time, right after this, reuses.
   if (ws.con.factored) std::copy(x, x + view.num_states, ws.con.factored_at.begin());
   std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
 }

@@ -1,25 +1,32 @@
 #pragma once
 /// \file
-/// The ideal-constraint solver (docs/design.md, "Ideal constraints"): the constraint efforts
-/// (Lagrange multipliers) of a compiled model, solved at every evaluation around its plan.
+/// The ideal-constraint solver (docs/design.md, "Ideal constraints"): the constraint efforts and
+/// flows (Lagrange multipliers) of a compiled model, solved at every evaluation around its plan.
 ///
-/// A constraint is an effort source of unknown effort lambda (a multiplier), from an Sf marked
-/// `constraint` or from the cut of a storage element in derivative causality (two sources, one
-/// on each side, sharing lambda). Its equation: g = sum_k s_k (f_k - v_k(t)) = 0 over its
-/// members' flows. The solver is declared by the graph pass (Add), numbered with the slots
-/// (AssignMultipliers, MultiplierOf), built from the ordered plan (Build: every table it needs
-/// is its own), then given the initial state (FindIndependent). At every evaluation the model
-/// runs its plan at lambda = 0 (step 1) and the solver does the rest (Solve):
+/// A constraint is a source of unknown value (a multiplier): an effort source of unknown effort
+/// lambda, from an Sf marked `constraint` or from the cut of an inertia in derivative causality
+/// (two sources, one on each side, sharing lambda); or, dually, a flow source of unknown flow,
+/// from the cut of a compliance in derivative causality. Its equation: g = sum_k s_k (y_k -
+/// v_k(t)) = 0 over its members' conjugate variables y_k (flows for an effort multiplier,
+/// efforts for a flow multiplier): lambda g is the power the constraint delivers. The power
+/// balance of the junction structure gives g = B^T H x + (terms without the storage states),
+/// with B the storage-state rate per unit multiplier (momenta and displacements) and H the
+/// storage elements' energy Hessian (M^-1 for an inertia, K for a compliance). The solver is
+/// declared by the graph pass (Add), numbered with the slots (AssignMultipliers, MultiplierOf),
+/// built from the ordered plan (Build: every table it needs is its own), then given the initial
+/// state (FindIndependent). At every evaluation the model runs its plan at lambda = 0 (step 1)
+/// and the solver does the rest (Solve):
 ///   2. a tangent pass: dg/dt at lambda = 0, exactly (no finite differences);
-///   3. B's columns (the momentum rate per unit multiplier, from each multiplier's closure in
-///      the plan), W = B^T M^-1 B, and W lambda = dv/dt - dg/dt|lambda=0 (ConstraintFactor);
-///   4. what the multipliers reach, again with lambda: dx/dt and every effort.
+///   3. B's columns (from each multiplier's closure in the plan), W = B^T H B, and
+///      W lambda = dv/dt - dg/dt|lambda=0 (ConstraintFactor);
+///   4. what the multipliers reach, again with lambda: dx/dt and every effort and flow.
 /// ProjectMomenta removes the drift of g after a step; Residual measures it.
 /// The model's parts it reads are named in BuildInput (at compile time) and PlanView (at run
 /// time); the workspace it writes is the model's (Workspace::lambda and Workspace::con).
 
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "multibond/compile/constraint_factor.h"
@@ -35,27 +42,35 @@ struct Workspace;
 
 class ConstraintSolver {
  public:
-  /// An ideal constraint: an Sf marked `constraint` (now an effort source of unknown effort), or
-  /// a pair of such sources that cut the bond of a storage element in derivative causality.
-  /// Its velocity-level equation: g = sum over members of s_k (f_k - v_k(t)) = 0, with s_k = +1
-  /// if the member's bond points away from it (lambda g is the power it delivers).
+  /// An ideal constraint: an Sf marked `constraint` (now an effort source of unknown effort), a
+  /// pair of such sources that cut the bond of an inertia in derivative causality, or a pair of
+  /// flow sources of unknown flow that cut the bond of a compliance in derivative causality.
+  /// Its equation: g = sum over members of s_k (y_k - v_k(t)) = 0, y_k the member's flow (effort
+  /// multipliers) or effort (flow multipliers), s_k = +1 if the member's bond points away from it
+  /// (lambda g is the power it delivers).
   struct Group {
     std::string name;
     int element = -1;  ///< the constraint source (or, for a cut, the storage element)
     int size = 0;
     int lambda = 0;    ///< offset in Workspace::lambda
-    /// flow: the member's bond until Build, then its flow's slot; target: until Build 0 (the
-    /// Sf's source functions are the flow's target) or -1 (none: a cut's sides agree), then the
-    /// offset of its target functions in the solver's own table, or -1.
+    /// The multiplier is a flow (a compliance's cut: its members' efforts are constrained), not
+    /// an effort (a rigid coupling, an inertia's cut: their flows are constrained).
+    bool imposes_flow = false;
+    /// slot: the member's bond until Build, then the slot of its constrained variable (its flow,
+    /// or its effort when imposes_flow). target: until Build 0 (the Sf's source functions are the
+    /// flow's target) or -1 (none: a cut's sides agree), then the offset of its target functions
+    /// in the solver's own table, or -1.
     struct Member {
-      int flow;
+      int slot;
       double sign;
       int target;
     };
     std::vector<Member> members;
     std::vector<int> starts;    ///< plan indices of its multiplier instructions (two for a cut)
-    std::vector<int> closure;   ///< plan indices reached by its multiplier (effort side)
-    std::vector<int> momenta;   ///< momentum gathers (indices in the gathers) it reaches
+    std::vector<int> closure;   ///< plan indices reached by its multiplier
+    /// The storage gathers (indices in the gathers) whose rate it reaches: momenta, and
+    /// displacements (a compliance's cut, or an effort through a gyrator); B's rows.
+    std::vector<int> momenta;
   };
 
   /// What Build reads of the compiled model: the ordered plan with the slot classes each
@@ -72,6 +87,7 @@ class ConstraintSolver {
     const std::vector<int>& class_size;
     const std::vector<std::string>& class_names;
     const std::vector<int>& flow_class;               ///< per bond: its flow's slot class
+    const std::vector<int>& effort_class;             ///< per bond: its effort's slot class
     int num_slots;
   };
 
@@ -88,8 +104,9 @@ class ConstraintSolver {
   };
 
   // --- declared before the plan ---
-  /// A constraint of the graph pass: its name, element and members (bond, sign, target 0 or -1).
-  void Add(std::string name, int element, std::vector<Group::Member> members);
+  /// A constraint of the graph pass: its name, element and members (bond, sign, target 0 or -1);
+  /// imposes_flow: its multiplier is a flow (Group::imposes_flow).
+  void Add(std::string name, int element, std::vector<Group::Member> members, bool imposes_flow = false);
   /// One multiplier per dimension of each constraint (its first member's bond's dimension), in
   /// order of declaration.
   void AssignMultipliers(const std::vector<int>& bond_dim);
@@ -97,10 +114,12 @@ class ConstraintSolver {
   int MultiplierOf(int bond) const;
 
   // --- built from the plan ---
-  /// The tables: members' slots and targets, each multiplier's closure and the momenta it
+  /// The tables: members' slots and targets, each multiplier's closure and the storage states it
   /// reaches, B's sparsity, the tangent pass, what the multipliers reach. Throws ModelError
-  /// (`constraint.unsupported`: a constraint whose flows depend on its own effort;
-  /// `param.shape`: compliances that do not match the constraint's components).
+  /// (`constraint.unsupported`: a multiplier that reaches a constrained variable (index 1), an
+  /// orientation's or integral's rate, or passes a resistor (its B would not be the adjoint of
+  /// its constraint's dependence on the states); `param.shape`: compliances that do not match
+  /// the constraint's components).
   void Build(const BuildInput& in);
   /// The constraints independent at the initial state x (the rest are redundant there), and the
   /// factor's pattern. `ws` holds the plan's evaluation at x with lambda = 0.
@@ -131,9 +150,10 @@ class ConstraintSolver {
   /// constraints as an elastic structure would (ConstraintFactor::Share); the motion does not
   /// depend on it, so the integrator's evaluations skip it and the output times' do it.
   void Solve(const PlanView& view, double t, const double* x, double* xdot, Workspace& ws, bool share) const;
-  /// The momenta of x onto the velocity constraints by the kinetic-energy metric: p += B mu with
-  /// W mu = -g(t, x), exact in one solve (g is affine in p). ws holds the plan at (t, x) with
-  /// lambda = 0; lambda is left zero.
+  /// The storage states of x onto the constraints by the energy metric H: x += B mu with
+  /// W mu = -g(t, x), exact in one solve (g is affine in the storage states along B): momenta
+  /// onto the velocity constraints, displacements onto a compliance's cut. ws holds the plan at
+  /// (t, x) with lambda = 0; lambda is left zero.
   void ProjectMomenta(const PlanView& view, double t, double* x, Workspace& ws) const;
   /// |g - target| (max norm) from ws, which holds the plan at (t, x) with lambda = 0.
   double Residual(double t, Workspace& ws) const;
@@ -146,7 +166,10 @@ class ConstraintSolver {
   const ConstraintFactor& factor() const { return factor_; }
   /// Per multiplier: the offset of its compressed column in ConstraintScratch::b and v (m + 1).
   const std::vector<int>& column_offset() const { return factor_.column_offset(); }
-  /// Per momentum gather: the plan index of its inertia's flow instruction (f = M^-1 p), else -1.
+  /// Per storage gather: the plan index of the instruction of its co-energy variable, the state
+  /// kernel that gives V = H B from B: an inertia's flow f = M^-1 p; a compliance's effort
+  /// e = sigma K q (sigma = -1 when its bond points away from it: V is then minus the kernel's
+  /// result, which AssembleConstraintMatrix applies after the columns); else -1.
   const std::vector<int>& flow_instr_of_block() const { return flow_instr_of_block_; }
   const std::vector<int>& tangent_plan() const { return tangent_plan_; }        ///< plan indices, in order
   const std::vector<int>& reaction_plan() const { return reaction_plan_; }      ///< plan indices, in order
@@ -156,7 +179,7 @@ class ConstraintSolver {
   /// d/dt along (xdot, d/dt sources) of the slots the constraints' flows depend on
   /// (tangent_plan_), into ws.con.dslots; the other entries are not written.
   void Tangent(const PlanView& view, double t, const double* x, const double* xdot, Workspace& ws) const;
-  /// B (momentum-rate response to each unit multiplier) and V = M^-1 B at x, into ws.con.b, v.
+  /// B (storage-rate response to each unit multiplier) and V = H B at x, into ws.con.b, v.
   void AssembleConstraintMatrix(const PlanView& view, double t, const double* x, Workspace& ws) const;
   /// B's columns at (t, x) and lambda from W lambda = ws.con.rhs: the sparse L D L^T on the
   /// independent set, else the pivoted solve. When ws holds B and the factor for this very x
@@ -172,6 +195,9 @@ class ConstraintSolver {
   std::vector<int> reaction_gathers_;  ///< gathers that read a slot the multipliers reach
   std::vector<int> tangent_plan_;      ///< plan indices the constraints' flows depend on, in order
   std::vector<int> flow_instr_of_block_;
+  /// Ranges (offset, size) of V's compressed columns that are minus their state kernel's result:
+  /// the rows of compliances whose bond points away from them.
+  std::vector<std::pair<int, int>> negated_v_;
   ConstraintFactor factor_;            ///< B's sparsity, W and its solves
   Generated generated_;
 };

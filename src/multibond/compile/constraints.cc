@@ -1,15 +1,19 @@
 // Ideal constraints (docs/design.md, "Ideal constraints"): the compiled model's side. The graph
-// pass that turns every constraint into an effort source of unknown effort (a multiplier), and
-// the model's calls of its ConstraintSolver (compile/constraint_solver.h), which owns the
-// constraint tables and solves for the multipliers around the plan.
+// pass that turns every constraint into a source of unknown value (a multiplier), and the
+// model's calls of its ConstraintSolver (compile/constraint_solver.h), which owns the constraint
+// tables and solves for the multipliers around the plan.
 //
 // A constraint comes either from an Sf marked `constraint` (a rigid joint: zero relative
-// velocity in chosen directions), or from cutting the bond of a storage element that the
-// causality analysis put in derivative causality (two such sources, one on each side of the
-// cut, sharing lambda). With every multiplier an effort source, the graph is integrally causal
-// and the plan is the ordinary one; the constraint equations are that each constraint's flows
-// take their prescribed values:
-//     g(t, x) = sum_k s_k (f_k - v_k(t)) = 0,
+// velocity in chosen directions; an effort source of unknown effort), or from cutting the bond
+// of a storage element that the causality analysis put in derivative causality: two sources,
+// one on each side of the cut, sharing one multiplier. An inertia's cut is a pair of effort
+// sources (the inertia receives an effort again; the constraint: both sides' flows agree); a
+// compliance's cut, dually, a pair of flow sources (the compliance receives a flow again; the
+// constraint: both sides' efforts agree, a position-level constraint whose time derivative the
+// solver enforces). With every multiplier a source, the graph is integrally causal and the
+// plan is the ordinary one; the constraint equations are that each constraint's conjugate
+// variables y_k (flows, or efforts for a compliance's cut) take their prescribed values:
+//     g(t, x) = sum_k s_k (y_k - v_k(t)) = 0,
 // s_k = +1 if member k's bond points away from it, so that lambda . g is the power the constraint
 // delivers.
 
@@ -29,35 +33,41 @@ void CompiledModel::PrepareConstraintGraph() {
     int element;
     std::vector<int> members;
     bool target;
+    bool imposes_flow;
   };
   std::vector<Pending> pending;
   // Rigid joints and other explicit constraints: the Sf becomes the multiplier's effort source
   // (the same view `check` analyses, causality/repair.h).
   g = CausalView(g);
   for (int i = 0; i < g.num_elements(); ++i)
-    if (g.element(i).constraint) pending.push_back({g.element(i).name, i, {i}, true});
+    if (g.element(i).constraint) pending.push_back({g.element(i).name, i, {i}, true, false});
   for (;;) {
     DiagnosticSink sink;
     structure_ = AnalyzeStructure(g, options_.default_domain, sink);
     sink.ThrowIfErrors();
     causality_ = AssignCausality(g, structure_);
     if (!options_.ideal_constraints || causality_.derivative.empty()) break;
-    // Cut the bond of the first inertia in derivative causality, then analyse again: one cut can
-    // free others (a chain of rigidly joined inertias needs one cut per joint, not per inertia).
+    // Cut the bond of the first storage element in derivative causality, then analyse again: one
+    // cut can free others (a chain of rigidly joined inertias needs one cut per joint, not per
+    // inertia; three compliances on one 0-junction need two).
     int d = -1;
     for (int el : causality_.derivative)
-      if (g.element(el).kind == ElementKind::kI && g.element(el).bonds.size() == 1) {
+      if (IsStorage(g.element(el).kind) && g.element(el).bonds.size() == 1) {
         d = el;
         break;
       }
-    if (d < 0) break;  // a C in derivative causality: reported below
+    if (d < 0) break;  // (a storage element has one bond: the loader sees to it)
+    // The storage element gets back the variable of its integral causality from its side's
+    // source (an effort for an inertia, a flow for a compliance); the rest of the graph keeps
+    // receiving the variable the element imposed on it, from the other side's source.
+    const bool inertia = g.element(d).kind == ElementKind::kI;
     const int b = g.element(d).bonds.front();
     const int other = g.Other(b, d);
     const bool into_storage = g.bond(b).to == d;
     const std::string base = g.element(d).name + ".cut";
     Element a;
     a.name = base;
-    a.kind = ElementKind::kSe;
+    a.kind = inertia ? ElementKind::kSe : ElementKind::kSf;
     a.constraint = true;
     a.where = g.element(d).where;
     a.domain = g.element(d).domain;
@@ -81,15 +91,60 @@ void CompiledModel::PrepareConstraintGraph() {
     const int nbi = g.AppendBond(nb);
     g.element(ir).bonds = {nbi};
     std::replace(g.element(other).bonds.begin(), g.element(other).bonds.end(), b, nbi);
-    pending.push_back({base, d, {ia, ir}, false});
+    pending.push_back({base, d, {ia, ir}, false, !inertia});
   }
   if (causality_.has_errors()) {
-    if (!causality_.derivative.empty() && !options_.ideal_constraints)
+    // With ideal constraints every storage element in derivative causality has been cut: what is
+    // left are conflicts, which no constraint resolves. Without, the option is named when the
+    // model compiles with it (else why not: a suggestion that only leads to another refusal,
+    // which would send the reader back here, is no help).
+    bool only_derivative = true;  // conflicts are reported as they are: no option resolves them
+    for (const Diagnostic& dg : causality_.diagnostics)
+      only_derivative &= dg.severity != Diagnostic::Severity::kError || dg.code == "causality.derivative";
+    if (!causality_.derivative.empty() && !options_.ideal_constraints && only_derivative) {
+      CompileOptions ideal = options_;
+      ideal.ideal_constraints = true;
+      ideal.generate_code = false;
+      std::string refused;
+      try {
+        (void)CompiledModel::Compile(g, ideal);
+      } catch (const ModelError& e) {
+        refused = e.diagnostics().empty() ? "it is refused" : e.diagnostics().front().message;
+      }
       for (Diagnostic& dg : causality_.diagnostics)
-        if (dg.code == "causality.derivative")
-          dg.details.push_back("or keep the ideal mechanism: run with --constraints ideal (or 'constraints: ideal' at the top "
-                               "of the model file) and the dependent storage is handled exactly by constraint efforts");
+        if (dg.code == "causality.derivative") {
+          const int el = g.Find(dg.element);
+          const bool compliance = el >= 0 && g.element(el).kind == ElementKind::kC;
+          if (refused.empty())
+            dg.details.push_back(fmt::format("or keep the ideal mechanism: run with --constraints ideal (or 'constraints: ideal' "
+                                             "at the top of the model file) and the dependent storage is handled exactly by {}",
+                                             compliance ? "a constraint flow (its displacement follows the effort imposed on it)"
+                                                        : "constraint efforts"));
+          else
+            dg.details.push_back("--constraints ideal does not take this model either: " + refused);
+        }
+    }
     throw ModelError(causality_.diagnostics);
+  }
+  // Formulas are not solved together with constraints yet (CheckFormulaUse refuses them, with a
+  // hint for rigid joints). A cut was not asked for by name: say which storage element made it,
+  // and how to do without.
+  for (const Pending& p : pending) {
+    if (p.target) continue;
+    for (int i = 0; i < g.num_elements(); ++i) {
+      if (!HasFormulas(g.element(i))) continue;
+      const Element& dep = g.element(p.element);
+      const bool inertia = dep.kind == ElementKind::kI;
+      throw ModelError(Diagnostic{
+          Diagnostic::Severity::kError, g.element(i).where, g.element(i).name,
+          fmt::format("formulas in a model with ideal constraints are not supported yet, and {} '{}' is in derivative "
+                      "causality (its bond is cut into an ideal constraint)", inertia ? "I" : "C", dep.name),
+          inertia ? fmt::format("join I '{}' to what fixes its flow through a compliant coupling ('check --suggest' proposes "
+                                "one), or use constant parameters", dep.name)
+                  : fmt::format("give C '{}' a displacement of its own: put a resistor or an inertia between it and what "
+                                "fixes its effort; or use constant parameters", dep.name),
+          {}, "expr.unsupported"});
+    }
   }
   for (const Pending& p : pending) {
     std::vector<ConstraintSolver::Group::Member> members;
@@ -97,7 +152,7 @@ void CompiledModel::PrepareConstraintGraph() {
       const int b = g.element(m).bonds.front();
       members.push_back({b, g.bond(b).from == m ? 1.0 : -1.0, p.target ? 0 : -1});
     }
-    constraints_.Add(p.name, p.element, std::move(members));
+    constraints_.Add(p.name, p.element, std::move(members), p.imposes_flow);
   }
 }
 
@@ -107,7 +162,7 @@ ConstraintSolver::PlanView CompiledModel::ConstraintPlan(const SourceTable* sour
 
 void CompiledModel::BuildConstraints(const std::vector<std::vector<int>>& plan_reads, const std::vector<int>& plan_writes) {
   constraints_.Build({graph_, plan_, plan_reads, plan_writes, blocks_, gathers_, class_offset_, class_size_, class_names_,
-                      flow_class_, num_slots_});
+                      flow_class_, effort_class_, num_slots_});
 }
 
 void CompiledModel::FindIndependentConstraints() {

@@ -210,13 +210,14 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
       case ElementKind::kSf: {
         const int b = e.bonds.front(), n = dim[b];
         if (e.constraint) {
-          // Its effort is the multiplier of its constraint, set by the constraint solve.
+          // Its effort (its flow, for an Sf: a compliance's cut) is the multiplier of its
+          // constraint, set by the constraint solve.
           Instr in{};
           in.op = Op::kMultiplier;
           in.element = i;
           in.n = n;
           in.coef = constraints_.MultiplierOf(b);
-          emit(in, effort_class_[b], {}, {Definition::Kind::kSource, i, {}});
+          emit(in, e.kind == ElementKind::kSe ? effort_class_[b] : flow_class_[b], {}, {Definition::Kind::kSource, i, {}});
           break;
         }
         Instr in{};

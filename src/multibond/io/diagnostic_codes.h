@@ -71,7 +71,8 @@ enum class Outcome {
     "variables that depend on themselves through resistors and junctions")                                                     \
   X(kCausalityArbitrary, "causality.arbitrary", kWarning, "a bond whose causality nothing fixes")                           \
   X(kConstraintUnsupported, "constraint.unsupported", kModelError,                                                             \
-    "an ideal constraint whose flows depend on its own effort (through a resistor or gyrator)")                                \
+    "an ideal constraint whose multiplier reaches what it constrains (its flows depend on its own effort, its efforts on its " \
+    "own flow), or turns an orientation, or acts through a resistor")                                                         \
   X(kConstraintComplianceIgnored, "constraint.compliance_ignored", kWarning,                                                   \
     "compliances given to some ideal constraints but not to all: they are not used")                                           \
   X(kMechReference, "mech.reference", kModelError, "a body, joint or gear mesh named that does not exist or cannot be used there") \
