@@ -175,6 +175,45 @@ BondGraph Tank(Formula Element::*law, const std::string& text) {
   return g;
 }
 
+TEST(Formulas, APendulumThroughAModulusOfItsAngleHasTheSamePeriod) {
+  // The bob at (L cos(theta), L sin(theta)) moves at (vx, vy) = (-L sin(theta), L cos(theta)) w,
+  // through an MTF whose 2 x 1 modulus is a formula of the angle; gravity (0, -m g) acts on it;
+  // the torque is M^T e = -m g L cos(theta).
+  for (const double theta0 : {1.0, 2.5}) {
+    BondGraph g("pendulum_mtf");
+    g.AddJunction("w", ElementKind::kOne);
+    g.AddI("J", Param::Scalar(1.0));
+    Modulus arm;
+    arm.constant = Eigen::MatrixXd::Zero(2, 1);
+    arm.entries = {F("-sin(theta)"), F("cos(theta)")};
+    g.AddMTF("arm", arm);
+    g.AddJunction("v", ElementKind::kOne, 2);
+    g.AddSe("gravity", SourceValue{{TimeFunction::Constant(0.0), TimeFunction::Constant(-9.81)}}, 2);
+    g.Connect("w", "J");
+    g.Connect("w", "arm");
+    g.Connect("arm", "v");
+    g.Connect("gravity", "v");
+    AuxState theta;
+    theta.name = "theta";
+    theta.kind = AuxState::Kind::kIntegral;
+    theta.of = "w";
+    theta.initial = Eigen::MatrixXd::Constant(1, 1, theta0 - M_PI / 2);  // from the downward vertical
+    g.AddAux(theta);
+    // theta here is measured from the horizontal: the bob hangs at -pi/2.
+    const auto model = CompiledModel::Compile(g);
+    const double period = 4.0 * std::sqrt(1.0 / 9.81) * std::comp_ellint_1(std::sin(theta0 / 2));
+    const RecordingObserver rec = Simulated(*model, 2.2 * period, 1e-4);
+    std::vector<double> down;  // theta + pi/2 crossing zero downwards
+    const int c = rec.Index("theta"), tc = rec.Index("time");
+    for (size_t k = 1; k < rec.rows().size(); ++k) {
+      const double a = rec.rows()[k - 1][c] + M_PI / 2, b = rec.rows()[k][c] + M_PI / 2;
+      if (a > 0 && b <= 0) down.push_back(rec.rows()[k - 1][tc] + (rec.rows()[k][tc] - rec.rows()[k - 1][tc]) * a / (a - b));
+    }
+    ASSERT_GE(down.size(), 2u);
+    EXPECT_NEAR(down[1] - down[0], period, 1e-6 * period) << theta0;
+  }
+}
+
 TEST(Formulas, TorricelliDrainHasALinearSquareRoot) {
   // dV/dt = -Cd a sqrt(2 g V / A): sqrt(V) = sqrt(V0) - Cd a / 2 sqrt(2 g / A) t.
   const double A = 2.0, Cd = 0.6, a = 0.01, rho = 1000.0, g0 = 9.81, V0 = 2.0;
@@ -295,7 +334,7 @@ TEST(Formulas, InterpreterAndGeneratedCodeGiveTheSameBits) {
 TEST(Formulas, EquationsShowTheFormula) {
   const auto model = CompiledModel::Compile(Pendulum(1.0));
   const std::string text = FormatEquations(*model, EquationFormat::kText);
-  EXPECT_THAT(text, HasSubstr("d(J.p)/dt = -1*9.81*1*sin(theta)"));  // as written (F's text)
+  EXPECT_THAT(text, HasSubstr("d(J.p)/dt = (-1*9.81*1*sin(theta))"));  // as written (F's text), a sign in brackets
   // A storage law at its state, and a signal state's rate with the signals it reads.
   EXPECT_THAT(FormatEquations(*CompiledModel::Compile(Oscillator("q + 10*q^3", false, 1.0, 0.5)), EquationFormat::kText),
               HasSubstr("d(mass.p)/dt = -(q + 10*q^3 at q = spring.q)"));

@@ -133,6 +133,9 @@ TEST(FormulaValues, AnErrorInABlockOrEscapedFormulaIsAtItsCharacterOrTheValuesSt
   const Diagnostic escaped = WithCode(LoadErrors(Msd("{type: I, inertia: \"\\u0031\\u0031 + @\"}")), "expr.syntax");
   EXPECT_EQ(escaped.where.line, 8);
   EXPECT_EQ(escaped.where.column, 30);  // the opening quote
+  // Before the first escape, the character itself.
+  const Diagnostic before = WithCode(LoadErrors(Msd("{type: I, inertia: \"1 + @ + \\u0031\"}")), "expr.syntax");
+  EXPECT_EQ(before.where.column, 35);
 }
 
 TEST(FormulaValues, UnknownParameterAtItsCharacterWithDidYouMean) {

@@ -288,7 +288,11 @@ class EquationWriter {
     if (torn_[c]) return Ref(c);
     const Definition& d = Def(c);
     // A formula (signals have no element), shown as written in named variables.
-    if (d.kind == Definition::Kind::kFormula) return MakeLeaf(d.formula, "\\mathtt{" + LatexEscape(d.formula) + "}");
+    if (d.kind == Definition::Kind::kFormula) {
+      // In brackets when it starts with a sign, which the sum it stands in may double ("- -a").
+      const std::string f = !d.formula.empty() && (d.formula[0] == '-' || d.formula[0] == '+') ? "(" + d.formula + ")" : d.formula;
+      return MakeLeaf(f, "\\mathtt{" + LatexEscape(f) + "}");
+    }
     const Element& el = g_.element(d.element);
     const std::string& n = el.name;
     const std::string state = StateOf(el);

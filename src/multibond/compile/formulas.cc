@@ -69,7 +69,7 @@ std::string Readable(const Node& root, const std::function<std::string(const std
 }  // namespace
 
 bool CompiledModel::HasFormulas(const Element& e) {
-  if (e.law_effort.given() || e.law_flow.given() || e.energy.given()) return true;
+  if (e.law_effort.given() || e.law_flow.given() || e.energy.given() || !e.modulus.entries.empty()) return true;
   for (const Formula& f : e.value)
     if (f.given()) return true;
   return false;
@@ -370,6 +370,66 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
           const NodePtr u = SlotRef(class_offset_[q.in] + k);
           return forward ? expr::Binary(Node::Kind::kMul, r, u) : expr::Binary(Node::Kind::kDiv, u, r);
         }, &e.value.front(), "the ratio of " + e.name);
+      }
+      break;
+    }
+    case ElementKind::kMTF:
+    case ElementKind::kMGY: {
+      // A modulus whose entries are formulas: M u written out, sum_j M_ij u_j, and M^T u; a 1 x 1
+      // one also backwards (u / M). TF: f2 = M f1, e1 = M^T e2; GY: e2 = M f1, e1 = M^T f2.
+      const Modulus& mod = e.modulus;
+      const int b1 = structure_.port_in[i], b2 = structure_.port_out[i];
+      const int rows = mod.rows(), cols = mod.cols();
+      const bool gyrator = e.kind == ElementKind::kMGY;
+      const bool forward = !causality_.EffortInto(g, b1, i);
+      auto entry = [&](int r, int c) -> NodePtr {
+        const Formula& f = mod.entries[static_cast<size_t>(r * cols + c)];
+        const double s = mod.scale;
+        if (f.given()) return s == 1.0 ? f.root : expr::Binary(Node::Kind::kMul, expr::Number(s), f.root);
+        const double v = s * mod.constant(r, c);
+        return v == 0.0 ? nullptr : expr::Number(v);
+      };
+      const Formula* first = nullptr;
+      for (const Formula& f : mod.entries)
+        if (f.given() && !first) first = &f;
+      struct Eq { int out, in; bool transpose; };
+      Eq eq[2];
+      if (!gyrator) {
+        eq[0] = forward ? Eq{flow_class_[b2], flow_class_[b1], false} : Eq{effort_class_[b2], effort_class_[b1], false};
+        eq[1] = forward ? Eq{effort_class_[b1], effort_class_[b2], true} : Eq{flow_class_[b1], flow_class_[b2], true};
+      } else {
+        eq[0] = forward ? Eq{effort_class_[b2], flow_class_[b1], false} : Eq{flow_class_[b2], effort_class_[b1], false};
+        eq[1] = forward ? Eq{effort_class_[b1], flow_class_[b2], true} : Eq{flow_class_[b1], effort_class_[b2], true};
+      }
+      // Shown as "arm.M^T arm.e2, M = [[-L*sin(angle)], [L*cos(angle)]]".
+      std::string matrix;
+      for (int r = 0; r < rows; ++r) {
+        std::string row;
+        for (int c = 0; c < cols; ++c) {
+          const Formula& f = mod.entries[static_cast<size_t>(r * cols + c)];
+          row += (c ? ", " : "") + (f.given() ? f.text : fmt::format("{}", mod.constant(r, c)));
+        }
+        matrix += (r ? ", [" : "[") + row + "]";
+      }
+      matrix = "[" + matrix + "]" + (mod.scale != 1.0 ? fmt::format(" * {}", mod.scale) : "");
+      for (const Eq& q : eq) {
+        const int n = class_size_[q.out];
+        const std::string shown = fmt::format("{}.M{} {}, M = {}", e.name, forward ? (q.transpose ? "^T" : "") : "^-1",
+                                              class_names_[q.in], matrix);
+        emit(q.out, n, [&](int k) -> NodePtr {
+          if (!forward) {  // 1 x 1 (Modulus::invertible): u / M
+            return expr::Binary(Node::Kind::kDiv, SlotRef(class_offset_[q.in]), entry(0, 0));
+          }
+          NodePtr sum;
+          const int terms = q.transpose ? rows : cols;
+          for (int j = 0; j < terms; ++j) {
+            const NodePtr mij = q.transpose ? entry(j, k) : entry(k, j);
+            if (!mij) continue;
+            const NodePtr term = expr::Binary(Node::Kind::kMul, mij, SlotRef(class_offset_[q.in] + j));
+            sum = sum ? expr::Binary(Node::Kind::kAdd, sum, term) : term;
+          }
+          return sum ? sum : expr::Number(0.0);
+        }, first, "the modulus of " + e.name, shown);
       }
       break;
     }

@@ -102,6 +102,7 @@ std::vector<int> CompiledModel::PlanModuli() {
   for (int i = 0; i < g.num_elements(); ++i) {
     const Element& e = g.element(i);
     if (e.kind != ElementKind::kMTF && e.kind != ElementKind::kMGY) continue;
+    if (HasFormulas(e)) continue;  // its entries are formulas: FormulaInstructions writes M u out
     const Modulus& mod = e.modulus;
     ModulusEval me{mod.kind, mod.rows(), mod.cols(), num_moduli_, -1, -1, -1, -1, -1, mod.scale, mod.transpose, mod.lever};
     num_moduli_ += me.rows * me.cols;

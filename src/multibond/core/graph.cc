@@ -52,6 +52,7 @@ int Modulus::cols() const {
 
 bool Modulus::invertible() const {
   if (rows() != cols()) return false;
+  if (!entries.empty()) return rows() == 1;  // a changing 1 x 1 modulus is divided by; a matrix is not inverted
   if (kind == Kind::kLever) return false;  // a cross-product matrix is always singular
   if (left.size() > 0 && std::abs(left.determinant()) < 1e-300) return false;
   if (right.size() > 0 && std::abs(right.determinant()) < 1e-300) return false;

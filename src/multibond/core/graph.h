@@ -53,6 +53,15 @@ struct Param {
   int cols() const { return is_scalar ? 0 : static_cast<int>(matrix.cols()); }
 };
 
+/// A formula of a model (docs/model-format.md, "Expressions"): its text as written, its tree and
+/// where it stands in the file (the column of its first character). `root` null = not given.
+struct Formula {
+  std::string text;
+  expr::NodePtr root;
+  SourceLocation where;
+  bool given() const { return root != nullptr; }
+};
+
 /// The modulus of an MTF or MGY: a matrix that depends on the state.
 ///   kConstant: M = scale * left * constant
 ///   kRotation: M = scale * left * R * right      (or R^T if transpose) with R an orientation state
@@ -70,6 +79,10 @@ struct Modulus {
   std::string rotation;  ///< name of the orientation state (kRotation, kLever)
   bool transpose = false;
   Eigen::Vector3d lever = Eigen::Vector3d::Zero();
+  /// kConstant whose entries change (formulas of time and model variables): one per entry,
+  /// row-major, a not-given one standing for `constant`'s entry; empty for a constant modulus.
+  /// Such a modulus works forward only (flow at port 1; an MGY: at both ports) unless it is 1 x 1.
+  std::vector<Formula> entries;
 
   int rows() const;  ///< output dimension (n2)
   int cols() const;  ///< input dimension (n1)
@@ -78,14 +91,6 @@ struct Modulus {
   std::string ToString() const;
 };
 
-/// A formula of a model (docs/model-format.md, "Expressions"): its text as written, its tree and
-/// where it stands in the file (the column of its first character). `root` null = not given.
-struct Formula {
-  std::string text;
-  expr::NodePtr root;
-  SourceLocation where;
-  bool given() const { return root != nullptr; }
-};
 
 /// A source value: one time function per component (a single function is broadcast).
 struct SourceValue {

@@ -17,21 +17,6 @@ namespace {
 
 const std::vector<std::string> kCommonKeys = {"type", "dim", "domain", "components", "description"};
 
-/// A plain number (YAML's .nan and .inf included: refused as numbers) or a submodel's
-/// $parameter: not a formula.
-bool IsPlainValue(const YAML::Node& n) {
-  if (!n.IsScalar()) return true;
-  const std::string& s = n.Scalar();
-  if (s.empty() || s[0] == '$') return true;
-  std::string word = s.substr(s[0] == '-' || s[0] == '+' ? 1 : 0);
-  for (char& c : word) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (word == ".nan" || word == ".inf") return true;
-  const char* begin = s.c_str();
-  char* end = nullptr;
-  (void)std::strtod(begin, &end);
-  return end == begin + s.size();
-}
-
 /// The hint of a value that must be constant, per kind: where its law goes instead.
 std::string LawKeysHint(ElementKind k) {
   switch (k) {
@@ -43,7 +28,7 @@ std::string LawKeysHint(ElementKind k) {
     case ElementKind::kTF:
     case ElementKind::kGY: return "a ratio that changes is a scalar formula: ratio: \"...\" (a matrix ratio is constant)";
     case ElementKind::kMTF:
-    case ElementKind::kMGY: return "a modulus changes through its orientation state only; a scalar ratio that changes is a TF or GY with ratio: \"...\"";
+    case ElementKind::kMGY: return "a modulus that changes is a matrix of formulas: modulus: {matrix: [[\"cos(a)\", ...]]}, or follows an orientation state (rotation:, lever:)";
     default: return "";
   }
 }

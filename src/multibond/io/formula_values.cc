@@ -91,7 +91,10 @@ SourceLocation ValueReader::At(const YAML::Node& n, int offset) const {
   const std::string& raw = cx_.text;
   const size_t pos = static_cast<size_t>(m.pos);
   if (offset < 0 || static_cast<size_t>(offset) > scalar.size() || pos >= raw.size()) return where;
-  auto stands_at = [&](size_t at) { return at <= raw.size() && raw.compare(at, scalar.size(), scalar) == 0; };
+  // The text up to and including the character stands in the file as it is (escapes, folding
+  // or '' further on do not matter).
+  const size_t upto = std::min(scalar.size(), static_cast<size_t>(offset) + 1);
+  auto stands_at = [&](size_t at) { return at <= raw.size() && raw.compare(at, upto, scalar, 0, upto) == 0; };
   if (stands_at(pos)) return cx_.Location(pos + offset);
   if ((raw[pos] == '"' || raw[pos] == '\'') && stands_at(pos + 1)) return cx_.Location(pos + 1 + offset);
   if (raw[pos] == '|') {

@@ -20,16 +20,7 @@ namespace {
 
 /// A drive's value that is text but no number: a formula (a number, YAML's .nan and .inf, and a
 /// mapping such as {step: 50} are time functions).
-bool IsFormulaText(const YAML::Node& n) {
-  if (!n.IsScalar() || n.Scalar().empty()) return false;
-  const std::string& s = n.Scalar();
-  std::string word = s.substr(s[0] == '-' || s[0] == '+' ? 1 : 0);
-  for (char& c : word) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (word == ".nan" || word == ".inf") return false;
-  char* end = nullptr;
-  (void)std::strtod(s.c_str(), &end);
-  return end != s.c_str() + s.size();
-}
+bool IsFormulaText(const YAML::Node& n) { return n.IsScalar() && !n.Scalar().empty() && !ValueReader::IsPlainValue(n); }
 
 }  // namespace
 

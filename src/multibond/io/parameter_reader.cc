@@ -91,6 +91,38 @@ Eigen::MatrixXd ParameterReader::Selection(const YAML::Node& n, const std::strin
   return s;
 }
 
+/// A modulus' matrix whose entries are numbers or formulas: the formulas that change (of time or
+/// model variables) go to `entries` (row-major; all not given when none changes), their places
+/// in the constant matrix 0.
+Eigen::MatrixXd ParameterReader::ModulusMatrix(const YAML::Node& n, const std::string& element, const std::string& prefix,
+                                               const Env& env, std::vector<Formula>* entries) {
+  if (!n.IsSequence() || n.size() == 0 || !n[0].IsSequence()) return Matrix(n, element, env);  // reports the shape
+  const size_t rows = n.size(), cols = n[0].size();
+  bool varies = false;
+  for (size_t r = 0; r < rows; ++r)
+    for (size_t c = 0; n[r].IsSequence() && c < n[r].size(); ++c)
+      varies = varies || !IsPlainValue(n[r][c]);
+  if (!varies) return Matrix(n, element, env);
+  Eigen::MatrixXd m = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows), static_cast<Eigen::Index>(cols));
+  std::vector<Formula> out(rows * cols);
+  bool any = false;
+  for (size_t r = 0; r < rows; ++r) {
+    if (!n[r].IsSequence() || n[r].size() != cols) return Matrix(n, element, env);  // reports the ragged row
+    for (size_t c = 0; c < cols; ++c) {
+      const std::optional<Formula> f = ReadFormula(n[r][c], element, FormulaScope{&env, prefix, {}, "modulus entry"});
+      if (!f) continue;
+      if (const std::optional<double> v = ConstantValue(*f)) {
+        m(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c)) = *v;
+      } else {
+        out[r * cols + c] = *f;
+        any = true;
+      }
+    }
+  }
+  if (any) *entries = std::move(out);
+  return m;
+}
+
 Modulus ParameterReader::ReadModulus(const YAML::Node& n, const std::string& element, const std::string& prefix, const Env& env) {
   Modulus m;
   if (!n.IsMap()) {
@@ -115,7 +147,10 @@ Modulus ParameterReader::ReadModulus(const YAML::Node& n, const std::string& ele
   }
   if (n["matrix"]) {
     m.kind = Modulus::Kind::kConstant;
-    m.constant = Matrix(n["matrix"], element, env);
+    m.constant = ModulusMatrix(n["matrix"], element, prefix, env, &m.entries);
+    if (!m.entries.empty() && (n["left"] || n["rows"]))
+      sink_.Error(Loc(n["left"] ? n["left"] : n["rows"]), element, "a modulus whose entries are formulas takes no 'left' or 'rows'",
+                  "put the selection into the matrix itself");
   } else if (n["rotation"]) {
     m.kind = Modulus::Kind::kRotation;
     m.rotation = Qualify(prefix, Str(n["rotation"], element));

@@ -21,6 +21,8 @@ class ParameterReader : public ValueReader {
   Modulus ReadModulus(const YAML::Node& n, const std::string& element, const std::string& prefix, const Env& env);
 
  private:
+  Eigen::MatrixXd ModulusMatrix(const YAML::Node& n, const std::string& element, const std::string& prefix, const Env& env,
+                                std::vector<Formula>* entries);
   /// The rows of a modulus: a list of axes.
   Eigen::MatrixXd Selection(const YAML::Node& n, const std::string& element);
 };

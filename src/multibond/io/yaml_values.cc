@@ -1,6 +1,7 @@
 #include "multibond/io/yaml_values.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cfloat>
 #include <cmath>
 #include <cstdlib>
@@ -186,6 +187,19 @@ bool ValueReader::Bool(const YAML::Node& n, const std::string& element) {
 
 std::string ValueReader::Qualify(const std::string& prefix, const std::string& local) {
   return prefix.empty() ? local : prefix + "." + local;
+}
+
+bool ValueReader::IsPlainValue(const YAML::Node& n) {
+  if (!n.IsScalar()) return true;
+  const std::string& s = n.Scalar();
+  if (s.empty() || s[0] == '$') return true;
+  std::string word = s.substr(s[0] == '-' || s[0] == '+' ? 1 : 0);
+  for (char& c : word) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (word == ".nan" || word == ".inf") return true;
+  const char* begin = s.c_str();
+  char* end = nullptr;
+  (void)std::strtod(begin, &end);
+  return end == begin + s.size();
 }
 
 }  // namespace multibond

@@ -60,6 +60,9 @@ class ValueReader {
   std::optional<Formula> ReadFormula(const YAML::Node& n, const std::string& element, const FormulaScope& scope);
   /// The value of a formula that names nothing but `pi` (its parameters replaced), else nullopt.
   static std::optional<double> ConstantValue(const Formula& f);
+  /// A plain number (YAML's .nan and .inf included: refused as numbers), a submodel's $parameter
+  /// or no scalar at all: not a formula.
+  static bool IsPlainValue(const YAML::Node& n);
   /// file:line:column of the character at `offset` of a scalar's text (past an opening quote).
   SourceLocation At(const YAML::Node& n, int offset) const;
   Eigen::VectorXd Vector(const YAML::Node& n, const std::string& element, const Env& env);
