@@ -155,7 +155,7 @@ std::string CompiledModel::GenerateBody() const {
     }
   }
   std::vector<std::string> after(pieces.size());  // the state derivatives to write after piece p
-  for (const Gather& gt : gathers_) {
+  for (const Gather& gt : layout_.gathers()) {
     std::string g;
     std::vector<int> reads;
     EmitGather(gt, g, &reads);
@@ -195,7 +195,7 @@ std::string CompiledModel::GenerateColumnsSource() const {
       for (int q : cg.closure) EmitInstr(plan_[q], o, levers_done);
       int off = constraints_.column_offset()[col];
       for (int gi : cg.momenta) {
-        const Gather& gt = gathers_[gi];
+        const Gather& gt = layout_.gathers()[gi];
         for (int r = 0; r < gt.size; ++r) {
           const std::string e = W(gt.effort + r);
           line(fmt::format("b[{}] = {};", off + r, gt.sign == 1.0 ? e : gt.sign == -1.0 ? "-" + e : Lit(gt.sign) + " * " + e));
@@ -337,7 +337,7 @@ std::string CompiledModel::GenerateReactSource() const {
   CodeNames names;
   names.multipliers = true;
   for (int k : constraints_.reaction_plan()) EmitInstr(plan_[k], o, levers_done, names);
-  for (int gi : constraints_.reaction_gathers()) EmitGather(gathers_[gi], o);
+  for (int gi : constraints_.reaction_gathers()) EmitGather(layout_.gathers()[gi], o);
   o += "}\n";
   return o;
 }

@@ -19,13 +19,14 @@ void CompiledModel::Build() {
   // and passes").
   PrepareConstraintGraph();  // structure, causality; ideal constraints become effort sources
   AssignSlots();             // slot classes, their names; the multipliers' offsets
-  LayoutStates();            // state blocks, names, units, initial values
-  IndexVariables();          // state_layout.cc: FindVariable's indexes (formulas read variables)
-  AccountEnergy();           // each I's and C's stored-energy matrix and term
+  layout_ = StateLayout({graph_, structure_, effort_class_, flow_class_, class_offset_, class_size_, class_units_,
+                         signal_class_, internal_class_, options_.energy_account});  // blocks, x0, gathers, names
+  energy_ = EnergyAccount({graph_, layout_, [this](int element, int state) {
+                             return StoredEnergyFormula(element, state);  // formulas.cc
+                           }});  // each I's and C's stored energy
   const std::vector<int> modulus_of = PlanModuli();
   const PlanDeps deps = OrderPlan(EmitInstructions(modulus_of));  // plan_, tears_, tear_closure_
   needed_moduli_ = plan::Specialize(plan_, coef_, sum_terms_, sum_signs_, moduli_);
-  BuildGathers();
   CheckFormulaUse();  // formulas.cc
   if (!tears_.empty() && !constraints_.empty()) {
     Diagnostic d;
@@ -90,9 +91,11 @@ void CompiledModel::GenerateCode() {
   }
 }
 
+Eigen::VectorXd CompiledModel::MakeInitialState() const { return layout_.x0(); }
+
 bool CompiledModel::has_invariants() const {
   if (!constraints_.empty()) return true;
-  for (const StateBlock& b : blocks_)
+  for (const StateBlock& b : layout_.blocks())
     if (b.kind == StateBlock::Kind::kOrientation) return true;
   return false;
 }

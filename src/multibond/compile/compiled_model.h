@@ -20,7 +20,9 @@
 
 #include "multibond/causality/causality.h"
 #include "multibond/compile/constraint_solver.h"
+#include "multibond/compile/energy_account.h"
 #include "multibond/compile/operations.h"
+#include "multibond/compile/state_layout.h"
 #include "multibond/core/graph.h"
 #include "multibond/core/ode_system.h"
 #include "multibond/core/structure.h"
@@ -57,37 +59,6 @@ struct Workspace {
   } tear;
 };
 
-/// A named, contiguous group of states (I momenta, C displacements, auxiliary states, energy).
-struct StateBlock {
-  enum class Kind { kMomentum, kDisplacement, kOrientation, kIntegral, kWork, kDissipation };
-  Kind kind;
-  int owner;   ///< element index (I, C, source, R) or aux index (orientation, integral)
-  int offset;  ///< first entry in the state vector
-  int size;
-  /// Signal states (a rate formula, a lag, a PID): the slot class their derivative copies; -1 =
-  /// by kind (derivative_source).
-  int rate_class = -1;
-};
-
-/// How one state block's derivative is read from the slots (CompiledModel::EvalGather): the
-/// effort (momenta, displacements) or flow (orientations, integrals) it reads, or both (work,
-/// dissipation), and a sign (an orientation's: its stabilisation gain, 0 = none).
-struct StateGather {
-  StateBlock::Kind kind;
-  int state, size, effort, flow, rotation;
-  double sign;
-};
-
-/// Where a named variable lives and how to read it.
-struct VariableRef {
-  enum class In { kState, kSlot };
-  In in = In::kSlot;
-  int offset = 0;
-  int size = 1;
-  std::string unit;
-  std::vector<std::string> components;  ///< suffixes ("x", "y", "z", "11", ...), empty for scalars
-};
-
 /// One step of the plan, described symbolically for `multibond equations`.
 struct Definition {
   enum class Kind { kSource, kMomentumFlow, kStiffnessEffort, kLinear, kSum, kFormula };
@@ -108,7 +79,7 @@ class CompiledModel {
   /// found (structure, causality conflicts, derivative causality, algebraic loops).
   static std::shared_ptr<const CompiledModel> Compile(BondGraph graph, const CompileOptions& options = {});
 
-  int num_states() const { return static_cast<int>(state_names_.size()); }
+  int num_states() const { return layout_.num_states(); }
   /// The right-hand side: fills `ws` with every effort and flow and writes dx/dt. No allocation.
   void CalcDerivatives(double t, const double* x, double* xdot, Workspace& ws) const;
   /// The same, for integrators: writes dx/dt and may leave `ws` unfilled (generated code then
@@ -158,9 +129,10 @@ class CompiledModel {
   const BondGraph& graph() const { return graph_; }
   const Structure& structure() const { return structure_; }
   const CausalAssignment& causality() const { return causality_; }
-  const std::vector<std::string>& state_names() const { return state_names_; }
-  const std::vector<std::string>& state_units() const { return state_units_; }
-  const std::vector<StateBlock>& state_blocks() const { return blocks_; }
+  // --- the state layout (compile/state_layout.h) ---
+  const std::vector<std::string>& state_names() const { return layout_.state_names(); }
+  const std::vector<std::string>& state_units() const { return layout_.state_units(); }
+  const std::vector<StateBlock>& state_blocks() const { return layout_.blocks(); }
   int num_instructions() const { return static_cast<int>(plan_.size()); }
   /// Which state derivatives can depend on which states, from the plan (an instruction's outputs
   /// depend on all its inputs, component by component for sums, copies and diagonal
@@ -181,10 +153,12 @@ class CompiledModel {
   /// plan once and these once more per unknown, plus once.
   int num_loop_instructions() const { return static_cast<int>(tear_closure_.size()); }
 
-  /// Looks up "<element>.e|f|e1|f1|e2|f2|p|q" or an auxiliary state's name.
-  std::optional<VariableRef> FindVariable(const std::string& name) const;
+  /// Looks up "<element>.e|f|e1|f1|e2|f2|p|q" or an auxiliary state's name (StateLayout::FindVariable).
+  std::optional<VariableRef> FindVariable(const std::string& name) const { return layout_.FindVariable(name); }
   /// Reads a variable after CalcDerivatives has filled `ws` at state x.
-  void Read(const VariableRef& v, const double* x, const Workspace& ws, double* out) const;
+  void Read(const VariableRef& v, const double* x, const Workspace& ws, double* out) const {
+    StateLayout::Read(v, x, ws.slots.data(), out);
+  }
 
   // --- formulas (compile/formulas.cc) ---
   bool has_formulas() const { return !programs_.empty(); }
@@ -197,20 +171,18 @@ class CompiledModel {
   /// `active` that delivers power (sigma e f < 0), as a message naming it; empty if none.
   std::string FindActiveResistor(const Workspace& ws) const;
 
-  // --- energy account (from the state; the workspace must have been filled at x) ---
-  double StoredEnergy(int element, const double* x) const;  ///< I or C
+  // --- energy account (compile/energy_account.h: from the state x alone) ---
+  double StoredEnergy(int element, const double* x) const { return energy_.StoredEnergy(element, x); }  ///< I or C
   /// Every I's and C's stored energy in one pass (what an output row needs): per_term receives
   /// num_energy_terms() values, in the order energy_term(element) gives; returns the sums.
-  struct EnergyTotals {
-    double kinetic = 0.0, potential = 0.0;
-  };
-  EnergyTotals StoredEnergies(const double* x, double* per_term) const;
-  int num_energy_terms() const { return static_cast<int>(energy_terms_.size()); }
-  int energy_term(int element) const { return energy_term_of_element_.at(element); }  ///< or -1
-  double KineticEnergy(const double* x) const;
-  double PotentialEnergy(const double* x) const;
-  double Work(const double* x) const;        ///< total work of all sources so far
-  double Dissipated(const double* x) const;  ///< total dissipated in all resistors so far
+  using EnergyTotals = EnergyAccount::Totals;
+  EnergyTotals StoredEnergies(const double* x, double* per_term) const { return energy_.StoredEnergies(x, per_term); }
+  int num_energy_terms() const { return energy_.num_terms(); }
+  int energy_term(int element) const { return energy_.term(element); }  ///< or -1
+  double KineticEnergy(const double* x) const { return energy_.Kinetic(x); }
+  double PotentialEnergy(const double* x) const { return energy_.Potential(x); }
+  double Work(const double* x) const { return energy_.Work(x); }              ///< total work of all sources so far
+  double Dissipated(const double* x) const { return energy_.Dissipated(x); }  ///< total dissipated in all resistors so far
   bool has_energy_account() const { return options_.energy_account; }
 
   // --- symbolic view of the plan, for `multibond equations` ---
@@ -221,8 +193,8 @@ class CompiledModel {
   /// A readable name for a slot class: "j.f", "spring.e", "gear.f2".
   const std::string& slot_class_name(int slot_class) const { return class_names_[slot_class]; }
   /// The slot class each state block's derivative reads (e for I, f for C and integrals).
-  int derivative_source(const StateBlock& b) const;
-  double derivative_sign(const StateBlock& b) const;
+  int derivative_source(const StateBlock& b) const { return layout_.derivative_source(b); }
+  double derivative_sign(const StateBlock& b) const { return layout_.derivative_sign(b); }
 
  private:
   CompiledModel() = default;
@@ -231,12 +203,6 @@ class CompiledModel {
   /// Slot classes: the efforts and flows that share a workspace slot (0- and 1-junctions,
   /// identity transformers), their offsets, sizes, units and names; the multipliers' offsets.
   void AssignSlots();
-  /// The state vector: blocks, names, units and initial values (state_layout.cc).
-  void LayoutStates();
-  /// FindVariable's indexes, made at the end of Build (state_layout.cc).
-  void IndexVariables();
-  /// The energy account's terms: each I's and C's matrix (I^-1 or K) and term (energy_account.cc).
-  void AccountEnergy();
   /// The moduli of the MTF and MGY; returns per element its index in moduli_ or -1 (plan_builder.cc).
   std::vector<int> PlanModuli();
   /// One instruction per computed slot class, unordered, with the classes each reads and the
@@ -269,7 +235,9 @@ class CompiledModel {
     int element = -1;
     std::string what;  ///< "the effort law of spring"
   };
-  /// Compiles a tree (own names already substituted) into programs_; returns its index.
+  /// Compiles a tree (own names already substituted) into a program reading what the resolver
+  /// of formulas' names finds; CompileFormula appends it to programs_ and returns its index.
+  expr::Program CompileFormulaProgram(const expr::NodePtr& root, const FormulaScope& scope) const;
   int CompileFormula(const expr::NodePtr& root, const FormulaScope& scope);
   /// The instruction that computes one slot class from formulas, with the classes it reads.
   struct FormulaInstr {
@@ -285,10 +253,10 @@ class CompiledModel {
   std::vector<FormulaInstr> SignalInstructions();
   /// kExpr over programs `first` .. `first + n` into class `out`.
   FormulaInstr MakeFormulaInstr(int element, int out_class, int first, int n);
-  /// Stored energy of a storage element given by a formula (or, for a law without a closed-form
-  /// integral, by quadrature of its law): its program or law, made by AccountEnergy.
-  /// energy_terms_[term]'s program or law, for the storage element `element`.
-  void AccountFormulaEnergy(int element, int term);
+  /// The stored energy of a storage element given by formulas, whose state starts at `state`:
+  /// its `energy:` formula or its law's closed-form integral as a program of x, else its law as
+  /// a program of x[0] (EnergyAccount integrates it); nullopt if its parameter gives its energy.
+  std::optional<EnergyAccount::FormulaEnergy> StoredEnergyFormula(int element, int state) const;
   /// Refuses what formulas do not support yet: ideal constraints, solved algebraic loops through them.
   void CheckFormulaUse() const;
 
@@ -332,8 +300,6 @@ class CompiledModel {
   ConstraintSolver::PlanView ConstraintPlan(const SourceTable* sources) const;
   /// jacobian_pattern_ from the plan's reads and writes (compile/jacobian_pattern.cc).
   void BuildJacobianPattern();
-  /// The state-derivative gathers, from the state layout and the slot classes.
-  void BuildGathers();
 
   BondGraph graph_;
   CompileOptions options_;
@@ -353,7 +319,6 @@ class CompiledModel {
   std::vector<double> sum_signs_;  ///< kSum: their signs (parallel to sum_terms_)
   std::vector<ModulusEval> moduli_;
   std::vector<int> needed_moduli_;  ///< indices of moduli_ that EvalModuli must compute
-  std::vector<Gather> gathers_;
   std::vector<TimeFunction> source_fns_;
   JacobianPattern jacobian_pattern_;
   /// Algebraic loops torn (solve_algebraic_loops): per torn variable, its slot (which holds the
@@ -401,13 +366,12 @@ class CompiledModel {
   using ConstraintGroup = ConstraintSolver::Group;
   ConstraintSolver constraints_;
 
-  std::vector<StateBlock> blocks_;
-  /// A state block's name ("mass.p", "A.R") -> its first block, and a named bond -> its index: a
-  /// search over every block per lookup made laying out the columns of a 5,000-body model quadratic.
-  std::unordered_map<std::string, int> block_by_name_, bond_by_name_;
-  std::vector<std::string> state_names_, state_units_;
-  Eigen::VectorXd x0_;
-  std::vector<expr::Program> programs_;  ///< the formulas' programs (kExpr, energy terms)
+  /// The state vector's blocks, names, units, initial values and gathers, and the lookup of
+  /// named variables (compile/state_layout.h); built after the slots.
+  StateLayout layout_;
+  /// Each I's and C's stored energy, the work and dissipation totals (compile/energy_account.h).
+  EnergyAccount energy_;
+  std::vector<expr::Program> programs_;  ///< the formulas' programs (kExpr, kSolve)
   struct Passive {
     int element, effort, flow;  ///< effort and flow slots of its bond
     double sigma;
@@ -417,27 +381,6 @@ class CompiledModel {
   std::unordered_map<std::string, int> internal_class_;  ///< the signal states' rates ("lag.rate") -> class
   std::vector<int> class_of_slot_;  ///< per workspace slot: its class (formulas' dependencies), -1 for scratch
   std::unordered_map<int, int> solve_slot_;  ///< resistor -> the scratch slot of its solved law's unknown
-  std::vector<int> element_block_;  ///< per element: its state block (I, C) or -1
-  std::vector<int> aux_block_;      ///< per aux state
-  std::vector<Eigen::MatrixXd> energy_matrix_;  ///< per element: I^-1 (I) or K (C); Ib^-1 for rotated I
-  /// The stored energy of each I and C, ready for output times (no lookups, no allocation).
-  struct EnergyTerm {
-    int state, size;
-    int rotation;  ///< state offset of the body's orientation (rotated inertia), or -1
-    int coef;      ///< offset in energy_coef_ of the size x size matrix (row-major)
-    bool kinetic;
-    int program = -1;  ///< a formula's energy: its program in programs_ (then coef is unused)
-    int law = -1;      ///< a law without a closed-form energy: its program of x[0] (quadrature)
-  };
-
-  std::vector<EnergyTerm> energy_terms_;
-  std::vector<double> energy_coef_;
-  std::vector<int> energy_term_of_element_;  ///< index in energy_terms_, or -1
-  double EnergyOf(const EnergyTerm& et, const double* x) const;
 };
-
-/// Component suffixes for a bond of dimension n: none for 1, x y z for 3, 1..n otherwise,
-/// unless `names` gives them.
-std::vector<std::string> ComponentNames(int n, const std::vector<std::string>& names = {});
 
 }  // namespace multibond

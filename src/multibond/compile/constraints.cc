@@ -157,12 +157,12 @@ void CompiledModel::PrepareConstraintGraph() {
 }
 
 ConstraintSolver::PlanView CompiledModel::ConstraintPlan(const SourceTable* sources) const {
-  return {plan_, tables(), moduli_, gathers_, &CompiledModel::EvalGather, sources, num_states()};
+  return {plan_, tables(), moduli_, layout_.gathers(), &CompiledModel::EvalGather, sources, num_states()};
 }
 
 void CompiledModel::BuildConstraints(const std::vector<std::vector<int>>& plan_reads, const std::vector<int>& plan_writes) {
-  constraints_.Build({graph_, plan_, plan_reads, plan_writes, blocks_, gathers_, class_offset_, class_size_, class_names_,
-                      flow_class_, effort_class_, num_slots_});
+  constraints_.Build({graph_, plan_, plan_reads, plan_writes, layout_.blocks(), layout_.gathers(), class_offset_, class_size_,
+                      class_names_, flow_class_, effort_class_, num_slots_});
 }
 
 void CompiledModel::FindIndependentConstraints() {
@@ -170,9 +170,9 @@ void CompiledModel::FindIndependentConstraints() {
   // At the initial state, with the multipliers at zero.
   Workspace ws = MakeWorkspace();
   std::vector<double> xdot(num_states());
-  EvalPlan(0.0, x0_.data(), xdot.data(), ws);
+  EvalPlan(0.0, layout_.x0().data(), xdot.data(), ws);
   const SourceTable sources = Sources();
-  constraints_.FindIndependent(ConstraintPlan(&sources), x0_.data(), ws);
+  constraints_.FindIndependent(ConstraintPlan(&sources), layout_.x0().data(), ws);
 }
 
 std::vector<std::string> CompiledModel::constraint_names() const { return constraints_.names(); }

@@ -1,13 +1,16 @@
 /// \file
-/// The energy account (docs/design.md, "Energy account"): each I's and C's stored energy from the
-/// state, and the sources' work and the resistors' dissipation integrated as states.
+/// The energy account (compile/energy_account.h; docs/design.md, "Energy account"): each I's and
+/// C's stored energy from the state, and the totals of the sources' work and the resistors'
+/// dissipation, integrated as states.
+
+#include "multibond/compile/energy_account.h"
 
 #include <cmath>
 
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_integration.h>
 
-#include "multibond/compile/compiled_model.h"
+#include "multibond/compile/operations.h"
 
 namespace multibond {
 namespace {
@@ -32,34 +35,35 @@ double LawEnergy(const expr::Program& law, double q) {
 
 }  // namespace
 
-void CompiledModel::AccountEnergy() {
-  const BondGraph& g = graph_;
-  energy_matrix_.resize(g.num_elements());
-  for (const StateBlock& blk : blocks_) {
+EnergyAccount::EnergyAccount(const Input& in) {
+  const BondGraph& g = in.graph;
+  const StateLayout& layout = in.layout;
+  term_of_element_.assign(g.num_elements(), -1);
+  for (const StateBlock& blk : layout.blocks()) {
+    if (blk.kind == StateBlock::Kind::kWork) work_.push_back(blk.offset);
+    if (blk.kind == StateBlock::Kind::kDissipation) dissipated_.push_back(blk.offset);
     if (blk.kind != StateBlock::Kind::kMomentum && blk.kind != StateBlock::Kind::kDisplacement) continue;
     const Element& e = g.element(blk.owner);
-    if (HasFormulas(e)) continue;  // its energy is a formula (AccountFormulaEnergy)
-    const int n = blk.size;
-    const Eigen::MatrixXd p = e.param.AsMatrix(n, n);
-    energy_matrix_[blk.owner] = blk.kind == StateBlock::Kind::kMomentum ? Eigen::MatrixXd(p.inverse()) : p;
-  }
-  energy_term_of_element_.assign(g.num_elements(), -1);
-  for (const StateBlock& blk : blocks_) {
-    if (blk.kind != StateBlock::Kind::kMomentum && blk.kind != StateBlock::Kind::kDisplacement) continue;
-    const Element& e = g.element(blk.owner);
-    EnergyTerm et{blk.offset, blk.size, -1, static_cast<int>(energy_coef_.size()), blk.kind == StateBlock::Kind::kMomentum};
+    Term et{blk.offset, blk.size, -1, static_cast<int>(coef_.size()), blk.kind == StateBlock::Kind::kMomentum};
     if (e.kind == ElementKind::kI && !e.rotation.empty())
-      et.rotation = blocks_[aux_block_[g.FindAux(e.rotation)]].offset;
-    plan::AppendRowMajor(energy_coef_, energy_matrix_[blk.owner]);
-    energy_term_of_element_.resize(g.num_elements(), -1);
-    energy_term_of_element_[blk.owner] = static_cast<int>(energy_terms_.size());
-    energy_terms_.push_back(et);
-    if (HasFormulas(e)) AccountFormulaEnergy(blk.owner, static_cast<int>(energy_terms_.size()) - 1);  // formulas.cc
+      et.rotation = layout.blocks()[layout.aux_block(g.FindAux(e.rotation))].offset;
+    std::optional<FormulaEnergy> formula;
+    if (in.formula_energy) formula = in.formula_energy(blk.owner, blk.offset);
+    if (formula) {
+      (formula->law ? et.law : et.program) = static_cast<int>(programs_.size());
+      programs_.push_back(std::move(formula->program));
+    } else {
+      const int n = blk.size;
+      const Eigen::MatrixXd p = e.param.AsMatrix(n, n);
+      plan::AppendRowMajor(coef_, blk.kind == StateBlock::Kind::kMomentum ? Eigen::MatrixXd(p.inverse()) : p);
+    }
+    term_of_element_[blk.owner] = static_cast<int>(terms_.size());
+    terms_.push_back(et);
   }
 }
 
-double CompiledModel::EnergyOf(const EnergyTerm& et, const double* x) const {
-  // 1/2 s^T E s with E = I^-1 or K (row-major in energy_coef_); a body's angular momentum is
+double EnergyAccount::EnergyOf(const Term& et, const double* x) const {
+  // 1/2 s^T E s with E = I^-1 or K (row-major in coef_); a body's angular momentum is
   // taken to its frame first (h_b = R^T h), where its inertia is constant. No allocation: these
   // run at every output time.
   if (et.program >= 0) return expr::Run(programs_[et.program], 0.0, x, nullptr);
@@ -71,7 +75,7 @@ double CompiledModel::EnergyOf(const EnergyTerm& et, const double* x) const {
     for (int i = 0; i < 3; ++i) hb[i] = r[i] * s[0] + r[3 + i] * s[1] + r[6 + i] * s[2];
     s = hb;
   }
-  const double* e = energy_coef_.data() + et.coef;
+  const double* e = coef_.data() + et.coef;
   double sum = 0.0;
   for (int i = 0; i < et.size; ++i) {
     double row = 0.0;
@@ -81,46 +85,44 @@ double CompiledModel::EnergyOf(const EnergyTerm& et, const double* x) const {
   return 0.5 * sum;
 }
 
-double CompiledModel::StoredEnergy(int element, const double* x) const {
-  const int term = energy_term_of_element_.at(element);
-  return term < 0 ? 0.0 : EnergyOf(energy_terms_[term], x);
+double EnergyAccount::StoredEnergy(int element, const double* x) const {
+  const int term = term_of_element_.at(element);
+  return term < 0 ? 0.0 : EnergyOf(terms_[term], x);
 }
 
-CompiledModel::EnergyTotals CompiledModel::StoredEnergies(const double* x, double* per_term) const {
-  EnergyTotals t;
-  for (size_t k = 0; k < energy_terms_.size(); ++k) {
-    const double e = EnergyOf(energy_terms_[k], x);
+EnergyAccount::Totals EnergyAccount::StoredEnergies(const double* x, double* per_term) const {
+  Totals t;
+  for (size_t k = 0; k < terms_.size(); ++k) {
+    const double e = EnergyOf(terms_[k], x);
     per_term[k] = e;
-    (energy_terms_[k].kinetic ? t.kinetic : t.potential) += e;
+    (terms_[k].kinetic ? t.kinetic : t.potential) += e;
   }
   return t;
 }
 
-double CompiledModel::KineticEnergy(const double* x) const {
+double EnergyAccount::Kinetic(const double* x) const {
   double sum = 0.0;
-  for (const EnergyTerm& et : energy_terms_)
+  for (const Term& et : terms_)
     if (et.kinetic) sum += EnergyOf(et, x);
   return sum;
 }
 
-double CompiledModel::PotentialEnergy(const double* x) const {
+double EnergyAccount::Potential(const double* x) const {
   double sum = 0.0;
-  for (const EnergyTerm& et : energy_terms_)
+  for (const Term& et : terms_)
     if (!et.kinetic) sum += EnergyOf(et, x);
   return sum;
 }
 
-double CompiledModel::Work(const double* x) const {
+double EnergyAccount::Work(const double* x) const {
   double sum = 0.0;
-  for (const StateBlock& b : blocks_)
-    if (b.kind == StateBlock::Kind::kWork) sum += x[b.offset];
+  for (int offset : work_) sum += x[offset];
   return sum;
 }
 
-double CompiledModel::Dissipated(const double* x) const {
+double EnergyAccount::Dissipated(const double* x) const {
   double sum = 0.0;
-  for (const StateBlock& b : blocks_)
-    if (b.kind == StateBlock::Kind::kDissipation) sum += x[b.offset];
+  for (int offset : dissipated_) sum += x[offset];
   return sum;
 }
 

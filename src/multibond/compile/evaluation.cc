@@ -15,7 +15,7 @@ namespace multibond {
 
 void CompiledModel::Project(double* x) const {
   using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
-  for (const StateBlock& b : blocks_) {
+  for (const StateBlock& b : layout_.blocks()) {
     if (b.kind != StateBlock::Kind::kOrientation) continue;
     Eigen::Map<Rm3> r(x + b.offset);
     // One Bjorck iteration maps a deviation e = |R^T R - I| to about (3/4) e^2; a second one is
@@ -134,7 +134,7 @@ void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace&
   if (!needed_moduli_.empty()) EvalModuli(x, mod);
   if (!tears_.empty()) {
     EvalTorn(t, x, ws);
-    for (const Gather& gt : gathers_) EvalGather(gt, x, w, xdot);
+    for (const Gather& gt : layout_.gathers()) EvalGather(gt, x, w, xdot);
     return;
   }
   if (generated_) {
@@ -145,7 +145,7 @@ void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace&
   }
   const plan::ExecArgs args{t, x, w, w, mod, ws.lambda.data(), tables()};
   for (const Instr& in : plan_) plan::Exec(in, args);
-  for (const Gather& gt : gathers_) EvalGather(gt, x, w, xdot);
+  for (const Gather& gt : layout_.gathers()) EvalGather(gt, x, w, xdot);
 }
 
 void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {

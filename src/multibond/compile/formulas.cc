@@ -121,7 +121,7 @@ void CompiledModel::AssignSignalSlots() {
     for (int k = 0; k < class_size_[c]; ++k) class_of_slot_[class_offset_[c] + k] = c;
 }
 
-int CompiledModel::CompileFormula(const NodePtr& root, const FormulaScope& scope) {
+expr::Program CompiledModel::CompileFormulaProgram(const NodePtr& root, const FormulaScope& scope) const {
   auto fail = [&](const Node& n, const std::string& code, const std::string& message, const std::string& hint) {
     Diagnostic d;
     d.code = code;
@@ -166,7 +166,11 @@ int CompiledModel::CompileFormula(const NodePtr& root, const FormulaScope& scope
          "(`multibond check` lists them); in a law, the element's own variable is q (C), p (I), f or e (R)");
     return {};
   };
-  programs_.push_back(expr::CompileProgram(*root, resolve));
+  return expr::CompileProgram(*root, resolve);
+}
+
+int CompiledModel::CompileFormula(const NodePtr& root, const FormulaScope& scope) {
+  programs_.push_back(CompileFormulaProgram(root, scope));
   return static_cast<int>(programs_.size()) - 1;
 }
 
@@ -194,7 +198,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
   std::vector<FormulaInstr> out;
   auto name_of = [&](const std::string& internal) -> std::string {
     const int offset = std::stoi(internal.substr(2));
-    if (internal[1] == 'x') return state_names_[offset];
+    if (internal[1] == 'x') return layout_.state_names()[offset];
     return class_names_[class_of_slot_[offset]];
   };
   // One program per output component, from `tree(k)`, into class `out_class`.
@@ -288,12 +292,12 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
         }
         law = expr::Differentiate(*e.energy.root, own);
       }
-      const int state = blocks_[element_block_[i]].offset;
+      const int state = layout_.blocks()[layout_.element_block(i)].offset;
       const double sigma = inertia ? 1.0 : g.PowerSign(b, i);
       const NodePtr tree = Signed(sigma, Replace(law, own, StateRef(state)));
       const std::string what = fmt::format("the {} law of {}", inertia ? "flow" : "effort", e.name);
       const std::string law_text = e.energy.given() ? fmt::format("d({})/d{}", e.energy.text, own) : given.text;
-      const std::string shown = fmt::format("{}({} at {} = {})", sigma < 0 ? "-" : "", law_text, own, state_names_[state]);
+      const std::string shown = fmt::format("{}({} at {} = {})", sigma < 0 ? "-" : "", law_text, own, layout_.state_names()[state]);
       emit(inertia ? flow_class_[b] : effort_class_[b], 1, [&](int) { return tree; }, &given, what, shown);
       break;
     }
@@ -451,7 +455,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::SignalInstructions() {
   auto cls = [&](const std::string& name) { return internal_class_.at(name); };
   auto name_of = [&](const std::string& internal) -> std::string {
     const int offset = std::stoi(internal.substr(2));
-    if (internal[1] == 'x') return state_names_[offset];
+    if (internal[1] == 'x') return layout_.state_names()[offset];
     return class_names_[class_of_slot_[offset]];
   };
   auto emit = [&](int out_class, const NodePtr& tree, const Formula* f, const std::string& what) {
@@ -465,7 +469,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::SignalInstructions() {
   for (const Signal& s : g.signals()) emit(signal_class_.at(s.name), s.value.root, &s.value, "the signal " + s.name);
   for (size_t a = 0; a < g.aux_states().size(); ++a) {
     const AuxState& s = g.aux_states()[a];
-    const StateBlock& blk = blocks_[aux_block_[a]];
+    const StateBlock& blk = layout_.blocks()[layout_.aux_block(a)];
     const NodePtr self = StateRef(blk.offset);
     switch (s.kind) {
       case AuxState::Kind::kIntegral:
@@ -484,7 +488,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::SignalInstructions() {
         NodePtr raw = expr::Binary(K::kAdd, expr::Binary(K::kMul, num(p.kp), e), expr::Binary(K::kMul, num(p.ki), self));
         NodePtr d_rate;
         if (p.kd > 0.0) {
-          const NodePtr d = StateRef(blocks_[aux_block_[a] + 1].offset);
+          const NodePtr d = StateRef(layout_.blocks()[layout_.aux_block(a) + 1].offset);
           d_rate = expr::Binary(K::kDiv, expr::Binary(K::kSub, e, d), num(p.tf));
           raw = expr::Binary(K::kAdd, raw, expr::Binary(K::kMul, num(p.kd), d_rate));
         }
@@ -503,7 +507,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::SignalInstructions() {
             p.ki > 0.0 ? expr::Binary(K::kAdd, e, expr::Binary(K::kDiv, expr::Binary(K::kSub, SlotRef(class_offset_[c_u]), r), num(p.ki * tt)))
                        : num(0.0);
         emit(blk.rate_class, i_rate, &s.input, "the integral of " + s.name);
-        if (p.kd > 0.0) emit(blocks_[aux_block_[a] + 1].rate_class, d_rate, &s.input, "the derivative filter of " + s.name);
+        if (p.kd > 0.0) emit(layout_.blocks()[layout_.aux_block(a) + 1].rate_class, d_rate, &s.input, "the derivative filter of " + s.name);
         break;
       }
       case AuxState::Kind::kOrientation:
@@ -513,9 +517,9 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::SignalInstructions() {
   return out;
 }
 
-void CompiledModel::AccountFormulaEnergy(int element, int term) {
+std::optional<EnergyAccount::FormulaEnergy> CompiledModel::StoredEnergyFormula(int element, int state) const {
   const Element& e = graph_.element(element);
-  EnergyTerm& et = energy_terms_[term];
+  if (!HasFormulas(e)) return std::nullopt;
   const char* own = e.kind == ElementKind::kI ? "p" : "q";
   std::optional<NodePtr> energy;
   const Formula* f = &e.energy;
@@ -526,8 +530,8 @@ void CompiledModel::AccountFormulaEnergy(int element, int term) {
     energy = expr::IntegrateFromZero(*f->root, own);
   }
   const FormulaScope scope{f, element, "the stored energy of " + e.name};
-  if (energy) et.program = CompileFormula(Replace(*energy, own, StateRef(et.state)), scope);
-  else et.law = CompileFormula(Replace(f->root, own, StateRef(0)), scope);  // integrated over x[0] (LawEnergy)
+  if (energy) return EnergyAccount::FormulaEnergy{CompileFormulaProgram(Replace(*energy, own, StateRef(state)), scope)};
+  return EnergyAccount::FormulaEnergy{CompileFormulaProgram(Replace(f->root, own, StateRef(0)), scope), true};  // of x[0]
 }
 
 void CompiledModel::CheckFormulaUse() const {
@@ -572,7 +576,7 @@ std::string CompiledModel::DiagnoseFormulas(double t, const double* x, Workspace
         const bool state = put.in == expr::Input::In::kState;
         const double v = state ? x[put.offset] : w[put.offset];
         inputs_finite = inputs_finite && std::isfinite(v);
-        const std::string name = state                              ? state_names_[put.offset]
+        const std::string name = state                              ? layout_.state_names()[put.offset]
                                  : class_of_slot_[put.offset] >= 0 ? class_names_[class_of_slot_[put.offset]]
                                                                    : std::string("the unknown");
         reads += fmt::format("{}{} = {:.9g}", reads.empty() ? "" : ", ", name, v);

@@ -43,7 +43,7 @@ void CompiledModel::BuildJacobianPattern() {
   if (!constraints_.empty() || !tears_.empty()) {
     std::vector<bool> alone(n, false);
     bool any = false;
-    for (const StateBlock& b : blocks_)
+    for (const StateBlock& b : layout_.blocks())
       if (b.kind == StateBlock::Kind::kWork || b.kind == StateBlock::Kind::kDissipation)
         for (int k = 0; k < b.size; ++k) alone[b.offset + k] = any = true;
     if (!any) return;
@@ -107,7 +107,7 @@ void CompiledModel::BuildJacobianPattern() {
   }
 
   std::vector<Deps> row(n);  // what each state derivative depends on
-  for (const Gather& gt : gathers_) {
+  for (const Gather& gt : layout_.gathers()) {
     switch (gt.kind) {
       case StateBlock::Kind::kMomentum:
       case StateBlock::Kind::kDisplacement:

@@ -94,8 +94,8 @@ void CompiledModel::AssignSlots() {
 std::vector<int> CompiledModel::PlanModuli() {
   const BondGraph& g = graph_;
   auto effort_into = [&](int b, int e) { return causality_.EffortInto(g, b, e); };
-  auto state_offset = [&](int block) { return blocks_[block].offset; };
-  auto aux_offset = [&](const std::string& name) { return state_offset(aux_block_[g.FindAux(name)]); };
+  auto state_offset = [&](int block) { return layout_.blocks()[block].offset; };
+  auto aux_offset = [&](const std::string& name) { return state_offset(layout_.aux_block(g.FindAux(name))); };
 
   // --- Moduli of MTF and MGY, evaluated once per right-hand side. ---
   std::vector<int> modulus_of(g.num_elements(), -1);
@@ -141,8 +141,8 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
   const BondGraph& g = graph_;
   const auto& dim = structure_.bond_dim;
   auto effort_into = [&](int b, int e) { return causality_.EffortInto(g, b, e); };
-  auto state_offset = [&](int block) { return blocks_[block].offset; };
-  auto aux_offset = [&](const std::string& name) { return state_offset(aux_block_[g.FindAux(name)]); };
+  auto state_offset = [&](int block) { return layout_.blocks()[block].offset; };
+  auto aux_offset = [&](const std::string& name) { return state_offset(layout_.aux_block(g.FindAux(name))); };
 
   // --- Instructions: one per computed slot class. ---
   const int nclasses = num_slot_classes();
@@ -235,18 +235,18 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
         Instr in{};
         in.element = i;
         in.n = n;
-        in.src = state_offset(element_block_[i]);
+        in.src = state_offset(layout_.element_block(i));
         in.coef = static_cast<int>(coef_.size());
         if (!e.rotation.empty()) {
           in.op = Op::kIFlowRotated;
           in.aux = aux_offset(e.rotation);
-          AppendRowMajor(coef_, energy_matrix_[i]);  // Ib^-1
+          AppendRowMajor(coef_, Eigen::MatrixXd(e.param.AsMatrix(n, n).inverse()));  // Ib^-1
         } else if (e.param.is_scalar) {
           in.op = Op::kStateScale;
           coef_.push_back(1.0 / e.param.scalar);
         } else {
           in.op = Op::kStateMatrix;
-          AppendRowMajor(coef_, energy_matrix_[i]);
+          AppendRowMajor(coef_, Eigen::MatrixXd(e.param.AsMatrix(n, n).inverse()));
         }
         emit(in, flow_class_[b], {}, {Definition::Kind::kMomentumFlow, i, {}});
         break;
@@ -257,7 +257,7 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
         Instr in{};
         in.element = i;
         in.n = n;
-        in.src = state_offset(element_block_[i]);
+        in.src = state_offset(layout_.element_block(i));
         in.coef = static_cast<int>(coef_.size());
         if (e.param.is_scalar) {
           in.op = Op::kStateScale;

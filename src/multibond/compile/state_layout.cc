@@ -1,9 +1,13 @@
 /// \file
-/// The state layout (docs/design.md, "The compiled model's parts and passes"): which states,
-/// their names, units and initial values, the flat state vector's blocks, what each block's
-/// derivative reads (the gathers), and the lookup of named variables.
+/// The state layout (compile/state_layout.h; docs/design.md, "The compiled model's parts and
+/// passes"): which states, their names, units and initial values, the flat state vector's blocks,
+/// what each block's derivative reads (the gathers), and the lookup of named variables.
 
-#include "multibond/compile/compiled_model.h"
+#include "multibond/compile/state_layout.h"
+
+#include <algorithm>
+
+#include "multibond/core/error.h"
 
 namespace multibond {
 
@@ -16,11 +20,16 @@ std::vector<std::string> ComponentNames(int n, const std::vector<std::string>& n
   return out;
 }
 
-void CompiledModel::LayoutStates() {
-  const BondGraph& g = graph_;
-  const auto& dim = structure_.bond_dim;
+StateLayout::StateLayout(const Input& in) {
+  LayOut(in);
+  BuildGathers(in);
+  IndexNames(in);
+}
 
-  // --- State layout. ---
+void StateLayout::LayOut(const Input& in) {
+  const BondGraph& g = in.graph;
+  const auto& dim = in.structure.bond_dim;
+
   element_block_.assign(g.num_elements(), -1);
   aux_block_.assign(g.aux_states().size(), -1);
   std::vector<double> x0;
@@ -37,7 +46,7 @@ void CompiledModel::LayoutStates() {
     const Element& e = g.element(i);
     if (!IsStorage(e.kind)) continue;
     const int b = e.bonds.front(), n = dim[b];
-    const DomainUnits u = UnitsOf(structure_.bond_domain[b]);
+    const DomainUnits u = UnitsOf(in.structure.bond_domain[b]);
     const bool inertia = e.kind == ElementKind::kI;
     element_block_[i] = add_block(inertia ? StateBlock::Kind::kMomentum : StateBlock::Kind::kDisplacement, i, n,
                                   e.state_name.empty() ? e.name + (inertia ? ".p" : ".q") : e.state_name,
@@ -52,7 +61,7 @@ void CompiledModel::LayoutStates() {
       // A signal state: its derivative is a formula's slot (formulas.cc, AssignSignalSlots).
       auto signal_state = [&](const std::string& name, const std::string& rate, double initial) {
         const int blk = add_block(StateBlock::Kind::kIntegral, static_cast<int>(a), 1, name, {}, s.unit.empty() ? "-" : s.unit);
-        blocks_[blk].rate_class = internal_class_.at(rate);
+        blocks_[blk].rate_class = in.internal_class.at(rate);
         x0.push_back(initial);
         return blk;
       };
@@ -74,13 +83,13 @@ void CompiledModel::LayoutStates() {
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) x0.push_back(r0(r, c));
     } else {
-      const std::string unit = s.unit.empty() ? UnitsOf(structure_.bond_domain[b]).displacement : s.unit;
+      const std::string unit = s.unit.empty() ? UnitsOf(in.structure.bond_domain[b]).displacement : s.unit;
       aux_block_[a] = add_block(StateBlock::Kind::kIntegral, static_cast<int>(a), n, s.name,
                                 ComponentNames(n, s.components.empty() ? g.element(of).components : s.components), unit);
       for (int k = 0; k < n; ++k) x0.push_back(s.initial.size() == n ? s.initial(k) : 0.0);
     }
   }
-  if (options_.energy_account) {
+  if (in.energy_account) {
     for (int i = 0; i < g.num_elements(); ++i) {
       const Element& e = g.element(i);
       if (IsSource(e.kind)) add_block(StateBlock::Kind::kWork, i, 1, e.name + ".work", {}, "J");
@@ -91,30 +100,49 @@ void CompiledModel::LayoutStates() {
   x0_ = Eigen::Map<Eigen::VectorXd>(x0.data(), static_cast<Eigen::Index>(x0.size()));
 }
 
-Eigen::VectorXd CompiledModel::MakeInitialState() const { return x0_; }
-
-void CompiledModel::BuildGathers() {
-  const BondGraph& g = graph_;
-  const auto& dim = structure_.bond_dim;
+void StateLayout::BuildGathers(const Input& in) {
+  const BondGraph& g = in.graph;
+  const auto& dim = in.structure.bond_dim;
   for (const StateBlock& blk : blocks_) {
-    Gather gt{blk.kind, blk.offset, blk.size, -1, -1, -1, 1.0};
+    // The slot class the block's derivative reads: I: dp/dt = sigma e; C: dq/dt = f; an
+    // orientation or integral (owner: an aux state) the flow of what it integrates.
+    int source = blk.rate_class;
+    double sign = 1.0;
+    if (source < 0) {
+      switch (blk.kind) {
+        case StateBlock::Kind::kMomentum:
+          source = in.effort_class[g.element(blk.owner).bonds.front()];
+          sign = g.PowerSign(g.element(blk.owner).bonds.front(), blk.owner);
+          break;
+        case StateBlock::Kind::kOrientation:
+        case StateBlock::Kind::kIntegral:
+          source = in.flow_class[g.element(g.Find(g.aux_states()[blk.owner].of)).bonds.front()];
+          break;
+        default:
+          source = in.flow_class[g.element(blk.owner).bonds.front()];
+      }
+    }
+    derivative_class_.push_back(source);
+    derivative_sign_.push_back(sign);
+
+    StateGather gt{blk.kind, blk.offset, blk.size, -1, -1, -1, 1.0};
     switch (blk.kind) {
       case StateBlock::Kind::kMomentum:
       case StateBlock::Kind::kDisplacement:
-        gt.effort = class_offset_[derivative_source(blk)];
-        gt.sign = derivative_sign(blk);
+        gt.effort = in.class_offset[source];
+        gt.sign = sign;
         break;
       case StateBlock::Kind::kOrientation:
       case StateBlock::Kind::kIntegral:
-        gt.flow = class_offset_[derivative_source(blk)];
+        gt.flow = in.class_offset[source];
         // For an orientation, `sign` carries the stabilisation gain (0 = none).
         gt.sign = blk.kind == StateBlock::Kind::kOrientation ? g.aux_states()[blk.owner].stabilization : 1.0;
         break;
       case StateBlock::Kind::kWork:
       case StateBlock::Kind::kDissipation: {
         const int b = g.element(blk.owner).bonds.front();
-        gt.effort = class_offset_[effort_class_[b]];
-        gt.flow = class_offset_[flow_class_[b]];
+        gt.effort = in.class_offset[in.effort_class[b]];
+        gt.flow = in.class_offset[in.flow_class[b]];
         gt.size = dim[b];
         const double sigma = g.PowerSign(b, blk.owner);
         gt.sign = blk.kind == StateBlock::Kind::kWork ? -sigma : sigma;
@@ -125,23 +153,12 @@ void CompiledModel::BuildGathers() {
   }
 }
 
-int CompiledModel::derivative_source(const StateBlock& b) const {
-  if (b.rate_class >= 0) return b.rate_class;
-  switch (b.kind) {
-    case StateBlock::Kind::kMomentum:
-      return effort_class_[graph_.element(b.owner).bonds.front()];
-    case StateBlock::Kind::kOrientation:
-    case StateBlock::Kind::kIntegral:  // owner is an aux state: the flow of what it integrates
-      return flow_class_[graph_.element(graph_.Find(graph_.aux_states()[b.owner].of)).bonds.front()];
-    default:
-      return flow_class_[graph_.element(b.owner).bonds.front()];
-  }
-}
-
-double CompiledModel::derivative_sign(const StateBlock& b) const {
-  // I: dp/dt = sigma e; C: dq/dt = f.
-  if (b.kind != StateBlock::Kind::kMomentum) return 1.0;
-  return graph_.PowerSign(graph_.element(b.owner).bonds.front(), b.owner);
+int StateLayout::IndexOf(const StateBlock& b) const {
+  // The blocks lie in the state vector in order, none empty.
+  const auto it = std::lower_bound(blocks_.begin(), blocks_.end(), b.offset,
+                                   [](const StateBlock& a, int offset) { return a.offset < offset; });
+  MB_ASSERT(it != blocks_.end() && it->offset == b.offset && it->kind == b.kind, "a block of this layout");
+  return static_cast<int>(it - blocks_.begin());
 }
 
 /// The name a state block is found by: its state's name, or for a vector or an orientation the
@@ -151,58 +168,70 @@ static std::string BlockName(const StateBlock& b, const std::vector<std::string>
   return b.size > 1 || b.kind == StateBlock::Kind::kOrientation ? first.substr(0, first.rfind('.')) : first;
 }
 
-void CompiledModel::IndexVariables() {
-  block_by_name_.clear();
-  bond_by_name_.clear();
-  for (int i = 0; i < static_cast<int>(blocks_.size()); ++i) block_by_name_.emplace(BlockName(blocks_[i], state_names_), i);  // the first kept
-  for (int b = 0; b < graph_.num_bonds(); ++b)
-    if (!graph_.bond(b).name.empty()) bond_by_name_.emplace(graph_.bond(b).name, b);
+void StateLayout::IndexNames(const Input& in) {
+  const BondGraph& g = in.graph;
+  std::unordered_map<std::string, int> unit_index;
+  auto unit_of = [&](int cls) {
+    const auto [it, added] = unit_index.emplace(in.class_units[cls], static_cast<int>(units_.size()));
+    if (added) units_.push_back(in.class_units[cls]);
+    return it->second;
+  };
+  // A name already taken is kept: what FindVariable looks up first is indexed first.
+  auto add_slot = [&](const std::string& name, int cls, int size, int components) {
+    if (names_.count(name)) return;
+    names_.emplace(name, Named{VariableRef::In::kSlot, in.class_offset[cls], size, unit_of(cls), components});
+  };
+  // Signals: a slot of their own.
+  for (const auto& [name, cls] : in.signal_class) add_slot(name, cls, 1, -1);
+  // States by full name of their block; of blocks of one name, the first.
+  for (const StateBlock& b : blocks_) names_.emplace(BlockName(b, state_names_), Named{VariableRef::In::kState, b.offset, b.size, -1, -1});
+  // Elements' efforts and flows: a two-port's e1 f1 e2 f2; a 0-junction has one effort, a
+  // 1-junction one flow (their other variable differs per bond).
+  for (int e = 0; e < g.num_elements(); ++e) {
+    const Element& el = g.element(e);
+    int components = -1;
+    if (!el.components.empty()) {
+      components = static_cast<int>(components_.size());
+      components_.push_back(el.components);
+    }
+    auto add = [&](const std::string& var, int cls) { add_slot(el.name + "." + var, cls, in.class_size[cls], components); };
+    if (IsTwoPort(el.kind)) {
+      const int b1 = in.structure.port_in[e], b2 = in.structure.port_out[e];
+      if (b1 < 0 || b2 < 0) continue;
+      add("e1", in.effort_class[b1]);
+      add("f1", in.flow_class[b1]);
+      add("e2", in.effort_class[b2]);
+      add("f2", in.flow_class[b2]);
+    } else if (!el.bonds.empty()) {
+      if (el.kind != ElementKind::kOne) add("e", in.effort_class[el.bonds.front()]);
+      if (el.kind != ElementKind::kZero) add("f", in.flow_class[el.bonds.front()]);
+    }
+  }
+  // Named bonds: "<bond>.e" or "<bond>.f", unless an element has the bond's name.
+  for (int b = 0; b < g.num_bonds(); ++b) {
+    const std::string& name = g.bond(b).name;
+    if (name.empty() || g.Find(name) >= 0) continue;
+    add_slot(name + ".e", in.effort_class[b], in.class_size[in.effort_class[b]], -1);
+    add_slot(name + ".f", in.flow_class[b], in.class_size[in.flow_class[b]], -1);
+  }
 }
 
-std::optional<VariableRef> CompiledModel::FindVariable(const std::string& name) const {
-  // Signals ("u", "pid.u"): a slot of their own.
-  if (const auto it = signal_class_.find(name); it != signal_class_.end())
-    return VariableRef{VariableRef::In::kSlot, class_offset_[it->second], 1, class_units_[it->second], {}};
-  // States by full name of their block ("mass.p", "A.R", "A.r").
-  if (const auto it = block_by_name_.find(name); it != block_by_name_.end()) {
-    const StateBlock& b = blocks_[it->second];
-    VariableRef v{VariableRef::In::kState, b.offset, b.size, state_units_[b.offset], {}};
-    for (int k = 0; k < b.size; ++k)
-      if (state_names_[b.offset + k] != name) v.components.push_back(state_names_[b.offset + k].substr(name.size() + 1));
+std::optional<VariableRef> StateLayout::FindVariable(const std::string& name) const {
+  const auto it = names_.find(name);
+  if (it == names_.end()) return std::nullopt;
+  const Named& n = it->second;
+  if (n.in == VariableRef::In::kState) {
+    VariableRef v{VariableRef::In::kState, n.offset, n.size, state_units_[n.offset], {}};
+    for (int k = 0; k < n.size; ++k)
+      if (state_names_[n.offset + k] != name) v.components.push_back(state_names_[n.offset + k].substr(name.size() + 1));
     return v;
   }
-  const auto dot = name.rfind('.');
-  if (dot == std::string::npos) return std::nullopt;
-  const std::string owner = name.substr(0, dot), var = name.substr(dot + 1);
-  const int e = graph_.Find(owner);
-  if (e < 0) {
-    // A named bond: "<bond>.e" or "<bond>.f".
-    const auto it = bond_by_name_.find(owner);
-    if (it == bond_by_name_.end() || (var != "e" && var != "f")) return std::nullopt;
-    const int b = it->second;
-    const int cls = var == "e" ? effort_class_[b] : flow_class_[b];
-    return VariableRef{VariableRef::In::kSlot, class_offset_[cls], class_size_[cls], class_units_[cls], ComponentNames(class_size_[cls])};
-  }
-  const Element& el = graph_.element(e);
-  int cls = -1;
-  if (IsTwoPort(el.kind)) {
-    const int b1 = structure_.port_in[e], b2 = structure_.port_out[e];
-    if (var == "e1") cls = effort_class_[b1];
-    if (var == "f1") cls = flow_class_[b1];
-    if (var == "e2") cls = effort_class_[b2];
-    if (var == "f2") cls = flow_class_[b2];
-  } else if (!el.bonds.empty()) {
-    // A 0-junction has one effort, a 1-junction one flow; their other variable differs per bond.
-    if (var == "e" && el.kind != ElementKind::kOne) cls = effort_class_[el.bonds.front()];
-    if (var == "f" && el.kind != ElementKind::kZero) cls = flow_class_[el.bonds.front()];
-  }
-  if (cls < 0) return std::nullopt;
-  return VariableRef{VariableRef::In::kSlot, class_offset_[cls], class_size_[cls], class_units_[cls],
-                     ComponentNames(class_size_[cls], el.components)};
+  return VariableRef{VariableRef::In::kSlot, n.offset, n.size, units_[n.unit],
+                     n.components >= 0 ? ComponentNames(n.size, components_[n.components]) : ComponentNames(n.size)};
 }
 
-void CompiledModel::Read(const VariableRef& v, const double* x, const Workspace& ws, double* out) const {
-  const double* from = v.in == VariableRef::In::kState ? x + v.offset : ws.slots.data() + v.offset;
+void StateLayout::Read(const VariableRef& v, const double* x, const double* slots, double* out) {
+  const double* from = v.in == VariableRef::In::kState ? x + v.offset : slots + v.offset;
   std::copy(from, from + v.size, out);
 }
 
