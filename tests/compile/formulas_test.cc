@@ -121,18 +121,25 @@ TEST(Formulas, ALawsEnergyIsItsIntegralInClosedFormOrByQuadrature) {
   EXPECT_EQ(CompileErrorOf(Oscillator("q*(1 + t)", false, 1.0, 1.0)), "law.energy");
 }
 
+/// An inertia of 1 on the 1-junction `junction`, driven by the Se `source` whose effort is `formula`.
+BondGraph Driven(const std::string& model, const std::string& junction, const std::string& inertia, const std::string& source,
+                 const std::string& formula) {
+  BondGraph g(model);
+  g.AddJunction(junction, ElementKind::kOne);
+  g.AddI(inertia, Param::Scalar(1.0));
+  Element se;
+  se.name = source;
+  se.kind = ElementKind::kSe;
+  se.value = {F(formula)};
+  g.Add(se);
+  g.Connect(source, junction);
+  g.Connect(junction, inertia);
+  return g;
+}
+
 /// A pendulum: J = m L^2, gravity's torque -m g L sin(theta) as a source of theta's formula.
 BondGraph Pendulum(double theta0) {
-  BondGraph g("pendulum");
-  g.AddJunction("w", ElementKind::kOne);
-  g.AddI("J", Param::Scalar(1.0));
-  Element gravity;
-  gravity.name = "gravity";
-  gravity.kind = ElementKind::kSe;
-  gravity.value = {F("-1*9.81*1*sin(theta)")};
-  g.Add(gravity);
-  g.Connect("gravity", "w");
-  g.Connect("w", "J");
+  BondGraph g = Driven("pendulum", "w", "J", "gravity", "-1*9.81*1*sin(theta)");
   AuxState theta;
   theta.name = "theta";
   theta.kind = AuxState::Kind::kIntegral;
@@ -420,17 +427,7 @@ TEST(Formulas, TorricelliWithTheOrificeAsItsPressureDropSolvesForTheFlow) {
 
 TEST(Formulas, ADivisionByZeroStopsTheRunNamingTheFormulaAndTheTime) {
   // F = 1/(1 - t) on a mass: infinite at t = 1.
-  BondGraph g("blowup");
-  g.AddJunction("v", ElementKind::kOne);
-  g.AddI("mass", Param::Scalar(1.0));
-  Element push;
-  push.name = "push";
-  push.kind = ElementKind::kSe;
-  push.value = {F("1/(1 - t)")};
-  g.Add(push);
-  g.Connect("push", "v");
-  g.Connect("v", "mass");
-  const auto model = CompiledModel::Compile(g);
+  const auto model = CompiledModel::Compile(Driven("blowup", "v", "mass", "push", "1/(1 - t)"));
   RunOptions o;
   o.t_end = 2.0;
   o.dt = 0.25;
@@ -490,16 +487,7 @@ TEST(Formulas, AnAlgebraicLoopThroughFormulasIsFoundAndNamed) {
   EXPECT_THAT(d.details.back(), HasSubstr("a"));
   // A source whose effort reads the inertia's effort, which the source itself sets, on a
   // 1-junction: refused by default, and not solved by tearing either (it is not linear).
-  BondGraph m("push");
-  m.AddJunction("j", ElementKind::kOne);
-  m.AddI("mass", Param::Scalar(1.0));
-  Element push;
-  push.name = "push";
-  push.kind = ElementKind::kSe;
-  push.value = {F("1 + 0.5*mass.e")};
-  m.Add(push);
-  m.Connect("push", "j");
-  m.Connect("j", "mass");
+  const BondGraph m = Driven("push", "j", "mass", "push", "1 + 0.5*mass.e");
   EXPECT_EQ(CompileError(m).diagnostics().front().code, "causality.algebraic_loop");
   CompileOptions solve;
   solve.solve_algebraic_loops = true;
