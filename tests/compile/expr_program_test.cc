@@ -88,6 +88,10 @@ const std::vector<std::string> kFormulas = {
     "sqrt(x0*x0 + x1*x1) - hypot(x0, x1)", "clamp(k*x0, -w0, w0) + min(max(x1, -1), 1)",
     "atan2(sin(x0), cos(x1))^2 + log(abs(x2) + 1e-300)", "(x0 - x1)/(x2 + w0)*(t - k)", "-x0^2 - -x1",
     "sign(x0 - x1)*smoothabs(x2, w0)^1.5", "cosh(x0)^2 - sinh(x0)^2",
+    // a constant on either side of every operator; an input or a constant alone
+    "x0 + 1 - x1*3 + x2/7 - x0^1.5", "1 + x0 - (2 - x1) * (3*x2) + 0.5/x0", "k^x0 - 0.5^x1", "x0", "t", "k*pi",
+    // a bound operand on the other side of the input it bounds; arguments that are constants
+    "clamp(0.5, x0, x1) + min(-1, x2) + atan2(k, x0) + max(x0, 1)",
 };
 
 /// Inputs of every kind: ordinary, large, tiny, zeros of both signs, out of the functions' domains.
@@ -182,6 +186,51 @@ TEST(ExprProgram, FoldsConstantsWithoutChangingABit) {
       ASSERT_EQ(Bits(expr::Run(a, in.t, in.x, in.w)), Bits(expr::Run(b, in.t, in.x, in.w))) << f;
     }
   }
+}
+
+TEST(ExprProgram, RunsOneInstructionPerOperationWithConstantsAndInputsAsOperands) {
+  using Op = RunStep::Op;
+  auto ops = [](const Program& p) {
+    std::vector<Op> o;
+    for (const RunStep& s : p.code) o.push_back(s.op);
+    return o;
+  };
+  // A hardening spring: 9 steps (two loads of x0, three constants), 4 instructions.
+  const Program spring = CompileProgram(*Tree("k*x0 + k^2*x0^3"), Resolve);
+  EXPECT_EQ(spring.steps.size(), 9u);
+  EXPECT_EQ(ops(spring), (std::vector<Op>{Op::kKMul, Op::kCube, Op::kKMul, Op::kAdd}));
+  EXPECT_EQ(spring.code[0].k, 2.5);
+  EXPECT_EQ(spring.code[0].a, MakeOperand(kInState, 0));
+  EXPECT_EQ(spring.code[1].a, MakeOperand(kInState, 0));
+  EXPECT_EQ(spring.code[2].k, 6.25);
+  EXPECT_TRUE(spring.constants.empty());
+  // A quadratic damper on a slot; the time; each side of each operator.
+  EXPECT_EQ(ops(CompileProgram(*Tree("k*w1*abs(w1)"), Resolve)), (std::vector<Op>{Op::kKMul, Op::kCall1, Op::kMul}));
+  EXPECT_EQ(CompileProgram(*Tree("k*w1*abs(w1)"), Resolve).code[1].a, MakeOperand(kInSlot, 1));
+  EXPECT_EQ(CompileProgram(*Tree("t*2"), Resolve).code[0].a, MakeOperand(kInTime, 0));
+  EXPECT_EQ(ops(CompileProgram(*Tree("(x0 + 1)*(1 + x0) - (x0 - 1)/(1 - x0)"), Resolve)),
+            (std::vector<Op>{Op::kAddK, Op::kKAdd, Op::kMul, Op::kSubK, Op::kKSub, Op::kDiv, Op::kSub}));
+  EXPECT_EQ(ops(CompileProgram(*Tree("x0*2/3 + 2*x0/x1 + 3/x0 + x0^x1 + 2^x0 + x0^0.5 + x0^2 + x0^-1"), Resolve)),
+            (std::vector<Op>{Op::kMulK, Op::kDivK, Op::kKMul, Op::kDiv, Op::kAdd, Op::kKDiv, Op::kAdd, Op::kPow, Op::kAdd,
+                             Op::kKPow, Op::kAdd, Op::kPowK, Op::kAdd, Op::kSquare, Op::kAdd, Op::kRecip, Op::kAdd}));
+  // Constant arguments of a call are read from the program's constants (each once).
+  const Program call = CompileProgram(*Tree("clamp(x0, -1, 1) + smoothabs(x1, 1)"), Resolve);
+  EXPECT_EQ(ops(call), (std::vector<Op>{Op::kCall3, Op::kCall2, Op::kAdd}));
+  EXPECT_EQ(call.constants, (std::vector<double>{-1.0, 1.0}));
+  EXPECT_EQ(call.code[0].c, MakeOperand(kInConstants, 1));
+  EXPECT_EQ(call.code[1].b, MakeOperand(kInConstants, 1));
+  // Nothing to compute: the value is read where it is.
+  const Program constant = CompileProgram(*Tree("k*pi"), Resolve), load = CompileProgram(*Tree("x2"), Resolve);
+  EXPECT_TRUE(constant.code.empty());
+  EXPECT_EQ(constant.value, MakeOperand(kInConstants, 0));
+  EXPECT_TRUE(load.code.empty());
+  EXPECT_EQ(load.value, MakeOperand(kInState, 2));
+  // Every instruction is among those the formulas compared bit for bit with the tree and the
+  // generated code run.
+  std::vector<bool> seen(static_cast<size_t>(Op::kCall3) + 1, false);
+  for (const std::string& f : kFormulas)
+    for (const RunStep& s : CompileProgram(*Tree(f), Resolve).code) seen[static_cast<size_t>(s.op)] = true;
+  for (size_t op = 0; op < seen.size(); ++op) EXPECT_TRUE(seen[op]) << "instruction " << op << " is not run by any formula";
 }
 
 TEST(ExprProgram, RegistersAreReusedAndBounded) {

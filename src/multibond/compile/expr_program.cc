@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <utility>
 
 #include <fmt/format.h>
@@ -194,38 +195,159 @@ std::string ExactLit(double v) {
   return fmt::format("(__builtin_bit_cast(double, 0x{:016x}ULL))", std::bit_cast<std::uint64_t>(v));
 }
 
-}  // namespace
-
-Program CompileProgram(const Node& root, const Resolver& resolve) { return Compiler(root, resolve).Compile(); }
-
-double Run(const Program& p, double t, const double* x, const double* w) {
-  double regs[kMaxRegs];
+/// The steps as Run executes them (Program::code): a load or a constant step only records where
+/// its register's value is to be read, and the operations that use the register read it there
+/// (nothing writes the state, the slots or the time while a program runs, so reading an input at
+/// its use gives the value it had at its load). The operations are the steps' own, in their
+/// order; `^` with a constant exponent of 2, 3 or -1 becomes what Power() computes for it.
+void Lower(Program& p) {
+  // Each register's current value: a constant (not yet among the program's constants: an
+  // operator takes it as its k), or an operand.
+  struct Value {
+    std::optional<double> constant;
+    std::uint32_t operand = 0;
+  };
+  std::vector<Value> at(static_cast<size_t>(p.num_regs));
+  // The register's value as an operand: a constant is put among the program's constants (once).
+  auto operand = [&](int reg) {
+    const Value& v = at[static_cast<size_t>(reg)];
+    if (!v.constant) return v.operand;
+    const auto bits = std::bit_cast<std::uint64_t>(*v.constant);
+    size_t k = 0;
+    while (k < p.constants.size() && std::bit_cast<std::uint64_t>(p.constants[k]) != bits) ++k;
+    if (k == p.constants.size()) p.constants.push_back(*v.constant);
+    return MakeOperand(kInConstants, static_cast<std::uint32_t>(k));
+  };
+  auto constant = [&](int reg) { return at[static_cast<size_t>(reg)].constant; };
+  p.code.reserve(static_cast<size_t>(std::count_if(p.steps.begin(), p.steps.end(), [](const Step& s) {
+    return s.op != Step::Op::kLoad && s.op != Step::Op::kConst;
+  })));
   for (const Step& s : p.steps) {
-    double& d = regs[s.dst];
+    RunStep r;
+    using Op = RunStep::Op;
+    // A binary operator: with a constant operand (in r.k), or on two operands.
+    auto binary = [&](Op on_two, Op with_k, Op k_with) {
+      if (const std::optional<double> b = constant(s.b)) {
+        r.op = with_k;
+        r.a = operand(s.a);
+        r.k = *b;
+      } else if (const std::optional<double> a = constant(s.a)) {
+        r.op = k_with;
+        r.a = operand(s.b);
+        r.k = *a;
+      } else {
+        r.op = on_two;
+        r.a = operand(s.a);
+        r.b = operand(s.b);
+      }
+    };
+    Value& dst = at[static_cast<size_t>(s.dst)];
     switch (s.op) {
       case Step::Op::kLoad:
         switch (s.input.in) {
-          case Input::In::kTime: d = t; break;
-          case Input::In::kState: d = x[s.input.offset]; break;
-          case Input::In::kSlot: d = w[s.input.offset]; break;
-          case Input::In::kConstant: d = s.input.value; break;
+          case Input::In::kTime: dst = {std::nullopt, MakeOperand(kInTime, 0)}; break;
+          case Input::In::kState:
+          case Input::In::kSlot:
+            MB_ASSERT(s.input.offset >= 0 && s.input.offset < (1 << 29), "an offset an operand holds");
+            dst = {std::nullopt, MakeOperand(s.input.in == Input::In::kState ? kInState : kInSlot, static_cast<std::uint32_t>(s.input.offset))};
+            break;
+          case Input::In::kConstant: dst = {s.input.value, 0}; break;
         }
+        continue;
+      case Step::Op::kConst: dst = {s.value, 0}; continue;
+      case Step::Op::kNeg:
+        r.op = Op::kNeg;
+        r.a = operand(s.a);
         break;
-      case Step::Op::kConst: d = s.value; break;
-      case Step::Op::kNeg: d = -regs[s.a]; break;
-      case Step::Op::kAdd: d = regs[s.a] + regs[s.b]; break;
-      case Step::Op::kSub: d = regs[s.a] - regs[s.b]; break;
-      case Step::Op::kMul: d = regs[s.a] * regs[s.b]; break;
-      case Step::Op::kDiv: d = regs[s.a] / regs[s.b]; break;
-      case Step::Op::kPow: d = Power(regs[s.a], regs[s.b]); break;
+      case Step::Op::kAdd: binary(Op::kAdd, Op::kAddK, Op::kKAdd); break;
+      case Step::Op::kSub: binary(Op::kSub, Op::kSubK, Op::kKSub); break;
+      case Step::Op::kMul: binary(Op::kMul, Op::kMulK, Op::kKMul); break;
+      case Step::Op::kDiv: binary(Op::kDiv, Op::kDivK, Op::kKDiv); break;
+      case Step::Op::kPow:
+        binary(Op::kPow, Op::kPowK, Op::kKPow);
+        if (r.op == Op::kPowK && r.k == 2.0) r.op = Op::kSquare;
+        if (r.op == Op::kPowK && r.k == 3.0) r.op = Op::kCube;
+        if (r.op == Op::kPowK && r.k == -1.0) r.op = Op::kRecip;
+        break;
       case Step::Op::kCall: {
-        const double args[3] = {regs[s.a], regs[s.b], regs[s.c]};
-        d = Apply(s.fn, args);
+        const int arity = Info(s.fn).arity;
+        r.op = arity == 1 ? Op::kCall1 : arity == 2 ? Op::kCall2 : Op::kCall3;
+        r.fn = s.fn;
+        r.a = operand(s.a);
+        if (arity > 1) r.b = operand(s.b);
+        if (arity > 2) r.c = operand(s.c);
         break;
       }
     }
+    r.dst = static_cast<unsigned char>(s.dst);
+    p.code.push_back(r);
+    dst = {std::nullopt, MakeOperand(kInRegister, static_cast<std::uint32_t>(s.dst))};
   }
-  return regs[p.result];
+  p.value = operand(p.result);
+}
+
+}  // namespace
+
+Program CompileProgram(const Node& root, const Resolver& resolve) {
+  Program p = Compiler(root, resolve).Compile();
+  Lower(p);
+  return p;
+}
+
+double Run(const Program& p, double t, const double* x, const double* w) {
+  double regs[kMaxRegs];
+  const double* const from[5] = {regs, p.constants.data(), x, w, &t};  // by OperandPlace
+  auto get = [&from](std::uint32_t o) { return from[o & 7u][o >> 3]; };
+  for (const RunStep& s : p.code) {
+    double v;
+    switch (s.op) {
+      case RunStep::Op::kNeg: v = -get(s.a); break;
+      case RunStep::Op::kAdd: v = get(s.a) + get(s.b); break;
+      case RunStep::Op::kSub: v = get(s.a) - get(s.b); break;
+      case RunStep::Op::kMul: v = get(s.a) * get(s.b); break;
+      case RunStep::Op::kDiv: v = get(s.a) / get(s.b); break;
+      case RunStep::Op::kPow: v = Power(get(s.a), get(s.b)); break;
+      case RunStep::Op::kAddK: v = get(s.a) + s.k; break;
+      case RunStep::Op::kSubK: v = get(s.a) - s.k; break;
+      case RunStep::Op::kMulK: v = get(s.a) * s.k; break;
+      case RunStep::Op::kDivK: v = get(s.a) / s.k; break;
+      case RunStep::Op::kPowK: v = Power(get(s.a), s.k); break;
+      case RunStep::Op::kKAdd: v = s.k + get(s.a); break;
+      case RunStep::Op::kKSub: v = s.k - get(s.a); break;
+      case RunStep::Op::kKMul: v = s.k * get(s.a); break;
+      case RunStep::Op::kKDiv: v = s.k / get(s.a); break;
+      case RunStep::Op::kKPow: v = Power(s.k, get(s.a)); break;
+      case RunStep::Op::kSquare: {  // Power(a, 2.0)
+        const double a = get(s.a);
+        v = a * a;
+        break;
+      }
+      case RunStep::Op::kCube: {  // Power(a, 3.0)
+        const double a = get(s.a);
+        v = a * a * a;
+        break;
+      }
+      case RunStep::Op::kRecip: v = 1.0 / get(s.a); break;  // Power(a, -1.0)
+      case RunStep::Op::kCall1: {
+        const double args[1] = {get(s.a)};
+        v = Apply(s.fn, args);
+        break;
+      }
+      case RunStep::Op::kCall2: {
+        const double args[2] = {get(s.a), get(s.b)};
+        v = Apply(s.fn, args);
+        break;
+      }
+      case RunStep::Op::kCall3: {
+        const double args[3] = {get(s.a), get(s.b), get(s.c)};
+        v = Apply(s.fn, args);
+        break;
+      }
+      default: __builtin_unreachable();  // (no range check before the jump)
+    }
+    regs[s.dst] = v;
+  }
+  return get(p.value);
 }
 
 double SolveFor(const Program& law, const Program& slope, int unknown, double target, double t, const double* x, double* w) {

@@ -5,7 +5,10 @@
 /// a workspace slot, a constant). The interpreter (Run) and the code generator (EmitProgram)
 /// perform the same operations in the same order with the same function bodies, so both give
 /// the same bits (compiled with -ffp-contract=off on both sides). Running allocates nothing.
+/// Run executes the steps in a denser form made from them (Program::code): one instruction per
+/// operation, reading constants and inputs where they are instead of loading them first.
 
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -38,11 +41,41 @@ struct Step {
   double value = 0.0;       ///< kConst
 };
 
+/// Where an operand of a RunStep is read: MakeOperand(place, index) = (index << 3) | place.
+enum OperandPlace : unsigned char { kInRegister, kInConstants, kInState, kInSlot, kInTime };
+inline constexpr std::uint32_t MakeOperand(OperandPlace place, std::uint32_t index) { return index << 3 | place; }
+
+/// One instruction of the form Run executes: regs[dst] = op(...), each operand read where it
+/// lives (a register, the program's constants, the state, a slot, the time), a constant operand
+/// of an operator in the instruction itself (k). The steps' loads and constants are not
+/// instructions of their own, and `^` with a constant exponent of exactly 2, 3 or -1 is what
+/// Power() computes for it.
+struct RunStep {
+  enum class Op : unsigned char {
+    kNeg,                                // -a
+    kAdd, kSub, kMul, kDiv, kPow,        // a op b
+    kAddK, kSubK, kMulK, kDivK, kPowK,   // a op k
+    kKAdd, kKSub, kKMul, kKDiv, kKPow,   // k op a
+    kSquare, kCube, kRecip,              // a^2, a^3, a^-1 as Power() computes them: a*a, (a*a)*a, 1/a
+    kCall1, kCall2, kCall3,              // fn(a), fn(a, b), fn(a, b, c)
+  };
+  Op op = Op::kNeg;
+  Fn fn = Fn::kSin;           ///< kCall1..3
+  unsigned char dst = 0;      ///< a register (kMaxRegs = 256)
+  std::uint32_t a = 0, b = 0, c = 0;  ///< operands (MakeOperand), as many as the operation reads
+  double k = 0.0;             ///< the constant operand of the ...K and K... operators
+};
+
 struct Program {
   std::vector<Step> steps;
   int num_regs = 0;  ///< at most kMaxRegs
   int result = 0;    ///< the register that holds the value at the end
   std::vector<Input> inputs;  ///< every distinct input read (for the plan's dependencies)
+  /// What Run executes, made from `steps` by CompileProgram: the same operations in the same
+  /// order on the same values (EmitProgram writes the steps; the test compares the two).
+  std::vector<RunStep> code;
+  std::vector<double> constants;  ///< the constants `code` reads as operands (kInConstants)
+  std::uint32_t value = 0;        ///< the operand that holds the program's value at the end
 };
 inline constexpr int kMaxRegs = 256;
 
