@@ -31,8 +31,8 @@ namespace {
 std::atomic<long> g_allocations{0};
 }  // namespace
 
-// Not inlined: GCC would otherwise pair an inlined new's malloc with a delete's free and warn
-// (-Wmismatched-new-delete) about a pairing that is right.
+// None inlined: GCC 12 would see an inlined malloc or free paired with a call of the other
+// operator and warn (-Wmismatched-new-delete).
 [[gnu::noinline]] void* operator new(std::size_t n) {
   ++g_allocations;
   if (void* p = std::malloc(n ? n : 1)) return p;
@@ -206,6 +206,13 @@ TEST(ExprProgram, RunsOneInstructionPerOperationWithConstantsAndInputsAsOperands
   EXPECT_EQ(spring.code[1].a, MakeOperand(kInState, 0));
   EXPECT_EQ(spring.code[2].k, 6.25);
   EXPECT_TRUE(spring.constants.empty());
+  // Kept inside the Program too (as it is short), where Run reads it.
+  ASSERT_EQ(spring.short_size, 4);
+  for (size_t i = 0; i < spring.code.size(); ++i) {
+    EXPECT_EQ(spring.short_code[i].op, spring.code[i].op);
+    EXPECT_EQ(spring.short_code[i].a, spring.code[i].a);
+    EXPECT_EQ(spring.short_code[i].k, spring.code[i].k);
+  }
   // A quadratic damper on a slot; the time; each side of each operator.
   EXPECT_EQ(ops(CompileProgram(*Tree("k*w1*abs(w1)"), Resolve)), (std::vector<Op>{Op::kKMul, Op::kCall1, Op::kMul}));
   EXPECT_EQ(CompileProgram(*Tree("k*w1*abs(w1)"), Resolve).code[1].a, MakeOperand(kInSlot, 1));
@@ -227,12 +234,22 @@ TEST(ExprProgram, RunsOneInstructionPerOperationWithConstantsAndInputsAsOperands
   EXPECT_EQ(constant.value, MakeOperand(kInConstants, 0));
   EXPECT_TRUE(load.code.empty());
   EXPECT_EQ(load.value, MakeOperand(kInState, 2));
-  // Every instruction is among those the formulas compared bit for bit with the tree and the
-  // generated code run.
+  EXPECT_EQ(load.short_size, 0);
+  // A longer program is run from `code` (the formulas below have both kinds).
+  EXPECT_GT(static_cast<int>(CompileProgram(*Tree("exp(-t/w1)*cos(2*pi*t)*(x0 + x1)"), Resolve).code.size()), kShortCode);
+  EXPECT_EQ(CompileProgram(*Tree("exp(-t/w1)*cos(2*pi*t)*(x0 + x1)"), Resolve).short_size, -1);
+  // Every instruction, and short and long programs, are among the formulas compared bit for bit
+  // with the tree and the generated code.
   std::vector<bool> seen(static_cast<size_t>(Op::kCall3) + 1, false);
-  for (const std::string& f : kFormulas)
-    for (const RunStep& s : CompileProgram(*Tree(f), Resolve).code) seen[static_cast<size_t>(s.op)] = true;
+  int short_programs = 0, long_programs = 0;
+  for (const std::string& f : kFormulas) {
+    const Program p = CompileProgram(*Tree(f), Resolve);
+    for (const RunStep& s : p.code) seen[static_cast<size_t>(s.op)] = true;
+    (p.short_size >= 0 ? short_programs : long_programs) += 1;
+  }
   for (size_t op = 0; op < seen.size(); ++op) EXPECT_TRUE(seen[op]) << "instruction " << op << " is not run by any formula";
+  EXPECT_GT(short_programs, 0);
+  EXPECT_GT(long_programs, 0);
 }
 
 TEST(ExprProgram, RegistersAreReusedAndBounded) {

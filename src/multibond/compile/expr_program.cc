@@ -284,6 +284,10 @@ void Lower(Program& p) {
     dst = {std::nullopt, MakeOperand(kInRegister, static_cast<std::uint32_t>(s.dst))};
   }
   p.value = operand(p.result);
+  if (p.code.size() <= p.short_code.size()) {
+    std::copy(p.code.begin(), p.code.end(), p.short_code.begin());
+    p.short_size = static_cast<int>(p.code.size());
+  }
 }
 
 }  // namespace
@@ -298,7 +302,11 @@ double Run(const Program& p, double t, const double* x, const double* w) {
   double regs[kMaxRegs];
   const double* const from[5] = {regs, p.constants.data(), x, w, &t};  // by OperandPlace
   auto get = [&from](std::uint32_t o) { return from[o & 7u][o >> 3]; };
-  for (const RunStep& s : p.code) {
+  const bool short_code = p.short_size >= 0;
+  const RunStep* const begin = short_code ? p.short_code.data() : p.code.data();
+  const RunStep* const end = begin + (short_code ? static_cast<size_t>(p.short_size) : p.code.size());
+  for (const RunStep* step = begin; step != end; ++step) {
+    const RunStep& s = *step;
     double v;
     switch (s.op) {
       case RunStep::Op::kNeg: v = -get(s.a); break;
