@@ -25,24 +25,10 @@
 #include "multibond/compile/expr_program.h"
 #include "multibond/compile/jit.h"
 #include "multibond/core/error.h"
+#include "support/counting_new.h"
 #include "support/temp_dir.h"
 
-namespace {
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-// None inlined: GCC 12 would see an inlined malloc or free paired with a call of the other
-// operator and warn (-Wmismatched-new-delete).
-[[gnu::noinline]] void* operator new(std::size_t n) {
-  ++g_allocations;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-[[gnu::noinline]] void* operator new[](std::size_t n) { return operator new(n); }
-[[gnu::noinline]] void operator delete(void* p) noexcept { std::free(p); }
-[[gnu::noinline]] void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-[[gnu::noinline]] void operator delete[](void* p) noexcept { std::free(p); }
-[[gnu::noinline]] void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+using multibond::testing::g_allocations;
 
 namespace multibond::expr {
 namespace {

@@ -11,10 +11,9 @@
 
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
+#include "support/counting_new.h"
 
-namespace {
-std::atomic<long> g_allocations{0};
-}  // namespace
+using multibond::testing::g_allocations;
 
 // Eigen allocates its dynamic matrices with std::malloc, not operator new: count malloc too, by
 // interposing glibc's (which exports the real ones as __libc_*). Not under AddressSanitizer, which
@@ -41,16 +40,6 @@ void free(void* p) { __libc_free(p); }
 }
 #endif
 
-void* operator new(std::size_t n) {
-  ++g_allocations;
-  if (void* p = std::malloc(n ? n : 1)) return p;
-  throw std::bad_alloc();
-}
-void* operator new[](std::size_t n) { return operator new(n); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
 
 namespace multibond {
 namespace {

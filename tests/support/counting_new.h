@@ -1,0 +1,25 @@
+#pragma once
+// Test helper for one source file per test program: counts every allocation made through the
+// global operator new, which this header replaces (so include it in one .cc only). A test reads
+// multibond::testing::g_allocations before and after the code that must not allocate.
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+namespace multibond::testing {
+inline std::atomic<long> g_allocations{0};
+}  // namespace multibond::testing
+
+// None inlined: GCC 12 would see an inlined malloc or free paired with a call of the other
+// operator and warn (-Wmismatched-new-delete).
+[[gnu::noinline]] void* operator new(std::size_t n) {
+  ++multibond::testing::g_allocations;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+[[gnu::noinline]] void* operator new[](std::size_t n) { return operator new(n); }
+[[gnu::noinline]] void operator delete(void* p) noexcept { std::free(p); }
+[[gnu::noinline]] void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+[[gnu::noinline]] void operator delete[](void* p) noexcept { std::free(p); }
+[[gnu::noinline]] void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
