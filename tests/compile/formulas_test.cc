@@ -238,6 +238,25 @@ TEST(Formulas, TorricelliDrainHasALinearSquareRoot) {
   (void)rho;
 }
 
+/// A PI controller `pid` of the error `error`, output within [lo, hi], driving the plant
+/// dx/dt = pid.u (the state `x`).
+void AddPiLoop(BondGraph& g, const std::string& error, double kp, double ki, double lo, double hi) {
+  AuxState pid;
+  pid.name = "pid";
+  pid.kind = AuxState::Kind::kPid;
+  pid.input = F(error);
+  pid.pid.kp = kp;
+  pid.pid.ki = ki;
+  pid.pid.u_min = lo;
+  pid.pid.u_max = hi;
+  g.AddAux(pid);
+  AuxState x;
+  x.name = "x";
+  x.kind = AuxState::Kind::kIntegral;
+  x.rate = F("pid.u");
+  g.AddAux(x);
+}
+
 TEST(Formulas, ALagFollowsItsInputAndAPiControllerItsSetPoint) {
   BondGraph g("signals");
   Signal r;
@@ -252,18 +271,7 @@ TEST(Formulas, ALagFollowsItsInputAndAPiControllerItsSetPoint) {
   g.AddAux(lag);
   // Plant dx/dt = u, PI with kp = 2, ki = 1 on e = r - x: critically damped,
   // x(t) = r - r (1 - t) e^-t.
-  AuxState pid;
-  pid.name = "pid";
-  pid.kind = AuxState::Kind::kPid;
-  pid.input = F("setpoint - x");
-  pid.pid.kp = 2.0;
-  pid.pid.ki = 1.0;
-  g.AddAux(pid);
-  AuxState x;
-  x.name = "x";
-  x.kind = AuxState::Kind::kIntegral;
-  x.rate = F("pid.u");
-  g.AddAux(x);
+  AddPiLoop(g, "setpoint - x", 2.0, 1.0, -HUGE_VAL, HUGE_VAL);
   const auto model = CompiledModel::Compile(g);
   const RecordingObserver rec = Simulated(*model, 5.0, 0.01);
   for (const auto& row : rec.rows()) {
@@ -275,20 +283,7 @@ TEST(Formulas, ALagFollowsItsInputAndAPiControllerItsSetPoint) {
 
 TEST(Formulas, APidsOutputStaysWithinItsLimits) {
   BondGraph g("limited");
-  AuxState pid;
-  pid.name = "pid";
-  pid.kind = AuxState::Kind::kPid;
-  pid.input = F("10 - x");
-  pid.pid.kp = 5.0;
-  pid.pid.ki = 2.0;
-  pid.pid.u_min = -1.0;
-  pid.pid.u_max = 1.0;
-  g.AddAux(pid);
-  AuxState x;
-  x.name = "x";
-  x.kind = AuxState::Kind::kIntegral;
-  x.rate = F("pid.u");
-  g.AddAux(x);
+  AddPiLoop(g, "10 - x", 5.0, 2.0, -1.0, 1.0);
   const auto model = CompiledModel::Compile(g);
   Workspace ws = model->MakeWorkspace();
   Eigen::VectorXd xv = model->MakeInitialState(), xdot(model->num_states());
