@@ -171,6 +171,26 @@ class CompiledModel {
   /// `active` that delivers power (sigma e f < 0), as a message naming it; empty if none.
   std::string FindActiveResistor(const Workspace& ws) const;
 
+  // --- directional derivatives (compile/tangent.cc), for the linearisation ---
+  /// One component of a source (Se, Sf, a mechanism's drive): an input of the linear model.
+  struct SourceInput {
+    std::string name;  ///< the element's name, with ".x" / ".1" for a component of a vector source
+    std::string unit;
+    int element;
+    int instruction;  ///< in the plan
+    int component;
+  };
+  /// Every source component, in plan order (the order of CalcTangent's du).
+  std::vector<SourceInput> SourceInputs() const;
+  /// False (and why) for what CalcTangent does not derive yet: ideal constraints, torn loops.
+  bool can_linearize(std::string* why) const;
+  /// The derivative of every effort and flow (dws.slots) and of dx/dt (dxdot) along a direction
+  /// dx of the state and du of the inputs (SourceInputs' order; null: zero), at (t, x), where
+  /// CalcDerivatives has filled `ws`; `dws` from MakeWorkspace (its moduli receive dM). Exact:
+  /// the plan's tangent rules, formulas differentiated step by step. Allocates (not the hot path).
+  void CalcTangent(double t, const double* x, const double* dx, const double* du, double* dxdot, const Workspace& ws,
+                   Workspace& dws) const;
+
   // --- energy account (compile/energy_account.h: from the state x alone) ---
   double StoredEnergy(int element, const double* x) const { return energy_.StoredEnergy(element, x); }  ///< I or C
   /// Every I's and C's stored energy in one pass (what an output row needs): per_term receives
@@ -274,6 +294,8 @@ class CompiledModel {
   void EvalPlan(double t, const double* x, double* xdot, Workspace& ws) const;
   /// One state block's derivative from the slots `w` (and x, for orientations).
   static void EvalGather(const Gather& gt, const double* x, const double* w, double* xdot);
+  /// One state block's derivative's derivative along dx, from the slots w and their derivatives d.
+  static void TangentGather(const Gather& gt, const double* x, const double* dx, const double* w, const double* d, double* dxdot);
   /// The tables the plan's instructions refer to (coefficients, sum terms, source functions).
   plan::Tables tables() const {
     return {coef_.data(), sum_terms_.data(), sum_signs_.data(), source_fns_.data(), programs_.data()};

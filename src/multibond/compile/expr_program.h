@@ -95,6 +95,12 @@ Program CompileProgram(const Node& root, const Resolver& resolve);
 /// Runs a program. `x` the state, `w` the workspace slots. No allocation (registers on the stack).
 double Run(const Program& p, double t, const double* x, const double* w);
 
+/// The program's derivative along a direction: `dt` of the time, `dx` of the state, `dw` of the
+/// slots (forward-mode differentiation of its steps, exact). Writes the value to *value if given.
+/// For the linearisation; not the hot path.
+double RunTangent(const Program& p, double t, const double* x, const double* w, double dt, const double* dx, const double* dw,
+                  double* value = nullptr);
+
 /// Solves law(u) = target for u, where the law's program reads u from the scratch slot
 /// w[unknown] (and `slope`, its derivative, likewise): a resistor whose causality needs the
 /// inverse of the law it was given. Newton's method kept inside a bracket (the root is

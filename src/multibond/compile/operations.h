@@ -181,6 +181,30 @@ inline void Exec(const Instr& in, const ExecArgs& a) { Traits(in.op).exec(in, a)
 /// Writes one instruction as C++ (the code generator).
 inline void Emit(const Instr& in, const EmitArgs& a) { Traits(in.op).emit(in, a); }
 
+/// What the tangent rule of an instruction reads and writes: the derivative of its output along
+/// a direction, from its inputs' derivatives. `xdot` is the direction of the state (dx/dt in the
+/// constraints' tangent pass), `w` the plain evaluation's slots, `d` the derivatives of the slots
+/// (read and written), `tmp` scratch of the slots' size that must be zero and is left zero,
+/// `dmod` the moduli's derivatives along xdot (CompiledModel::EvalModuli with derivative).
+struct TangentArgs {
+  double t;
+  const double* x;
+  const double* xdot;
+  const double* w;
+  double* d;
+  double* tmp;
+  const double* mod;
+  const double* dmod;
+  const double* lambda;
+  Tables tables;
+  const ModulusEval* moduli;
+  /// Sources (kSourceRate): their time derivatives (the tangent pass), or zero (a direction of
+  /// the state only; the caller adds an input's direction).
+  bool source_rate = true;
+};
+/// Applies the tangent rule of `in` (its row's Tangent; not kNone, whose programs have their own).
+void ExecTangent(const Instr& in, const TangentArgs& a);
+
 /// Appends m to a coefficient table, row-major (the layout every kernel reads).
 inline void AppendRowMajor(std::vector<double>& pool, const Eigen::MatrixXd& m) {
   for (int r = 0; r < m.rows(); ++r)

@@ -145,6 +145,28 @@ Layout MakeLayout(const CompiledModel& model, bool all_variables) {
   return l;
 }
 
+}  // namespace
+
+std::vector<OutputCombination> DeclaredOutputs(const CompiledModel& model, std::vector<std::string>* left_out) {
+  const Layout l = MakeLayout(model, /*all_variables=*/false);
+  std::vector<OutputCombination> out;
+  // The columns after time and the states, up to the energy account: the declared outputs.
+  for (size_t c = 1 + model.num_states(); c < l.columns.size(); ++c) {
+    const ColumnSource& src = l.sources[c];
+    if (src.kind == ColumnSource::Kind::kOrthonormality) {
+      if (left_out) left_out->push_back(l.columns[c].name);
+      continue;
+    }
+    if (src.kind != ColumnSource::Kind::kLinear) break;
+    OutputCombination o{l.columns[c].name, l.columns[c].unit, {}};
+    for (const ColumnSource::Term& t : src.terms) o.terms.push_back({t.state, t.offset, t.coef});
+    out.push_back(std::move(o));
+  }
+  return out;
+}
+
+namespace {
+
 /// The layout as flat lists, for the output rows (5,001 of them in the differential's run): most
 /// columns are one state or one workspace slot, read directly; the rest are sums of terms, or
 /// computed once per row (energies, orthonormality, time).

@@ -149,6 +149,20 @@ class RecordingObserver : public Observer {
 /// The output columns of a run: time, states, declared outputs, (all variables), energy.
 std::vector<Column> MakeColumns(const CompiledModel& model, bool all_variables);
 
+/// The model's declared outputs as linear combinations of state entries and workspace slots,
+/// one per component, as the output columns compute them (a variable, a sum, a body point);
+/// orthonormality outputs, which are no such combination, are left out (named in `left_out`).
+struct OutputCombination {
+  std::string name, unit;
+  struct Term {
+    bool state;  ///< a state entry (else a workspace slot)
+    int offset;
+    double coef;
+  };
+  std::vector<Term> terms;
+};
+std::vector<OutputCombination> DeclaredOutputs(const CompiledModel& model, std::vector<std::string>* left_out = nullptr);
+
 /// The output times of a run: t_start, t_start + dt, t_start + 2 dt, ... while before t_end, and
 /// t_end itself (a last interval shorter than a billionth of the run is merged into the one
 /// before). Returns the number of times after t_start.

@@ -1,0 +1,31 @@
+#pragma once
+/// \file
+/// The linearisation of a compiled model about an operating point (docs/linear-analysis.md):
+/// exact Jacobians, column by column, from the model's tangent pass (CompiledModel::CalcTangent),
+/// in the coordinates of the state's manifold (linear_model.h), and a steady state found by
+/// Newton's method (SUNDIALS KINSOL) with those Jacobians.
+
+#include <string>
+
+#include <Eigen/Dense>
+
+#include "multibond/analysis/linear_model.h"
+
+namespace multibond {
+class CompiledModel;
+}
+
+namespace multibond::linear {
+
+/// The linear model at (t, x). Inputs: every source component; outputs: the declared outputs.
+/// Throws std::invalid_argument (with why) for what cannot be linearised yet (ideal
+/// constraints, solved algebraic loops) and for a state that is not finite.
+LinearModel Linearize(const CompiledModel& model, double t, const Eigen::VectorXd& x);
+
+/// A steady state near x_start at time t (the sources held at their values at t): dz/dt = 0 in
+/// the manifold's coordinates (the energy account's integrals, which grow in any steady state
+/// with dissipation, excluded), by KINSOL's Newton iteration with a line search and the exact
+/// Jacobian. Throws std::runtime_error saying why when none is found.
+Eigen::VectorXd FindSteadyState(const CompiledModel& model, double t, const Eigen::VectorXd& x_start);
+
+}  // namespace multibond::linear

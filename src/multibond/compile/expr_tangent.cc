@@ -1,0 +1,122 @@
+// A formula's directional derivative (expr_program.h, RunTangent): forward-mode differentiation
+// of the program's steps, each step's value and its derivative together, with the partial
+// derivatives of the functions written out below (exact, not finite differences). Used by the
+// linearisation only (analysis/linearize.cc), never by the right-hand side.
+
+#include <cmath>
+
+#include "multibond/compile/expr_program.h"
+#include "multibond/core/error.h"
+
+namespace multibond::expr {
+
+namespace {
+
+/// The partial derivatives of f at its arguments a (value v = f(a)) into da. At a kink (abs,
+/// min, max, clamp at a corner) the derivative of the branch the function takes; sign's is 0.
+void Partials(Fn fn, const double* a, double v, double* da) {
+  switch (fn) {
+    case Fn::kSin: da[0] = std::cos(a[0]); break;
+    case Fn::kCos: da[0] = -std::sin(a[0]); break;
+    case Fn::kTan: da[0] = 1.0 + v * v; break;
+    case Fn::kAsin: da[0] = 1.0 / std::sqrt(1.0 - a[0] * a[0]); break;
+    case Fn::kAcos: da[0] = -1.0 / std::sqrt(1.0 - a[0] * a[0]); break;
+    case Fn::kAtan: da[0] = 1.0 / (1.0 + a[0] * a[0]); break;
+    case Fn::kAtan2: {  // atan2(y, x)
+      const double r2 = a[0] * a[0] + a[1] * a[1];
+      da[0] = a[1] / r2;
+      da[1] = -a[0] / r2;
+      break;
+    }
+    case Fn::kSinh: da[0] = std::cosh(a[0]); break;
+    case Fn::kCosh: da[0] = std::sinh(a[0]); break;
+    case Fn::kTanh: da[0] = 1.0 - v * v; break;
+    case Fn::kExp: da[0] = v; break;
+    case Fn::kLog: da[0] = 1.0 / a[0]; break;
+    case Fn::kSqrt: da[0] = 0.5 / v; break;
+    case Fn::kAbs: da[0] = a[0] > 0.0 ? 1.0 : (a[0] < 0.0 ? -1.0 : 0.0); break;
+    case Fn::kSign: da[0] = 0.0; break;
+    case Fn::kMin:  // mb_min takes b when b < a
+      da[0] = a[1] < a[0] ? 0.0 : 1.0;
+      da[1] = 1.0 - da[0];
+      break;
+    case Fn::kMax:  // mb_max takes b when a < b
+      da[0] = a[0] < a[1] ? 0.0 : 1.0;
+      da[1] = 1.0 - da[0];
+      break;
+    case Fn::kHypot:
+      da[0] = v > 0.0 ? a[0] / v : 0.0;
+      da[1] = v > 0.0 ? a[1] / v : 0.0;
+      break;
+    case Fn::kClamp:  // clamp(x, lo, hi)
+      da[0] = (a[0] < a[1] || a[2] < a[0]) ? 0.0 : 1.0;
+      da[1] = a[0] < a[1] ? 1.0 : 0.0;
+      da[2] = (!(a[0] < a[1]) && a[2] < a[0]) ? 1.0 : 0.0;
+      break;
+    case Fn::kSmoothAbs:  // sqrt(x^2 + eps^2)
+      da[0] = a[0] / v;
+      da[1] = a[1] / v;
+      break;
+    case Fn::kSmoothSign: {  // x / sqrt(x^2 + eps^2)
+      const double s = std::sqrt(a[0] * a[0] + a[1] * a[1]);
+      const double s3 = s * s * s;
+      da[0] = a[1] * a[1] / s3;
+      da[1] = -a[0] * a[1] / s3;
+      break;
+    }
+  }
+}
+
+}  // namespace
+
+double RunTangent(const Program& p, double t, const double* x, const double* w, double dt, const double* dx, const double* dw,
+                  double* value) {
+  double regs[kMaxRegs], dregs[kMaxRegs];
+  for (const Step& s : p.steps) {
+    double v = 0.0, dv = 0.0;
+    switch (s.op) {
+      case Step::Op::kLoad:
+        switch (s.input.in) {
+          case Input::In::kTime: v = t, dv = dt; break;
+          case Input::In::kState: v = x[s.input.offset], dv = dx[s.input.offset]; break;
+          case Input::In::kSlot: v = w[s.input.offset], dv = dw[s.input.offset]; break;
+          case Input::In::kConstant: v = s.input.value; break;
+        }
+        break;
+      case Step::Op::kConst: v = s.value; break;
+      case Step::Op::kNeg: v = -regs[s.a], dv = -dregs[s.a]; break;
+      case Step::Op::kAdd: v = regs[s.a] + regs[s.b], dv = dregs[s.a] + dregs[s.b]; break;
+      case Step::Op::kSub: v = regs[s.a] - regs[s.b], dv = dregs[s.a] - dregs[s.b]; break;
+      case Step::Op::kMul: v = regs[s.a] * regs[s.b], dv = dregs[s.a] * regs[s.b] + regs[s.a] * dregs[s.b]; break;
+      case Step::Op::kDiv:
+        v = regs[s.a] / regs[s.b];
+        dv = (dregs[s.a] - v * dregs[s.b]) / regs[s.b];
+        break;
+      case Step::Op::kPow: {
+        const double a = regs[s.a], b = regs[s.b];
+        v = Power(a, b);
+        // d(a^b) = b a^(b-1) da + a^b ln(a) db; the second term only where b moves.
+        dv = dregs[s.a] == 0.0 ? 0.0 : b * Power(a, b - 1.0) * dregs[s.a];
+        if (dregs[s.b] != 0.0) dv += v * std::log(a) * dregs[s.b];
+        break;
+      }
+      case Step::Op::kCall: {
+        const int arity = Info(s.fn).arity;
+        const int at[3] = {s.a, s.b, s.c};
+        double args[3] = {0.0, 0.0, 0.0}, partials[3] = {0.0, 0.0, 0.0};
+        for (int k = 0; k < arity; ++k) args[k] = regs[at[k]];
+        v = Apply(s.fn, args);
+        Partials(s.fn, args, v, partials);
+        for (int k = 0; k < arity; ++k)
+          if (dregs[at[k]] != 0.0) dv += partials[k] * dregs[at[k]];
+        break;
+      }
+    }
+    regs[s.dst] = v;
+    dregs[s.dst] = dv;
+  }
+  if (value) *value = regs[p.result];
+  return dregs[p.result];
+}
+
+}  // namespace multibond::expr

@@ -1,0 +1,106 @@
+// The tangent rule of one instruction (operations.h, ExecTangent): the derivative of its output
+// along a direction of the state (and of the sources), from the derivatives of its inputs. Shared
+// by the constraints' tangent pass (the time derivative along dx/dt) and the linearisation (the
+// directional derivative along a state or input direction, CompiledModel::CalcTangent).
+
+#include "multibond/compile/exact_sum.h"
+#include "multibond/compile/operations.h"
+#include "multibond/core/error.h"
+
+namespace multibond::plan {
+
+void ExecTangent(const Instr& in, const TangentArgs& a) {
+  double* d = a.d;
+  double* tmp = a.tmp;
+  const double* w = a.w;
+  const double* x = a.x;
+  const double* xdot = a.xdot;
+  const double* c = a.tables.coef;
+  auto exec = [&](const double* xs, const double* win, double* wout, const double* m) {
+    plan::Exec(in, plan::ExecArgs{a.t, xs, win, wout, m, a.lambda, a.tables});
+  };
+  auto add_tmp = [&] {
+    for (int k = 0; k < in.n; ++k) {
+      d[in.dst + k] += tmp[in.dst + k];
+      tmp[in.dst + k] = 0.0;
+    }
+  };
+  switch (Traits(in.op).tangent) {
+    case Tangent::kSourceRate:
+      for (int k = 0; k < in.n; ++k) d[in.dst + k] = a.source_rate ? a.tables.sources[in.coef + k].Derivative(a.t) : 0.0;
+      break;
+    case Tangent::kZero:
+      // A multiplier: its part of dg/dt is W lambda (it never reaches a constrained variable).
+      for (int k = 0; k < in.n; ++k) d[in.dst + k] = 0.0;
+      break;
+    case Tangent::kStateRate:
+      exec(xdot, d, d, a.mod);
+      break;
+    case Tangent::kRotatedInertia: {
+      // f = R Ib^-1 R^T h  ->  df = dR a + R Ib^-1 (dR^T h + R^T dh),  a = Ib^-1 R^T h; written
+      // out term by term in the generated code's order (CompiledModel::GenerateTangentSource).
+      const double *r = x + in.aux, *rd = xdot + in.aux, *h = x + in.src, *hd = xdot + in.src;
+      auto ib = [&](int i, int j) {
+        return in.op == Op::kIFlowRotatedDiag ? (i == j ? c[in.coef + i] : 0.0) : c[in.coef + 3 * i + j];
+      };
+      double hb[3], dhb[3], av[3], da[3];
+      for (int i = 0; i < 3; ++i) {
+        hb[i] = Dot3(r[i], h[0], r[3 + i], h[1], r[6 + i], h[2]);
+        dhb[i] = kSumStart;
+        for (int k = 0; k < 3; ++k) dhb[i] = AddProduct(dhb[i], rd[3 * k + i], h[k]);
+        for (int k = 0; k < 3; ++k) dhb[i] = AddProduct(dhb[i], r[3 * k + i], hd[k]);
+      }
+      for (int i = 0; i < 3; ++i) {
+        av[i] = AddTerm(AddTerm(AddTerm(kSumStart, ib(i, 0), hb[0]), ib(i, 1), hb[1]), ib(i, 2), hb[2]);
+        da[i] = AddTerm(AddTerm(AddTerm(kSumStart, ib(i, 0), dhb[0]), ib(i, 1), dhb[1]), ib(i, 2), dhb[2]);
+      }
+      for (int i = 0; i < 3; ++i) {
+        double s = kSumStart;
+        for (int k = 0; k < 3; ++k) s = AddProduct(s, rd[3 * i + k], av[k]);
+        for (int k = 0; k < 3; ++k) s = AddProduct(s, r[3 * i + k], da[k]);
+        d[in.dst + i] = s;
+      }
+      break;
+    }
+    case Tangent::kBilinear:
+      // Bilinear in R and the input: d(K(R) u) = K(R) du + K(dR) u.
+      exec(x, d, d, a.mod);
+      exec(xdot, w, tmp, a.mod);
+      add_tmp();
+      break;
+    case Tangent::kModulated: {
+      if (in.count <= 1) {
+        exec(x, d, d, a.mod);
+        exec(x, w, tmp, a.dmod);
+        add_tmp();
+      } else {
+        // y = M^-1 u (mode 2) or M^-T u (mode 3): dy = M^-1 (du - dM y) (or transposed).
+        const ModulusEval& me = a.moduli[in.modulus];
+        const double* dm = a.dmod + me.out;
+        const double* y = w + in.dst;
+        double z[16];
+        MB_ASSERT(in.m <= 16, "modulated inverse larger than 16");
+        for (int r = 0; r < in.m; ++r) {
+          double s = d[in.src + r];
+          for (int k = 0; k < in.n; ++k) s = AddProduct(s, -(in.count == 2 ? dm[r * in.n + k] : dm[k * in.m + r]), y[k]);
+          z[r] = s;
+        }
+        const double* mv = a.mod + in.coef;
+        for (int r = 0; r < in.n; ++r) {
+          double s = kSumStart;
+          for (int k = 0; k < in.m; ++k) s = AddProduct(s, in.count == 2 ? mv[r * in.m + k] : mv[k * in.n + r], z[k]);
+          d[in.dst + r] = s;
+        }
+      }
+      break;
+    }
+    case Tangent::kLinear:  // constant linear maps of slots: the same map of their derivatives
+      exec(x, d, d, a.mod);
+      break;
+    case Tangent::kNone:  // formulas: their programs' own tangents (CompiledModel::CalcTangent)
+      MB_ASSERT(false, "ExecTangent on a formula");
+      break;
+  }
+}
+
+}  // namespace multibond::plan

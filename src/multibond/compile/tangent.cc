@@ -1,0 +1,128 @@
+/// \file
+/// Directional derivatives of the right-hand side (compiled_model.h, CalcTangent and
+/// SourceInputs): the plan walked once in order, each instruction's tangent rule applied to the
+/// derivatives of what it reads (the operation table's rules, plan::ExecTangent; formulas by
+/// forward-mode differentiation of their programs, expr::RunTangent; a law used backwards by the
+/// implicit function theorem), then the state derivatives' gathers. Exact to rounding: the
+/// linearisation's Jacobians (analysis/linearize.cc) are built from it, column by column.
+
+#include <algorithm>
+#include <vector>
+
+#include "multibond/compile/compiled_model.h"
+#include "multibond/core/error.h"
+
+namespace multibond {
+
+namespace {
+
+bool IsSourceInstruction(const plan::Instr& in, const BondGraph& g) {
+  if (in.element < 0) return false;
+  const ElementKind kind = g.element(in.element).kind;
+  if (kind != ElementKind::kSe && kind != ElementKind::kSf) return false;
+  return in.op == plan::Op::kSource || in.op == plan::Op::kExpr;
+}
+
+}  // namespace
+
+std::vector<CompiledModel::SourceInput> CompiledModel::SourceInputs() const {
+  std::vector<SourceInput> inputs;
+  for (int i = 0; i < static_cast<int>(plan_.size()); ++i) {
+    const Instr& in = plan_[i];
+    if (!IsSourceInstruction(in, graph_)) continue;
+    const Element& e = graph_.element(in.element);
+    const int cls = class_of_slot_.empty() ? -1 : class_of_slot_[in.dst];
+    const std::vector<std::string> comps = ComponentNames(in.n);
+    for (int k = 0; k < in.n; ++k)
+      inputs.push_back({in.n == 1 ? e.name : e.name + "." + comps[k], cls >= 0 ? class_units_[cls] : "", in.element, i, k});
+  }
+  return inputs;
+}
+
+bool CompiledModel::can_linearize(std::string* why) const {
+  if (!constraints_.empty()) {
+    if (why) *why = "ideal constraints (the constraint efforts' derivatives are not derived yet)";
+    return false;
+  }
+  if (!tears_.empty()) {
+    if (why) *why = "solved algebraic loops (the torn variables' derivatives are not derived yet)";
+    return false;
+  }
+  return true;
+}
+
+void CompiledModel::CalcTangent(double t, const double* x, const double* dx, const double* du, double* dxdot, const Workspace& ws,
+                                Workspace& dws) const {
+  MB_ASSERT(can_linearize(nullptr), "CalcTangent on a model with constraints or torn loops");
+  const double* w = ws.slots.data();
+  double* d = dws.slots.data();
+  std::fill(dws.slots.begin(), dws.slots.end(), 0.0);
+  std::vector<double> tmp(dws.slots.size(), 0.0);
+  if (!needed_moduli_.empty()) EvalModuli(dx, dws.moduli.data(), /*derivative=*/true);
+  const plan::TangentArgs args{t, x, dx, w, d, tmp.data(), ws.moduli.data(), dws.moduli.data(), nullptr, tables(), moduli_.data(),
+                               /*source_rate=*/false};
+  int input = 0;
+  for (const Instr& in : plan_) {
+    switch (in.op) {
+      case Op::kExpr:
+        for (int k = 0; k < in.n; ++k) d[in.dst + k] = expr::RunTangent(programs_[in.coef + k], t, x, w, 0.0, dx, d);
+        break;
+      case Op::kSolve: {
+        // law(u, rest) = target: du = (dtarget - dlaw/drest . drest) / law'(u), the scratch slot
+        // (which holds u since the plain pass) taken as fixed in the law's own derivative.
+        const double target_rate = in.transpose ? -d[in.src] : d[in.src];
+        d[in.count] = 0.0;
+        const double rest = expr::RunTangent(programs_[in.coef], t, x, w, 0.0, dx, d);
+        const double slope = expr::Run(programs_[in.aux], t, x, w);
+        const double du_rate = (target_rate - rest) / slope;
+        d[in.count] = du_rate;
+        d[in.dst] = in.scale * du_rate;
+        break;
+      }
+      default:
+        plan::ExecTangent(in, args);
+        break;
+    }
+    if (IsSourceInstruction(in, graph_)) {
+      for (int k = 0; k < in.n; ++k, ++input)
+        if (du) d[in.dst + k] += du[input];
+    }
+  }
+  for (const Gather& gt : layout_.gathers()) TangentGather(gt, x, dx, w, d, dxdot);
+}
+
+void CompiledModel::TangentGather(const Gather& gt, const double* x, const double* dx, const double* w, const double* d, double* dxdot) {
+  double* out = dxdot + gt.state;
+  switch (gt.kind) {
+    case StateBlock::Kind::kMomentum:
+    case StateBlock::Kind::kDisplacement:
+    case StateBlock::Kind::kIntegral:
+      EvalGather(gt, dx, d, dxdot);  // linear in the slots
+      break;
+    case StateBlock::Kind::kOrientation: {
+      // dR/dt = [w x] R - g (R R^T - I) R:  d = [dw x] R + [w x] dR - g ((dR R^T + R dR^T) R + (R R^T - I) dR).
+      using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+      const Eigen::Map<const Rm3> r(x + gt.state), dr(dx + gt.state);
+      auto skew = [](const double* v) {
+        Eigen::Matrix3d s;
+        s << 0.0, -v[2], v[1], v[2], 0.0, -v[0], -v[1], v[0], 0.0;
+        return s;
+      };
+      Rm3 o = skew(d + gt.flow) * r + skew(w + gt.flow) * dr;
+      if (gt.sign > 0.0)
+        o -= gt.sign * ((dr * r.transpose() + r * dr.transpose()) * r + (r * r.transpose() - Eigen::Matrix3d::Identity()) * dr);
+      Eigen::Map<Rm3> result(out);
+      result = o;
+      break;
+    }
+    case StateBlock::Kind::kWork:
+    case StateBlock::Kind::kDissipation: {
+      double p = 0.0;
+      for (int k = 0; k < gt.size; ++k) p += d[gt.effort + k] * w[gt.flow + k] + w[gt.effort + k] * d[gt.flow + k];
+      out[0] = gt.sign * p;
+      break;
+    }
+  }
+}
+
+}  // namespace multibond

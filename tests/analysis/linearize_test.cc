@@ -1,0 +1,182 @@
+// The linearisation against closed forms: a mass-spring-damper's state space, a pendulum and a
+// Duffing spring linearised about displaced states (laws given by formulas), a spinning body's
+// Jacobian in angle coordinates against central differences along the rotation group, steady
+// states, and what is refused.
+
+#include "multibond/analysis/linearize.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include <Eigen/Eigenvalues>
+
+#include "multibond/compile/compiled_model.h"
+#include "multibond/io/model_loader.h"
+
+namespace multibond::linear {
+namespace {
+
+std::shared_ptr<const CompiledModel> Compiled(const std::string& path, const std::vector<ParameterOverride>& set = {}) {
+  LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/" + path, {}, set);
+  return CompiledModel::Compile(std::move(lm.graph), lm.compile);
+}
+
+int Index(const std::vector<std::string>& names, const std::string& name) {
+  const auto it = std::find(names.begin(), names.end(), name);
+  EXPECT_NE(it, names.end()) << name;
+  return static_cast<int>(it - names.begin());
+}
+
+TEST(Linearize, MassSpringDamperStateSpace) {
+  const auto model = Compiled("examples/mass_spring_damper.yaml");
+  const LinearModel lm = Linearize(*model, 0.0, model->MakeInitialState());
+  ASSERT_EQ(lm.states.size(), 2u);  // the energy account's integrals are no coordinates
+  const int p = Index(lm.states, "mass.p"), q = Index(lm.states, "spring.q");
+  // m = 1, c = 2, k = 100:  dp/dt = F - k q - c p/m,  dq/dt = p/m.
+  EXPECT_DOUBLE_EQ(lm.A(p, p), -2.0);
+  EXPECT_DOUBLE_EQ(lm.A(p, q), -100.0);
+  EXPECT_DOUBLE_EQ(lm.A(q, p), 1.0);
+  EXPECT_DOUBLE_EQ(lm.A(q, q), 0.0);
+  ASSERT_EQ(lm.inputs, std::vector<std::string>{"force"});
+  EXPECT_DOUBLE_EQ(lm.B(p, 0), 1.0);
+  EXPECT_DOUBLE_EQ(lm.B(q, 0), 0.0);
+  ASSERT_EQ(lm.outputs, (std::vector<std::string>{"velocity", "spring_force"}));
+  EXPECT_DOUBLE_EQ(lm.C(0, p), 1.0);
+  EXPECT_DOUBLE_EQ(lm.C(0, q), 0.0);
+  EXPECT_DOUBLE_EQ(lm.C(1, q), 100.0);
+  EXPECT_DOUBLE_EQ(lm.D.cwiseAbs().maxCoeff(), 0.0);
+  const Eigen::VectorXcd ev = lm.A.eigenvalues();
+  for (const auto& l : ev) {
+    EXPECT_NEAR(l.real(), -1.0, 1e-12);
+    EXPECT_NEAR(std::abs(l.imag()), std::sqrt(99.0), 1e-12);
+  }
+  // Storage Hessians: 1/m and k; 1/2 x^T H x is the stored energy.
+  ASSERT_EQ(lm.storages.size(), 2u);
+  for (const Storage& s : lm.storages) EXPECT_DOUBLE_EQ(s.hessian(0, 0), s.element == "mass" ? 1.0 : 100.0) << s.element;
+  ASSERT_EQ(lm.motion_names, std::vector<std::string>{"mass.f"});
+  EXPECT_DOUBLE_EQ(lm.motion(0, p), 1.0);
+}
+
+TEST(Linearize, PendulumAboutADisplacedAngle) {
+  // dp/dt = -m g L sin(angle) (a formula), d(angle)/dt = p/(m L^2): A = [[0, -m g L cos(a0)], [1/J, 0]].
+  for (const double a0 : {0.0, 0.5, 2.0}) {
+    const auto model = Compiled("examples/equations/pendulum.yaml", {{"theta0", std::to_string(a0)}});
+    const LinearModel lm = Linearize(*model, 0.0, model->MakeInitialState());
+    const int p = Index(lm.states, "J.p"), a = Index(lm.states, "angle");
+    EXPECT_NEAR(lm.A(p, a), -9.81 * std::cos(a0), 1e-14) << a0;
+    EXPECT_DOUBLE_EQ(lm.A(a, p), 1.0);
+    EXPECT_DOUBLE_EQ(lm.A(p, p), 0.0);
+    if (a0 == 0.0) {
+      for (const auto& l : lm.A.eigenvalues()) {
+        EXPECT_NEAR(std::abs(l.imag()), std::sqrt(9.81), 1e-12);
+      }
+    }
+  }
+}
+
+TEST(Linearize, DuffingSpringStiffensWithDisplacement) {
+  // Energy 1/2 k1 q^2 + 1/4 k3 q^4: stiffness k1 + 3 k3 q0^2 = 1 + 30 at q0 = 1, in A and in the Hessian.
+  const auto model = Compiled("examples/equations/duffing.yaml");
+  const LinearModel lm = Linearize(*model, 0.0, model->MakeInitialState());
+  const int p = Index(lm.states, "mass.p"), q = Index(lm.states, "spring.q");
+  EXPECT_NEAR(lm.A(p, q), -31.0, 1e-13);
+  for (const Storage& s : lm.storages) {
+    if (s.element == "spring") {
+      EXPECT_NEAR(s.hessian(0, 0), 31.0, 1e-13);
+    }
+  }
+  EXPECT_DOUBLE_EQ(lm.A(q, p), 1.0);
+}
+
+TEST(Linearize, SpinningBodyMatchesCentralDifferencesOnTheRotationGroup) {
+  // The spinning body of docs/model-format.md, tilted and spinning: A against central differences
+  // of the variational equation. A perturbed orientation R = exp([theta x]) R0 and the nominal
+  // one differ by M(t) = R(t) Rn(t)^T = exp([theta(t) x]); to first order in theta,
+  // d(theta)/dt = vee(dM/dt) = vee(dR/dt R0^T + R dRn/dt^T) at t = 0.
+  const std::string yaml = R"(
+model: spinning_body
+domain: rotation
+elements:
+  torque: {type: Se, effort: [0.0, 0.0, 0.0]}
+  w:      {type: "1"}
+  body:   {type: I, inertia: [0.1, 0.2, 0.3], rotation: R, p0: [0.02, 0.01, 0.05]}
+states:
+  R: {kind: orientation, of: w, initial: [[0.36, 0.48, -0.8], [-0.8, 0.6, 0.0], [0.48, 0.64, 0.6]]}
+bonds:
+  - torque -> w
+  - w -> body
+outputs:
+  - {name: omega, variable: w.f}
+)";
+  LoadedModel loaded = LoadModelString(yaml);
+  const auto model = CompiledModel::Compile(std::move(loaded.graph), loaded.compile);
+  const Eigen::VectorXd x0 = model->MakeInitialState();
+  const LinearModel lm = Linearize(*model, 0.0, x0);
+  ASSERT_EQ(lm.states.size(), 6u);  // 3 momenta, 3 angles: not 12
+  EXPECT_EQ(lm.states[3], "R.angle.x");
+  // z -> x: momenta added, angles applied on the group; dz/dt = T(x)^+ dx/dt.
+  using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+  Eigen::VectorXd xdot0(x0.size());
+  {
+    Workspace ws = model->MakeWorkspace();
+    model->CalcDerivatives(0.0, x0.data(), xdot0.data(), ws);
+  }
+  const Rm3 r0 = Eigen::Map<const Rm3>(x0.data() + 3), rdot0 = Eigen::Map<const Rm3>(xdot0.data() + 3);
+  auto zdot = [&](const Eigen::VectorXd& z) {
+    Eigen::VectorXd x = x0;
+    for (int k = 0; k < 3; ++k) x[k] += z[k];
+    const Eigen::Vector3d th = z.tail<3>();
+    const Eigen::Matrix3d rot = th.norm() > 0 ? Eigen::AngleAxisd(th.norm(), th.normalized()).toRotationMatrix() : Eigen::Matrix3d::Identity();
+    const Rm3 r = rot * r0;
+    Eigen::Map<Rm3>(x.data() + 3) = r;
+    Workspace ws = model->MakeWorkspace();
+    Eigen::VectorXd xdot(x.size());
+    model->CalcDerivatives(0.0, x.data(), xdot.data(), ws);
+    const Eigen::Matrix3d s = Eigen::Map<const Rm3>(xdot.data() + 3) * r0.transpose() + r * rdot0.transpose();
+    Eigen::VectorXd out(6);
+    out << xdot.head<3>(), s(2, 1), s(0, 2), s(1, 0);
+    return out;
+  };
+  const double h = 1e-6;
+  for (int j = 0; j < 6; ++j) {
+    Eigen::VectorXd e = Eigen::VectorXd::Zero(6);
+    e[j] = h;
+    const Eigen::VectorXd fd = (zdot(e) - zdot(-e)) / (2 * h);
+    for (int i = 0; i < 6; ++i) EXPECT_NEAR(lm.A(i, j), fd[i], 1e-7 * (1.0 + std::abs(fd[i]))) << i << "," << j;
+  }
+  // No torque: the angular momentum is constant (its rows are zero), and the torque enters it.
+  EXPECT_EQ(lm.A.topRows(3).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_DOUBLE_EQ(lm.B(2, 2), 1.0);
+}
+
+TEST(Linearize, SteadyStateOfAMassSpringDamperUnderAConstantForce) {
+  const auto model = Compiled("examples/mass_spring_damper.yaml");
+  const Eigen::VectorXd x = FindSteadyState(*model, 1.0, model->MakeInitialState());
+  const int q = static_cast<int>(std::find(model->state_names().begin(), model->state_names().end(), "spring.q") - model->state_names().begin());
+  EXPECT_NEAR(x[q], 0.01, 1e-14);  // F / k
+  EXPECT_NEAR(x[0], 0.0, 1e-14);
+}
+
+TEST(Linearize, SteadyStateOfAPendulumFromNearTheTop) {
+  // From 3 rad at rest Newton finds the nearest equilibrium: the inverted one at pi, unstable
+  // (a real positive eigenvalue sqrt(g/L)).
+  const auto model = Compiled("examples/equations/pendulum.yaml", {{"theta0", "3.0"}});
+  const Eigen::VectorXd x = FindSteadyState(*model, 0.0, model->MakeInitialState());
+  const int a = static_cast<int>(std::find(model->state_names().begin(), model->state_names().end(), "angle") - model->state_names().begin());
+  EXPECT_NEAR(x[a], M_PI, 1e-12);
+  const LinearModel lm = Linearize(*model, 0.0, x);
+  double largest = -1e9;
+  for (const auto& l : lm.A.eigenvalues()) largest = std::max(largest, l.real());
+  EXPECT_NEAR(largest, std::sqrt(9.81), 1e-9);
+}
+
+TEST(Linearize, RefusesIdealConstraints) {
+  const auto model = Compiled("examples/differential_ideal.yaml");
+  ASSERT_TRUE(model->has_constraints());
+  EXPECT_THROW(Linearize(*model, 0.0, model->MakeInitialState()), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace multibond::linear
