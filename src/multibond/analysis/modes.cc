@@ -45,9 +45,13 @@ void Participation(const LinearModel& m, Mode& mode) {
     for (size_t k = 0; k < s.states.size(); ++k) ve(static_cast<Eigen::Index>(k)) = full(s.states[k]);
     energy[e] = (ve.adjoint() * s.hessian.cast<std::complex<double>>() * ve)(0, 0).real();
     sum += energy[e];
-    // A bound on |energy[e]|: what the sum is compared with to tell "no stored energy".
-    scale += s.hessian.norm() * ve.squaredNorm();
+    scale += s.hessian.norm();
   }
+  // What the sum is compared with to tell "no stored energy": the energy the whole shape would
+  // have if every entry were in every storage element (the sum of |H_e| times |dx|^2). A shape
+  // that the storage elements see only through rounding (the second, numerically parallel
+  // eigenvector of a defective zero eigenvalue) has a sum ~1e-32 times that.
+  scale *= full.squaredNorm();
   mode.participation.clear();
   mode.stores_energy = scale > 0.0 && std::abs(sum) > 1e-12 * scale;
   if (!mode.stores_energy) return;
@@ -91,8 +95,13 @@ std::vector<Mode> ComputeModes(const LinearModel& model) {
   const Eigen::MatrixXcd vectors = solver.eigenvectors();
   // EigenSolver gives a real eigenvalue an imaginary part of exactly 0 (a 1x1 block of the real
   // Schur form) and a complex pair as exact conjugates: one mode per real one and per Im > 0.
-  for (Eigen::Index i = 0; i < values.size(); ++i)
-    if (values(i).imag() >= 0.0) modes.push_back(MakeMode(model, values(i), vectors.col(i)));
+  // A real part within rounding of 0 (an undamped oscillation) is 0: no spurious growth or decay.
+  const double zero = 8 * std::numeric_limits<double>::epsilon() * model.A.norm();
+  for (Eigen::Index i = 0; i < values.size(); ++i) {
+    if (values(i).imag() < 0.0) continue;
+    const std::complex<double> lambda(std::abs(values(i).real()) <= zero ? 0.0 : values(i).real(), values(i).imag());
+    modes.push_back(MakeMode(model, lambda, vectors.col(i)));
+  }
   std::stable_sort(modes.begin(), modes.end(), [](const Mode& a, const Mode& b) {
     if (a.frequency_hz != b.frequency_hz) return a.frequency_hz < b.frequency_hz;
     if (a.eigenvalue.real() != b.eigenvalue.real()) return a.eigenvalue.real() < b.eigenvalue.real();

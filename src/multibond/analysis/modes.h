@@ -21,8 +21,9 @@
 ///                        quadratic energy (1/2) dx^T H dx averaged over a period), so E_e is
 ///                        proportional to it; for a real eigenvalue it is twice the shape's energy.
 ///                        share_e = E_e / sum E: the shares sum to 1. A mode that stores no energy
-///                        (sum E ~ 0: an integrator's state, a rigid-body position that no
-///                        storage element sees) has no participation, and stores_energy = false.
+///                        (an integrator's state, a rigid-body position that no storage element
+///                        sees: |sum E| <= 1e-12 (sum_e |H_e|_F) |dx|^2, with the shape scaled
+///                        as below) has no participation, and stores_energy = false.
 ///                        With an indefinite Hessian (a law that is not convex at the point, e.g.
 ///                        an unstable equilibrium) a share may be negative or above 1.
 ///   shape                v scaled so that its largest component (in modulus; the first of equal
@@ -57,7 +58,8 @@ struct Mode {
 
 /// The modes of `model`: the eigen-decomposition of A (Eigen::EigenSolver), one Mode per real
 /// eigenvalue and one per complex-conjugate pair, sorted by frequency_hz, then by eigenvalue (real
-/// part, then imaginary part). An empty `basis` is taken as the identity (z is the full state).
+/// part, then imaginary part). A real part within rounding of zero, |Re| <= 8 eps |A|_F, is
+/// taken as 0 (an undamped oscillation gets damping 0 and an infinite time constant). An empty `basis` is taken as the identity (z is the full state).
 /// Throws std::invalid_argument when the model's sizes disagree (A not square, basis, motion or
 /// a storage's states not matching) or A has a value that is not finite, std::runtime_error when
 /// the eigen-decomposition fails.

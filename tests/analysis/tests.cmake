@@ -1,0 +1,2 @@
+multibond_test(analysis/modes_test.cc LIBS multibond::analysis LABELS unit)
+multibond_test(analysis/bode_test.cc LIBS multibond::analysis LABELS unit)
