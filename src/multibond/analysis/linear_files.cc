@@ -207,6 +207,7 @@ std::string BodeGnuplotScript(const std::string& csv_name, const std::string& fi
   s += "set grid xtics mxtics ytics lc rgb \"#dddddd\"\n";
   s += "set border lc rgb \"#444444\"\n";
   s += "set logscale x 10\n";
+  s += "set autoscale xfix\n";
   s += "set format x \"10^{%L}\"\n";
   s += "set lmargin 12\n";
   s += "do for [format in \"png svg\"] {\n";

@@ -28,7 +28,8 @@ namespace multibond::linear {
 /// linear.json: keys `states`, `inputs`, `outputs` (lists of names), `A`, `B`, `C`, `D` (lists of
 /// rows; a matrix without entries, e.g. B of a model without inputs, is the empty list: the
 /// sizes are those of the name lists), `at` [s], `eigenvalues` (every eigenvalue of A as [re, im],
-/// sorted by modulus, then real part, then imaginary part), `state_units`, `input_units`,
+/// sorted by modulus, then real part, then imaginary part; none when A has a value that is not
+/// finite), `state_units`, `input_units`,
 /// `output_units`, `steady`, `notes`, `basis` (rows: full_states, columns: states), `full_states`,
 /// `x0`, and every key of `record` (an object, or null for none). `model` is the model's name
 /// unless `record` has its own `model`. Throws std::invalid_argument when `record` is not an
