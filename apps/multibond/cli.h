@@ -78,5 +78,8 @@ Command AddGraphCommand(CLI::App& app);
 Command AddRunCommand(CLI::App& app);
 Command AddCompareCommand(CLI::App& app);
 Command AddPlotCommand(CLI::App& app);
+Command AddLinearizeCommand(CLI::App& app);
+Command AddModesCommand(CLI::App& app);
+Command AddBodeCommand(CLI::App& app);
 
 }  // namespace multibond::cli

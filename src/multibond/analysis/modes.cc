@@ -67,7 +67,7 @@ Mode MakeMode(const LinearModel& m, std::complex<double> lambda, Eigen::VectorXc
   const double r = std::abs(lambda);
   mode.frequency_hz = r / (2 * std::numbers::pi);
   mode.damped_frequency_hz = std::abs(lambda.imag()) / (2 * std::numbers::pi);
-  mode.damping_ratio = r > 0.0 ? -lambda.real() / r : 0.0;
+  mode.damping_ratio = r > 0.0 ? 0.0 - lambda.real() / r : 0.0;  // 0 - (+0) is +0: an undamped mode prints 0, not -0
   mode.time_constant_s = lambda.real() != 0.0 ? -1.0 / lambda.real() : std::numeric_limits<double>::infinity();
   Eigen::Index big = 0;
   for (Eigen::Index i = 1; i < v.size(); ++i)
