@@ -6,3 +6,4 @@ multibond_test(physics/differential_ideal_test.cc LIBS multibond::io LABELS phys
 multibond_test(physics/rhs_allocation_test.cc LIBS multibond::io LABELS physics)
 multibond_test(physics/repaired_physics_test.cc LIBS multibond::io LABELS physics)
 multibond_test(physics/equation_examples_test.cc LIBS multibond::io LABELS physics)
+multibond_test(physics/linear_examples_test.cc LIBS multibond::analysis LABELS physics)

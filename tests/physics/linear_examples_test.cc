@@ -1,0 +1,167 @@
+// Linear analysis of the examples against closed forms and against an independent Jacobian:
+// the two-mass example's modes from the generalized eigenproblem, and the compliant
+// differential's modes against central differences of its variational equation.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <string>
+
+#include <Eigen/Eigenvalues>
+
+#include "multibond/analysis/linearize.h"
+#include "multibond/analysis/modes.h"
+#include "multibond/compile/compiled_model.h"
+#include "multibond/io/model_loader.h"
+
+namespace multibond::linear {
+namespace {
+
+using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+
+std::shared_ptr<const CompiledModel> Compiled(const std::string& path) {
+  LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/" + path);
+  return CompiledModel::Compile(std::move(lm.graph), lm.compile);
+}
+
+/// The Jacobian of the variational equation in the linear model's coordinates by central
+/// differences, computed from the right-hand side alone (not from the tangent pass): a momentum or
+/// displacement coordinate moves its entry; an angle moves its orientation R to exp([h e_i x]) R,
+/// and the angles' rates are read from M = R Rn^T as vee(dR/dt Rn^T + R dRn/dt^T).
+Eigen::MatrixXd CentralDifferenceJacobian(const CompiledModel& model, const LinearModel& lm, double h) {
+  const Eigen::VectorXd& x0 = lm.x0;
+  const Eigen::Index n = x0.size(), nz = static_cast<Eigen::Index>(lm.states.size());
+  Workspace ws = model.MakeWorkspace();
+  Eigen::VectorXd xdot0(n);
+  model.CalcDerivatives(lm.at, x0.data(), xdot0.data(), ws);
+  // Which coordinate each column is: a state entry, or an angle (its orientation's offset and axis).
+  struct Coordinate {
+    int state = -1, orientation = -1, axis = 0;
+  };
+  std::vector<Coordinate> coords(nz);
+  for (Eigen::Index j = 0; j < nz; ++j) {
+    const Eigen::VectorXd col = lm.basis.col(j);
+    if (col.cwiseAbs().sum() == 1.0 && col.maxCoeff() == 1.0) {
+      Eigen::Index i;
+      col.maxCoeff(&i);
+      coords[j].state = static_cast<int>(i);
+    } else {
+      Eigen::Index first;
+      col.cwiseAbs().maxCoeff(&first);
+      coords[j].orientation = static_cast<int>(first - first % 9);  // blocks of 9 start at multiples of 9 only by chance: found below
+    }
+  }
+  // Orientation offsets from the names "<R>.angle.<axis>" and the state names "<R>.<ij>".
+  for (Eigen::Index j = 0; j < nz; ++j) {
+    if (coords[j].state >= 0) continue;
+    const std::string& name = lm.states[j];
+    const std::string base = name.substr(0, name.find(".angle."));
+    coords[j].axis = name.back() - 'x';
+    const auto it = std::find_if(lm.full_states.begin(), lm.full_states.end(), [&](const std::string& s) { return s.rfind(base + ".", 0) == 0; });
+    coords[j].orientation = static_cast<int>(it - lm.full_states.begin());
+  }
+  auto rates = [&](const Eigen::VectorXd& x) {
+    Eigen::VectorXd xdot(n);
+    model.CalcDerivatives(lm.at, x.data(), xdot.data(), ws);
+    Eigen::VectorXd z(nz);
+    for (Eigen::Index i = 0; i < nz; ++i) {
+      if (coords[i].state >= 0) {
+        z[i] = xdot[coords[i].state];
+        continue;
+      }
+      const int o = coords[i].orientation;
+      const Eigen::Matrix3d s = Eigen::Map<const Rm3>(xdot.data() + o) * Eigen::Map<const Rm3>(x0.data() + o).transpose() +
+                                Eigen::Map<const Rm3>(x.data() + o) * Eigen::Map<const Rm3>(xdot0.data() + o).transpose();
+      const int a = coords[i].axis;
+      z[i] = a == 0 ? s(2, 1) : (a == 1 ? s(0, 2) : s(1, 0));
+    }
+    return z;
+  };
+  auto moved = [&](Eigen::Index j, double step) {
+    Eigen::VectorXd x = x0;
+    if (coords[j].state >= 0) {
+      x[coords[j].state] += step;
+      return x;
+    }
+    const int o = coords[j].orientation;
+    Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+    axis[coords[j].axis] = 1.0;
+    const Rm3 r = Eigen::AngleAxisd(step, axis).toRotationMatrix() * Eigen::Map<const Rm3>(x0.data() + o);
+    Eigen::Map<Rm3>(x.data() + o) = r;
+    return x;
+  };
+  Eigen::MatrixXd a(nz, nz);
+  for (Eigen::Index j = 0; j < nz; ++j) {
+    const double step = h * std::max(1.0, std::abs(coords[j].state >= 0 ? x0[coords[j].state] : 0.0));
+    a.col(j) = (rates(moved(j, step)) - rates(moved(j, -step))) / (2 * step);
+  }
+  return a;
+}
+
+TEST(LinearExamples, TwoMassModesAreThoseOfTheGeneralizedEigenproblem) {
+  const auto model = Compiled("examples/linear/two_mass.yaml");
+  const LinearModel lm = Linearize(*model, 0.0, model->MakeInitialState());
+  const std::vector<Mode> modes = ComputeModes(lm);
+  ASSERT_EQ(modes.size(), 2u);
+  // det(K - w^2 M) = 0 with M = diag(1, 2), K = [[150, -50], [-50, 50]]: w^4 - 175 w^2 + 2500 = 0.
+  const double d = std::sqrt(175.0 * 175.0 - 4 * 2500.0);
+  const double w[2] = {std::sqrt((175.0 - d) / 2), std::sqrt((175.0 + d) / 2)};
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_NEAR(modes[k].frequency_hz, w[k] / (2 * M_PI), 1e-12 * w[k]);
+    EXPECT_EQ(modes[k].damping_ratio, 0.0);
+    // Energy participation: with the displacement shape phi (K phi = w^2 M phi), the time-averaged
+    // energies are m_i w^2 phi_i^2 / 4 (kinetic) and k (stretch)^2 / 4 (potential), half each in total.
+    const double w2 = w[k] * w[k];
+    const double phi1 = 1.0, phi2 = (150.0 - w2) / 50.0;  // first row of (K - w^2 M) phi = 0
+    const double e_m1 = w2 * phi1 * phi1, e_m2 = 2.0 * w2 * phi2 * phi2, e_k1 = 100.0 * phi1 * phi1,
+                 e_k2 = 50.0 * (phi1 - phi2) * (phi1 - phi2), total = e_m1 + e_m2 + e_k1 + e_k2;
+    std::map<std::string, double> share(modes[k].participation.begin(), modes[k].participation.end());
+    EXPECT_NEAR(share["mass1"], e_m1 / total, 1e-12);
+    EXPECT_NEAR(share["mass2"], e_m2 / total, 1e-12);
+    EXPECT_NEAR(share["spring1"], e_k1 / total, 1e-12);
+    EXPECT_NEAR(share["spring2"], e_k2 / total, 1e-12);
+  }
+}
+
+TEST(LinearExamples, CompliantDifferentialMatchesAnIndependentJacobian) {
+  const auto model = Compiled("examples/differential.yaml");
+  const LinearModel lm = Linearize(*model, 0.0, model->MakeInitialState());
+  ASSERT_GT(lm.states.size(), 100u);
+  const Eigen::MatrixXd fd = CentralDifferenceJacobian(*model, lm, 1e-6);
+  const double scale = lm.A.cwiseAbs().maxCoeff();
+  EXPECT_LT((lm.A - fd).cwiseAbs().maxCoeff(), 1e-6 * scale);  // the differences' own truncation and rounding
+
+  // The modes: the fastest one and the lightly damped oscillations, against the difference
+  // Jacobian's eigenvalues, and the storage that carries each.
+  const std::vector<Mode> modes = ComputeModes(lm);
+  const Eigen::VectorXcd fd_ev = fd.eigenvalues();
+  auto nearest = [&](std::complex<double> l) {
+    double best = 1e300;
+    for (const auto& m : fd_ev) best = std::min(best, std::abs(m - l));
+    return best;
+  };
+  const Mode* fastest = &modes.front();
+  int lightly_damped = 0;
+  for (const Mode& m : modes) {
+    if (std::abs(m.eigenvalue) > std::abs(fastest->eigenvalue)) fastest = &m;
+    if (m.conjugate_pair && m.damping_ratio > 0.0 && m.damping_ratio < 0.2 && m.frequency_hz > 1.0) {
+      ++lightly_damped;
+      EXPECT_LT(nearest(m.eigenvalue), 1e-5 * std::abs(m.eigenvalue)) << m.eigenvalue;
+      ASSERT_FALSE(m.participation.empty());
+      // An oscillation holds its energy half in the couplings (compliances: bearings, meshes,
+      // mounts), half in the bodies' motion (the virial theorem; exact for one degree of freedom
+      // at any damping, since |lambda|^2 = k/m): the participation names the couplings.
+      double in_couplings = 0.0;
+      for (const auto& [element, share] : m.participation)
+        if (model->graph().element(model->graph().Find(element)).kind == ElementKind::kC) in_couplings += share;
+      EXPECT_NEAR(in_couplings, 0.5, 1e-9) << m.eigenvalue;
+    }
+  }
+  EXPECT_GE(lightly_damped, 3);
+  EXPECT_LT(nearest(fastest->eigenvalue), 1e-5 * std::abs(fastest->eigenvalue)) << fastest->eigenvalue;
+}
+
+}  // namespace
+}  // namespace multibond::linear
