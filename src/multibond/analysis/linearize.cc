@@ -219,6 +219,8 @@ LinearModel Linearize(const CompiledModel& model, double t, const Eigen::VectorX
     for (int r = 0; r < b.size; ++r, ++row)
       for (Eigen::Index j = 0; j < nz; ++j) lm.motion(row, j) = slot_cols[j][var->offset + r];
   }
+  // Products of signs leave -0 where nothing couples: written as 0.
+  for (Eigen::MatrixXd* m : {&lm.A, &lm.B, &lm.C, &lm.D}) m->array() += 0.0;
   if (!c.angles.empty())
     lm.notes.push_back("each orientation matrix is represented by three angles (dR = [theta x] R), not its nine entries: the rotation group adds no spurious modes");
   return lm;
