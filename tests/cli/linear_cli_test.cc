@@ -176,12 +176,30 @@ TEST_F(LinearCliTest, LinearizeSteadyFindsTheStaticDeflection) {
   EXPECT_NEAR(j["x0"][p - names.begin()].get<double>(), 0.0, 1e-12);          // at rest
 }
 
-TEST_F(LinearCliTest, LinearizeWithIdealConstraintsIsAModelError) {
-  const fs::path dir = Out("ideal");
-  const Result r = Run("linearize " + Example("differential_ideal.yaml") + " -o " + dir.string());
+TEST_F(LinearCliTest, LinearizeWithSolvedAlgebraicLoopsIsAModelError) {
+  const fs::path dir = Out("loops");
+  const Result r = Run("linearize " + Example("algebraic_loop.yaml") + " --algebraic-loops solve -o " + dir.string());
   EXPECT_EQ(r.code, 1) << r.out << r.err;
   EXPECT_THAT(r.err, HasSubstr("cannot linearise"));
   EXPECT_FALSE(fs::exists(dir / "linear.json"));
+}
+
+TEST_F(LinearCliTest, LinearizeWithIdealConstraintsIsOnTheConstraintManifold) {
+  // The rigid differential: of its storage coordinates only the carrier's spin and the drive's
+  // coupling are independent; the rest are the bodies' positions and angles (modes that store no
+  // energy), and no mode is spurious or infinite.
+  const fs::path dir = Out("ideal");
+  const Result r = Run("modes " + Example("differential_ideal.yaml") + " -o " + dir.string());
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  const nlohmann::json j = Json(dir / "linear.json");
+  EXPECT_EQ(j["states"].size(), 44u);
+  bool noted = false;
+  for (const auto& note : j["notes"]) noted = noted || note.get<std::string>().find("constraint manifold") != std::string::npos;
+  EXPECT_TRUE(noted);
+  for (const auto& ev : j["eigenvalues"]) {
+    EXPECT_TRUE(std::isfinite(ev[0].get<double>()) && std::isfinite(ev[1].get<double>()));
+    EXPECT_LE(ev[0].get<double>(), 1e-9);  // nothing grows
+  }
 }
 
 TEST_F(LinearCliTest, LinearizePendulumAtTheBottomOscillatesAtSqrtGOverL) {

@@ -102,7 +102,7 @@ void Require(const CompiledModel& model, const Eigen::VectorXd& x) {
 
 /// The Jacobian of dz/dt in z (A) at x: the tangent pass along each column of T.
 Eigen::MatrixXd ReducedJacobian(const CompiledModel& model, double t, const Eigen::VectorXd& x, const Coordinates& c,
-                                const Eigen::VectorXd& xdot, const Workspace& ws, Workspace& dws,
+                                const Eigen::VectorXd& xdot, Workspace& ws, Workspace& dws,
                                 std::vector<Eigen::VectorXd>* slot_columns) {
   const Eigen::Index n = x.size(), nz = c.basis.cols();
   Eigen::MatrixXd jt(n, nz);
@@ -121,6 +121,60 @@ Eigen::MatrixXd ReducedJacobian(const CompiledModel& model, double t, const Eige
     jt.col(col) -= dcol;
   }
   return c.Reduce(jt);
+}
+
+/// Ideal constraints: the coordinates of the constraint manifold. The constraints hold the
+/// velocities (g(p, R) = 0, linear in the momenta), so m of the storage coordinates depend on the
+/// others: G dz = 0 with G = dg/dz (from the tangent pass's slot columns). The dependent ones are
+/// chosen among the momenta and displacements by column-pivoted QR of their columns of G
+/// (coordinate partitioning); dz = N dz_i with N_i = I, N_d = -G_d^+ G_i, and the flow keeps
+/// G dz = 0, so dz_i/dt = (A N)_i z_i, B_i, C N. Redundant constraints (rank < m) drop out.
+void ReduceToConstraintManifold(const CompiledModel& model, const std::vector<Eigen::VectorXd>& slot_cols, LinearModel& lm) {
+  const Eigen::Index nz = lm.A.cols(), m = model.num_multipliers();
+  Eigen::MatrixXd g(m, nz);
+  Eigen::VectorXd row(m);
+  for (Eigen::Index j = 0; j < nz; ++j) {
+    model.ConstraintRates(slot_cols[j].data(), row.data());
+    g.col(j) = row;
+  }
+  std::vector<Eigen::Index> storage;  // candidate dependent coordinates: not the angles
+  for (Eigen::Index j = 0; j < nz; ++j)
+    if (lm.states[j].find(".angle.") == std::string::npos) storage.push_back(j);
+  Eigen::MatrixXd gs(m, static_cast<Eigen::Index>(storage.size()));
+  for (size_t k = 0; k < storage.size(); ++k) gs.col(static_cast<Eigen::Index>(k)) = g.col(storage[k]);
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(gs);
+  qr.setThreshold(1e-10);
+  const Eigen::Index rank = qr.rank();
+  std::vector<bool> dependent(nz, false);
+  for (Eigen::Index k = 0; k < rank; ++k) dependent[storage[qr.colsPermutation().indices()[k]]] = true;
+  std::vector<Eigen::Index> dep, ind;
+  for (Eigen::Index j = 0; j < nz; ++j) (dependent[j] ? dep : ind).push_back(j);
+  Eigen::MatrixXd gd(m, static_cast<Eigen::Index>(dep.size())), gi(m, static_cast<Eigen::Index>(ind.size()));
+  for (size_t k = 0; k < dep.size(); ++k) gd.col(static_cast<Eigen::Index>(k)) = g.col(dep[k]);
+  for (size_t k = 0; k < ind.size(); ++k) gi.col(static_cast<Eigen::Index>(k)) = g.col(ind[k]);
+  const Eigen::MatrixXd nd = -gd.colPivHouseholderQr().solve(gi);
+  Eigen::MatrixXd n = Eigen::MatrixXd::Zero(nz, static_cast<Eigen::Index>(ind.size()));
+  for (size_t k = 0; k < ind.size(); ++k) n(ind[k], static_cast<Eigen::Index>(k)) = 1.0;
+  for (size_t k = 0; k < dep.size(); ++k) n.row(dep[k]) = nd.row(static_cast<Eigen::Index>(k));
+  auto rows = [&](const Eigen::MatrixXd& a) {
+    Eigen::MatrixXd r(static_cast<Eigen::Index>(ind.size()), a.cols());
+    for (size_t k = 0; k < ind.size(); ++k) r.row(static_cast<Eigen::Index>(k)) = a.row(ind[k]);
+    return r;
+  };
+  std::string names;
+  for (Eigen::Index j : dep) names += (names.empty() ? "" : ", ") + lm.states[j];
+  lm.A = rows(lm.A * n);
+  lm.B = rows(lm.B);
+  lm.C = lm.C * n;
+  lm.motion = lm.motion * n;
+  lm.basis = lm.basis * n;
+  std::vector<std::string> states, units;
+  for (Eigen::Index j : ind) states.push_back(lm.states[j]), units.push_back(lm.state_units[j]);
+  lm.states = std::move(states);
+  lm.state_units = std::move(units);
+  lm.notes.push_back(fmt::format("ideal constraints: {} constraint equations of rank {}; linearised on the constraint manifold in {} "
+                                 "independent coordinates, the dependent ones being {}",
+                                 m, rank, lm.states.size(), names.empty() ? "none" : names));
 }
 
 }  // namespace
@@ -219,6 +273,7 @@ LinearModel Linearize(const CompiledModel& model, double t, const Eigen::VectorX
     for (int r = 0; r < b.size; ++r, ++row)
       for (Eigen::Index j = 0; j < nz; ++j) lm.motion(row, j) = slot_cols[j][var->offset + r];
   }
+  if (model.has_constraints()) ReduceToConstraintManifold(model, slot_cols, lm);
   // Products of signs leave -0 where nothing couples: written as 0.
   for (Eigen::MatrixXd* m : {&lm.A, &lm.B, &lm.C, &lm.D}) m->array() += 0.0;
   if (!c.angles.empty())

@@ -18,8 +18,9 @@ class CompiledModel;
 namespace multibond::linear {
 
 /// The linear model at (t, x). Inputs: every source component; outputs: the declared outputs.
-/// Throws std::invalid_argument (with why) for what cannot be linearised yet (ideal
-/// constraints, solved algebraic loops) and for a state that is not finite.
+/// With ideal constraints, in the independent coordinates of the constraint manifold. Throws
+/// std::invalid_argument (with why) for what cannot be linearised yet (solved algebraic loops)
+/// and for a state that is not finite.
 LinearModel Linearize(const CompiledModel& model, double t, const Eigen::VectorXd& x);
 
 /// A steady state near x_start at time t (the sources held at their values at t): dz/dt = 0 in

@@ -101,6 +101,9 @@ class CompiledModel {
   int num_multipliers() const { return constraints_.num_multipliers(); }
   /// Velocity-level residual of every constraint at (t, x), |g - target| (max norm); fills ws.
   double ConstraintResidual(double t, const double* x, Workspace& ws) const;
+  /// Per multiplier component: the rate of its constraint along the derivatives of the slots
+  /// `d_slots` (CalcTangent's): the rows of the constraints' Jacobian, for the linearisation.
+  void ConstraintRates(const double* d_slots, double* out) const { constraints_.ConstraintRates(d_slots, out); }
   /// Names of the constraints ("S1_held.rigid", "J2.cut"), one per constraint group.
   std::vector<std::string> constraint_names() const;
 
@@ -182,13 +185,15 @@ class CompiledModel {
   };
   /// Every source component, in plan order (the order of CalcTangent's du).
   std::vector<SourceInput> SourceInputs() const;
-  /// False (and why) for what CalcTangent does not derive yet: ideal constraints, torn loops.
+  /// False (and why) for what CalcTangent does not derive yet: solved algebraic loops.
   bool can_linearize(std::string* why) const;
   /// The derivative of every effort and flow (dws.slots) and of dx/dt (dxdot) along a direction
   /// dx of the state and du of the inputs (SourceInputs' order; null: zero), at (t, x), where
   /// CalcDerivatives has filled `ws`; `dws` from MakeWorkspace (its moduli receive dM). Exact:
-  /// the plan's tangent rules, formulas differentiated step by step. Allocates (not the hot path).
-  void CalcTangent(double t, const double* x, const double* dx, const double* du, double* dxdot, const Workspace& ws,
+  /// the plan's tangent rules, formulas differentiated step by step; with ideal constraints the
+  /// multipliers' derivative too (the constraint equations differentiated once more, by the
+  /// plan's second-order rules). Allocates (not the hot path). `ws` is evaluated again at (t, x).
+  void CalcTangent(double t, const double* x, const double* dx, const double* du, double* dxdot, Workspace& ws,
                    Workspace& dws) const;
 
   // --- energy account (compile/energy_account.h: from the state x alone) ---
@@ -294,6 +299,11 @@ class CompiledModel {
   void EvalPlan(double t, const double* x, double* xdot, Workspace& ws) const;
   /// One state block's derivative from the slots `w` (and x, for orientations).
   static void EvalGather(const Gather& gt, const double* x, const double* w, double* xdot);
+  /// The tangent pass with the multipliers held (compile/tangent.cc): the slots' derivatives into
+  /// d_slots, the moduli's into d_moduli, dx/dt's into dxdot; `time`: the direction includes
+  /// d/dt of the sources (the constraints' own tangent pass), else a state and input direction.
+  void TangentPass(double t, const double* x, const double* dx, bool time, const double* du, double* dxdot, const Workspace& ws,
+                   std::vector<double>& d_slots, std::vector<double>& d_moduli) const;
   /// One state block's derivative's derivative along dx, from the slots w and their derivatives d.
   static void TangentGather(const Gather& gt, const double* x, const double* dx, const double* w, const double* d, double* dxdot);
   /// The tables the plan's instructions refer to (coefficients, sum terms, source functions).

@@ -292,6 +292,33 @@ void ConstraintSolver::Tangent(const PlanView& view, double t, const double* x, 
   for (int index : tangent_plan_) plan::ExecTangent(view.plan[index], args);
 }
 
+void ConstraintSolver::ConstraintRates(const double* d, double* out) const {
+  for (const Group& cg : groups_)
+    for (int k = 0; k < cg.size; ++k) {
+      double v = 0.0;
+      for (const auto& m : cg.members) v += m.sign * d[m.slot + k];
+      out[cg.lambda + k] = v;
+    }
+}
+
+void ConstraintSolver::Respond(const PlanView& view, double t, const double* x, const double* r, Workspace& ws, double* dlambda,
+                               double* lin, double* dxdot) const {
+  const std::vector<double> saved = ws.lambda;
+  std::copy(r, r + num_lambda_, ws.con.rhs.begin());
+  SolveAt(view, t, x, ws);
+  std::copy(ws.lambda.begin(), ws.lambda.end(), dlambda);
+  ws.lambda = saved;
+  // What the multipliers reach is linear in them (index 1: no state kernel, no formula on the
+  // way), so the reaction plan run on zero slots with dlambda gives the response.
+  for (int q : reaction_plan_) plan::Exec(view.plan[q], plan::ExecArgs{t, x, lin, lin, ws.moduli.data(), dlambda, view.tables});
+  std::vector<double> rate(view.num_states, 0.0);
+  for (int gi : reaction_gathers_) {
+    const StateGather& gt = view.gathers[gi];
+    view.gather(gt, x, lin, rate.data());
+    for (int k = 0; k < gt.size; ++k) dxdot[gt.state + k] += rate[gt.state + k];
+  }
+}
+
 void ConstraintSolver::AssembleConstraintMatrix(const PlanView& view, double t, const double* x, Workspace& ws) const {
   // A compliance whose bond points away from it: its kernel gave -K b.
   auto negate = [&] {

@@ -158,6 +158,17 @@ class ConstraintSolver {
   /// |g - target| (max norm) from ws, which holds the plan at (t, x) with lambda = 0.
   double Residual(double t, Workspace& ws) const;
 
+  // --- the linearisation (compile/tangent.cc) ---
+  /// Per multiplier component: sum over its members of s_k d[slot_k], the rate of its constraint
+  /// along the derivatives `d` of the slots (no targets).
+  void ConstraintRates(const double* d, double* out) const;
+  /// The multipliers' response to a change r of the constraint equations' right-hand side at
+  /// (t, x), where the last Solve ran: dlambda = W^-1 r, then what it reaches: the slots' response
+  /// into `lin` (zero on entry, the slots' size) and the storage rates' response added to dxdot.
+  /// ws.lambda is left as it was. Allocates (not the hot path).
+  void Respond(const PlanView& view, double t, const double* x, const double* r, Workspace& ws, double* dlambda, double* lin,
+               double* dxdot) const;
+
   // --- what it holds ---
   bool empty() const { return groups_.empty(); }
   int num_multipliers() const { return num_lambda_; }

@@ -104,3 +104,89 @@ void ExecTangent(const Instr& in, const TangentArgs& a) {
 }
 
 }  // namespace multibond::plan
+
+namespace multibond::plan {
+
+void ExecSecondTangent(const Instr& in, const SecondTangentArgs& a) {
+  double* dd = a.dd;
+  double* tmp = a.tmp;
+  auto exec = [&](const double* xs, const double* win, double* wout, const double* m) {
+    plan::Exec(in, plan::ExecArgs{a.t, xs, win, wout, m, a.lambda, a.tables});
+  };
+  auto add_tmp = [&] {
+    for (int k = 0; k < in.n; ++k) {
+      dd[in.dst + k] += tmp[in.dst + k];
+      tmp[in.dst + k] = 0.0;
+    }
+  };
+  switch (Traits(in.op).tangent) {
+    case Tangent::kSourceRate:  // functions of time alone: no second derivative with a state direction
+    case Tangent::kZero:
+    case Tangent::kStateRate:   // linear in the state with constant coefficients
+      for (int k = 0; k < in.n; ++k) dd[in.dst + k] = 0.0;
+      break;
+    case Tangent::kRotatedInertia: {
+      // f = R A R^T h (A = Ib^-1): the six mixed terms of the trilinear form (the directions are
+      // constant, so h_vF = 0 and R_vF = 0).
+      using Rm3 = Eigen::Matrix<double, 3, 3, Eigen::RowMajor>;
+      const Eigen::Map<const Rm3> r(a.x + in.aux), rv(a.xv + in.aux), rf(a.xf + in.aux);
+      const Eigen::Map<const Eigen::Vector3d> h(a.x + in.src), hv(a.xv + in.src), hf(a.xf + in.src);
+      const double* c = a.tables.coef + in.coef;
+      Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) m(i, j) = in.op == Op::kIFlowRotatedDiag ? (i == j ? c[i] : 0.0) : c[3 * i + j];
+      const Eigen::Vector3d f = rv * m * rf.transpose() * h + rf * m * rv.transpose() * h + rv * m * r.transpose() * hf +
+                                rf * m * r.transpose() * hv + r * m * rv.transpose() * hf + r * m * rf.transpose() * hv;
+      for (int i = 0; i < 3; ++i) dd[in.dst + i] = f[i];
+      break;
+    }
+    case Tangent::kBilinear:
+      // K(R) u:  K(R) u_vF + K(R_v) u_F + K(R_F) u_v.
+      exec(a.x, dd, dd, a.mod);
+      exec(a.xv, a.df, tmp, a.mod);
+      add_tmp();
+      exec(a.xf, a.dv, tmp, a.mod);
+      add_tmp();
+      break;
+    case Tangent::kModulated: {
+      if (in.count <= 1) {  // M u (M linear in R):  M u_vF + M_v u_F + M_F u_v
+        exec(a.x, dd, dd, a.mod);
+        exec(a.x, a.df, tmp, a.dmod_v);
+        add_tmp();
+        exec(a.x, a.dv, tmp, a.dmod_f);
+        add_tmp();
+      } else {
+        // y = M^-1 u:  M y = u  ->  y_vF = M^-1 (u_vF - M_v y_F - M_F y_v) (or transposed).
+        const ModulusEval& me = a.moduli[in.modulus];
+        const double *mv = a.dmod_v + me.out, *mf = a.dmod_f + me.out;
+        const double *yv = a.dv + in.dst, *yf = a.df + in.dst;
+        double z[16];
+        MB_ASSERT(in.m <= 16, "modulated inverse larger than 16");
+        for (int r = 0; r < in.m; ++r) {
+          double s = dd[in.src + r];
+          for (int k = 0; k < in.n; ++k) {
+            const double av = in.count == 2 ? mv[r * in.n + k] : mv[k * in.m + r];
+            const double af = in.count == 2 ? mf[r * in.n + k] : mf[k * in.m + r];
+            s -= av * yf[k] + af * yv[k];
+          }
+          z[r] = s;
+        }
+        const double* inv = a.mod + in.coef;
+        for (int r = 0; r < in.n; ++r) {
+          double s = 0.0;
+          for (int k = 0; k < in.m; ++k) s += (in.count == 2 ? inv[r * in.m + k] : inv[k * in.n + r]) * z[k];
+          dd[in.dst + r] = s;
+        }
+      }
+      break;
+    }
+    case Tangent::kLinear:
+      exec(a.x, dd, dd, a.mod);
+      break;
+    case Tangent::kNone:
+      MB_ASSERT(false, "ExecSecondTangent on a formula");
+      break;
+  }
+}
+
+}  // namespace multibond::plan

@@ -205,6 +205,31 @@ struct TangentArgs {
 /// Applies the tangent rule of `in` (its row's Tangent; not kNone, whose programs have their own).
 void ExecTangent(const Instr& in, const TangentArgs& a);
 
+/// What the second-order rule of an instruction reads and writes (the linearisation of ideal
+/// constraints, compile/tangent.cc): the mixed second derivative of its output along two
+/// directions v and F of the state, from its inputs' first derivatives along each (dv, df) and
+/// their mixed second derivatives (dd, read and written). The directions are constant (no second
+/// derivative of the state itself); dmod_v and dmod_f are the moduli's derivatives along each.
+struct SecondTangentArgs {
+  double t;
+  const double* x;
+  const double* xv;
+  const double* xf;
+  const double* w;
+  const double* dv;
+  const double* df;
+  double* dd;
+  double* tmp;  ///< zero, of the slots' size; left zero
+  const double* mod;
+  const double* dmod_v;
+  const double* dmod_f;
+  const double* lambda;
+  Tables tables;
+  const ModulusEval* moduli;
+};
+/// Applies the second-order rule of `in` (not kNone).
+void ExecSecondTangent(const Instr& in, const SecondTangentArgs& a);
+
 /// Appends m to a coefficient table, row-major (the layout every kernel reads).
 inline void AppendRowMajor(std::vector<double>& pool, const Eigen::MatrixXd& m) {
   for (int r = 0; r < m.rows(); ++r)

@@ -40,10 +40,6 @@ std::vector<CompiledModel::SourceInput> CompiledModel::SourceInputs() const {
 }
 
 bool CompiledModel::can_linearize(std::string* why) const {
-  if (!constraints_.empty()) {
-    if (why) *why = "ideal constraints (the constraint efforts' derivatives are not derived yet)";
-    return false;
-  }
   if (!tears_.empty()) {
     if (why) *why = "solved algebraic loops (the torn variables' derivatives are not derived yet)";
     return false;
@@ -51,35 +47,34 @@ bool CompiledModel::can_linearize(std::string* why) const {
   return true;
 }
 
-void CompiledModel::CalcTangent(double t, const double* x, const double* dx, const double* du, double* dxdot, const Workspace& ws,
-                                Workspace& dws) const {
-  MB_ASSERT(can_linearize(nullptr), "CalcTangent on a model with constraints or torn loops");
+void CompiledModel::TangentPass(double t, const double* x, const double* dx, bool time, const double* du, double* dxdot,
+                                const Workspace& ws, std::vector<double>& d_slots, std::vector<double>& d_moduli) const {
   const double* w = ws.slots.data();
-  double* d = dws.slots.data();
-  std::fill(dws.slots.begin(), dws.slots.end(), 0.0);
-  std::vector<double> tmp(dws.slots.size(), 0.0);
-  if (!needed_moduli_.empty()) EvalModuli(dx, dws.moduli.data(), /*derivative=*/true);
-  const plan::TangentArgs args{t, x, dx, w, d, tmp.data(), ws.moduli.data(), dws.moduli.data(), nullptr, tables(), moduli_.data(),
-                               /*source_rate=*/false};
+  double* d = d_slots.data();
+  std::fill(d_slots.begin(), d_slots.end(), 0.0);
+  std::vector<double> tmp(d_slots.size(), 0.0);
+  if (!needed_moduli_.empty()) EvalModuli(dx, d_moduli.data(), /*derivative=*/true);
+  const plan::TangentArgs args{t, x, dx, w, d, tmp.data(), ws.moduli.data(), d_moduli.data(), ws.lambda.data(), tables(), moduli_.data(),
+                               /*source_rate=*/time};
   int input = 0;
   for (const Instr& in : plan_) {
     switch (in.op) {
       case Op::kExpr:
-        for (int k = 0; k < in.n; ++k) d[in.dst + k] = expr::RunTangent(programs_[in.coef + k], t, x, w, 0.0, dx, d);
+        for (int k = 0; k < in.n; ++k) d[in.dst + k] = expr::RunTangent(programs_[in.coef + k], t, x, w, time ? 1.0 : 0.0, dx, d);
         break;
       case Op::kSolve: {
         // law(u, rest) = target: du = (dtarget - dlaw/drest . drest) / law'(u), the scratch slot
         // (which holds u since the plain pass) taken as fixed in the law's own derivative.
         const double target_rate = in.transpose ? -d[in.src] : d[in.src];
         d[in.count] = 0.0;
-        const double rest = expr::RunTangent(programs_[in.coef], t, x, w, 0.0, dx, d);
+        const double rest = expr::RunTangent(programs_[in.coef], t, x, w, time ? 1.0 : 0.0, dx, d);
         const double slope = expr::Run(programs_[in.aux], t, x, w);
         const double du_rate = (target_rate - rest) / slope;
         d[in.count] = du_rate;
         d[in.dst] = in.scale * du_rate;
         break;
       }
-      default:
+      default:  // a multiplier's rule gives zero: the multipliers held at their values
         plan::ExecTangent(in, args);
         break;
     }
@@ -89,6 +84,35 @@ void CompiledModel::CalcTangent(double t, const double* x, const double* dx, con
     }
   }
   for (const Gather& gt : layout_.gathers()) TangentGather(gt, x, dx, w, d, dxdot);
+}
+
+void CompiledModel::CalcTangent(double t, const double* x, const double* dx, const double* du, double* dxdot, Workspace& ws,
+                                Workspace& dws) const {
+  MB_ASSERT(can_linearize(nullptr), "CalcTangent on a model with torn loops");
+  TangentPass(t, x, dx, /*time=*/false, du, dxdot, ws, dws.slots, dws.moduli);
+  if (constraints_.empty()) return;
+  // Ideal constraints: dx/dt = P(x, lambda(x)), lambda from dg/dt = dv/dt, that is
+  // J_y(x) P(x, lambda) + dy/dt|explicit = dv/dt (y: the constrained variables, which the
+  // multipliers never reach). Along the direction (dx, du), with P's derivative u at fixed
+  // multipliers (above):  W dlambda = -(J_y u + y''[dx, (P, 1)]),  d(dx/dt) = u + B dlambda.
+  const int n = num_states(), m = num_multipliers();
+  std::vector<double> rate(n), u(dxdot, dxdot + n), scratch_rate(n), d_moduli(dws.moduli.size());
+  CalcDerivatives(t, x, rate.data(), ws);  // P at the point, the multipliers solved (ws as the caller's)
+  std::vector<double> df(dws.slots.size()), jyu(dws.slots.size()), dd(dws.slots.size(), 0.0), tmp(dws.slots.size(), 0.0);
+  std::vector<double> dmod_f(dws.moduli.size());
+  TangentPass(t, x, rate.data(), /*time=*/true, nullptr, scratch_rate.data(), ws, df, dmod_f);
+  TangentPass(t, x, u.data(), /*time=*/false, nullptr, scratch_rate.data(), ws, jyu, d_moduli);
+  const SourceTable sources = Sources();
+  const ConstraintSolver::PlanView view = ConstraintPlan(&sources);
+  const plan::SecondTangentArgs second{t, x, dx, rate.data(), ws.slots.data(), dws.slots.data(), df.data(), dd.data(), tmp.data(),
+                                       ws.moduli.data(), dws.moduli.data(), dmod_f.data(), ws.lambda.data(), tables(), moduli_.data()};
+  for (int index : constraints_.tangent_plan()) plan::ExecSecondTangent(plan_[index], second);
+  std::vector<double> r1(m), r2(m), r(m), dlambda(m), lin(dws.slots.size(), 0.0);
+  constraints_.ConstraintRates(jyu.data(), r1.data());
+  constraints_.ConstraintRates(dd.data(), r2.data());
+  for (int k = 0; k < m; ++k) r[k] = -(r1[k] + r2[k]);
+  constraints_.Respond(view, t, x, r.data(), ws, dlambda.data(), lin.data(), dxdot);
+  for (size_t k = 0; k < lin.size(); ++k) dws.slots[k] += lin[k];
 }
 
 void CompiledModel::TangentGather(const Gather& gt, const double* x, const double* dx, const double* w, const double* d, double* dxdot) {
