@@ -23,6 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 using multibond::testing::ReadFile;
 using multibond::testing::TempDir;
 
@@ -200,6 +201,17 @@ TEST_F(LinearCliTest, LinearizeWithIdealConstraintsIsOnTheConstraintManifold) {
     EXPECT_TRUE(std::isfinite(ev[0].get<double>()) && std::isfinite(ev[1].get<double>()));
     EXPECT_LE(ev[0].get<double>(), 1e-9);  // nothing grows
   }
+}
+
+TEST_F(LinearCliTest, NoSteadyStateIsASolverFailureThatSaysWhy) {
+  // A constant torque on a free gear pair accelerates it for ever: dz/dt = 0 has no solution.
+  const fs::path dir = Out("nosteady");
+  const Result r = Run("linearize " + Example("rigid_gear_pair.yaml") + " --constraints ideal --steady -o " + dir.string());
+  EXPECT_EQ(r.code, 2) << r.out << r.err;
+  EXPECT_THAT(r.err, HasSubstr("no steady state found"));
+  EXPECT_THAT(r.err, HasSubstr("singular"));
+  EXPECT_THAT(r.err, Not(HasSubstr("KINSOL ERROR")));
+  EXPECT_FALSE(fs::exists(dir / "linear.json"));
 }
 
 TEST_F(LinearCliTest, LinearizePendulumAtTheBottomOscillatesAtSqrtGOverL) {

@@ -352,6 +352,8 @@ Eigen::VectorXd FindSteadyState(const CompiledModel& model, double t, const Eige
   SUNLinearSolver ls = SUNLinSol_Dense(z, jm, ctx);
   void* kin = KINCreate(ctx);
   int flag = KINInit(kin, SteadyResidual, z);
+  // KINSOL's own messages are replaced by the error below, which says what failed in these terms.
+  if (flag == KIN_SUCCESS) flag = KINSetErrHandlerFn(kin, [](int, const char*, const char*, char*, void*) {}, nullptr);
   if (flag == KIN_SUCCESS) flag = KINSetUserData(kin, &p);
   if (flag == KIN_SUCCESS) flag = KINSetLinearSolver(kin, ls, jm);
   if (flag == KIN_SUCCESS) flag = KINSetJacFn(kin, SteadyJacobian);
@@ -373,8 +375,15 @@ Eigen::VectorXd FindSteadyState(const CompiledModel& model, double t, const Eige
   SUNContext_Free(&ctx);
   if (flag < 0) {
     char* name = KINGetReturnFlagName(flag);  // malloc'ed by SUNDIALS
-    const std::string why = name ? name : "unknown";
+    std::string why = name ? name : "unknown";
     std::free(name);
+    if (flag == KIN_LSETUP_FAIL || flag == KIN_LSOLVE_FAIL)
+      why = "the Jacobian is singular there: a motion that nothing holds (a free shaft, a body on no spring) has no isolated steady state, "
+            "or the sources keep it accelerating; " + why;
+    else if (flag == KIN_MAXITER_REACHED)
+      why = "no convergence in 200 iterations; " + why;
+    else if (flag == KIN_LINESEARCH_NONCONV)
+      why = "the line search could not reduce |dz/dt| further; " + why;
     throw std::runtime_error(fmt::format("no steady state found: Newton's method stopped after {} iterations with |dz/dt| = {:.3g} ({})",
                                          iterations, fnorm, why));
   }
