@@ -1,13 +1,37 @@
 // The tangent rule of one instruction (operations.h, ExecTangent): the derivative of its output
 // along a direction of the state (and of the sources), from the derivatives of its inputs. Shared
 // by the constraints' tangent pass (the time derivative along dx/dt) and the linearisation (the
-// directional derivative along a state or input direction, CompiledModel::CalcTangent).
+// directional derivative along a state or input direction, CompiledModel::CalcTangent); and the
+// second-order rule (ExecSecondTangent) that differentiates the constraint equations once more.
 
 #include "multibond/compile/exact_sum.h"
 #include "multibond/compile/operations.h"
 #include "multibond/core/error.h"
 
 namespace multibond::plan {
+
+namespace {
+
+/// The instruction's own kernel on other arrays (the state or direction that gives R, the slots
+/// it reads and writes, the moduli), and the sum of a second term computed into scratch.
+struct Kernel {
+  const Instr& in;
+  double t;
+  const double* lambda;
+  const Tables& tables;
+  void operator()(const double* xs, const double* win, double* wout, const double* m) const {
+    plan::Exec(in, plan::ExecArgs{t, xs, win, wout, m, lambda, tables});
+  }
+  /// out += tmp over the output, tmp back to zero.
+  void AddScratch(double* out, double* tmp) const {
+    for (int k = 0; k < in.n; ++k) {
+      out[in.dst + k] += tmp[in.dst + k];
+      tmp[in.dst + k] = 0.0;
+    }
+  }
+};
+
+}  // namespace
 
 void ExecTangent(const Instr& in, const TangentArgs& a) {
   double* d = a.d;
@@ -16,15 +40,8 @@ void ExecTangent(const Instr& in, const TangentArgs& a) {
   const double* x = a.x;
   const double* xdot = a.xdot;
   const double* c = a.tables.coef;
-  auto exec = [&](const double* xs, const double* win, double* wout, const double* m) {
-    plan::Exec(in, plan::ExecArgs{a.t, xs, win, wout, m, a.lambda, a.tables});
-  };
-  auto add_tmp = [&] {
-    for (int k = 0; k < in.n; ++k) {
-      d[in.dst + k] += tmp[in.dst + k];
-      tmp[in.dst + k] = 0.0;
-    }
-  };
+  const Kernel exec{in, a.t, a.lambda, a.tables};
+  auto add_tmp = [&] { exec.AddScratch(d, tmp); };
   switch (Traits(in.op).tangent) {
     case Tangent::kSourceRate:
       for (int k = 0; k < in.n; ++k) d[in.dst + k] = a.source_rate ? a.tables.sources[in.coef + k].Derivative(a.t) : 0.0;
@@ -103,22 +120,11 @@ void ExecTangent(const Instr& in, const TangentArgs& a) {
   }
 }
 
-}  // namespace multibond::plan
-
-namespace multibond::plan {
-
 void ExecSecondTangent(const Instr& in, const SecondTangentArgs& a) {
   double* dd = a.dd;
   double* tmp = a.tmp;
-  auto exec = [&](const double* xs, const double* win, double* wout, const double* m) {
-    plan::Exec(in, plan::ExecArgs{a.t, xs, win, wout, m, a.lambda, a.tables});
-  };
-  auto add_tmp = [&] {
-    for (int k = 0; k < in.n; ++k) {
-      dd[in.dst + k] += tmp[in.dst + k];
-      tmp[in.dst + k] = 0.0;
-    }
-  };
+  const Kernel exec{in, a.t, a.lambda, a.tables};
+  auto add_tmp = [&] { exec.AddScratch(dd, tmp); };
   switch (Traits(in.op).tangent) {
     case Tangent::kSourceRate:  // functions of time alone: no second derivative with a state direction
     case Tangent::kZero:
