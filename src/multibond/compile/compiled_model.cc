@@ -39,6 +39,7 @@ void CompiledModel::Build() {
     throw ModelError(d);
   }
   BuildConstraints(deps.reads, deps.writes);  // constraints.cc
+  BuildSwitches();                            // switching.cc
   FindIndependentConstraints();
   BuildJacobianPattern();  // jacobian_pattern.cc
   GenerateCode();

@@ -23,6 +23,7 @@
 #include "multibond/compile/energy_account.h"
 #include "multibond/compile/operations.h"
 #include "multibond/compile/state_layout.h"
+#include "multibond/compile/switching.h"
 #include "multibond/core/graph.h"
 #include "multibond/core/ode_system.h"
 #include "multibond/core/structure.h"
@@ -51,6 +52,10 @@ struct Workspace {
   /// evaluation, and the scratch that solving for them needs (compile/constraint_factor.h).
   std::vector<double> lambda;
   ConstraintScratch con;
+  /// Switching elements only (empty otherwise): each one's discrete mode (SwitchTable::Mode). A
+  /// part of the run's state rather than scratch, kept here because every evaluation reads it
+  /// and the simulator changes it only at events (docs/events.md).
+  std::vector<signed char> modes;
   /// Algebraic loops only (empty otherwise): the affine map of the torn variables and its solve.
   struct TearScratch {
     Eigen::MatrixXd a;  ///< A, then I - A
@@ -173,6 +178,24 @@ class CompiledModel {
   /// After an evaluation filled `ws`: the first resistor given by a formula and not marked
   /// `active` that delivers power (sigma e f < 0), as a message naming it; empty if none.
   std::string FindActiveResistor(const Workspace& ws) const;
+
+  // --- switching elements and events (compile/switching.cc; docs/events.md) ---
+  const SwitchTable& switches() const { return switches_; }
+  /// The event functions of the switching elements (SwitchTable::Roots): 2 per element.
+  int num_event_functions() const { return switches_.num_roots(); }
+  /// Their values at (t, x) in the modes of `ws` (an evaluation fills ws).
+  void CalcEventFunctions(double t, const double* x, Workspace& ws, double* g) const;
+  /// The modes at the start: contacts open where their gap is > 0; frictions slip where their
+  /// relative flow is not zero, else stick if the static limit holds.
+  void InitializeModes(double t, double* x, Workspace& ws) const;
+  /// At an event at (t, x), where the event functions `roots` (1 = crossed) crossed zero: the
+  /// elements' new modes, impacts (x jumps; what they dissipate goes to the element's
+  /// dissipation state), appended to `log`. `rest_time`: a rebound whose flight would be
+  /// shorter stays in contact (impacts accumulating). x is left on the constraints that hold.
+  void HandleEvents(double t, double* x, Workspace& ws, const int* roots, double rest_time, std::vector<EventRecord>& log) const;
+  /// The times in (t0, t1) where a source or a friction's normal force jumps or kinks (time
+  /// events), ascending, with the element's name.
+  std::vector<std::pair<double, std::string>> TimeEvents(double t0, double t1) const;
 
   // --- directional derivatives (compile/tangent.cc), for the linearisation ---
   /// One component of a source (Se, Sf, a mechanism's drive): an input of the linear model.
@@ -392,6 +415,15 @@ class CompiledModel {
   };
   SourceTable Sources() const;
   std::string rhs_engine_ = "interpreter";
+
+  /// Switching elements (compile/switching.cc): the table from the constraints (after
+  /// BuildConstraints), the modes' prescribed multipliers before each solve, dg/dt along the
+  /// motion of one constraint, the stored energy (kinetic + potential) of a state.
+  void BuildSwitches();
+  void PrescribeSwitches(double t, Workspace& ws) const;
+  double ConstraintRate(double t, const double* x, Workspace& ws, int lambda) const;
+  double StoredEnergyTotal(const double* x) const;
+  SwitchTable switches_;
 
   /// Ideal constraints: their declarations, tables and solver (compile/constraint_solver.h);
   /// empty without constraints. Its generated code (GenerateCode) is its own.

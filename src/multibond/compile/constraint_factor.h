@@ -43,6 +43,12 @@ struct ConstraintScratch {
   std::vector<double> factored_at;
   double factored_t = 0.0;
   bool factored = false;
+  /// Switching elements (compile/switching.h): per multiplier, 1 if its value is prescribed by
+  /// its element's mode (an open contact: 0; a slipping friction: -mu_k N sign(g)) instead of
+  /// solved, and that value; `any_fixed` when some is. Set before every solve from the modes.
+  std::vector<unsigned char> fixed;
+  std::vector<double> fixed_value;
+  bool any_fixed = false;
 };
 
 /// W = B^T V for the multipliers of ideal constraints, and its solves.

@@ -262,6 +262,9 @@ void ConstraintSolver::SizeScratch(Workspace& ws, int num_slots, int num_moduli,
   ws.con.xdot.assign(num_states, 0.0);
   factor_.SizeScratch(ws.con);
   ws.con.factored_at.assign(num_states, 0.0);
+  ws.con.fixed.assign(num_lambda_, 0);
+  ws.con.fixed_value.assign(num_lambda_, 0.0);
+  ws.con.any_fixed = false;
 }
 
 void ConstraintSolver::UseGenerated(Generated generated) {
@@ -305,7 +308,7 @@ void ConstraintSolver::Respond(const PlanView& view, double t, const double* x, 
                                double* lin, double* dxdot) const {
   const std::vector<double> saved = ws.lambda;
   std::copy(r, r + num_lambda_, ws.con.rhs.begin());
-  SolveAt(view, t, x, ws);
+  SolveAt(view, t, x, ws, /*fixed_values=*/false);  // the prescribed multipliers do not move
   std::copy(ws.lambda.begin(), ws.lambda.end(), dlambda);
   ws.lambda = saved;
   // What the multipliers reach is linear in them (index 1: no state kernel, no formula on the
@@ -364,8 +367,12 @@ void ConstraintSolver::AssembleConstraintMatrix(const PlanView& view, double t, 
   negate();
 }
 
-void ConstraintSolver::SolveAt(const PlanView& view, double t, const double* x, Workspace& ws) const {
+void ConstraintSolver::SolveAt(const PlanView& view, double t, const double* x, Workspace& ws, bool fixed_values) const {
   const int n = view.num_states;
+  if (ws.con.any_fixed) {
+    SolveWithFixed(view, t, x, ws, fixed_values);
+    return;
+  }
   if (ws.con.factored && t == ws.con.factored_t && std::equal(x, x + n, ws.con.factored_at.begin())) {
     factor_.Solve(ws.con.rhs.data(), ws.lambda.data(), ws.con);
     return;
@@ -382,6 +389,35 @@ void ConstraintSolver::SolveAt(const PlanView& view, double t, const double* x, 
   factor_.SolvePivoted(ws.con, ws.lambda.data());
 }
 
+void ConstraintSolver::SolveWithFixed(const PlanView& view, double t, const double* x, Workspace& ws, bool fixed_values) const {
+  // Switching elements whose multipliers their modes prescribe: W_aa lambda_a = rhs_a - W_ap
+  // lambda_p on the others. The prescribed rows and columns of W are zeroed, so that the pivoted
+  // solve takes them for redundant (zero), and then get their values. Dense: a model has few
+  // switching elements, and the sparse factor's pattern is that of all constraints.
+  AssembleConstraintMatrix(view, t, x, ws);
+  factor_.FormFull(ws.con);
+  ws.con.factored = false;
+  const int m = num_lambda_;
+  double* w = ws.con.w.data();
+  double* rhs = ws.con.rhs.data();
+  const unsigned char* fixed = ws.con.fixed.data();
+  const double* value = ws.con.fixed_value.data();
+  for (int j = 0; j < m; ++j) {
+    if (!fixed[j]) continue;
+    const double v = fixed_values ? value[j] : 0.0;
+    for (int i = 0; i < m; ++i)
+      if (!fixed[i]) rhs[i] -= w[i * m + j] * v;
+  }
+  for (int j = 0; j < m; ++j) {
+    if (!fixed[j]) continue;
+    for (int i = 0; i < m; ++i) w[i * m + j] = w[j * m + i] = 0.0;
+    rhs[j] = 0.0;
+  }
+  factor_.SolvePivoted(ws.con, ws.lambda.data());
+  for (int j = 0; j < m; ++j)
+    if (fixed[j]) ws.lambda[j] = fixed_values ? value[j] : 0.0;
+}
+
 void ConstraintSolver::Solve(const PlanView& view, double t, const double* x, double* xdot, Workspace& ws, bool share) const {
   Tangent(view, t, x, xdot, ws);
   double* rhs = ws.con.rhs.data();
@@ -393,8 +429,8 @@ void ConstraintSolver::Solve(const PlanView& view, double t, const double* x, do
         r -= mb.sign * (d[mb.slot + k] - (mb.target >= 0 ? targets_[mb.target + k].Derivative(t) : 0.0));
       rhs[cg.lambda + k] = r;
     }
-  SolveAt(view, t, x, ws);
-  if (share) factor_.Share(ws.con, ws.lambda.data());
+  SolveAt(view, t, x, ws, /*fixed_values=*/true);
+  if (share && !ws.con.any_fixed) factor_.Share(ws.con, ws.lambda.data());
   // Step 4: only what the multipliers reach changes (Build, reaction_plan_).
   double* w = ws.slots.data();
   const double* mod = ws.moduli.data();
@@ -410,8 +446,30 @@ void ConstraintSolver::Solve(const PlanView& view, double t, const double* x, do
 double ConstraintSolver::Residual(double t, Workspace& ws) const {
   ConstraintValues(t, ws.slots.data(), ws.con.rhs.data());
   double worst = 0.0;
-  for (int i = 0; i < num_lambda_; ++i) worst = std::max(worst, std::abs(ws.con.rhs[i]));
+  for (int i = 0; i < num_lambda_; ++i)
+    if (!ws.con.any_fixed || !ws.con.fixed[i]) worst = std::max(worst, std::abs(ws.con.rhs[i]));
   return worst;
+}
+
+void ConstraintSolver::ApplyImpulse(const PlanView& view, double t, double* x, Workspace& ws, int index, double target) const {
+  ConstraintValues(t, ws.slots.data(), ws.con.rhs.data());
+  for (int i = 0; i < num_lambda_; ++i) ws.con.rhs[i] = (i == index ? target : 0.0) - ws.con.rhs[i];
+  const unsigned char was_fixed = ws.con.fixed[index];
+  const bool was_any = ws.con.any_fixed;
+  ws.con.fixed[index] = 0;
+  ws.con.any_fixed = std::any_of(ws.con.fixed.begin(), ws.con.fixed.end(), [](unsigned char f) { return f != 0; });
+  SolveAt(view, t, x, ws, /*fixed_values=*/false);
+  ws.con.fixed[index] = was_fixed;
+  ws.con.any_fixed = was_any;
+  const std::vector<int>& b_offset = factor_.column_offset();
+  const std::vector<int>& b_rows = factor_.rows();
+  for (int col = 0; col < num_lambda_; ++col) {
+    const double mu = ws.lambda[col];
+    if (mu == 0.0) continue;
+    for (int q = b_offset[col]; q < b_offset[col + 1]; ++q) x[b_rows[q]] += ws.con.b[q] * mu;
+  }
+  ws.con.factored = false;
+  std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
 }
 
 void ConstraintSolver::ProjectMomenta(const PlanView& view, double t, double* x, Workspace& ws) const {
@@ -420,7 +478,7 @@ void ConstraintSolver::ProjectMomenta(const PlanView& view, double t, double* x,
   // potential for displacements).
   ConstraintValues(t, ws.slots.data(), ws.con.rhs.data());
   for (int i = 0; i < num_lambda_; ++i) ws.con.rhs[i] = -ws.con.rhs[i];
-  SolveAt(view, t, x, ws);
+  SolveAt(view, t, x, ws, /*fixed_values=*/false);  // a constraint that does not hold now is not projected onto
   const std::vector<int>& b_offset = factor_.column_offset();
   const std::vector<int>& b_rows = factor_.rows();
   for (int col = 0; col < num_lambda_; ++col) {

@@ -155,6 +155,13 @@ class ConstraintSolver {
   /// onto the velocity constraints, displacements onto a compliance's cut. ws holds the plan at
   /// (t, x) with lambda = 0; lambda is left zero.
   void ProjectMomenta(const PlanView& view, double t, double* x, Workspace& ws) const;
+  /// An impact's impulse (switching elements, docs/events.md): the storage states jump by B mu,
+  /// with W mu = -g on the constraints that hold and target - g on multiplier `index` (whose
+  /// relative flow jumps to `target`), the other prescribed ones left out. ws holds an
+  /// evaluation at (t, x); lambda is left zero.
+  void ApplyImpulse(const PlanView& view, double t, double* x, Workspace& ws, int index, double target) const;
+  /// g - target(t) per multiplier from filled slots (the constraints' values), into `out`.
+  void Values(double t, const double* w, double* out) const { ConstraintValues(t, w, out); }
   /// |g - target| (max norm) from ws, which holds the plan at (t, x) with lambda = 0.
   double Residual(double t, Workspace& ws) const;
 
@@ -195,7 +202,11 @@ class ConstraintSolver {
   /// B's columns at (t, x) and lambda from W lambda = ws.con.rhs: the sparse L D L^T on the
   /// independent set, else the pivoted solve. When ws holds B and the factor for this very x
   /// (ConstraintScratch::factored_at), the solve only.
-  void SolveAt(const PlanView& view, double t, const double* x, Workspace& ws) const;
+  /// With prescribed multipliers (ConstraintScratch::any_fixed), SolveWithFixed; `fixed_values`:
+  /// they take their values (an evaluation), else zero (a projection, a response).
+  void SolveAt(const PlanView& view, double t, const double* x, Workspace& ws, bool fixed_values) const;
+  /// The solve with some multipliers prescribed: the others from W_aa lambda_a = rhs_a - W_ap lambda_p.
+  void SolveWithFixed(const PlanView& view, double t, const double* x, Workspace& ws, bool fixed_values) const;
   /// g(x) - target(t) of every multiplier component, from filled slots, into `out`.
   void ConstraintValues(double t, const double* w, double* out) const;
 

@@ -185,6 +185,7 @@ void CompiledModel::CalcConstrained(double t, const double* x, double* xdot, Wor
   std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
   EvalPlan(t, x, xdot, ws);
   if (!needed_moduli_.empty()) EvalModuli(xdot, ws.con.dmoduli.data(), true);
+  PrescribeSwitches(t, ws);  // the multipliers the switching elements' modes fix
   const SourceTable sources = Sources();
   constraints_.Solve(ConstraintPlan(&sources), t, x, xdot, ws, share);
 }
@@ -193,6 +194,7 @@ double CompiledModel::ConstraintResidual(double t, const double* x, Workspace& w
   if (constraints_.empty()) return 0.0;
   std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
   EvalPlan(t, x, ws.con.xdot.data(), ws);
+  PrescribeSwitches(t, ws);
   return constraints_.Residual(t, ws);
 }
 
@@ -201,6 +203,7 @@ void CompiledModel::Project(double t, double* x, Workspace& ws) const {
   if (constraints_.empty()) return;
   std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
   EvalPlan(t, x, ws.con.xdot.data(), ws);
+  PrescribeSwitches(t, ws);  // only the constraints that hold
   const SourceTable sources = Sources();
   constraints_.ProjectMomenta(ConstraintPlan(&sources), t, x, ws);
 }

@@ -41,6 +41,7 @@ Workspace CompiledModel::MakeWorkspace() const {
     ws.tear.lu = Eigen::PartialPivLU<Eigen::MatrixXd>(num_tear_);
   }
   if (!constraints_.empty()) constraints_.SizeScratch(ws, num_slots_, num_moduli_, num_states());
+  ws.modes.assign(switches_.size(), SwitchTable::kOpen);
   return ws;
 }
 

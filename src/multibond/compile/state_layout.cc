@@ -92,7 +92,11 @@ void StateLayout::LayOut(const Input& in) {
   if (in.energy_account) {
     for (int i = 0; i < g.num_elements(); ++i) {
       const Element& e = g.element(i);
-      if (IsSource(e.kind)) add_block(StateBlock::Kind::kWork, i, 1, e.name + ".work", {}, "J");
+      // A switching element (a contact, a friction) is a source that only ever takes energy out:
+      // what it delivers is counted as dissipated (docs/events.md), impacts included.
+      if (IsSource(e.kind) && e.switching.kind == Switching::Kind::kNone) add_block(StateBlock::Kind::kWork, i, 1, e.name + ".work", {}, "J");
+      if (IsSource(e.kind) && e.switching.kind != Switching::Kind::kNone)
+        add_block(StateBlock::Kind::kDissipation, i, 1, e.name + ".dissipated", {}, "J");
       if (e.kind == ElementKind::kR) add_block(StateBlock::Kind::kDissipation, i, 1, e.name + ".dissipated", {}, "J");
       if (IsSource(e.kind) || e.kind == ElementKind::kR) x0.push_back(0.0);
     }

@@ -97,6 +97,25 @@ struct SourceValue {
   std::vector<TimeFunction> components;
 };
 
+/// A switching element: an Sf constraint on a relative flow g (target 0) that holds only in some
+/// of its modes (docs/events.md). A contact: the constraint holds while it is closed; g is the
+/// separation velocity, the multiplier the compressive force (>= 0); it closes when its gap
+/// reaches zero, with an impact of restitution e, or for good when the impacts accumulate
+/// (Zeno), and opens when the force would pull. Coulomb friction: stick holds the constraint
+/// while |lambda| <= mu_s N; slip prescribes lambda = -mu_k N sign(g) until g returns to zero. A
+/// clutch or brake is a friction element with a capacity (mu_s = mu_k = 1, N = the capacity).
+struct Switching {
+  enum class Kind { kNone, kContact, kFriction };
+  Kind kind = Kind::kNone;
+  std::string gap;            ///< contact: the variable that measures the gap (open while > 0)
+  double restitution = 0.0;   ///< contact: e in [0, 1]
+  double mu_s = 1.0, mu_k = 1.0;  ///< friction: static and kinetic coefficients, mu_s >= mu_k >= 0
+  TimeFunction normal = TimeFunction::Constant(0.0);  ///< friction: N (or the capacity), of time
+  std::string normal_signal;  ///< friction: or a signal's name (then `normal` is unused)
+  bool capacity = false;      ///< a clutch or brake (its events are lock and unlock, not stick and slip)
+  SourceLocation where;
+};
+
 struct Element {
   std::string name;
   ElementKind kind = ElementKind::kOne;
@@ -117,6 +136,8 @@ struct Element {
   /// coupling it stands for. With redundant constraints the reaction is then shared as that
   /// elastic structure would share it (least complementary energy); without, by W's diagonal.
   Eigen::VectorXd compliance;
+  /// Constraint only: a switching element (docs/events.md), or kNone.
+  Switching switching;
   Eigen::VectorXd initial;    ///< I: p(0); C: q(0) (empty = zero)
   // --- Expressions (scalar bonds). In a law, the element's own variables are named `q`, `p`,
   // `e`, `f` (its effort is sigma e, its flow f: see the sign rules above); a law may also use

@@ -36,6 +36,11 @@ class OdeSystem {
   /// integrators then estimate the Jacobian with one evaluation of f per group of columns that
   /// share no row, and factorise it as a sparse matrix.
   virtual const JacobianPattern* jacobian_pattern() const { return nullptr; }
+  /// Event functions (docs/events.md): the integrator stops where one of them crosses zero
+  /// downwards (from > 0 to <= 0), located to its time tolerance on the step's interpolant.
+  virtual int num_roots() const { return 0; }
+  /// The num_roots() event functions at (t, x) into g. Must not allocate.
+  virtual void CalcRoots(double /*t*/, const double* /*x*/, double* /*g*/) {}
 };
 
 }  // namespace multibond

@@ -113,4 +113,15 @@ std::string TimeFunction::ToString() const {
   return "?";
 }
 
+std::vector<double> TimeFunction::Breakpoints() const {
+  switch (kind) {
+    case Kind::kStep: return before != value ? std::vector<double>{start} : std::vector<double>{};
+    case Kind::kRamp: return {start};
+    case Kind::kTable: return table_t;
+    case Kind::kConstant:
+    case Kind::kSine: return {};
+  }
+  return {};
+}
+
 }  // namespace multibond

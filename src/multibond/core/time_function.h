@@ -33,6 +33,9 @@ struct TimeFunction {
   /// The same function multiplied by `factor`.
   TimeFunction Scaled(double factor) const;
   bool is_constant() const { return kind == Kind::kConstant; }
+  /// The times where the function or its derivative jumps (a step's time, a ramp's start, a
+  /// table's corners), ascending: integrators stop there and restart (time events).
+  std::vector<double> Breakpoints() const;
   /// Human-readable form, e.g. "step(1 at t=0)".
   std::string ToString() const;
 };

@@ -75,6 +75,12 @@ enum class Outcome {
     "own flow), or turns an orientation, or acts through a resistor")                                                         \
   X(kConstraintComplianceIgnored, "constraint.compliance_ignored", kWarning,                                                   \
     "compliances given to some ideal constraints but not to all: they are not used")                                           \
+  X(kEventUnsupported, "event.unsupported", kModelError,                                                                       \
+    "a contact or friction on a vector bond, or on a flow that is not held at zero")                                           \
+  X(kEventUnknownVariable, "event.unknown_variable", kModelError,                                                               \
+    "a contact's gap or a friction's normal force that names no variable or signal of the model")                               \
+  X(kEventDirection, "event.direction", kModelError,                                                                           \
+    "a contact whose gap closes while its flow says it separates: its bond points the wrong way")                               \
   X(kMechReference, "mech.reference", kModelError, "a body, joint or gear mesh named that does not exist or cannot be used there") \
   X(kMechCoupling, "mech.coupling", kModelError, "a joint that couples nothing, or a coupling without 1 to 3 independent directions") \
   X(kMechDuplicate, "mech.duplicate", kModelError, "two bodies, joints, gear meshes, drives or points of one name")           \

@@ -82,6 +82,85 @@ void ElementReader::ReadSourceValue(const YAML::Node& n, Element& e, const Formu
   if (any) e.value = std::move(formulas);
 }
 
+void ElementReader::ReadSwitching(const YAML::Node& spec, Element& e, const FormulaScope& scope, const Env& env) {
+  Switching& sw = e.switching;
+  const std::string& name = e.name;
+  if (spec["contact"] && spec["friction"]) {
+    sink_.Error(Loc(spec["friction"]), name, "an Sf is a contact or a friction, not both", "use two elements, each on its own relative flow");
+    return;
+  }
+  if (spec["constraint"] && !Bool(spec["constraint"], name)) {
+    sink_.Error(Loc(spec["constraint"]), name, "a contact or friction is an ideal constraint", "remove 'constraint: false'");
+    return;
+  }
+  e.constraint = true;
+  const bool contact = static_cast<bool>(spec["contact"]);
+  const YAML::Node n = contact ? spec["contact"] : spec["friction"];
+  sw.where = Loc(n);
+  if (!n.IsMap()) {
+    sink_.Error(Loc(n), name, fmt::format("'{}' is a mapping", contact ? "contact" : "friction"),
+                contact ? "e.g. contact: {gap: height, restitution: 0.8}" : "e.g. friction: {normal: 19.62, static: 0.5, kinetic: 0.4} or friction: {capacity: 50}");
+    return;
+  }
+  if (contact) {
+    sw.kind = Switching::Kind::kContact;
+    CheckKeys(n, {"gap", "restitution"}, name);
+    if (!n["gap"]) sink_.Error(Loc(n), name, "a contact needs 'gap': the variable that measures it (> 0 while open)", "e.g. gap: height");
+    else sw.gap = Qualify(scope.prefix, Str(n["gap"], name));
+    if (n["restitution"]) {
+      sw.restitution = Number(n["restitution"], name, env);
+      if (!(sw.restitution >= 0.0 && sw.restitution <= 1.0))
+        sink_.Error(codes::kParamRange, Loc(n["restitution"]), name, fmt::format("restitution must be in [0, 1] (got {:g})", sw.restitution),
+                    "0: a plastic impact, 1: an elastic one");
+    }
+    return;
+  }
+  sw.kind = Switching::Kind::kFriction;
+  CheckKeys(n, {"normal", "static", "kinetic", "capacity"}, name);
+  if (n["capacity"]) {
+    if (n["normal"] || n["static"] || n["kinetic"])
+      sink_.Error(Loc(n["capacity"]), name, "a clutch or brake gives 'capacity' alone", "or a friction: 'normal', 'static' and 'kinetic'");
+    sw.capacity = true;
+    sw.mu_s = sw.mu_k = 1.0;
+    ReadNormal(n["capacity"], e, scope, env);
+    return;
+  }
+  if (!n["normal"] || !n["static"] || !n["kinetic"]) {
+    sink_.Error(Loc(n), name, "a friction needs 'normal', 'static' and 'kinetic' (or a clutch's 'capacity')",
+                "e.g. friction: {normal: 19.62, static: 0.5, kinetic: 0.4}");
+    return;
+  }
+  ReadNormal(n["normal"], e, scope, env);
+  bool ok_s = true, ok_k = true;
+  sw.mu_s = Number(n["static"], name, env, &ok_s);
+  sw.mu_k = Number(n["kinetic"], name, env, &ok_k);
+  if (ok_k && !(sw.mu_k >= 0.0))
+    sink_.Error(codes::kParamRange, Loc(n["kinetic"]), name, fmt::format("the kinetic coefficient must be >= 0 (got {:g})", sw.mu_k));
+  if (ok_s && ok_k && !(sw.mu_s >= sw.mu_k))
+    sink_.Error(codes::kParamRange, Loc(n["static"]), name,
+                fmt::format("the static coefficient ({:g}) is below the kinetic one ({:g})", sw.mu_s, sw.mu_k),
+                "static friction is at least kinetic friction: mu_s >= mu_k");
+}
+
+void ElementReader::ReadNormal(const YAML::Node& n, Element& e, const FormulaScope& scope, const Env& env) {
+  Switching& sw = e.switching;
+  if (IsPlainValue(n) || n.IsMap()) {
+    sw.normal = ReadTimeFunction(n, e.name, env);
+  } else if (const auto f = ReadFormula(n, e.name, scope)) {
+    if (const auto v = ConstantValue(*f)) {
+      sw.normal = TimeFunction::Constant(*v);
+    } else if (f->root->kind == expr::Node::Kind::kName) {
+      sw.normal_signal = f->root->name;
+    } else {
+      sink_.Error(Loc(n), e.name, "a normal force or capacity is a number, a time function or a signal's name",
+                  "declare the formula as a signal under 'signals:' and name it here");
+      return;
+    }
+  }
+  if (sw.normal.is_constant() && sw.normal_signal.empty() && !(sw.normal.value >= 0.0))
+    sink_.Error(codes::kParamRange, Loc(n), e.name, fmt::format("a normal force or capacity must be >= 0 (got {:g})", sw.normal.value));
+}
+
 void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec, const SourceLocation& where, const std::string& prefix,
                                 const Env& env) {
   if (!spec.IsMap()) {
@@ -122,8 +201,9 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
       const char* key = e.kind == ElementKind::kSe ? "effort" : "flow";
       keys.push_back(key);
       if (e.kind == ElementKind::kSf) {
-        keys.insert(keys.end(), {"constraint", "compliance"});
+        keys.insert(keys.end(), {"constraint", "compliance", "contact", "friction"});
         if (spec["constraint"]) e.constraint = Bool(spec["constraint"], name);
+        if (spec["contact"] || spec["friction"]) ReadSwitching(spec, e, scope({}, "friction's normal force"), env);
         if (spec["compliance"]) {
           if (!e.constraint)
             sink_.Error(Loc(spec["compliance"]), name, "'compliance' belongs to an ideal constraint",

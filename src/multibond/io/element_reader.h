@@ -23,6 +23,10 @@ class ElementReader : public ParameterReader {
  private:
   bool ReadLaw(const YAML::Node& n, const std::string& name, const FormulaScope& scope, Formula* law, double* constant);
   void ReadSourceValue(const YAML::Node& n, Element& e, const FormulaScope& scope, const Env& env);
+  /// An Sf's `contact:` or `friction:` (docs/events.md): makes it a switching constraint.
+  void ReadSwitching(const YAML::Node& spec, Element& e, const FormulaScope& scope, const Env& env);
+  /// A friction's normal force or capacity: a number, a time function or a signal's name.
+  void ReadNormal(const YAML::Node& n, Element& e, const FormulaScope& scope, const Env& env);
 };
 
 }  // namespace multibond

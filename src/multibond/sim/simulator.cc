@@ -4,9 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <string>
 #include <utility>
-#include <map>
 #include <optional>
 
 #include <fmt/format.h>
@@ -219,6 +219,11 @@ class EnergyBalance {
   double stored0_, scale_;
 };
 
+/// More events than the run allows (RunOptions::max_events_per_second): ends it as failed.
+struct EventStorm : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 /// The first five states whose entries in v are infinite or NaN, by name.
 std::string NonFiniteNames(const CompiledModel& model, const Eigen::VectorXd& v) {
   std::string names;
@@ -310,6 +315,12 @@ void CheckFixedStep(double fixed_step, double dt) {
 
 void CheckRunOptions(const CompiledModel& model, const RunOptions& options) {
   CheckOutputGrid(options.t_start, options.t_end, options.dt);
+  if (!model.switches().empty() && !options.joint_coordinates.empty())
+    throw std::invalid_argument("a model with contacts or friction runs in inertial coordinates (their events are not mapped to joint coordinates)");
+  if (!(options.event_rest_time >= 0.0) || !std::isfinite(options.event_rest_time))
+    throw std::invalid_argument(fmt::format("the rest time of contacts must be a finite number >= 0 (got {})", options.event_rest_time));
+  if (!(options.max_events_per_second > 0.0))
+    throw std::invalid_argument(fmt::format("the event limit must be > 0 events per second (got {})", options.max_events_per_second));
   if (options.joint_coordinates.empty()) {
     CheckIntegratorOptions(model.num_states(), model.jacobian_pattern(), options.integrator);
   } else {
@@ -344,7 +355,9 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   Workspace& ws = system.workspace();
   Eigen::VectorXd x = model.MakeInitialState();
   Eigen::VectorXd xdot(x.size());
-  // Ideal constraints start satisfied: initial momenta are projected onto them.
+  // Ideal constraints start satisfied: initial momenta are projected onto them (after the
+  // switching elements' modes are known: only the constraints that hold).
+  model.InitializeModes(options.t_start, x.data(), ws);
   if (model.has_constraints()) model.Project(options.t_start, x.data(), ws);
   // In joint coordinates the integrator advances y, and every output time maps it back to x.
   std::optional<JointCoordinateSystem> chart;
@@ -448,11 +461,69 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   }
   const long n_out = NumOutputIntervals(options);
   IntegratorStats carried;
+  // Events (docs/events.md): the time events (a source's or a normal force's jumps and corners,
+  // where the integration stops exactly and restarts) and the switching elements' event
+  // functions (located by the integrator's root finding; the model changes modes and applies
+  // impacts; the integration restarts).
+  const std::vector<std::pair<double, std::string>> time_events = model.TimeEvents(options.t_start, options.t_end);
+  size_t next_time_event = 0;
+  std::vector<int> roots(chart ? 0 : model.num_event_functions());
+  const double span = options.t_end - options.t_start;
+  const double rest_time = options.event_rest_time > 0.0 ? options.event_rest_time : 1e-6 * span;
+  const double max_events = std::max(1000.0, options.max_events_per_second * span);
+  long num_events = 0;
+  std::map<std::string, std::pair<double, long>> rested;  // contact -> (time it came to rest, impacts before)
+  std::map<std::string, long> impacts;
+  auto record = [&](const EventRecord& r) {
+    ++summary.event_counts[r.kind];
+    if (r.kind == "impact") ++impacts[r.element];
+    if (r.kind == "contact" && r.description.find("accumulate") != std::string::npos) rested.emplace(r.element, std::pair{r.time, impacts[r.element]});
+    observer.OnEvent(r);
+    if (++num_events > max_events)
+      throw EventStorm(fmt::format("event storm: more than {:.0f} events ({:g} per second of run); the last at t = {:.9g} s, "
+                                           "{} '{}'; raise the limit with --max-events-per-second, or look for chattering",
+                                           max_events, options.max_events_per_second, r.time, r.kind, r.element));
+  };
+  std::vector<EventRecord> log;
+  auto advance = [&](double tout) {
+    if (time_events.empty() && roots.empty()) {
+      integrator->AdvanceTo(tout, advanced.data());
+      return;
+    }
+    while (true) {
+      double target = tout;
+      bool stop = false;
+      if (next_time_event < time_events.size() && time_events[next_time_event].first <= tout) {
+        target = time_events[next_time_event].first;
+        stop = true;
+      }
+      const double reached = integrator->AdvanceUntil(target, stop, advanced.data(), roots.empty() ? nullptr : roots.data());
+      if (std::any_of(roots.begin(), roots.end(), [](int r) { return r != 0; })) {
+        log.clear();
+        model.HandleEvents(reached, x.data(), ws, roots.data(), rest_time, log);
+        for (const EventRecord& r : log) record(r);
+        carried.AddCounts(integrator->stats());  // a restart zeroes the integrator's counters
+        integrator->Reset(reached, advanced.data());
+        continue;
+      }
+      if (stop) {
+        for (; next_time_event < time_events.size() && time_events[next_time_event].first == target; ++next_time_event)
+          record({target, "time", time_events[next_time_event].second, "a source's value or slope jumps: the integration restarts"});
+        if (chart) chart->ToModel(y.data(), x.data());
+        model.Project(target, x.data(), ws);  // the constraints that hold at the restart (new targets)
+        if (chart) chart->FromModel(x.data(), y.data());
+        carried.AddCounts(integrator->stats());
+        integrator->Reset(target, advanced.data());
+        if (target < tout) continue;
+      }
+      return;
+    }
+  };
   auto last_progress = wall_start;
   for (long k = 1; started && k <= n_out; ++k) {
     const double tout = k == n_out ? options.t_end : options.t_start + static_cast<double>(k) * options.dt;
     try {
-      integrator->AdvanceTo(tout, advanced.data());
+      advance(tout);
       if (chart) {
         chart->ToModel(y.data(), x.data());
         if (chart->Rechart(x.data(), y.data())) {  // a restart zeroes the integrator's counters: carried over
@@ -474,6 +545,10 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
     } catch (const RunInterrupted&) {
       summary.status = RunStatus::kInterrupted;
       summary.message = fmt::format("interrupted at t = {:.9g} s", summary.t_reached);
+      break;
+    } catch (const EventStorm& e) {
+      summary.status = RunStatus::kFailed;
+      summary.message = e.what();
       break;
     } catch (const std::exception& e) {
       summary.status = RunStatus::kFailed;
@@ -499,6 +574,10 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
       }
     }
   }
+  for (const auto& [element, at] : rested)
+    summary.warnings.push_back(fmt::format("contact '{}': impacts accumulated (Zeno) and it came to rest at t = {:.9g} s after {} "
+                                           "impacts; held in contact from there (a rebound shorter than {:g} s is not followed)",
+                                           element, at.first, at.second, rest_time));
   summary.stats = integrator->stats();
   summary.stats.AddCounts(carried);
   summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

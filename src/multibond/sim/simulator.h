@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <functional>
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -40,6 +41,9 @@ class ModelSystem : public OdeSystem {
   /// Orientations onto SO(3) and, with ideal constraints, momenta onto the constraints at t.
   void Project(double t, double* x) override { model_.Project(t, x, ws_); }
   const JacobianPattern* jacobian_pattern() const override { return model_.jacobian_pattern(); }
+  /// The switching elements' event functions (docs/events.md).
+  int num_roots() const override { return model_.num_event_functions(); }
+  void CalcRoots(double t, const double* x, double* g) override { model_.CalcEventFunctions(t, x, ws_, g); }
   Workspace& workspace() { return ws_; }
   /// Thrown when a formula gives a value that is not finite from finite inputs (a division by
   /// zero, the root of a negative number): the run stops there with the element, the formula and
@@ -71,6 +75,12 @@ struct RunOptions {
   const std::atomic<bool>* stop = nullptr;
   /// Called with the fraction done, at most a few times per second.
   std::function<void(double)> progress;
+  /// Events (docs/events.md): a contact whose rebound would fly for less than this stays closed
+  /// (impacts accumulating, Zeno); 0 = a millionth of the run.
+  double event_rest_time = 0.0;
+  /// More events than this per second of run (and at least 1,000 in all) is an event storm: the
+  /// run stops with what it computed.
+  double max_events_per_second = 1e4;
   /// The most steps a run may be made to take: fixed steps ((t_end - t_start) / step), or the
   /// fewest steps a --max-step forces. A request beyond it is refused before it starts, with the
   /// estimate (InputLimits::steps, `--limit steps=N`).
@@ -98,6 +108,8 @@ struct RunSummary {
   double wall_seconds = 0.0;
   double energy_work = 0.0, energy_stored = 0.0, energy_dissipated = 0.0, energy_residual = 0.0;
   double max_abs_energy_residual = 0.0;
+  /// Events by kind (impact, stick, slip, lock, unlock, contact, separation, limit, time).
+  std::map<std::string, long> event_counts;
   /// What a user must know about results that were computed (status ok): e.g. an energy balance
   /// that does not close, which no correct solution of the model can give.
   std::vector<std::string> warnings;
@@ -113,6 +125,8 @@ class Observer {
   virtual ~Observer() = default;
   virtual void OnStart(const std::vector<Column>& columns) = 0;
   virtual void OnSample(const std::vector<double>& row) = 0;
+  /// An event (docs/events.md), before the sample of the output time that follows it.
+  virtual void OnEvent(const EventRecord& /*event*/) {}
   virtual void OnFinish(const RunSummary& summary) = 0;
 };
 
@@ -130,8 +144,10 @@ class RecordingObserver : public Observer {
   void OnStart(const std::vector<Column>& columns) override { columns_ = columns; }
   void OnSample(const std::vector<double>& row) override { rows_.push_back(row); }
   void OnFinish(const RunSummary& summary) override { summary_ = summary; }
+  void OnEvent(const EventRecord& event) override { events_.push_back(event); }
   const std::vector<Column>& columns() const { return columns_; }
   const std::vector<std::vector<double>>& rows() const { return rows_; }
+  const std::vector<EventRecord>& events() const { return events_; }
   const RunSummary& summary() const { return summary_; }
   /// Index of the column called `name` (without unit); throws std::out_of_range if absent.
   int Index(const std::string& name) const;
@@ -143,6 +159,7 @@ class RecordingObserver : public Observer {
  private:
   std::vector<Column> columns_;
   std::vector<std::vector<double>> rows_;
+  std::vector<EventRecord> events_;
   RunSummary summary_;
 };
 

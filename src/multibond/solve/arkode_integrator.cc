@@ -310,6 +310,9 @@ int ErrorWeights(N_Vector y, N_Vector ewt, void* user_data) noexcept {
 }
 
 class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> {
+  std::vector<int> roots_found_;  ///< ERKStepGetRootInfo's answer, per event function
+  double root_time_ = 0.0;        ///< the event's time when AdvanceUntil stopped at one, else -inf
+
  public:
   ArkodeIntegrator(OdeSystem& system, const IntegratorOptions& options) : SundialsIntegrator(system, options) {}
 
@@ -331,19 +334,30 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
     projections_ = 0;
   }
 
-  void AdvanceTo(double tout, double* x) override {
+  void AdvanceTo(double tout, double* x) override { AdvanceUntil(tout, false, x, nullptr); }
+
+  double AdvanceUntil(double tout, bool stop_at_tout, double* x, int* roots) override {
     MB_ASSERT(mem_ != nullptr, "AdvanceTo called before Reset");
     MB_ASSERT(tout >= time_, fmt::format("AdvanceTo({}) is before the current time {}", tout, time_));
+    if (roots) std::fill(roots, roots + roots_found_.size(), 0);
     if (tout > time_) {
       callbacks_.ClearMessages();
+      root_time_ = -std::numeric_limits<double>::infinity();
       if (fixed_step()) {
         AdvanceFixed(tout);
       } else {
-        AdvanceAdaptive(tout);
+        AdvanceAdaptive(tout, stop_at_tout);
       }
-      time_ = tout;
+      if (root_time_ > -std::numeric_limits<double>::infinity()) {  // stopped at an event: y_ holds the state there
+        Check(ERKStepGetRootInfo(mem_.get(), roots_found_.data()), root_time_);
+        if (roots) sun::CopyRoots(roots_found_, roots);
+        time_ = root_time_;
+      } else {
+        time_ = tout;
+      }
     }
     std::copy_n(N_VGetArrayPointer(y_.get()), n_, x);
+    return time_;
   }
 
   IntegratorStats stats() const override {
@@ -371,6 +385,7 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
     sunrealtype reached = time_;
     const int flag = ERKStepEvolve(mem_.get(), tout, y_.get(), &reached, ARK_NORMAL);
     sun::RethrowPending(callbacks_);
+    if (flag == ARK_ROOT_RETURN) root_time_ = reached;
     if (callbacks_.nonfinite) {
       SolverError error(callbacks_.nonfinite_t, kNonFiniteFlag,
                         "the state became infinite or NaN (step too large for the model, or "
@@ -394,10 +409,12 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
   /// is measured every kDriftCheckInterval steps, and only when it matters (CheckDrift) is the
   /// state projected and ERKStep restarted from it: ERKStepReset keeps the step size and the
   /// controller's history, and costs one evaluation.
-  void AdvanceAdaptive(double tout) {
+  void AdvanceAdaptive(double tout, bool stop_at_tout) {
     void* mem = mem_.get();
     const double hmin = sun::MinUsefulStep(time_);  // see there
     if (options_.max_step == 0 || hmin < options_.max_step) Check(ERKStepSetMinStep(mem, hmin), time_);
+    // SUNDIALS 6.4 cannot clear a stop time: one beyond any run stands for none.
+    Check(ERKStepSetStopTime(mem, stop_at_tout ? tout : std::numeric_limits<double>::max()), time_);
     long steps = 0;
     while (t_step_ < tout) {
       if (steps == options_.max_steps_per_output) Check(ARK_TOO_MUCH_WORK, t_step_);
@@ -412,6 +429,11 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
       if (flag < 0) {
         ERKStepGetCurrentTime(mem, &reached);
         Check(flag, reached);
+      }
+      if (flag == ARK_ROOT_RETURN) {  // step_ holds the interpolated state at the event
+        root_time_ = reached;
+        std::copy_n(N_VGetArrayPointer(step_.get()), n_, N_VGetArrayPointer(y_.get()));
+        return;
       }
       t_step_ = reached;
       ++steps;
@@ -453,6 +475,13 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
                                     ? *std::min_element(options_.atol_per_state.begin(), options_.atol_per_state.end()) <= 0.0
                                     : options_.atol <= 0.0;
     Check(ERKStepWFtolerances(mem, ErrorWeights), t0);  // receives the user data (set above)
+    if (const int nr = callbacks_.system->num_roots(); nr > 0) {
+      roots_found_.assign(nr, 0);
+      std::vector<int> downwards(nr, -1);  // events are crossings from > 0 to <= 0 (OdeSystem::CalcRoots)
+      Check(ERKStepRootInit(mem, nr, sun::Roots), t0);
+      Check(ERKStepSetRootDirection(mem, downwards.data()), t0);
+      Check(ERKStepSetNoInactiveRootWarn(mem), t0);
+    }
     if (const ButcherTablePtr table = OwnTable(options_.method)) {
       Check(ERKStepSetTable(mem, table.get()), t0);  // ERKStep keeps a copy
     } else {

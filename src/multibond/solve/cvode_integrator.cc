@@ -177,6 +177,8 @@ int DifferenceQuotientJacobian(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix
 }
 
 class CvodeIntegrator final : public sun::SundialsIntegrator<CvodeCallbackState> {
+  std::vector<int> roots_found_;  ///< CVodeGetRootInfo's answer, per event function
+
  public:
   CvodeIntegrator(OdeSystem& system, const IntegratorOptions& options) : SundialsIntegrator(system, options) {}
 
@@ -191,22 +193,34 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<CvodeCallbackState>
     time_ = t0;
   }
 
-  void AdvanceTo(double tout, double* x) override {
+  void AdvanceTo(double tout, double* x) override { AdvanceUntil(tout, false, x, nullptr); }
+
+  double AdvanceUntil(double tout, bool stop_at_tout, double* x, int* roots) override {
     MB_ASSERT(mem_ != nullptr, "AdvanceTo called before Reset");
     MB_ASSERT(tout >= time_, fmt::format("AdvanceTo({}) is before the current time {}", tout, time_));
+    if (roots) std::fill(roots, roots + roots_found_.size(), 0);
     if (tout > time_) {
       callbacks_.ClearMessages();
       const double hmin = sun::MinUsefulStep(time_);  // see there
       if (options_.max_step == 0 || hmin < options_.max_step)
         Check(CVodeSetMinStep(mem_.get(), hmin), time_);
+      // SUNDIALS 6.4 cannot clear a stop time: one beyond any run stands for none.
+      Check(CVodeSetStopTime(mem_.get(), stop_at_tout ? tout : std::numeric_limits<double>::max()), time_);
       sunrealtype reached = time_;
       // CV_NORMAL may step past tout and interpolate back; harmless for smooth models.
       const int flag = CVode(mem_.get(), tout, y_.get(), &reached, CV_NORMAL);
       sun::RethrowPending(callbacks_);
       Check(flag, reached);
-      time_ = tout;
+      if (flag == CV_ROOT_RETURN) {
+        Check(CVodeGetRootInfo(mem_.get(), roots_found_.data()), reached);
+        if (roots) sun::CopyRoots(roots_found_, roots);
+        time_ = reached;
+      } else {
+        time_ = tout;
+      }
     }
     std::copy_n(N_VGetArrayPointer(y_.get()), n_, x);
+    return time_;
   }
 
 
@@ -284,6 +298,13 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<CvodeCallbackState>
     Check(CVodeSetJacFn(mem, DifferenceQuotientJacobian), t0);
     if (options_.max_step > 0) Check(CVodeSetMaxStep(mem, options_.max_step), t0);
     if (options_.initial_step > 0) Check(CVodeSetInitStep(mem, options_.initial_step), t0);
+    if (const int nr = callbacks_.system->num_roots(); nr > 0) {
+      roots_found_.assign(nr, 0);
+      std::vector<int> downwards(nr, -1);  // events are crossings from > 0 to <= 0 (OdeSystem::CalcRoots)
+      Check(CVodeRootInit(mem, nr, sun::Roots), t0);
+      Check(CVodeSetRootDirection(mem, downwards.data()), t0);
+      Check(CVodeSetNoInactiveRootWarn(mem), t0);
+    }
     Check(CVodeSetMaxNumSteps(mem, options_.max_steps_per_output), t0);
     // Invariants (orthonormal orientation matrices) are restored after every step by CVODE's
     // projection: without it BDF's local errors pile up normal to the manifold (|R^T R - I|

@@ -23,6 +23,10 @@ class StatelessIntegrator final : public Integrator {
     MB_ASSERT(tout >= time_, fmt::format("AdvanceTo({}) is before the current time {}", tout, time_));
     time_ = tout;
   }
+  double AdvanceUntil(double tout, bool, double* x, int*) override {  // no state: no event function either
+    AdvanceTo(tout, x);
+    return tout;
+  }
   double time() const override { return time_; }
   IntegratorStats stats() const override { return {}; }
   const IntegratorOptions& options() const override { return options_; }

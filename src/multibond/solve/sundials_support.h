@@ -334,6 +334,24 @@ inline int Rhs(sunrealtype t, N_Vector x, N_Vector xdot, void* user_data) noexce
   }
 }
 
+/// The event functions for CVODE's and ERKStep's root finding (OdeSystem::CalcRoots); an
+/// exception is parked like the RHS's.
+inline int Roots(sunrealtype t, N_Vector x, sunrealtype* g, void* user_data) noexcept {
+  auto* state = static_cast<CallbackState*>(user_data);
+  try {
+    state->system->CalcRoots(t, N_VGetArrayPointer(x), g);
+    return 0;
+  } catch (...) {
+    state->pending = std::current_exception();
+    return -1;
+  }
+}
+
+/// The roots SUNDIALS found (+1 or -1 per function that crossed, 0 else) as 1 or 0.
+inline void CopyRoots(const std::vector<int>& found, int* roots) {
+  for (size_t i = 0; i < found.size(); ++i) roots[i] = found[i] != 0 ? 1 : 0;
+}
+
 /// CVODE's projection callback: corr = P(y) - y, with P the system's projection onto its
 /// invariant manifold. The error estimate is not projected (CVodeSetProjErrEst off).
 inline int ProjectCorrection(sunrealtype t, N_Vector y, N_Vector corr, sunrealtype /*eps*/, N_Vector /*err*/,
