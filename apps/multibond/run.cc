@@ -32,7 +32,7 @@ struct RunCommand {
   RunArgs run;
   std::string model, out;
   std::string format = "csv";
-  bool quiet = false;
+  bool quiet = false, compress = false;
 };
 
 int Run(const RunCommand& a, const std::vector<std::string>& argv) {
@@ -70,7 +70,7 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   RefuseWritingOnto(outputs, {a.model});
   const OutputFolder folder(a.out, CommandLine(argv));
   ReportRemovedTemporaries(folder);
-  ResultsFiles results(folder.path(), formats, expected_rows);
+  ResultsFiles results(folder.path(), formats, expected_rows, a.compress);
   AtomicFile run_json(folder.File("run.json"));  // a name it cannot take is said before the run
   RunSummary summary;
   try {
@@ -150,6 +150,9 @@ Command AddRunCommand(CLI::App& app) {
                   "the result files to write, a comma-separated list of csv (results.csv), mat (results.mat, MATLAB 5 "
                   "compressed) and h5 (results.h5, HDF5)")
       ->default_val("csv");
+  cmd->add_flag("--compress", a->compress,
+                "compress results.mat and results.h5 (zlib): smaller by a few percent for values with full mantissas, more for "
+                "constant columns, and several times slower to write");
   AddRunOptions(cmd, a->run);
   cmd->add_flag("-q,--quiet", a->quiet, "no progress and no summary");
   return {cmd, [a](const std::vector<std::string>& argv) { return Run(*a, argv); }, [] { return true; }};

@@ -158,7 +158,7 @@ std::vector<std::string> H5DatasetNames(const std::vector<Column>& columns) {
   return names;
 }
 
-void WriteH5Results(const std::string& path, const ColumnStore& results, const nlohmann::json& record) {
+void WriteH5Results(const std::string& path, const ColumnStore& results, const nlohmann::json& record, bool compress) {
   const QuietErrors quiet;
   const Writer w(path);
   const std::vector<Column>& columns = results.columns();
@@ -171,8 +171,10 @@ void WriteH5Results(const std::string& path, const ColumnStore& results, const n
   const hsize_t chunk = std::clamp<hsize_t>(rows, 1, 65536);
   Id dcpl(w.Checked(H5Pcreate(H5P_DATASET_CREATE), "a property list"), H5Pclose);
   w.Check(H5Pset_chunk(dcpl.get(), 1, &chunk), "the chunk size");
-  w.Check(H5Pset_shuffle(dcpl.get()), "the shuffle filter");
-  w.Check(H5Pset_deflate(dcpl.get(), kH5DeflateLevel), "the deflate filter");
+  if (compress) {
+    w.Check(H5Pset_shuffle(dcpl.get()), "the shuffle filter");
+    w.Check(H5Pset_deflate(dcpl.get(), kH5DeflateLevel), "the deflate filter");
+  }
   const hsize_t dims[1] = {rows}, max_dims[1] = {H5S_UNLIMITED};
   Id space(w.Checked(H5Screate_simple(1, dims, max_dims), "a dataspace"), H5Sclose);
   for (size_t c = 0; c < columns.size(); ++c) {

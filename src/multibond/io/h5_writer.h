@@ -5,7 +5,7 @@
 ///
 /// - one dataset per column in the root group, named by the column's name (Hdf5Name in
 ///   io/result_names.h: `/` and `%` percent-encoded), 1-D, float64 little-endian, chunked (at most
-///   65,536 values a chunk) and compressed (shuffle, then deflate level kH5DeflateLevel); its
+///   65,536 values a chunk; with `compress`, shuffled and deflated at level kH5DeflateLevel); its
 ///   attributes: `unit` ("s", "N s", "-"), `name` (the column's name as in results.csv) and
 ///   `column` (its index in results.csv, 0 for `time`);
 /// - attributes of the root group, from the run record (MakeRunRecord): `model` (the model file
@@ -23,8 +23,8 @@
 
 namespace multibond {
 
-/// zlib's level for the datasets: 1, the fastest (results are doubles with full mantissas, which
-/// higher levels hardly compress further).
+/// zlib's level for compressed datasets: 1, the fastest (results are doubles with full mantissas,
+/// which higher levels hardly compress further).
 inline constexpr unsigned kH5DeflateLevel = 1;
 
 /// The dataset names of `columns` in results.h5 (Hdf5Name, unique).
@@ -32,6 +32,6 @@ std::vector<std::string> H5DatasetNames(const std::vector<Column>& columns);
 
 /// Writes `results` and `record` to a new HDF5 file at `path` (replacing what is there). Throws
 /// std::runtime_error "cannot write '<path>': <why>".
-void WriteH5Results(const std::string& path, const ColumnStore& results, const nlohmann::json& record);
+void WriteH5Results(const std::string& path, const ColumnStore& results, const nlohmann::json& record, bool compress);
 
 }  // namespace multibond

@@ -143,7 +143,7 @@ std::vector<std::string> MatVariableNames(const std::vector<Column>& columns) {
   return MatlabNames(names, {"units", "columns", "meta"});
 }
 
-void WriteMatResults(const std::string& path, const ColumnStore& results, const nlohmann::json& record) {
+void WriteMatResults(const std::string& path, const ColumnStore& results, const nlohmann::json& record, bool compress) {
   Mat_LogInitFunc("multibond", MatioLog);
   last_matio_message.clear();
   const std::vector<Column>& columns = results.columns();
@@ -153,7 +153,7 @@ void WriteMatResults(const std::string& path, const ColumnStore& results, const 
   if (!mat) Fail(path, "matio cannot create the file");
   try {
     const auto write = [&](const MatVar& v, const std::string& what) {
-      if (Mat_VarWrite(mat.get(), v.get(), MAT_COMPRESSION_ZLIB) != 0) Fail(path, "matio cannot write " + what);
+      if (Mat_VarWrite(mat.get(), v.get(), compress ? MAT_COMPRESSION_ZLIB : MAT_COMPRESSION_NONE) != 0) Fail(path, "matio cannot write " + what);
     };
     for (size_t c = 0; c < columns.size(); ++c) {
       size_t dims[2] = {static_cast<size_t>(results.rows()), 1};

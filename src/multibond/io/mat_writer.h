@@ -1,7 +1,7 @@
 #pragma once
 /// \file
-/// results.mat: the results of a run as a MATLAB file (MAT version 5, each variable compressed
-/// with zlib), written through matio. Loads in MATLAB, Octave (`load`) and SciPy
+/// results.mat: the results of a run as a MATLAB file (MAT version 5; with `compress`, each
+/// variable compressed with zlib, as MATLAB's own `save` does), written through matio. Loads in MATLAB, Octave (`load`) and SciPy
 /// (`scipy.io.loadmat`). Variables:
 ///
 /// - one double column vector per result column, named by MatlabNames (io/result_names.h):
@@ -30,6 +30,6 @@ std::vector<std::string> MatVariableNames(const std::vector<Column>& columns);
 
 /// Writes `results` and `record` to a new MAT file at `path` (replacing what is there). Throws
 /// std::runtime_error "cannot write '<path>': <why>".
-void WriteMatResults(const std::string& path, const ColumnStore& results, const nlohmann::json& record);
+void WriteMatResults(const std::string& path, const ColumnStore& results, const nlohmann::json& record, bool compress);
 
 }  // namespace multibond

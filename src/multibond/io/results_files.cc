@@ -73,8 +73,8 @@ bool Has(const std::vector<ResultFormat>& formats, ResultFormat f) { return std:
 
 }  // namespace
 
-ResultsFiles::ResultsFiles(std::string folder, std::vector<ResultFormat> formats, long expected_rows)
-    : folder_(std::move(folder)), formats_(std::move(formats)) {
+ResultsFiles::ResultsFiles(std::string folder, std::vector<ResultFormat> formats, long expected_rows, bool compress)
+    : folder_(std::move(folder)), formats_(std::move(formats)), compress_(compress) {
   const auto file = [&](ResultFormat f) { return (std::filesystem::path(folder_) / ResultFileName(f)).string(); };
   if (Has(formats_, ResultFormat::kCsv)) csv_ = std::make_unique<CsvWriter>(file(ResultFormat::kCsv), /*publish=*/false);
   if (NeedsColumnStore(formats_)) store_ = std::make_unique<ColumnStore>(expected_rows);
@@ -100,11 +100,11 @@ void ResultsFiles::OnFinish(const RunSummary& summary) {
 
 void ResultsFiles::Finish(const nlohmann::json& record) {
   if (mat_) {
-    WriteMatResults(mat_->temp_path(), *store_, record);
+    WriteMatResults(mat_->temp_path(), *store_, record, compress_);
     mat_->Finish();
   }
   if (h5_) {
-    WriteH5Results(h5_->temp_path(), *store_, record);
+    WriteH5Results(h5_->temp_path(), *store_, record, compress_);
     h5_->Finish();
   }
 }
@@ -114,6 +114,7 @@ nlohmann::json ResultsFiles::FilesRecord() const {
   const auto add = [&](ResultFormat f, std::uint64_t bytes, const std::string& sha256) {
     nlohmann::json entry = DataFileRecord(ResultFileName(f), bytes, sha256);
     entry["format"] = ResultFormatName(f);
+    if (f != ResultFormat::kCsv) entry["compressed"] = compress_;
     files.push_back(std::move(entry));
   };
   if (csv_) add(ResultFormat::kCsv, csv_->bytes(), csv_->sha256());

@@ -40,7 +40,9 @@ class ResultsFiles : public Observer {
  public:
   /// `folder`: an existing folder; `expected_rows`: the output grid's size (NumOutputIntervals + 1),
   /// reserved for the columns kept in memory.
-  ResultsFiles(std::string folder, std::vector<ResultFormat> formats, long expected_rows);
+  /// `compress`: the binary files compressed (zlib), smaller by a few percent to a few tenths
+  /// (constant columns compress, full-mantissa values hardly) and several times slower to write.
+  ResultsFiles(std::string folder, std::vector<ResultFormat> formats, long expected_rows, bool compress = false);
 
   void OnStart(const std::vector<Column>& columns) override;
   void OnSample(const std::vector<double>& row) override;
@@ -50,7 +52,8 @@ class ResultsFiles : public Observer {
   /// it) and finishes every file (synced, size and hash known). Throws std::runtime_error
   /// "cannot write '<file>': <why>"; then nothing is left.
   void Finish(const nlohmann::json& record);
-  /// After Finish: run.json's "files" list, one {"file", "format", "bytes", "sha256"} per file.
+  /// After Finish: run.json's "files" list, one {"file", "format", "bytes", "sha256"} per file, and
+  /// "compressed" (true or false) for results.mat and results.h5.
   nlohmann::json FilesRecord() const;
   /// After Finish: run.json's "results" entry (results.csv's), or null without csv.
   nlohmann::json CsvRecord() const;
@@ -63,6 +66,7 @@ class ResultsFiles : public Observer {
  private:
   std::string folder_;
   std::vector<ResultFormat> formats_;
+  bool compress_;
   std::unique_ptr<CsvWriter> csv_;
   std::unique_ptr<ColumnStore> store_;
   std::unique_ptr<StagedFile> mat_, h5_;
