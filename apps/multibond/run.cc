@@ -35,6 +35,14 @@ struct RunCommand {
   bool quiet = false, compress = false;
 };
 
+/// "560 kB", "1.2 GB": a size for a person.
+std::string HumanBytes(std::uint64_t bytes) {
+  const double b = static_cast<double>(bytes);
+  if (b < 1e6) return fmt::format("{:.3g} kB", b / 1e3);
+  if (b < 1e9) return fmt::format("{:.3g} MB", b / 1e6);
+  return fmt::format("{:.3g} GB", b / 1e9);
+}
+
 int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   std::vector<ResultFormat> formats;
   try {
@@ -57,10 +65,10 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
     const std::size_t columns = MakeColumns(*model, o.all_variables).size();
     const std::uint64_t bytes = ColumnStoreBytes(static_cast<std::uint64_t>(expected_rows), columns);
     if (bytes > limit)
-      throw CliExit{kExitUsage, fmt::format("--format {} keeps the results in memory: {} rows x {} columns x 8 bytes = {:.3g} GB, more than "
-                                            "the limit results-size; {}, use a larger output interval (--dt), or write csv only",
-                                            a.format, expected_rows, columns, static_cast<double>(bytes) / 1e9,
-                                            RaiseLimitHint("results-size", limit))};
+      throw CliExit{kExitUsage, fmt::format("--format {} keeps the results in memory: {} rows x {} columns x 8 bytes = {}, more than "
+                                            "the limit results-size; raise it with --limit results-size=N (now {}), use a larger output "
+                                            "interval (--dt), or write csv only",
+                                            a.format, expected_rows, columns, HumanBytes(bytes), limit)};
   }
 
   // The model compiled: only now is the output folder touched.
