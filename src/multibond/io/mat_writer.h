@@ -13,8 +13,9 @@
 ///   structs (keys made MATLAB names the same way), strings char arrays, numbers doubles, true and
 ///   false logicals, lists of numbers row vectors, other lists cell arrays, null an empty [].
 ///
-/// Text is stored as UTF-16 characters (MATLAB's own), so any name or unit survives; the
-/// variable and field names are ASCII.
+/// Text is stored as UTF-16 characters (MATLAB's own; Octave converts them to UTF-8), so any name
+/// or unit survives; the variable and field names are ASCII. SciPy decodes such characters with
+/// the system codec unless given `uint16_codec='utf-16-le'`.
 
 #include <string>
 
