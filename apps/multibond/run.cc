@@ -1,18 +1,24 @@
-// multibond run: simulate a model into a results folder (results.csv, then run.json).
+// multibond run: simulate a model into a results folder (results.csv, .mat, .h5 as asked for,
+// then run.json).
 
 #include <unistd.h>
 
+#include <algorithm>
+#include <cstdint>
 #include <cstdio>
 #include <iostream>
 #include <memory>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include "cli.h"
 #include "multibond/core/interrupt.h"
 #include "multibond/io/atomic_file.h"
 #include "multibond/io/output_folder.h"
+#include "multibond/io/column_store.h"
+#include "multibond/io/results_files.h"
 #include "multibond/io/results_writer.h"
 #include "run_options.h"
 
@@ -25,10 +31,25 @@ namespace fs = std::filesystem;
 struct RunCommand {
   RunArgs run;
   std::string model, out;
-  bool quiet = false;
+  std::string format = "csv";
+  bool quiet = false, compress = false;
 };
 
+/// "560 kB", "1.2 GB": a size for a person.
+std::string HumanBytes(std::uint64_t bytes) {
+  const double b = static_cast<double>(bytes);
+  if (b < 1e6) return fmt::format("{:.3g} kB", b / 1e3);
+  if (b < 1e9) return fmt::format("{:.3g} MB", b / 1e6);
+  return fmt::format("{:.3g} GB", b / 1e9);
+}
+
 int Run(const RunCommand& a, const std::vector<std::string>& argv) {
+  std::vector<ResultFormat> formats;
+  try {
+    formats = ParseResultFormats(a.format);
+  } catch (const std::invalid_argument& e) {
+    throw CliExit{kExitUsage, e.what()};
+  }
   PreparedRun p = PrepareRun(a.model, a.run);
   const LoadedModel& lm = p.lm;
   const auto& model = p.model;
@@ -36,16 +57,32 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   const bool tty = isatty(fileno(stderr)) && !a.quiet;
   if (tty) o.progress = [&](double f) { std::fprintf(stderr, "\r  t = %-10.4g s  %3.0f%%", o.t_start + f * (o.t_end - o.t_start), 100 * f); };
 
+  // The binary formats keep every row in memory: bounded by the results-size limit, said before
+  // the run.
+  const long expected_rows = NumOutputIntervals(o) + 1;
+  if (NeedsColumnStore(formats)) {
+    const std::uint64_t limit = ParseLimits(a.run.load.limits).results_bytes;
+    const std::size_t columns = MakeColumns(*model, o.all_variables).size();
+    const std::uint64_t bytes = ColumnStoreBytes(static_cast<std::uint64_t>(expected_rows), columns);
+    if (bytes > limit)
+      throw CliExit{kExitUsage, fmt::format("--format {} keeps the results in memory: {} rows x {} columns x 8 bytes = {}, more than "
+                                            "the limit results-size; raise it with --limit results-size=N (now {}), use a larger output "
+                                            "interval (--dt), or write csv only",
+                                            a.format, expected_rows, columns, HumanBytes(bytes), limit)};
+  }
+
   // The model compiled: only now is the output folder touched.
   ThrowIfStopRequested("loading and compiling the model");
-  RefuseWritingOnto({fs::path(a.out) / "results.csv", fs::path(a.out) / "run.json"}, {a.model});
+  std::vector<fs::path> outputs = {fs::path(a.out) / "run.json"};
+  for (ResultFormat f : AllResultFormats()) outputs.push_back(fs::path(a.out) / ResultFileName(f));
+  RefuseWritingOnto(outputs, {a.model});
   const OutputFolder folder(a.out, CommandLine(argv));
   ReportRemovedTemporaries(folder);
-  CsvWriter csv(folder.File("results.csv"), /*publish=*/false);
+  ResultsFiles results(folder.path(), formats, expected_rows, a.compress);
   AtomicFile run_json(folder.File("run.json"));  // a name it cannot take is said before the run
   RunSummary summary;
   try {
-    summary = Simulate(*model, o, csv);
+    summary = Simulate(*model, o, results);
   } catch (const std::invalid_argument& e) {
     std::cerr << "error: " << e.what() << '\n';
     return kExitUsage;
@@ -70,14 +107,21 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
     j["set"] = q.set;
   }
   record["parameters"] = std::move(parameters);
-  // Published together, run.json last: it records the size and hash of the results.csv it goes
-  // with, and a results.csv without a run.json beside it is from a command that did not finish.
-  record["results"] = DataFileRecord("results.csv", csv.bytes(), csv.sha256());
+  // The binary files hold the record as it is here (their own sizes and hashes are in run.json).
+  results.Finish(record);
+  // Published together, run.json last: it records the size and hash of each results file it goes
+  // with ("results": results.csv's, "files": every one), and a results file without a run.json
+  // beside it is from a command that did not finish.
+  if (const nlohmann::json csv = results.CsvRecord(); !csv.is_null()) record["results"] = csv;
+  record["files"] = results.FilesRecord();
   run_json.Write(DumpRecord(record));
   run_json.Finish();  // a full disk shows here, before anything is published
   std::error_code ignored;
   fs::remove(folder.File("run.json"), ignored);  // an earlier run's record never describes these results
-  csv.Publish();
+  // Nor do an earlier run's results in a format this run does not write.
+  for (ResultFormat f : AllResultFormats())
+    if (std::find(formats.begin(), formats.end(), f) == formats.end()) fs::remove(folder.File(ResultFileName(f)), ignored);
+  results.Publish();
   run_json.Publish();
   if (!a.quiet || summary.status != RunStatus::kOk) {
     std::cout << fmt::format("{}: {} to t = {:g} s with {} ({} steps, {} right-hand sides, {:.3f} s wall)\n",
@@ -86,7 +130,9 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
     if (model->has_energy_account())
       std::cout << fmt::format("energy: work {:.9g} J, stored {:.9g} J, dissipated {:.9g} J, residual {:.3g}\n", summary.energy_work,
                                summary.energy_stored, summary.energy_dissipated, summary.energy_residual);
-    std::cout << fmt::format("wrote {}/results.csv and {}/run.json\n", a.out, a.out);
+    std::vector<std::string> written;
+    for (ResultFormat f : formats) written.push_back(fmt::format("{}/{}", a.out, ResultFileName(f)));
+    std::cout << fmt::format("wrote {} and {}/run.json\n", fmt::join(written, ", "), a.out);
   }
   for (const std::string& w : summary.warnings) std::cerr << "warning: " << w << '\n';  // also in run.json
   if (summary.status == RunStatus::kFailed) {
@@ -105,9 +151,16 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
 
 Command AddRunCommand(CLI::App& app) {
   auto a = std::make_shared<RunCommand>();
-  CLI::App* cmd = app.add_subcommand("run", "Simulate and write DIR/results.csv and DIR/run.json");
+  CLI::App* cmd = app.add_subcommand("run", "Simulate and write DIR/results.csv (or .mat, .h5) and DIR/run.json");
   cmd->add_option("MODEL", a->model, "model file (YAML)")->required();
   cmd->add_option("-o,--output", a->out, "output folder")->required()->check(kPathName);
+  cmd->add_option("--format", a->format,
+                  "the result files to write, a comma-separated list of csv (results.csv), mat (results.mat, MATLAB 5 "
+                  "compressed) and h5 (results.h5, HDF5)")
+      ->default_val("csv");
+  cmd->add_flag("--compress", a->compress,
+                "compress results.mat and results.h5 (zlib): smaller by a few percent for values with full mantissas, more for "
+                "constant columns, and several times slower to write");
   AddRunOptions(cmd, a->run);
   cmd->add_flag("-q,--quiet", a->quiet, "no progress and no summary");
   return {cmd, [a](const std::vector<std::string>& argv) { return Run(*a, argv); }, [] { return true; }};

@@ -23,3 +23,14 @@ multibond_test(io/model_parameters_reader_test.cc LIBS multibond::io LABELS unit
 multibond_test(io/element_reader_test.cc LIBS multibond::io LABELS unit)
 multibond_test(io/states_outputs_reader_test.cc LIBS multibond::io LABELS unit)
 multibond_test(io/mechanism_reader_test.cc LIBS multibond::io LABELS unit)
+# The binary results formats, read back by the programs users read them with: Debian's python3
+# (SciPy, h5py; never a python that PATH happens to find first) and Octave. Found here, checked by
+# the tests at run time: a test whose reader is missing is skipped with the reason.
+find_program(MULTIBOND_SYSTEM_PYTHON NAMES python3 PATHS /usr/bin NO_DEFAULT_PATH)
+find_program(MULTIBOND_OCTAVE NAMES octave)
+foreach(name result_names staged_file column_store results_files mat_writer h5_writer)
+  multibond_test(io/${name}_test.cc LIBS multibond::io nlohmann_json::nlohmann_json LABELS unit)
+  target_compile_definitions(io_${name}_test PRIVATE
+    MULTIBOND_SYSTEM_PYTHON="$<$<BOOL:${MULTIBOND_SYSTEM_PYTHON}>:${MULTIBOND_SYSTEM_PYTHON}>"
+    MULTIBOND_OCTAVE="$<$<BOOL:${MULTIBOND_OCTAVE}>:${MULTIBOND_OCTAVE}>")
+endforeach()
