@@ -75,6 +75,7 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   ThrowIfStopRequested("loading and compiling the model");
   std::vector<fs::path> outputs = {fs::path(a.out) / "run.json"};
   for (ResultFormat f : AllResultFormats()) outputs.push_back(fs::path(a.out) / ResultFileName(f));
+  outputs.push_back(fs::path(a.out) / kEventsFileName);
   RefuseWritingOnto(outputs, {a.model});
   const OutputFolder folder(a.out, CommandLine(argv));
   ReportRemovedTemporaries(folder);
@@ -121,6 +122,7 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   // Nor do an earlier run's results in a format this run does not write.
   for (ResultFormat f : AllResultFormats())
     if (std::find(formats.begin(), formats.end(), f) == formats.end()) fs::remove(folder.File(ResultFileName(f)), ignored);
+  if (summary.event_counts.empty()) fs::remove(folder.File(kEventsFileName), ignored);
   results.Publish();
   run_json.Publish();
   if (!a.quiet || summary.status != RunStatus::kOk) {
@@ -132,6 +134,7 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
                                summary.energy_stored, summary.energy_dissipated, summary.energy_residual);
     std::vector<std::string> written;
     for (ResultFormat f : formats) written.push_back(fmt::format("{}/{}", a.out, ResultFileName(f)));
+    if (!summary.event_counts.empty()) written.push_back(fmt::format("{}/{}", a.out, kEventsFileName));
     std::cout << fmt::format("wrote {} and {}/run.json\n", fmt::join(written, ", "), a.out);
   }
   for (const std::string& w : summary.warnings) std::cerr << "warning: " << w << '\n';  // also in run.json

@@ -98,7 +98,17 @@ void ResultsFiles::OnFinish(const RunSummary& summary) {
   if (store_) store_->OnFinish(summary);
 }
 
+void ResultsFiles::OnEvent(const EventRecord& event) { events_.push_back(event); }
+
 void ResultsFiles::Finish(const nlohmann::json& record) {
+  if (!events_.empty()) {
+    events_file_ = std::make_unique<AtomicFile>((std::filesystem::path(folder_) / kEventsFileName).string());
+    std::string text = "time [s],kind,element,description\n";
+    for (const EventRecord& e : events_)
+      text += fmt::format("{:.17g},{},{},{}\n", e.time, CsvCell(e.kind), CsvCell(e.element), CsvCell(e.description));
+    events_file_->Write(text);
+    events_file_->Finish();
+  }
   if (mat_) {
     WriteMatResults(mat_->temp_path(), *store_, record, compress_);
     mat_->Finish();
@@ -120,6 +130,11 @@ nlohmann::json ResultsFiles::FilesRecord() const {
   if (csv_) add(ResultFormat::kCsv, csv_->bytes(), csv_->sha256());
   if (mat_) add(ResultFormat::kMat, mat_->bytes(), mat_->sha256());
   if (h5_) add(ResultFormat::kH5, h5_->bytes(), h5_->sha256());
+  if (events_file_) {
+    nlohmann::json entry = DataFileRecord(kEventsFileName, events_file_->bytes(), events_file_->sha256());
+    entry["format"] = "events";
+    files.push_back(std::move(entry));
+  }
   return files;
 }
 
@@ -131,6 +146,7 @@ void ResultsFiles::Publish() {
   if (csv_) csv_->Publish();
   if (mat_) mat_->Publish();
   if (h5_) h5_->Publish();
+  if (events_file_) events_file_->Publish();
 }
 
 }  // namespace multibond

@@ -47,13 +47,16 @@ class ResultsFiles : public Observer {
   void OnStart(const std::vector<Column>& columns) override;
   void OnSample(const std::vector<double>& row) override;
   void OnFinish(const RunSummary& summary) override;
+  /// Events (docs/events.md) are kept for events.csv, written with the other files when the run
+  /// had any: the columns `time [s]`, `kind`, `element`, `description`.
+  void OnEvent(const EventRecord& event) override;
 
   /// After the run: writes the binary files with `record` (the run record, as run.json will hold
   /// it) and finishes every file (synced, size and hash known). Throws std::runtime_error
   /// "cannot write '<file>': <why>"; then nothing is left.
   void Finish(const nlohmann::json& record);
   /// After Finish: run.json's "files" list, one {"file", "format", "bytes", "sha256"} per file, and
-  /// "compressed" (true or false) for results.mat and results.h5.
+  /// "compressed" (true or false) for results.mat and results.h5; events.csv's with format "events".
   nlohmann::json FilesRecord() const;
   /// After Finish: run.json's "results" entry (results.csv's), or null without csv.
   nlohmann::json CsvRecord() const;
@@ -70,6 +73,11 @@ class ResultsFiles : public Observer {
   std::unique_ptr<CsvWriter> csv_;
   std::unique_ptr<ColumnStore> store_;
   std::unique_ptr<StagedFile> mat_, h5_;
+  std::vector<EventRecord> events_;
+  std::unique_ptr<AtomicFile> events_file_;  ///< events.csv, when the run had events
 };
+
+/// The event log's file name, "events.csv".
+inline constexpr const char kEventsFileName[] = "events.csv";
 
 }  // namespace multibond

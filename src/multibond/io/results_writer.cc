@@ -88,6 +88,13 @@ nlohmann::json MakeRunRecord(const std::string& model_file, const std::string& m
                  {"dissipated", summary.energy_dissipated}, {"residual", summary.energy_residual},
                  {"max_abs_residual", summary.max_abs_energy_residual}};
   j["warnings"] = summary.warnings;
+  // Events (docs/events.md): how many of each kind; the log itself is events.csv.
+  long events = 0;
+  json kinds = json::object();
+  for (const auto& [kind, count] : summary.event_counts) kinds[kind] = count, events += count;
+  j["events"] = {{"count", events}, {"by_kind", kinds}};
+  j["options"]["event_rest_time"] = options.event_rest_time;
+  j["options"]["max_events_per_second"] = options.max_events_per_second;
   return j;
 }
 

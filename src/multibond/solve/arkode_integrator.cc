@@ -413,8 +413,11 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
     void* mem = mem_.get();
     const double hmin = sun::MinUsefulStep(time_);  // see there
     if (options_.max_step == 0 || hmin < options_.max_step) Check(ERKStepSetMinStep(mem, hmin), time_);
-    // SUNDIALS 6.4 cannot clear a stop time: one beyond any run stands for none.
-    Check(ERKStepSetStopTime(mem, stop_at_tout ? tout : std::numeric_limits<double>::max()), time_);
+    // SUNDIALS 6.4 cannot clear a stop time: one beyond any run stands for none. With event
+    // functions the steps stop at tout too: one step of ARK_ONE_STEP past tout would report an
+    // event beyond it, after the output times before it.
+    const bool stop = stop_at_tout || !roots_found_.empty();
+    Check(ERKStepSetStopTime(mem, stop ? tout : std::numeric_limits<double>::max()), time_);
     long steps = 0;
     while (t_step_ < tout) {
       if (steps == options_.max_steps_per_output) Check(ARK_TOO_MUCH_WORK, t_step_);

@@ -1,0 +1,127 @@
+// The event examples (examples/events/, docs/events.md) against their closed forms: the impacts
+// of a bouncing ball and its rest, a block that sticks exactly, stick-slip on a belt, a clutch
+// that locks; the energy account closing through every event.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "multibond/compile/compiled_model.h"
+#include "multibond/io/model_loader.h"
+#include "multibond/sim/simulator.h"
+
+namespace multibond {
+namespace {
+
+struct Run {
+  std::shared_ptr<const CompiledModel> model;
+  RecordingObserver rec;
+};
+
+std::unique_ptr<Run> Simulated(const std::string& example, double t_end, const std::string& solver = "bdf") {
+  LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/events/" + example);
+  auto run = std::make_unique<Run>();
+  run->model = CompiledModel::Compile(std::move(lm.graph), lm.compile);
+  RunOptions o;
+  o.t_end = t_end;
+  o.dt = 1e-3;
+  o.integrator.method = ParseMethod(solver);
+  o.integrator.rtol = 1e-10;
+  o.integrator.atol = 1e-12;
+  const RunSummary s = Simulate(*run->model, o, run->rec);
+  EXPECT_EQ(s.status, RunStatus::kOk) << s.message;
+  return run;
+}
+
+std::vector<EventRecord> OfKind(const RecordingObserver& rec, const std::string& kind) {
+  std::vector<EventRecord> out;
+  for (const EventRecord& e : rec.events())
+    if (e.kind == kind) out.push_back(e);
+  return out;
+}
+
+class BouncingBall : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(BouncingBall, ImpactsFollowTheClosedFormThenItRests) {
+  const auto run = Simulated("bouncing_ball.yaml", 10.0, GetParam());
+  const double g = 9.81, h0 = 1.0, e = 0.8;
+  const double v1 = std::sqrt(2 * g * h0);
+  // t1 = sqrt(2 h0 / g), t(k+1) = t(k) + 2 e^k v1 / g.
+  const std::vector<EventRecord> impacts = OfKind(run->rec, "impact");
+  ASSERT_GE(impacts.size(), 30u);
+  double t = std::sqrt(2 * h0 / g);
+  for (size_t k = 0; k < 15; ++k) {
+    EXPECT_NEAR(impacts[k].time, t, 1e-8) << "impact " << k + 1;
+    t += 2 * std::pow(e, static_cast<double>(k + 1)) * v1 / g;
+  }
+  // The accumulation point, and rest from there: one "contact" event, then nothing moves.
+  const double t_inf = std::sqrt(2 * h0 / g) + 2 * e * v1 / (g * (1 - e));
+  const std::vector<EventRecord> rest = OfKind(run->rec, "contact");
+  ASSERT_EQ(rest.size(), 1u);
+  EXPECT_NEAR(rest[0].time, t_inf, 1e-4);
+  EXPECT_LT(rest[0].time, t_inf);
+  EXPECT_EQ(run->rec.Last("velocity"), 0.0);
+  EXPECT_LT(std::abs(run->rec.Last("height")), 1e-12);
+  // The energy m g h0 ends dissipated in the impacts, to rounding.
+  EXPECT_NEAR(run->rec.Last("energy.dissipated"), g * h0, 1e-8);
+  EXPECT_LT(std::abs(run->rec.Last("energy.residual")), 1e-9);
+  bool warned = false;
+  for (const std::string& w : run->rec.summary().warnings) warned = warned || w.find("Zeno") != std::string::npos;
+  EXPECT_TRUE(warned);
+}
+
+INSTANTIATE_TEST_SUITE_P(Solvers, BouncingBall, ::testing::Values("bdf", "dopri5"));
+
+TEST(CoulombBlock, SticksAtTheClosedFormTimeAndStaysExactlyStill) {
+  const auto run = Simulated("coulomb_block.yaml", 2.0);
+  const double g = 9.81, v0 = 3.0, mu_k = 0.4;
+  const std::vector<EventRecord> stick = OfKind(run->rec, "stick");
+  ASSERT_EQ(stick.size(), 1u);
+  EXPECT_NEAR(stick[0].time, v0 / (mu_k * g), 1e-9);
+  EXPECT_EQ(run->rec.events().size(), 1u);  // no chattering after it
+  EXPECT_NEAR(run->rec.Last("position"), v0 * v0 / (2 * mu_k * g), 1e-9);
+  for (const auto& row : run->rec.rows()) {
+    if (row[0] > stick[0].time + 1e-3) {
+      EXPECT_LE(std::abs(row[run->rec.Index("velocity")]), 1e-15) << row[0];
+    }
+  }
+  EXPECT_NEAR(run->rec.Last("energy.dissipated"), 0.5 * 2.0 * v0 * v0, 1e-8);
+  EXPECT_LT(std::abs(run->rec.Last("energy.residual")), 1e-9);
+}
+
+TEST(StickSlip, SlipAndStickLastWhatTheClosedFormSays) {
+  const auto run = Simulated("stick_slip.yaml", 5.0);
+  const double m = 1.0, k = 100.0, vb = 0.1, mu_s = 0.6, mu_k = 0.4, g = 9.81;
+  const double w = std::sqrt(k / m), d = (mu_s - mu_k) * m * g / k;
+  const double slip = (M_PI + 2 * std::atan(vb / (w * d))) / w, stick = 2 * d / vb;
+  const std::vector<EventRecord>& ev = run->rec.events();
+  ASSERT_GE(ev.size(), 8u);
+  // Stuck from x = 0 until k x = mu_s m g, riding the belt.
+  EXPECT_EQ(ev[0].kind, "slip");
+  EXPECT_NEAR(ev[0].time, mu_s * m * g / k / vb, 1e-9);
+  for (size_t i = 1; i < ev.size(); ++i) {
+    EXPECT_EQ(ev[i].kind, i % 2 ? "stick" : "slip") << i;
+    EXPECT_NEAR(ev[i].time - ev[i - 1].time, i % 2 ? slip : stick, 1e-8) << i;
+  }
+  EXPECT_LT(std::abs(run->rec.Last("energy.residual")), 1e-8);
+}
+
+TEST(Clutch, LocksAtTheClosedFormTimeAndSpeedHavingDissipatedTheEnergyLost) {
+  const auto run = Simulated("clutch.yaml", 3.0);
+  const std::vector<EventRecord>& ev = run->rec.events();
+  ASSERT_EQ(ev.size(), 2u);
+  EXPECT_EQ(ev[0].kind, "time");  // the capacity steps up at 0.1 s
+  EXPECT_DOUBLE_EQ(ev[0].time, 0.1);
+  EXPECT_EQ(ev[1].kind, "lock");
+  EXPECT_NEAR(ev[1].time, 1.6, 1e-9);
+  EXPECT_NEAR(run->rec.Last("w1"), 25.0, 1e-9);
+  EXPECT_NEAR(run->rec.Last("w2"), 25.0, 1e-9);
+  EXPECT_NEAR(run->rec.At("w1", 1.0), 100.0 - 50.0 * 0.9, 1e-8);
+  EXPECT_NEAR(run->rec.Last("energy.dissipated"), 3750.0, 1e-6);
+  EXPECT_LT(std::abs(run->rec.Last("energy.residual")), 1e-10);
+}
+
+}  // namespace
+}  // namespace multibond
