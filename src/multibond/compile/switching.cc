@@ -72,6 +72,8 @@ void SwitchTable::Build(const BuildInput& in) {
         continue;
       }
       en.gap = *gap;
+      en.gap_scale = sw.gap_scale;
+      en.gap_offset = sw.gap_offset;
     }
     for (const StateBlock& b : in.blocks)
       if (b.kind == StateBlock::Kind::kDissipation && b.owner == element) en.dissipation = b.offset;
@@ -104,7 +106,7 @@ void SwitchTable::Roots(double t, const double* x, const double* w, const double
     double* r = out + 2 * i;
     switch (static_cast<Mode>(modes[i])) {
       case kOpen:
-        r[0] = e.gap.in == VariableRef::In::kState ? x[e.gap.offset] : w[e.gap.offset];
+        r[0] = e.gap_scale * (e.gap.in == VariableRef::In::kState ? x[e.gap.offset] : w[e.gap.offset]) + e.gap_offset;
         r[1] = 1.0;
         break;
       case kClosed:
@@ -167,7 +169,7 @@ void CompiledModel::BuildSwitches() {
       if (blk.kind != StateBlock::Kind::kIntegral || e.gap.offset < blk.offset || e.gap.offset >= blk.offset + blk.size) continue;
       const StateGather& gt = layout_.gathers()[b];
       for (const auto& member : group->members)
-        if (gt.flow + (e.gap.offset - blk.offset) == member.slot && member.sign < 0.0)
+        if (gt.flow + (e.gap.offset - blk.offset) == member.slot && member.sign * e.gap_scale < 0.0)
           throw ModelError(Diagnostic{Diagnostic::Severity::kError, graph_.element(e.element).switching.where, e.name,
                                       fmt::format("the contact's gap '{}' grows with the flow its bond says is the approach: it would "
                                                   "close while separating", graph_.element(e.element).switching.gap),
@@ -214,7 +216,7 @@ void CompiledModel::InitializeModes(double t, double* x, Workspace& ws) const {
   for (int i = 0; i < switches_.size(); ++i) {
     const SwitchTable::Entry& e = switches_.entries()[i];
     if (e.kind == Switching::Kind::kContact) {
-      const double gap = e.gap.in == VariableRef::In::kState ? x[e.gap.offset] : 0.0;
+      const double gap = e.gap.in == VariableRef::In::kState ? e.gap_scale * x[e.gap.offset] + e.gap_offset : 0.0;
       ws.modes[i] = gap > 0.0 || e.gap.in != VariableRef::In::kState ? SwitchTable::kOpen : SwitchTable::kClosed;
     } else {
       ws.modes[i] = SwitchTable::kStick;

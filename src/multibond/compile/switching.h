@@ -52,7 +52,8 @@ class SwitchTable {
     double restitution = 0.0, mu_s = 1.0, mu_k = 1.0;
     TimeFunction normal = TimeFunction::Constant(0.0);
     int normal_slot = -1;   ///< the normal force's signal slot, or -1 (the time function)
-    VariableRef gap;        ///< contact: where its gap is read
+    VariableRef gap;        ///< contact: where its gap is read (times gap_scale, plus gap_offset)
+    double gap_scale = 1.0, gap_offset = 0.0;
     int dissipation = -1;   ///< the state of what it has dissipated (energy account), or -1
   };
 

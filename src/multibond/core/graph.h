@@ -108,6 +108,7 @@ struct Switching {
   enum class Kind { kNone, kContact, kFriction };
   Kind kind = Kind::kNone;
   std::string gap;            ///< contact: the variable that measures the gap (open while > 0)
+  double gap_scale = 1.0, gap_offset = 0.0;  ///< contact: the gap is gap_scale * gap + gap_offset
   double restitution = 0.0;   ///< contact: e in [0, 1]
   double mu_s = 1.0, mu_k = 1.0;  ///< friction: static and kinetic coefficients, mu_s >= mu_k >= 0
   TimeFunction normal = TimeFunction::Constant(0.0);  ///< friction: N (or the capacity), of time

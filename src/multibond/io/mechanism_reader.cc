@@ -225,7 +225,7 @@ void MechanismReader::ReadGears(const YAML::Node& gears, mech::Mechanism& m) {
     mech::GearMesh gm;
     gm.name = name;
     gm.where = Loc(kv.first);
-    CheckKeys(g, {"carrier", "a", "b", "K", "R", "stiffness", "damping", "rigid", "description"}, name);
+    CheckKeys(g, {"carrier", "a", "b", "K", "R", "stiffness", "damping", "rigid", "backlash", "restitution", "description"}, name);
     gm.rigid = (g["rigid"] && Bool(g["rigid"], name)) || RigidByModel(name);
     gm.carrier = g["carrier"] ? g["carrier"].Scalar() : std::string(mech::kGround);
     auto side = [&](const char* key, std::string* body, Eigen::Vector3d* axis, double* teeth) {
@@ -249,6 +249,21 @@ void MechanismReader::ReadGears(const YAML::Node& gears, mech::Mechanism& m) {
       Gains(g, name, 1, &k, &r, gm.rigid);
       gm.stiffness = k[0];
       gm.damping = gm.rigid ? 0.0 : r[0];
+    }
+    if (g["backlash"]) {
+      gm.backlash = Number(g["backlash"], name, Env{});
+      if (!(gm.backlash >= 0.0))
+        sink_.Error(codes::kParamRange, Loc(g["backlash"]), name, fmt::format("backlash must be >= 0 (got {:g})", gm.backlash),
+                    "the total free play of the teeth, in rad referred to gear a");
+    }
+    if (g["restitution"]) {
+      gm.restitution = Number(g["restitution"], name, Env{});
+      if (!(gm.restitution >= 0.0 && gm.restitution <= 1.0))
+        sink_.Error(codes::kParamRange, Loc(g["restitution"]), name, fmt::format("restitution must be in [0, 1] (got {:g})", gm.restitution),
+                    "0: plastic tooth impacts, 1: elastic");
+      if (!gm.rigid || !(gm.backlash > 0.0))
+        sink_.Error(Loc(g["restitution"]), name, "'restitution' belongs to a rigid mesh with backlash (its tooth impacts)",
+                    "add 'rigid: true' and 'backlash', or remove it");
     }
     m.AddGear(gm);
   }

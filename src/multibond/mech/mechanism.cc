@@ -456,13 +456,66 @@ class Expander {
       Bond(spin, sum, spin + ".out");
       if (IsGround(gm.carrier)) info_[body].moment_terms.push_back({spin + ".in.e", -1.0});
     }
-    AddCompliance(sum, gm.name + ".mesh", Eigen::VectorXd::Constant(1, gm.stiffness), Eigen::VectorXd::Constant(1, gm.damping),
-                  "rotation", {}, gm.where, gm.rigid);
+    if (gm.backlash > 0.0 && gm.rigid) {
+      AddBacklashContacts(sum, gm);
+    } else {
+      AddCompliance(sum, gm.name + ".mesh", Eigen::VectorXd::Constant(1, gm.stiffness), Eigen::VectorXd::Constant(1, gm.damping),
+                    "rotation", {}, gm.where, gm.rigid);
+      if (gm.backlash > 0.0) {
+        // A dead zone in the spring: no torque while the teeth are within the play.
+        Element& spring = g_.element(g_.Find(gm.name + ".mesh.K"));
+        spring.law_effort = LawOf(fmt::format("{:.17g}*(q - clamp(q, {:.17g}, {:.17g}))", gm.stiffness, -gm.backlash / 2, gm.backlash / 2),
+                                  gm.where);
+      }
+    }
     OutputDecl torque;
     torque.name = gm.name + ".torque";
     torque.variable = sum + ".e";
     torque.where = gm.where;
     AddOutput(torque);
+  }
+
+  /// A formula made by the expansion (its numbers written exactly): parsed, located at `where`.
+  static Formula LawOf(const std::string& text, const SourceLocation& where) {
+    expr::ParseResult parsed = expr::Parse(text);
+    MB_ASSERT(parsed.root != nullptr, "a formula of the mechanism expansion does not parse: " + text);
+    return Formula{text, parsed.root, where};
+  }
+
+  /// A rigid mesh with backlash: its deflection rate d (the 1-junction `<mesh>.mesh`) is free,
+  /// its deflection q (`<mesh>.mesh.q`) the integral of d, and the two flanks are contacts
+  /// (docs/events.md) at q = b/2 (separating at -d, gap b/2 - q) and q = -b/2 (separating at d,
+  /// gap q + b/2), their forces the mesh torque.
+  void AddBacklashContacts(const std::string& from, const GearMesh& gm) {
+    const std::string name = gm.name + ".mesh";
+    g_.Add(Make(name, ElementKind::kOne, 1, "rotation", gm.where));
+    Bond(from, name, name + ".in");
+    AuxState q;
+    q.name = name + ".q";
+    q.kind = AuxState::Kind::kIntegral;
+    q.of = name;
+    q.unit = "rad";
+    q.initial = Eigen::MatrixXd::Zero(1, 1);
+    q.where = gm.where;
+    g_.AddAux(q);
+    const double h = gm.backlash / 2;
+    for (const bool positive : {true, false}) {
+      const std::string flank = name + (positive ? ".flank_pos" : ".flank_neg");
+      Element c = Make(flank, ElementKind::kSf, 1, "rotation", gm.where);
+      c.source.components = {TimeFunction::Constant(0.0)};
+      c.constraint = true;
+      c.switching.kind = Switching::Kind::kContact;
+      c.switching.gap = q.name;  // gap h - q (the positive flank) or q + h
+      c.switching.gap_scale = positive ? -1.0 : 1.0;
+      c.switching.gap_offset = h;
+      c.switching.restitution = gm.restitution;
+      c.switching.where = gm.where;
+      // The mesh's K, if given, shares a load with redundant constraints as the rigid mesh's would.
+      if (gm.stiffness > 0.0 && std::isfinite(gm.stiffness)) c.compliance = Eigen::VectorXd::Constant(1, 1.0 / gm.stiffness);
+      g_.Add(c);
+      if (positive) Bond(name, flank, flank);  // its flow is -d: the flanks part as q falls
+      else Bond(flank, name, flank);
+    }
   }
 
   void AddDrive(const Drive& d) {

@@ -98,6 +98,12 @@ struct GearMesh {
   double teeth_a = 1.0, teeth_b = 1.0;
   double stiffness = 0.0, damping = 0.0;  ///< N m/rad, N m s/rad (referred to gear a)
   bool rigid = false;  ///< an ideal mesh: zero deflection rate, held by the mesh torque
+  /// Backlash (docs/events.md): the total free play of the teeth [rad, referred to gear a]; the
+  /// deflection q moves freely in [-b/2, b/2]. Compliant: a dead zone in the coupling's spring,
+  /// K (q - clamp(q, -b/2, b/2)). Rigid: the flanks are two contacts at q = +-b/2 with impacts of
+  /// `restitution` (0: plastic, the flanks stay together until the torque reverses).
+  double backlash = 0.0;
+  double restitution = 0.0;
   SourceLocation where;
 };
 
