@@ -143,10 +143,10 @@ PlotEvents ReadPlotEvents(const ResultsFolder& folder, const nlohmann::json& run
       if (listed) out.warnings.push_back(fmt::format("run.json lists {}, but the folder has none: the events are not marked", MessageText(path)));
       return out;
     }
-    if (listed && listed->contains("bytes") && (*listed)["bytes"].is_number_unsigned() &&
-        (*listed)["bytes"].get<std::uint64_t>() != static_cast<std::uint64_t>(st.st_size))
+    if (listed && listed->contains("bytes") && (*listed)["bytes"].is_number_integer() &&
+        (*listed)["bytes"].get<long long>() != static_cast<long long>(st.st_size))
       out.warnings.push_back(fmt::format("{} has {} bytes, run.json lists {}: it is not the file of the run; its events are marked as it has them",
-                                         MessageText(path), st.st_size, (*listed)["bytes"].get<std::uint64_t>()));
+                                         MessageText(path), st.st_size, (*listed)["bytes"].get<long long>()));
     BoundedFileBuf buf(fd.get(), kMaxEventsBytes);
     std::istream in(&buf);
     bool more = false;
@@ -154,8 +154,8 @@ PlotEvents ReadPlotEvents(const ResultsFolder& folder, const nlohmann::json& run
     if (buf.exceeded()) throw std::runtime_error(fmt::format("'{}' grew beyond {} bytes while it was read", path, kMaxEventsBytes));
     if (more)
       out.warnings.push_back(fmt::format("{} has more than {} events: only the first {} are marked and listed", MessageText(path), kMaxEvents, kMaxEvents));
-    else if (count && count->is_number_unsigned() && count->get<std::uint64_t>() != out.events.size())
-      out.warnings.push_back(fmt::format("run.json counts {} events, {} has {}: they are marked as the file has them", count->get<std::uint64_t>(),
+    else if (count && count->is_number_integer() && count->get<long long>() != static_cast<long long>(out.events.size()))
+      out.warnings.push_back(fmt::format("run.json counts {} events, {} has {}: they are marked as the file has them", count->get<long long>(),
                                          MessageText(path), out.events.size()));
   } catch (const std::runtime_error& e) {
     out.events.clear();
