@@ -51,6 +51,47 @@ TEST(PlotGnuplotTest, ScriptReadsTheColumnsByNumberAndEscapesText) {
   EXPECT_EQ(gp.find('`'), std::string::npos);
 }
 
+TEST(PlotGnuplotTest, EventsAreMarkedOnEveryTimePanelInItsWindow) {
+  TempDir dir;
+  std::ofstream(dir.path() / "results.csv") << "time [s],a [m],b [m],c.x [m],c.y [m],c.z [m]\n0,1,2,0,0,0\n1,3,5,1,1,1\n2,4,4,2,2,2\n4,5,5,3,3,3\n";
+  struct stat st {};
+  const PlotTable t = PlotTable::Load(ResultsFolder(dir.path().string()), 1 << 20, &st);
+  Figure f;
+  f.name = "fig";
+  Panel a;
+  a.id = "a";
+  a.zoom = true;  // its companion shows [0, 0.5 s]
+  a.curves = {{{"a"}, "a", "#000000"}};
+  Panel path;
+  path.id = "b";
+  path.kind = PanelKind::kPath;
+  path.curves = {{{"c.x", "c.y", "c.z"}, "c", "#000000"}};
+  f.panels = {a, path};
+  const std::vector<PlotEvent> events = {{0.25, "impact", "wall", "bounce"}, {3, "time", "src", "jump"}};
+  const std::string gp = GnuplotScript(t, f, {}, events);
+  // The time panel: both events; its start transient: the impact only; the 3D path: none.
+  const std::string impact = "set arrow from first 0.25, graph 0 to first 0.25, graph 1 nohead back lw 1 lc rgb \"#b2182b\" dt 1\n";
+  const std::string time = "set arrow from first 3, graph 0 to first 3, graph 1 nohead back lw 1 lc rgb \"#a0a0a0\" dt 3\n";
+  const size_t panel = gp.find("# panel a\n"), zoom = gp.find("# panel a-zoom\n"), path_panel = gp.find("# panel b\n");
+  ASSERT_TRUE(panel < zoom && zoom < path_panel && path_panel != std::string::npos);
+  const std::string in_panel = gp.substr(panel, zoom - panel), in_zoom = gp.substr(zoom, path_panel - zoom), in_path = gp.substr(path_panel);
+  EXPECT_THAT(in_panel, HasSubstr(impact));
+  EXPECT_THAT(in_panel, HasSubstr(time));
+  EXPECT_THAT(in_panel, HasSubstr("$d using 1:2 lw 1.5 lc rgb \"#000000\" title 'a', \\\n       NaN with lines lw 1 lc rgb \"#b2182b\" dt 1 "
+                                  "title 'impact (1)', \\\n       NaN with lines lw 1 lc rgb \"#a0a0a0\" dt 3 title 'time (1)'\n"));
+  EXPECT_THAT(in_zoom, HasSubstr(impact));
+  EXPECT_EQ(in_zoom.find("set arrow from first 3,"), std::string::npos);
+  EXPECT_THAT(in_zoom, HasSubstr("title 'impact (1)'\n"));
+  EXPECT_EQ(in_path.find("graph 1 nohead"), std::string::npos);
+  // Each panel starts without the marks of the one before.
+  EXPECT_THAT(in_zoom, HasSubstr("unset arrow\n"));
+  // Without events (or none in any window) the script is the one without marks, byte for byte.
+  const std::string plain = GnuplotScript(t, f);
+  EXPECT_EQ(GnuplotScript(t, f, {}, {{7, "impact", "late", ""}}), plain);
+  EXPECT_EQ(plain.find("nohead"), std::string::npos);
+  EXPECT_EQ(plain.find("NaN with lines"), std::string::npos);
+}
+
 bool Alive(pid_t pid) { return ::kill(pid, 0) == 0 || errno != ESRCH; }
 
 TEST(PlotGnuplotTest, AStopEndsEveryRunningGnuplot) {

@@ -6,6 +6,8 @@
 
 #include <fstream>
 
+#include <fmt/format.h>
+
 #include "support/temp_dir.h"
 
 namespace multibond {
@@ -52,6 +54,36 @@ TEST(PlotPageTest, PageEscapesEveryText) {
   EXPECT_THAT(html, HasSubstr("&lt;img&gt;"));
   EXPECT_THAT(html, HasSubstr("&lt;k&gt; <strong>&lt;v&gt;</strong>"));
   EXPECT_THAT(html, HasSubstr("<td>&lt;b&gt;</td><td>0</td><td>0</td><td>0</td><td>0.10</td><td>m</td><td>ok</td>"));
+}
+
+TEST(PlotPageTest, EventsTableIsEscapedAndCapped) {
+  const multibond::testing::TempDir dir("multibond-plot-page-test");
+  const PlotTable t = Table(dir);
+  std::vector<PlotEvent> events = {{0.5, "impact", "<script>alert(1)</script>", "a \"quoted\"\nline & 'more' `x` @m"},
+                                   {1.25, "time", "src", "restart"}};
+  std::string html = ResultsPageHtml(t, nlohmann::json::object(), {}, {}, -1, events);
+  EXPECT_EQ(html.find("<script>"), std::string::npos);
+  EXPECT_THAT(html, HasSubstr("<a href=\"#run-events\">events</a>"));
+  EXPECT_THAT(html, HasSubstr("<caption>Events (events.csv): 2 &mdash; <span style=\"color: #b2182b\">&#9646;</span> impact 1, "
+                              "<span style=\"color: #a0a0a0\">&#9646;</span> time 1;"));
+  EXPECT_THAT(html, HasSubstr("<tr><th>time [s]</th><th>kind</th><th>element</th><th>description</th></tr>"));
+  EXPECT_THAT(html, HasSubstr("<tr><td>0.5</td><td><span style=\"color: #b2182b\">&#9646;</span> impact</td>"
+                              "<td>&lt;script&gt;alert(1)&lt;/script&gt;</td><td>a &quot;quoted&quot;\nline &amp; &#39;more&#39; `x` @m</td></tr>"));
+  EXPECT_THAT(html, HasSubstr("<tr><td>1.25</td>"));
+  EXPECT_EQ(html.find("more (events.csv lists them all)"), std::string::npos);
+  // Past kMaxPageEvents rows: "and N more".
+  events.clear();
+  for (size_t k = 0; k < kMaxPageEvents + 7; ++k) events.push_back({static_cast<double>(k), "slip", "f", "d"});
+  html = ResultsPageHtml(t, nlohmann::json::object(), {}, {}, -1, events);
+  size_t rows = 0;
+  for (size_t at = html.find("<tr><td>"); at != std::string::npos; at = html.find("<tr><td>", at + 1)) ++rows;
+  EXPECT_EQ(rows, kMaxPageEvents);
+  EXPECT_THAT(html, HasSubstr("<tr><td colspan=\"4\">and 7 more (events.csv lists them all)</td></tr>"));
+  EXPECT_THAT(html, HasSubstr(fmt::format("<tr><td>{}</td>", kMaxPageEvents - 1)));
+  EXPECT_EQ(html.find(fmt::format("<tr><td>{}</td>", kMaxPageEvents)), std::string::npos);
+  // Without events, no table and no link to it.
+  html = ResultsPageHtml(t, nlohmann::json::object(), {}, {}, -1);
+  EXPECT_EQ(html.find("events"), std::string::npos);
 }
 
 }  // namespace

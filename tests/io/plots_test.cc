@@ -783,5 +783,143 @@ figures:
   EXPECT_THAT(html, HasSubstr("&lt;img src=x onerror=alert(2)&gt;"));
 }
 
+// ---------------------------------------------------------------------------------------------
+// Events (events.csv): a line at each event's time on every plot against time, a table on the page.
+
+/// A small results folder (results.csv of two elements over [0, 2] s, run.json) with `events`
+/// (events.csv's text, none when empty).
+void WriteEventsRun(const fs::path& dir, const std::string& events) {
+  {
+    std::ofstream csv(dir / "results.csv");
+    csv << "time [s],mass.p [N s],spring.q [m],velocity [m/s]\n";
+    for (int r = 0; r <= 200; ++r) csv << fmt::format("{},{},{},{}\n", r * 0.01, std::sin(r * 0.05), std::cos(r * 0.05), r * 0.001);
+  }
+  std::ofstream(dir / "run.json") << R"({"model": {"name": "events"}, "status": "ok"})";
+  if (!events.empty()) std::ofstream(dir / "events.csv") << events;
+}
+
+/// The .gp scripts of a results folder, by name.
+std::map<std::string, std::string> Scripts(const fs::path& dir) {
+  std::map<std::string, std::string> out;
+  for (const auto& entry : fs::directory_iterator(dir / "plots"))
+    if (entry.path().extension() == ".gp") out[entry.path().stem().string()] = ReadFile(entry.path());
+  return out;
+}
+
+TEST(PlotsEventsTest, EveryTimePlotMarksTheEventsAndThePageListsThem) {
+  TempDir dir;
+  const std::string marker = (dir.path() / "PWNED").string();
+  // Hostile element names and descriptions: quotes, markup, line breaks, gnuplot's backquotes and @macros.
+  const std::string element = fmt::format("wall\"\n!touch {0}-bang\nsystem \"touch {0}-system\" `touch {0}-bq` @m <script>", marker);
+  const std::string description = fmt::format("</td><script>alert(1)</script>'); system('touch {}-q')", marker);
+  WriteEventsRun(dir.path(), "time [s],kind,element,description\n" +
+                                 fmt::format("0.5,impact,{},{}\n", CsvCell(element), CsvCell(description)) +
+                                 "1.25,time,src,a source's value jumps\n1.5,slip,friction,\"the force 5.886, at the limit\"\n");
+  const PlotReport report = MakeFigures(dir.path().string());
+  WriteResultsPage(dir.path().string(), report);
+  for (const std::string& w : report.warnings) ADD_FAILURE() << w;
+  for (const auto& entry : fs::directory_iterator(dir.path()))
+    EXPECT_NE(entry.path().filename().string().rfind("PWNED", 0), 0u) << "an event's text ran a command: " << entry.path();
+  const auto scripts = Scripts(dir.path());
+  EXPECT_EQ(scripts.size(), 3u);  // mass-N_s, spring-m, outputs-m_s
+  for (const auto& [name, gp] : scripts) {
+    SCOPED_TRACE(name);
+    EXPECT_TRUE(Exists(dir.path() / "figures" / (name + ".png")));
+    EXPECT_FALSE(fs::exists(dir.path() / "plots" / (name + ".log"))) << "gnuplot said something: " << ReadFile(dir.path() / "plots" / (name + ".log"));
+    EXPECT_THAT(gp, HasSubstr("set arrow from first 0.5, graph 0 to first 0.5, graph 1 nohead back lw 1 lc rgb \"#b2182b\" dt 1\n"));
+    EXPECT_THAT(gp, HasSubstr("set arrow from first 1.25, graph 0 to first 1.25, graph 1 nohead back lw 1 lc rgb \"#a0a0a0\" dt 3\n"));
+    EXPECT_THAT(gp, HasSubstr("set arrow from first 1.5, graph 0 to first 1.5, graph 1 nohead back lw 1 lc rgb \"#e08214\" dt 2\n"));
+    EXPECT_THAT(gp, HasSubstr("title 'impact (1)'"));
+    EXPECT_THAT(gp, HasSubstr("title 'slip (1)'"));
+    EXPECT_THAT(gp, HasSubstr("title 'time (1)'"));
+    EXPECT_EQ(gp.find('`'), std::string::npos);
+    EXPECT_EQ(gp.find("<script>"), std::string::npos);  // descriptions stay out of the scripts
+    std::istringstream in(gp);
+    for (std::string line; std::getline(in, line);) {
+      const size_t first = line.find_first_not_of(' ');
+      if (first == std::string::npos) continue;
+      EXPECT_NE(line[first], '!') << line;
+      EXPECT_NE(line.compare(first, 6, "system"), 0) << line;
+    }
+  }
+  const std::string html = ReadFile(dir.path() / "index.html");
+  EXPECT_EQ(html.find("<script>"), std::string::npos);
+  EXPECT_EQ(html.find("</td><script"), std::string::npos);
+  EXPECT_THAT(html, HasSubstr("Events (events.csv): 3 &mdash;"));
+  EXPECT_THAT(html, HasSubstr("&lt;/td&gt;&lt;script&gt;alert(1)&lt;/script&gt;&#39;); system(&#39;touch"));
+  EXPECT_THAT(html, HasSubstr("<td>the force 5.886, at the limit</td>"));
+}
+
+TEST(PlotsEventsTest, AMalformedEventsFileIsAWarningAndTheFiguresAreDrawn) {
+  TempDir dir;
+  WriteEventsRun(dir.path(), "time [s],kind,element,description\n0.5,impact,wall,x\n0.7,bounce,wall,y\n");
+  const PlotReport report = MakeFigures(dir.path().string());
+  WriteResultsPage(dir.path().string(), report);
+  const std::string want = fmt::format("{}:3: unknown kind 'bounce'; the kinds are impact, contact, separation, stick, slip, lock, unlock, "
+                                       "limit, time; the events are not marked",
+                                       (dir.path() / "events.csv").string());
+  EXPECT_EQ(report.warnings, std::vector<std::string>{want});
+  for (const auto& [name, gp] : Scripts(dir.path())) {
+    EXPECT_TRUE(Exists(dir.path() / "figures" / (name + ".png"))) << name;
+    EXPECT_EQ(gp.find("nohead"), std::string::npos) << name;
+  }
+  const std::string html = ReadFile(dir.path() / "index.html");
+  EXPECT_THAT(html, HasSubstr("unknown kind &#39;bounce&#39;"));
+  EXPECT_EQ(html.find("Events (events.csv)"), std::string::npos);
+  // The page said so once, though it reads events.csv again.
+  EXPECT_EQ(html.find("unknown kind"), html.rfind("unknown kind"));
+}
+
+TEST(PlotsEventsTest, WithoutEventsNothingChanges) {
+  TempDir with, without;
+  WriteEventsRun(with.path(), "time [s],kind,element,description\n0.5,impact,wall,x\n");
+  WriteEventsRun(without.path(), "");
+  for (const fs::path& dir : {with.path(), without.path()}) WriteResultsPage(dir.string(), MakeFigures(dir.string()));
+  const auto marked = Scripts(with.path()), plain = Scripts(without.path());
+  ASSERT_EQ(marked.size(), plain.size());
+  for (const auto& [name, gp] : plain) {
+    EXPECT_EQ(gp.find("nohead"), std::string::npos) << name;
+    // The script with events is the plain one with the marks added, and nothing else changed.
+    std::string stripped;
+    std::istringstream in(marked.at(name));
+    for (std::string line; std::getline(in, line);) {
+      const bool comment = line == "  # 1 event (events.csv)" || line == "  # impact: wall";
+      if (comment || line.find("set arrow from first") != std::string::npos) continue;
+      if (line.find("NaN with lines") != std::string::npos) {
+        const std::string continued = ", \\\n";  // the line before went on to this one
+        if (stripped.size() >= continued.size() && stripped.compare(stripped.size() - continued.size(), continued.size(), continued) == 0)
+          stripped.replace(stripped.size() - continued.size(), continued.size(), "\n");
+        continue;
+      }
+      stripped += line + "\n";
+    }
+    EXPECT_EQ(stripped, gp) << name;
+  }
+  EXPECT_EQ(ReadFile(without.path() / "index.html").find("events.csv"), std::string::npos);
+}
+
+// Through the CLI: the clutch locks at t = 1.6 s (examples/events/clutch.yaml); its plots show it.
+TEST(PlotsEventsTest, ClutchThroughTheCli) {
+  TempDir tmp;
+  const fs::path dir = tmp.path() / "results";
+  const auto run = multibond::testing::RunCli(
+      {"run", std::string(MULTIBOND_SOURCE_DIR) + "/examples/events/clutch.yaml", "-o", dir.string(), "-q", "--jit", "off"});
+  ASSERT_EQ(run.code, 0) << run.out;
+  ASSERT_TRUE(Exists(dir / "events.csv"));
+  const auto plot = multibond::testing::RunCli({"plot", dir.string()}, 120);
+  ASSERT_EQ(plot.code, 0) << plot.out;
+  EXPECT_EQ(plot.out.find("warning"), std::string::npos) << plot.out;
+  EXPECT_EQ(ReadFile(dir / "figures" / "outputs-rad_s.png").substr(1, 3), "PNG");
+  const std::string gp = ReadFile(dir / "plots" / "outputs-rad_s.gp");
+  // The lock where the speeds meet, 0.1 + 100 / (50 + 50/3) = 1.6 s, and the engagement at 0.1 s.
+  const size_t at = gp.find("lc rgb \"#1b7837\" dt 4\n");
+  ASSERT_NE(at, std::string::npos) << gp;
+  const size_t from = gp.rfind("set arrow from first ", at) + std::string("set arrow from first ").size();
+  EXPECT_NEAR(std::stod(gp.substr(from)), 1.6, 1e-6);
+  EXPECT_THAT(gp, HasSubstr("title 'lock (1)'"));
+  EXPECT_THAT(gp, HasSubstr("set arrow from first 0.10000000000000001, graph 0"));
+  EXPECT_THAT(ReadFile(dir / "index.html"), HasSubstr("lock</td><td>clutch</td>"));
+}
+
 }  // namespace
 }  // namespace multibond

@@ -48,7 +48,8 @@ std::pair<double, double> DataRange(const PlotTable& t, const std::vector<Curve>
 
 class ScriptWriter {
  public:
-  ScriptWriter(const PlotTable& t, const Figure& f, const ScriptSettings& o) : t_(t), f_(f), o_(o) {
+  ScriptWriter(const PlotTable& t, const Figure& f, const ScriptSettings& o, const std::vector<PlotEvent>& events)
+      : t_(t), f_(f), o_(o), events_(events) {
     full_ = {t.Time0(), t.Time1()};
     const double span = full_.t1 - full_.t0;
     zoom_ = {full_.t0, full_.t0 + std::min(o.zoom_length, 0.25 * span)};
@@ -174,6 +175,8 @@ class ScriptWriter {
     } else {
       s << "  set autoscale y\n";
     }
+    const EventMarks marks = GnuplotEventMarks(events_, w.t0, w.t1);
+    s << marks.arrows;
     s << "  plot ";
     for (size_t k = 0; k < p.curves.size(); ++k) {
       const Curve& c = p.curves[k];
@@ -187,7 +190,7 @@ class ScriptWriter {
       }
       s << fmt::format("{}$d using 1:{} lw 1.5 lc rgb \"{}\" title {}", k ? ", \\\n       " : "", expr, c.color, GnuplotString(c.title));
     }
-    s << "\n";
+    s << marks.keys << "\n";
     PrintRanges(s, id, false);
   }
 
@@ -252,6 +255,7 @@ class ScriptWriter {
   const PlotTable& t_;
   const Figure& f_;
   const ScriptSettings& o_;
+  const std::vector<PlotEvent>& events_;
   Window full_{}, zoom_{};
   std::map<std::string, int> block_;  ///< where each results.csv column lands in the datablock
 };
@@ -270,8 +274,9 @@ std::string ReadLog(const std::string& path, size_t max = 600) {
 
 }  // namespace
 
-std::string GnuplotScript(const PlotTable& table, const Figure& figure, const ScriptSettings& settings) {
-  return ScriptWriter(table, figure, settings).Run();
+std::string GnuplotScript(const PlotTable& table, const Figure& figure, const ScriptSettings& settings,
+                          const std::vector<PlotEvent>& events) {
+  return ScriptWriter(table, figure, settings, events).Run();
 }
 
 std::map<std::string, std::string> RunGnuplot(const WorkFolder& work, int plots_dir, const std::vector<std::string>& names,

@@ -6,12 +6,15 @@
 /// datablock, and writes figures/<name>.png and .svg and plots/<name>.ranges (each panel's data
 /// extent as gnuplot saw it: panel, x min/max, y min/max[, z min/max]). It runs from the results
 /// folder: `gnuplot plots/<name>.gp`. Every text in it is an escaped gnuplot string or comment
-/// (safe_text.h); units from results.csv are shown as they are (GnuplotLiteralText).
+/// (safe_text.h); units from results.csv are shown as they are (GnuplotLiteralText). A run's
+/// events (plot_events.h) are marked on every time panel: a vertical line at each event's time
+/// (`set arrow ... nohead back`), and a key entry per kind.
 
 #include <map>
 #include <string>
 #include <vector>
 
+#include "multibond/io/plot_events.h"
 #include "multibond/io/plot_figures.h"
 #include "multibond/io/plot_table.h"
 #include "multibond/io/results_folder.h"
@@ -25,8 +28,10 @@ struct ScriptSettings {
   int path_stride = 5;
 };
 
-/// The gnuplot script of `figure` (which has panels; every column it uses is in `table`).
-std::string GnuplotScript(const PlotTable& table, const Figure& figure, const ScriptSettings& settings = {});
+/// The gnuplot script of `figure` (which has panels; every column it uses is in `table`), with
+/// `events` marked on its time panels (a panel without events in its window is as without any).
+std::string GnuplotScript(const PlotTable& table, const Figure& figure, const ScriptSettings& settings = {},
+                          const std::vector<PlotEvent>& events = {});
 
 /// Runs `program` on plots/<name>.gp for each of `names` in `work` (its cwd), at most `jobs` at a
 /// time. A log with text is published as plots/<name>.log in `plots_dir` (an older one is

@@ -169,6 +169,36 @@ std::string ChecksTable(const PlotTable& t, const std::vector<Check>& checks) {
   return s.str();
 }
 
+/// `text` cut to at most `max` bytes (with an ellipsis), HTML-escaped.
+std::string ShortHtml(const std::string& text, size_t max) {
+  return HtmlEscape(text.substr(0, max)) + (text.size() > max ? "&hellip;" : "");
+}
+
+/// The run's events: how many of each kind, then the first kMaxPageEvents of events.csv.
+std::string EventsTable(const std::vector<PlotEvent>& events) {
+  if (events.empty()) return "";
+  std::string kinds;
+  for (const EventStyle& style : EventStyles()) {
+    const auto n = std::count_if(events.begin(), events.end(), [&](const PlotEvent& e) { return e.kind == style.kind; });
+    if (n > 0) kinds += fmt::format("{}<span style=\"color: {}\">&#9646;</span> {} {}", kinds.empty() ? "" : ", ", style.color, style.kind, n);
+  }
+  std::ostringstream s;
+  s << "<table class=\"numbers\" id=\"run-events\">\n";
+  s << fmt::format("<caption>Events (events.csv): {} &mdash; {}; each is a line on the plots against time</caption>\n", events.size(), kinds);
+  s << "<tr><th>time [s]</th><th>kind</th><th>element</th><th>description</th></tr>\n";
+  for (size_t k = 0; k < events.size() && k < kMaxPageEvents; ++k) {
+    const PlotEvent& e = events[k];
+    const EventStyle* style = FindEventStyle(e.kind);
+    s << fmt::format("<tr><td>{:.10g}</td><td>{}{}</td><td>{}</td><td>{}</td></tr>\n", e.time,
+                     style ? fmt::format("<span style=\"color: {}\">&#9646;</span> ", style->color) : "", ShortHtml(e.kind, 40),
+                     ShortHtml(e.element, 200), ShortHtml(e.description, 500));
+  }
+  if (events.size() > kMaxPageEvents)
+    s << fmt::format("<tr><td colspan=\"4\">and {} more (events.csv lists them all)</td></tr>\n", events.size() - kMaxPageEvents);
+  s << "</table>\n";
+  return s.str();
+}
+
 constexpr const char* kCss = R"(body { font-family: "DejaVu Sans", Helvetica, Arial, sans-serif; max-width: 1280px; margin: 1em auto; padding: 0 1em; color: #222; line-height: 1.45; }
 h1 { font-size: 1.6em; margin-bottom: 0.2em; } h2 { margin-top: 2em; border-bottom: 1px solid #ccc; }
 nav a { margin-right: 0.6em; white-space: nowrap; }
@@ -221,7 +251,7 @@ std::string TextToHtml(const std::string& text, const PlotTable& table) {
 }
 
 std::string ResultsPageHtml(const PlotTable& table, const nlohmann::json& run, const FigureList& list,
-                            const std::vector<std::string>& warnings, int figures_dir) {
+                            const std::vector<std::string>& warnings, int figures_dir, const std::vector<PlotEvent>& events) {
   auto present = [&](const Figure& f, const char* ext) { return IsNonEmptyRegularFile(figures_dir, f.name + ext); };
   const std::string model = JsonText(run, {"model", "name"}).empty() ? "a run" : JsonText(run, {"model", "name"});
   const std::string heading = list.title.empty() ? fmt::format("Results of {}", model) : TextToHtml(list.title, table);
@@ -236,12 +266,13 @@ std::string ResultsPageHtml(const PlotTable& table, const nlohmann::json& run, c
        "figure for its SVG; each one's gnuplot script is in <code>plots/</code> (run it again from this folder: "
        "<code>gnuplot plots/NAME.gp</code>).</p>\n";
   h << "<nav><strong>Figures:</strong> <a href=\"#summary\">summary</a>";
+  if (!events.empty()) h << " <a href=\"#run-events\">events</a>";
   for (const Figure& f : list.figures)
     if (present(f, ".png")) h << fmt::format(" <a href=\"#{}\">{}</a>", f.name, f.label.empty() ? f.name : HtmlEscape(f.label));
   h << "</nav>\n";
 
   h << "<h2 id=\"summary\">Summary of the run</h2>\n";
-  h << ChecksTable(table, list.checks) << EnergyTable(table, run) << RunTable(run, table);
+  h << ChecksTable(table, list.checks) << EnergyTable(table, run) << RunTable(run, table) << EventsTable(events);
   if (!warnings.empty()) {
     h << "<p class=\"warn\"><strong>Left out when the figures were drawn:</strong></p>\n<ul class=\"warn\">\n";
     for (const std::string& w : warnings) h << "<li>" << HtmlEscape(w) << "</li>\n";

@@ -17,6 +17,7 @@
 #include "multibond/core/structure.h"
 #include "multibond/io/atomic_file.h"
 #include "multibond/io/plot_auto.h"
+#include "multibond/io/plot_events.h"
 #include "multibond/io/plot_gnuplot.h"
 #include "multibond/io/plot_page.h"
 #include "multibond/io/plot_table.h"
@@ -144,6 +145,8 @@ PlotReport MakeFigures(const std::string& results_dir, const PlotOptions& option
   Fd csv;
   const PlotTable table = PlotTable::Load(folder, options.limits.results_bytes, &st, &csv);
   const nlohmann::json run = ReadRunJson(folder);
+  PlotEvents events = ReadPlotEvents(folder, run);
+  for (std::string& w : events.warnings) report.warnings.push_back(std::move(w));
   if (options.figures_path.empty()) report.figures = GeneralFigures(table, options, report.warnings);
   const Fd figures_dir = folder.OutputDir("figures"), plots_dir = folder.OutputDir("plots");
   const int figures_fd = figures_dir.get(), plots_fd = plots_dir.get();
@@ -173,7 +176,7 @@ PlotReport MakeFigures(const std::string& results_dir, const PlotOptions& option
       ++over;
       continue;
     }
-    work.Write("plots/" + f.name + ".gp", GnuplotScript(table, f, {options.zoom_length, options.path_stride}));
+    work.Write("plots/" + f.name + ".gp", GnuplotScript(table, f, {options.zoom_length, options.path_stride}, events.events));
     drawn.push_back(&f);
   }
   if (over > 0)
@@ -223,8 +226,13 @@ void WriteResultsPage(const std::string& results_dir, const PlotReport& report, 
   const FigureList general = report.figures.figures.empty() ? AutoFigures(table.names(), table.units(), PlotOptions{}.max_figures, ignored)
                                                             : FigureList{};
   const FigureList& list = report.figures.figures.empty() ? general : report.figures;
+  // events.csv again: its warnings are the page's too, once (MakeFigures has given them already).
+  const PlotEvents events = ReadPlotEvents(folder, run);
+  std::vector<std::string> warnings = report.warnings;
+  for (const std::string& w : events.warnings)
+    if (std::find(warnings.begin(), warnings.end(), w) == warnings.end()) warnings.push_back(w);
   WriteFileAtomic((std::filesystem::path(results_dir) / "index.html").string(),
-                  ResultsPageHtml(table, run, list, report.warnings, figures_dir.get()));
+                  ResultsPageHtml(table, run, list, warnings, figures_dir.get(), events.events));
 }
 
 }  // namespace multibond

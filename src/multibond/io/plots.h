@@ -2,7 +2,8 @@
 /// \file
 /// `multibond plot DIR`: figures from a results folder, and a page that shows them.
 ///
-/// MakeFigures reads DIR/results.csv (and DIR/run.json) and draws, with gnuplot, either the
+/// MakeFigures reads DIR/results.csv (and DIR/run.json, and DIR/events.csv when the run had events:
+/// they are marked on every plot against time, plot_events.h) and draws, with gnuplot, either the
 /// general figures of any run (every output against time, grouped by element and unit, and the
 /// energy account: plot_auto.h) or the figures of a figure list file (docs/plots.md; e.g.
 /// examples/differential/figures.yaml, the paper's figures of the differential), plus the model's
@@ -73,16 +74,17 @@ DotOptions LinkGrouping(const LoadedModel& model);
 /// cannot be run at all, Interrupted when a stop is asked for (running gnuplots are ended); a
 /// figure whose columns are missing, or whose gnuplot run fails, is left out with a warning.
 ///
-/// The folder may come from anyone (results_folder.h): only its own regular files results.csv
-/// and run.json are read (a link, a file larger than the limit, a malformed results.csv is an
-/// error); figures/ and plots/ are refused when they are links, and every file is written in a
-/// private work folder and renamed into place. No text of the folder or of the figure list
-/// reaches gnuplot but as an escaped string (safe_text.h), and warnings hold only printable text.
+/// The folder may come from anyone (results_folder.h): only its own regular files results.csv,
+/// run.json and events.csv are read (a link, a file larger than the limit, a malformed results.csv
+/// is an error; such an events.csv is a warning, and its events are not marked); figures/ and
+/// plots/ are refused when they are links, and every file is written in a private work folder and
+/// renamed into place. No text of the folder or of the figure list reaches gnuplot but as an
+/// escaped string or comment (safe_text.h), and warnings hold only printable text.
 PlotReport MakeFigures(const std::string& results_dir, const PlotOptions& options = {});
 
-/// Writes `results_dir`/index.html: the run's record and every figure of `report.figures` found
-/// in `results_dir`/figures (the general figures when `report` has none), with `report`'s
-/// warnings. Throws std::runtime_error when results.csv cannot be read or the page cannot be
+/// Writes `results_dir`/index.html: the run's record, its events (events.csv) and every figure of
+/// `report.figures` found in `results_dir`/figures (the general figures when `report` has none),
+/// with `report`'s warnings. Throws std::runtime_error when results.csv cannot be read or the page cannot be
 /// written. Figures are shown only when they are regular files (not links) in figures/.
 void WriteResultsPage(const std::string& results_dir, const PlotReport& report = {}, const InputLimits& limits = {});
 
