@@ -17,6 +17,14 @@ void AddRunOptions(CLI::App* cmd, RunArgs& a) {
   cmd->add_option("--atol", a.atol, "absolute tolerance (default: the model's, else 1e-10)")->check(kPositive);
   cmd->add_option("--step", a.step, fmt::format("fixed step [s] for {} (required for rk4)", kFixedStepMethodNames))->check(kPositive);
   cmd->add_option("--max-step", a.max_step, "largest step [s] of the adaptive methods")->check(kPositive);
+  cmd->add_option("--event-rest-time", a.event_rest_time,
+                  "events: a contact whose rebound would fly shorter than this [s] stays closed, the ball at rest (impacts "
+                  "accumulating, Zeno) (default: the model's, else 0 = a millionth of the run)")
+      ->check(kNonNegative);
+  cmd->add_option("--max-events-per-second", a.max_events_per_second,
+                  "events: more than this many per second of run (and more than 1000 in all) stop the run as failed, an "
+                  "event storm (default: the model's, else 1e4)")
+      ->check(kPositive);
   cmd->add_flag("--all-variables", a.all_variables, "add a column for every effort and flow");
   cmd->add_option("--jit", a.jit,
                   "right-hand side as generated C++ compiled with the system compiler (auto: when one works; "
@@ -69,6 +77,8 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a, const std::vec
   if (!a.step && a.solver && UsesNewtonMatrix(o.integrator.method))
     o.integrator.fixed_step = 0.0;
   o.integrator.max_step = a.max_step.value_or(d.max_step.value_or(0.0));
+  o.event_rest_time = a.event_rest_time.value_or(d.event_rest_time.value_or(0.0));
+  o.max_events_per_second = a.max_events_per_second.value_or(d.max_events_per_second.value_or(1e4));
   o.all_variables = a.all_variables;
   p.coordinates = a.coordinates.value_or(d.coordinates.value_or("inertial"));
   if (p.coordinates == "joint") {
@@ -99,6 +109,11 @@ std::string FailureHint(const RunOptions& o, const std::string& message) {
   if (has("evaluating the outputs failed")) return "check the model's parameters (an output could not be evaluated there)";
   if (has("derivatives of the initial state are not finite"))
     return "check the parameters and initial values of those states' elements (no solver or tolerance can help)";
+  if (has("event storm"))
+    return fmt::format("if the events are real, raise --max-events-per-second (now {:g}); if they chatter (a contact or friction "
+                       "switching back and forth), look at the element the message names, or raise --event-rest-time (now {}) so "
+                       "that impacts accumulate sooner", o.max_events_per_second,
+                       o.event_rest_time > 0 ? fmt::format("{:g} s", o.event_rest_time) : std::string("a millionth of the run"));
   if (has("beyond machine precision")) return "loosen the tolerances (--rtol, --atol): double precision cannot resolve them";
   if (i.fixed_step > 0)
     return fmt::format("try a smaller fixed step (--step, now {:g} s): beyond its stability limit a fixed step blows up; or an adaptive "

@@ -14,6 +14,7 @@ namespace multibond::cli {
 struct RunArgs {
   LoadArgs load;
   std::optional<double> t_end, dt, rtol, atol, step, max_step;
+  std::optional<double> event_rest_time, max_events_per_second;
   std::optional<std::string> solver, coordinates;
   bool all_variables = false, no_projection = false;
   std::string jit = "auto";

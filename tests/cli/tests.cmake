@@ -6,6 +6,8 @@ multibond_test(cli/equation_examples_test.cc LIBS nlohmann_json::nlohmann_json L
 add_dependencies(cli_equation_examples_test multibond_cli)
 multibond_test(cli/linear_cli_test.cc LIBS nlohmann_json::nlohmann_json LABELS cli)
 add_dependencies(cli_linear_cli_test multibond_cli)
+multibond_test(cli/events_cli_test.cc LIBS nlohmann_json::nlohmann_json LABELS cli)
+add_dependencies(cli_events_cli_test multibond_cli)
 # The readers of results.mat and results.h5 (tests/io/tests.cmake says why these): found here too,
 # since this fragment is read first.
 find_program(MULTIBOND_SYSTEM_PYTHON NAMES python3 PATHS /usr/bin NO_DEFAULT_PATH)

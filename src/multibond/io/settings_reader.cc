@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include "multibond/io/diagnostic_codes.h"
 #include "multibond/sim/simulator.h"
 
 namespace multibond {
@@ -33,22 +34,28 @@ void SettingsReader::ReadSimulation(const YAML::Node& n, SimulationDefaults& s, 
     sink_.Error(Loc(n), "simulation", "'simulation' is a mapping of settings", "write e.g. simulation: {t_end: 5, dt: 0.001}");
     return;
   }
-  CheckKeys(n, {"t_end", "dt", "solver", "rtol", "atol", "step", "max_step", "coordinates"}, "simulation");
+  CheckKeys(n, {"t_end", "dt", "solver", "rtol", "atol", "step", "max_step", "coordinates", "event_rest_time", "max_events_per_second"},
+            "simulation");
   const Env none;
-  auto positive = [&](const char* key, std::optional<double>& out) {
+  // `zero`: 0 is allowed (it means "the built-in choice").
+  auto number = [&](const char* key, std::optional<double>& out, bool zero) {
     if (!n[key]) return;
     bool ok = true;
     const double v = Number(n[key], "simulation", none, &ok);
     if (!ok) return;  // said by Number
-    if (!(v > 0)) sink_.Error(Loc(n[key]), "simulation", fmt::format("{} must be > 0 (got {:g})", key, v));
+    if (!(zero ? v >= 0 : v > 0))
+      sink_.Error(codes::kParamRange, Loc(n[key]), "simulation", fmt::format("{} must be {} 0 (got {:g})", key, zero ? ">=" : ">", v));
     out = v;
   };
+  auto positive = [&](const char* key, std::optional<double>& out) { number(key, out, false); };
   positive("t_end", s.t_end);
   positive("dt", s.dt);
   positive("rtol", s.rtol);
   positive("atol", s.atol);
   positive("step", s.step);
   positive("max_step", s.max_step);
+  number("event_rest_time", s.event_rest_time, true);
+  positive("max_events_per_second", s.max_events_per_second);
   // What the run would refuse of these settings is an error of the file, here, not at 'run'.
   auto check_together = [&](const char* key, auto&& check) {
     try {
