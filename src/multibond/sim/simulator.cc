@@ -502,6 +502,8 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
         log.clear();
         model.HandleEvents(reached, x.data(), ws, roots.data(), rest_time, log);
         for (const EventRecord& r : log) record(r);
+        // A restart estimates its first step anew, small: a first step as long as the last could
+        // start and end on the same side of an event function (a whole rebound) and miss it.
         carried.AddCounts(integrator->stats());  // a restart zeroes the integrator's counters
         integrator->Reset(reached, advanced.data());
         continue;

@@ -312,12 +312,16 @@ int ErrorWeights(N_Vector y, N_Vector ewt, void* user_data) noexcept {
 class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> {
   std::vector<int> roots_found_;  ///< ERKStepGetRootInfo's answer, per event function
   double root_time_ = 0.0;        ///< the event's time when AdvanceUntil stopped at one, else -inf
+  /// An event a step found beyond the tout it was asked for (-inf: none), and its roots.
+  double pending_root_ = -std::numeric_limits<double>::infinity();
+  std::vector<int> pending_roots_;
 
  public:
   ArkodeIntegrator(OdeSystem& system, const IntegratorOptions& options) : SundialsIntegrator(system, options) {}
 
   void Reset(double t0, const double* x0) override {
     LoadInitialState(x0);
+    pending_root_ = -std::numeric_limits<double>::infinity();
     callbacks_.nonfinite = false;
     t_step_ = t0;
     steps_since_check_ = 0;
@@ -349,7 +353,6 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
         AdvanceAdaptive(tout, stop_at_tout);
       }
       if (root_time_ > -std::numeric_limits<double>::infinity()) {  // stopped at an event: y_ holds the state there
-        Check(ERKStepGetRootInfo(mem_.get(), roots_found_.data()), root_time_);
         if (roots) sun::CopyRoots(roots_found_, roots);
         time_ = root_time_;
       } else {
@@ -372,6 +375,7 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
     return s;
   }
 
+
  private:
   bool fixed_step() const { return options_.fixed_step > 0; }
 
@@ -385,7 +389,10 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
     sunrealtype reached = time_;
     const int flag = ERKStepEvolve(mem_.get(), tout, y_.get(), &reached, ARK_NORMAL);
     sun::RethrowPending(callbacks_);
-    if (flag == ARK_ROOT_RETURN) root_time_ = reached;
+    if (flag == ARK_ROOT_RETURN) {
+      root_time_ = reached;
+      Check(ERKStepGetRootInfo(mem_.get(), roots_found_.data()), reached);
+    }
     if (callbacks_.nonfinite) {
       SolverError error(callbacks_.nonfinite_t, kNonFiniteFlag,
                         "the state became infinite or NaN (step too large for the model, or "
@@ -413,11 +420,21 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
     void* mem = mem_.get();
     const double hmin = sun::MinUsefulStep(time_);  // see there
     if (options_.max_step == 0 || hmin < options_.max_step) Check(ERKStepSetMinStep(mem, hmin), time_);
-    // SUNDIALS 6.4 cannot clear a stop time: one beyond any run stands for none. With event
-    // functions the steps stop at tout too: one step of ARK_ONE_STEP past tout would report an
-    // event beyond it, after the output times before it.
-    const bool stop = stop_at_tout || !roots_found_.empty();
-    Check(ERKStepSetStopTime(mem, stop ? tout : std::numeric_limits<double>::max()), time_);
+    // SUNDIALS 6.4 cannot clear a stop time: one beyond any run stands for none.
+    Check(ERKStepSetStopTime(mem, stop_at_tout ? tout : std::numeric_limits<double>::max()), time_);
+    // An event found by a step that went past an earlier tout: the interpolant of that step
+    // still gives the state there, and the one at tout before it.
+    if (pending_root_ > -std::numeric_limits<double>::infinity()) {
+      if (pending_root_ <= tout) {
+        root_time_ = pending_root_;
+        roots_found_ = pending_roots_;
+        pending_root_ = -std::numeric_limits<double>::infinity();
+        Check(ERKStepGetDky(mem, root_time_, 0, y_.get()), root_time_);
+        return;
+      }
+      Check(ERKStepGetDky(mem, tout, 0, y_.get()), t_step_);
+      return;
+    }
     long steps = 0;
     while (t_step_ < tout) {
       if (steps == options_.max_steps_per_output) Check(ARK_TOO_MUCH_WORK, t_step_);
@@ -434,7 +451,16 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
         Check(flag, reached);
       }
       if (flag == ARK_ROOT_RETURN) {  // step_ holds the interpolated state at the event
+        sunrealtype tcur = reached;
+        ERKStepGetCurrentTime(mem, &tcur);  // the step's end, past the event
+        if (reached > tout) {  // after tout: reported by the next call, tout's state first
+          pending_root_ = reached;
+          Check(ERKStepGetRootInfo(mem, pending_roots_.data()), reached);
+          t_step_ = tcur;
+          break;
+        }
         root_time_ = reached;
+        Check(ERKStepGetRootInfo(mem, roots_found_.data()), reached);
         std::copy_n(N_VGetArrayPointer(step_.get()), n_, N_VGetArrayPointer(y_.get()));
         return;
       }
@@ -480,6 +506,7 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
     Check(ERKStepWFtolerances(mem, ErrorWeights), t0);  // receives the user data (set above)
     if (const int nr = callbacks_.system->num_roots(); nr > 0) {
       roots_found_.assign(nr, 0);
+      pending_roots_.assign(nr, 0);
       std::vector<int> downwards(nr, -1);  // events are crossings from > 0 to <= 0 (OdeSystem::CalcRoots)
       Check(ERKStepRootInit(mem, nr, sun::Roots), t0);
       Check(ERKStepSetRootDirection(mem, downwards.data()), t0);

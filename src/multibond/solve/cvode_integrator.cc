@@ -177,8 +177,6 @@ int DifferenceQuotientJacobian(sunrealtype t, N_Vector y, N_Vector fy, SUNMatrix
 }
 
 class CvodeIntegrator final : public sun::SundialsIntegrator<CvodeCallbackState> {
-  std::vector<int> roots_found_;  ///< CVodeGetRootInfo's answer, per event function
-
  public:
   CvodeIntegrator(OdeSystem& system, const IntegratorOptions& options) : SundialsIntegrator(system, options) {}
 
@@ -246,6 +244,8 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<CvodeCallbackState>
   }
 
  private:
+  std::vector<int> roots_found_;  ///< CVodeGetRootInfo's answer, per event function
+
   void Create(double t0) {
     const bool bdf = options_.method == Method::kBdf;
     // Kept local until fully configured, so a failure leaves no half-built solver behind.
