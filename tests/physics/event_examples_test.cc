@@ -160,5 +160,73 @@ TEST(DifferentialBacklash, TeethCrossThePlayAtEveryReversalAndTheEnergyAccountCl
   EXPECT_LT(worst, 1e-8);
 }
 
+/// The bar of docs/mechanisms/joint.yaml, on a rigid revolute joint with `extra` (limits or a friction torque).
+std::unique_ptr<Run> Hinge(const std::string& extra, double t_end) {
+  const std::string yaml = R"(
+model: hinge
+gravity: [0, 0, -9.81]
+bodies:
+  bar: {shape: {box: {size: [0.02, 0.02, 1.0]}}, density: 2700,
+        position: [-0.25, 0, -0.4330127018922193], orientation: {axis: y, degrees: 30}}
+joints:
+  hinge: {type: revolute, parent: ground, child: bar, at: [0, 0, 0], child_at: [0, 0, 0.5], axis: y, rigid: true, )" +
+                           extra + R"(}
+)";
+  LoadedModel lm = LoadModelString(yaml);
+  auto run = std::make_unique<Run>();
+  run->model = CompiledModel::Compile(std::move(lm.graph), lm.compile);
+  RunOptions o;
+  o.t_end = t_end;
+  o.dt = 1e-3;
+  o.integrator.rtol = 1e-10;
+  o.integrator.atol = 1e-12;
+  const RunSummary s = Simulate(*run->model, o, run->rec);
+  EXPECT_EQ(s.status, RunStatus::kOk) << s.message;
+  return run;
+}
+
+TEST(JointStops, TheBarStrikesItsStopAtTheSpeedEnergyGivesAndLosesOneMinusESquared) {
+  // Released 30 degrees from the vertical, it swings down 0.2 rad onto its lower stop:
+  // m g (L/2) (cos th_hit - cos th0) = 1/2 I w^2, I = m (a^2 + 4 L^2) / 12 about the pivot.
+  const auto run = Hinge("limits: {lower: -0.2, upper: 0.2, restitution: 0.5}", 1.0);
+  const double a = 0.02, L = 1.0, m = 2700 * a * a * L, g = 9.81, e = 0.5;
+  const double th0 = M_PI / 6, th_hit = th0 - 0.2;
+  const double inertia = m * (a * a + 4 * L * L) / 12;
+  const double kinetic = m * g * (L / 2) * (std::cos(th_hit) - std::cos(th0));
+  const std::vector<EventRecord> limits = OfKind(run->rec, "limit");
+  ASSERT_GE(limits.size(), 5u);
+  EXPECT_EQ(limits[0].element, "hinge.lower");
+  double lowest = 0.0;  // the stop holds: the angle never passes it
+  for (const auto& row : run->rec.rows()) lowest = std::min(lowest, row[run->rec.Index("hinge.angle")]);
+  EXPECT_GE(lowest, -0.2 - 1e-9);
+  EXPECT_LT(lowest, -0.2 + 1e-3);
+  // Between impacts nothing dissipates: the stop's account holds each impact's loss, (1 - e^2)
+  // of the kinetic energy it meets: the first exactly so.
+  const double t1 = limits[0].time, t2 = limits[1].time;
+  EXPECT_NEAR(run->rec.At("hinge.lower.dissipated", 0.5 * (t1 + t2)), (1 - e * e) * kinetic, 1e-9);
+  EXPECT_NEAR(kinetic, 0.5 * inertia * 1.55406 * 1.55406, 1e-5);  // 1.554 rad/s at the stop
+  // The rebound: the next impact comes with e times the speed, so e^2 times the energy.
+  const double second = run->rec.At("hinge.lower.dissipated", 0.5 * (t2 + limits[2].time)) - (1 - e * e) * kinetic;
+  EXPECT_NEAR(second, (1 - e * e) * e * e * kinetic, 1e-9);
+  EXPECT_LT(std::abs(run->rec.Last("energy.residual")), 1e-8);
+}
+
+TEST(JointFriction, ABrakeStrongerThanGravityHoldsTheBarExactlyAWeakerOneStopsIt) {
+  // Gravity's torque about the pivot at 30 degrees: m g (L/2) sin 30 = 2.649 N m.
+  const auto held = Hinge("friction: 3.0", 1.0);
+  EXPECT_TRUE(held->rec.events().empty());
+  for (const char* h : {"bar.h.x", "bar.h.y", "bar.h.z"}) EXPECT_LE(std::abs(held->rec.Last(h)), 1e-12) << h;
+  const auto slowed = Hinge("friction: 2.0", 2.0);
+  const std::vector<EventRecord> locks = OfKind(slowed->rec, "lock");
+  ASSERT_EQ(locks.size(), 1u);
+  const double t = locks[0].time;
+  for (const auto& row : slowed->rec.rows()) {
+    if (row[0] > t + 1e-3) {
+      EXPECT_LE(std::abs(row[slowed->rec.Index("bar.h.y")]), 1e-12) << row[0];
+    }
+  }
+  EXPECT_LT(std::abs(slowed->rec.Last("energy.residual")), 1e-8);
+}
+
 }  // namespace
 }  // namespace multibond

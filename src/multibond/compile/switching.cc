@@ -53,6 +53,7 @@ void SwitchTable::Build(const BuildInput& in) {
     en.name = e.name;
     en.kind = sw.kind;
     en.capacity = sw.capacity;
+    en.limit = sw.limit;
     en.lambda = lambda;
     en.restitution = sw.restitution;
     en.mu_s = sw.mu_s;
@@ -286,7 +287,7 @@ void CompiledModel::HandleEvents(double t, double* x, Workspace& ws, const int* 
         if (rest) ws.modes[i] = SwitchTable::kClosed;
         const double lost = before - StoredEnergyTotal(x);
         if (e.dissipation >= 0) x[e.dissipation] += lost;
-        rec.kind = rest ? "contact" : "impact";
+        rec.kind = e.limit ? "limit" : (rest ? "contact" : "impact");
         rec.description = rest ? fmt::format("closes at {:.6g} (impacts accumulate: the next rebound would last under {:g} s); "
                                              "held in contact; {:.6g} J dissipated",
                                              g, rest_time, lost)

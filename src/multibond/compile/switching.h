@@ -48,6 +48,7 @@ class SwitchTable {
     std::string name;
     Switching::Kind kind = Switching::Kind::kNone;
     bool capacity = false;  ///< a clutch or brake: lock and unlock, not stick and slip
+    bool limit = false;     ///< a joint's end stop: its impacts and closings are `limit` events
     int lambda = 0;         ///< its multiplier (Workspace::lambda)
     double restitution = 0.0, mu_s = 1.0, mu_k = 1.0;
     TimeFunction normal = TimeFunction::Constant(0.0);

@@ -114,6 +114,7 @@ struct Switching {
   TimeFunction normal = TimeFunction::Constant(0.0);  ///< friction: N (or the capacity), of time
   std::string normal_signal;  ///< friction: or a signal's name (then `normal` is unused)
   bool capacity = false;      ///< a clutch or brake (its events are lock and unlock, not stick and slip)
+  bool limit = false;         ///< a contact that is a joint's end stop (its events are `limit`)
   SourceLocation where;
 };
 

@@ -167,7 +167,7 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
                   guess.empty() ? "use coupling, revolute, fixed, spherical, prismatic or held" : fmt::format("did you mean '{}'?", guess));
       continue;
     }
-    CheckKeys(j, {"type", "parent", "child", "at", "child_at", "axis", "translation", "rotation", "rigid", "description"}, name);
+    CheckKeys(j, {"type", "parent", "child", "at", "child_at", "axis", "translation", "rotation", "rigid", "limits", "friction", "description"}, name);
     // 'rigid: true' on the joint (or the model's 'rigid: all' / list) makes each of its
     // couplings an ideal constraint; the named kinds then need no coupling sections.
     rigid_joint_ = (j["rigid"] && Bool(j["rigid"], name)) || RigidByModel(name);
@@ -213,7 +213,53 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
       }
     }
     rigid_joint_ = false;
+    if (j["limits"] || j["friction"]) ReadAxialSwitches(j, name, type, axis, joint);
     m.AddJoint(joint);
+  }
+}
+
+void MechanismReader::ReadAxialSwitches(const YAML::Node& j, const std::string& name, const std::string& type,
+                                         const Eigen::Vector3d& axis, mech::Joint& joint) {
+  if (type != "revolute") {
+    sink_.Error(Loc(j["limits"] ? j["limits"] : j["friction"]), name, "end stops and friction act on a revolute joint's free rotation",
+                "use type: revolute with its axis");
+    return;
+  }
+  joint.axis = axis;
+  if (const YAML::Node l = j["limits"]) {
+    CheckKeys(l, {"lower", "upper", "restitution"}, name);
+    mech::Joint::Stops stops;
+    stops.where = Loc(l);
+    if (!l["lower"] || !l["upper"]) {
+      sink_.Error(Loc(l), name, "end stops need 'lower' and 'upper' (rad, from the assembled position)", "e.g. limits: {lower: -0.5, upper: 0.5}");
+      return;
+    }
+    stops.lower = Number(l["lower"], name, Env{});
+    stops.upper = Number(l["upper"], name, Env{});
+    if (!(stops.lower < 0.0 && stops.upper > 0.0))
+      sink_.Error(codes::kParamRange, Loc(l), name,
+                  fmt::format("the assembled position must lie between the stops: lower < 0 < upper (got {:g} and {:g})", stops.lower,
+                              stops.upper),
+                  "angles are measured from the position the model starts in");
+    if (l["restitution"]) {
+      stops.restitution = Number(l["restitution"], name, Env{});
+      if (!(stops.restitution >= 0.0 && stops.restitution <= 1.0))
+        sink_.Error(codes::kParamRange, Loc(l["restitution"]), name, fmt::format("restitution must be in [0, 1] (got {:g})", stops.restitution),
+                    "0: the stop absorbs the impact, 1: elastic");
+    }
+    joint.stops = stops;
+  }
+  if (const YAML::Node f = j["friction"]) {
+    mech::Joint::Friction fr;
+    fr.where = Loc(f);
+    if (IsPlainValue(f) || f.IsMap()) {
+      fr.torque = ReadTimeFunction(f, name, Env{});
+      if (fr.torque.is_constant() && !(fr.torque.value >= 0.0))
+        sink_.Error(codes::kParamRange, Loc(f), name, fmt::format("a friction torque must be >= 0 (got {:g})", fr.torque.value));
+    } else {
+      fr.signal = Str(f, name);  // a signal's name: a torque the model computes (a brake's command)
+    }
+    joint.friction = fr;
   }
 }
 

@@ -32,6 +32,9 @@ class MechanismReader : public MechanismValues {
   /// The body read as `name`, or nullptr (the ground, or no such body).
   const mech::Body* BodyOrGround(const std::string& name) const;
   void ReadJoints(const YAML::Node& joints, mech::Mechanism& m);
+  /// A revolute joint's `limits: {lower, upper, restitution}` and `friction: TORQUE` (docs/events.md).
+  void ReadAxialSwitches(const YAML::Node& j, const std::string& name, const std::string& type, const Eigen::Vector3d& axis,
+                         mech::Joint& joint);
   void ReadGears(const YAML::Node& gears, mech::Mechanism& m);
   void ReadDrives(const YAML::Node& drives, mech::Mechanism& m);
   void ReadPoints(const YAML::Node& points, mech::Mechanism& m);

@@ -403,6 +403,58 @@ class Expander {
                     c.rigid);
       AddOutput(SumOutput(j.name + ".M", {{j.name + ".r_in.e", -1.0}}, "N m", j.where));
     }
+    if (j.stops || j.friction) AddAxialSwitches(j);
+  }
+
+  /// A revolute joint's end stops and friction (docs/events.md): the rotation rate about its
+  /// free axis (the 1-junction `<joint>.axial`), its angle (`<joint>.angle`, from the assembled
+  /// position), contacts at the stops (`<joint>.lower`, gap angle - lower; `<joint>.upper`, gap
+  /// upper - angle), a friction on the rate (`<joint>.friction`, a capacity).
+  void AddAxialSwitches(const Joint& j) {
+    const std::string rel = RelativeOmega(j.child, j.parent), axial = j.name + ".axial";
+    AddSpin(axial + "_proj", j.parent, j.axis, 1.0);
+    Bond(rel, axial + "_proj", axial + ".in");
+    if (IsGround(j.parent)) info_[j.child].moment_terms.push_back({axial + ".in.e", -1.0});
+    g_.Add(Make(axial, ElementKind::kOne, 1, "rotation", j.where));
+    Bond(axial + "_proj", axial, axial + ".out");
+    if (j.stops) {
+      AuxState angle;
+      angle.name = j.name + ".angle";
+      angle.kind = AuxState::Kind::kIntegral;
+      angle.of = axial;
+      angle.unit = "rad";
+      angle.initial = Eigen::MatrixXd::Zero(1, 1);
+      angle.where = j.where;
+      g_.AddAux(angle);
+      for (const bool lower : {true, false}) {
+        const std::string stop = j.name + (lower ? ".lower" : ".upper");
+        Element c = Make(stop, ElementKind::kSf, 1, "rotation", j.stops->where);
+        c.source.components = {TimeFunction::Constant(0.0)};
+        c.constraint = true;
+        c.switching.kind = Switching::Kind::kContact;
+        c.switching.limit = true;
+        c.switching.gap = angle.name;
+        c.switching.gap_scale = lower ? 1.0 : -1.0;
+        c.switching.gap_offset = lower ? -j.stops->lower : j.stops->upper;
+        c.switching.restitution = j.stops->restitution;
+        c.switching.where = j.stops->where;
+        g_.Add(c);
+        if (lower) Bond(stop, axial, stop);  // its flow is the rate: the angle leaves the lower stop as it grows
+        else Bond(axial, stop, stop);
+      }
+    }
+    if (j.friction) {
+      Element f = Make(j.name + ".friction", ElementKind::kSf, 1, "rotation", j.friction->where);
+      f.source.components = {TimeFunction::Constant(0.0)};
+      f.constraint = true;
+      f.switching.kind = Switching::Kind::kFriction;
+      f.switching.capacity = true;
+      f.switching.normal = j.friction->torque;
+      f.switching.normal_signal = j.friction->signal;
+      f.switching.where = j.friction->where;
+      g_.Add(f);
+      Bond(j.name + ".friction", axial, j.name + ".friction");
+    }
   }
 
   /// An MTF carrying the lever arm of a body point: its flow is scale * (w x R point), into `sum`.

@@ -68,6 +68,22 @@ struct Joint {
   Eigen::Vector3d parent_point = Eigen::Vector3d::Zero();  ///< parent frame from its CoM; ground: absolute
   Eigen::Vector3d child_point = Eigen::Vector3d::Zero();   ///< child frame, from its CoM
   std::optional<Coupling> translation, rotation;
+  /// Revolute joints: the free axis (parent frame), and the switching elements on the rotation
+  /// about it (docs/events.md): end stops at relative angles `lower` < `upper` [rad, from the
+  /// assembled position] with impacts of `restitution`, and a friction torque (Coulomb: sticks
+  /// while the torque needed is within it), a number, a time function or a signal's name.
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  struct Stops {
+    double lower = 0.0, upper = 0.0, restitution = 0.0;
+    SourceLocation where;
+  };
+  std::optional<Stops> stops;
+  struct Friction {
+    TimeFunction torque = TimeFunction::Constant(0.0);
+    std::string signal;
+    SourceLocation where;
+  };
+  std::optional<Friction> friction;
   SourceLocation where;
 };
 

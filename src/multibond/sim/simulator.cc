@@ -212,8 +212,12 @@ class EnergyBalance {
   double Residual(double work, double stored, double dissipated) {
     scale_ = std::max({scale_, std::abs(work), std::abs(stored), std::abs(dissipated)});
     const double num = work - (stored - stored0_) - dissipated;
-    return scale_ > 0.0 ? num / scale_ : num;
+    // Until some energy has flowed there is nothing to balance: a body held still by friction
+    // moves by rounding (1e-41 J), and that over itself would read as a residual of -1.
+    if (scale_ < kNegligibleEnergy) return 0.0;
+    return num / scale_;
   }
+  static constexpr double kNegligibleEnergy = 1e-30;  ///< J: below any energy a model stores (a MEMS stores 1e-15 J)
 
  private:
   double stored0_, scale_;
@@ -476,8 +480,9 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   std::map<std::string, long> impacts;
   auto record = [&](const EventRecord& r) {
     ++summary.event_counts[r.kind];
-    if (r.kind == "impact") ++impacts[r.element];
-    if (r.kind == "contact" && r.description.find("accumulate") != std::string::npos) rested.emplace(r.element, std::pair{r.time, impacts[r.element]});
+    const bool accumulated = r.description.find("accumulate") != std::string::npos;
+    if (r.kind == "impact" || (r.kind == "limit" && !accumulated)) ++impacts[r.element];
+    if ((r.kind == "contact" || r.kind == "limit") && accumulated) rested.emplace(r.element, std::pair{r.time, impacts[r.element]});
     observer.OnEvent(r);
     if (++num_events > max_events)
       throw EventStorm(fmt::format("event storm: more than {:.0f} events ({:g} per second of run); the last at t = {:.9g} s, "
