@@ -451,6 +451,16 @@ double ConstraintSolver::Residual(double t, Workspace& ws) const {
   return worst;
 }
 
+void ConstraintSolver::MoveAlongB(double* x, const Workspace& ws) const {
+  const std::vector<int>& b_offset = factor_.column_offset();
+  const std::vector<int>& b_rows = factor_.rows();
+  for (int col = 0; col < num_lambda_; ++col) {
+    const double mu = ws.lambda[col];
+    if (mu == 0.0) continue;
+    for (int q = b_offset[col]; q < b_offset[col + 1]; ++q) x[b_rows[q]] += ws.con.b[q] * mu;
+  }
+}
+
 void ConstraintSolver::ApplyImpulse(const PlanView& view, double t, double* x, Workspace& ws, int index, double target) const {
   ConstraintValues(t, ws.slots.data(), ws.con.rhs.data());
   for (int i = 0; i < num_lambda_; ++i) ws.con.rhs[i] = (i == index ? target : 0.0) - ws.con.rhs[i];
@@ -461,13 +471,7 @@ void ConstraintSolver::ApplyImpulse(const PlanView& view, double t, double* x, W
   SolveAt(view, t, x, ws, /*fixed_values=*/false);
   ws.con.fixed[index] = was_fixed;
   ws.con.any_fixed = was_any;
-  const std::vector<int>& b_offset = factor_.column_offset();
-  const std::vector<int>& b_rows = factor_.rows();
-  for (int col = 0; col < num_lambda_; ++col) {
-    const double mu = ws.lambda[col];
-    if (mu == 0.0) continue;
-    for (int q = b_offset[col]; q < b_offset[col + 1]; ++q) x[b_rows[q]] += ws.con.b[q] * mu;
-  }
+  MoveAlongB(x, ws);
   ws.con.factored = false;
   std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
 }
@@ -479,13 +483,7 @@ void ConstraintSolver::ProjectMomenta(const PlanView& view, double t, double* x,
   ConstraintValues(t, ws.slots.data(), ws.con.rhs.data());
   for (int i = 0; i < num_lambda_; ++i) ws.con.rhs[i] = -ws.con.rhs[i];
   SolveAt(view, t, x, ws, /*fixed_values=*/false);  // a constraint that does not hold now is not projected onto
-  const std::vector<int>& b_offset = factor_.column_offset();
-  const std::vector<int>& b_rows = factor_.rows();
-  for (int col = 0; col < num_lambda_; ++col) {
-    const double mu = ws.lambda[col];
-    if (mu == 0.0) continue;
-    for (int q = b_offset[col]; q < b_offset[col + 1]; ++q) x[b_rows[q]] += ws.con.b[q] * mu;
-  }
+  MoveAlongB(x, ws);
   // Only storage states moved (the rows of B): B and the factor stay right for x, which the
   // evaluation at an output time, right after this, reuses.
   if (ws.con.factored) std::copy(x, x + view.num_states, ws.con.factored_at.begin());

@@ -209,6 +209,8 @@ class ConstraintSolver {
   void SolveWithFixed(const PlanView& view, double t, const double* x, Workspace& ws, bool fixed_values) const;
   /// g(x) - target(t) of every multiplier component, from filled slots, into `out`.
   void ConstraintValues(double t, const double* w, double* out) const;
+  /// x += B mu, mu = ws.lambda (B's columns in ws.con.b, as the last solve assembled them).
+  void MoveAlongB(double* x, const Workspace& ws) const;
 
   std::vector<Group> groups_;
   int num_lambda_ = 0;

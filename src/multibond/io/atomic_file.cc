@@ -23,15 +23,27 @@ std::string UniqueTag() {
 
 }  // namespace
 
-AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
-  const std::filesystem::path p(path_);
-  name_ = p.filename().string();
-  dir_ = p.has_parent_path() ? p.parent_path().string() : ".";
-  if (name_.empty() || name_ == "." || name_ == "..") Fail("it names a folder, not a file");
-  dir_fd_ = open(dir_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dir_fd_ < 0) Fail(errno == ENOENT ? fmt::format("no folder '{}'", dir_) : std::strerror(errno));
+TargetFolder OpenTargetFolder(const std::string& path, const std::function<void(const std::string&)>& fail) {
+  TargetFolder f;
+  const std::filesystem::path p(path);
+  f.name = p.filename().string();
+  f.dir = p.has_parent_path() ? p.parent_path().string() : ".";
+  if (f.name.empty() || f.name == "." || f.name == "..") fail("it names a folder, not a file");
+  f.fd = open(f.dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (f.fd < 0) fail(errno == ENOENT ? fmt::format("no folder '{}'", f.dir) : std::strerror(errno));
   struct stat st {};
-  if (fstatat(dir_fd_, name_.c_str(), &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISDIR(st.st_mode)) Fail("it is a directory");
+  if (fstatat(f.fd, f.name.c_str(), &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISDIR(st.st_mode)) {
+    close(f.fd);
+    fail("it is a directory");
+  }
+  return f;
+}
+
+AtomicFile::AtomicFile(std::string path) : path_(std::move(path)) {
+  const TargetFolder folder = OpenTargetFolder(path_, [this](const std::string& why) { Fail(why); });
+  dir_ = folder.dir;
+  name_ = folder.name;
+  dir_fd_ = folder.fd;
   // No name until complete; where the file system cannot, a unique name nobody else can take.
   fd_ = openat(dir_fd_, ".", O_TMPFILE | O_WRONLY | O_CLOEXEC, 0644);
   if (fd_ < 0) {

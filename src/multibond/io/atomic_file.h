@@ -12,6 +12,7 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <string>
 #include <string_view>
 
@@ -21,6 +22,15 @@ namespace multibond {
 
 /// The suffix of the hidden temporaries: ".<name>.<unique>" + kTemporarySuffix.
 inline constexpr const char* kTemporarySuffix = ".multibond-tmp";
+
+/// The folder a file `path` is to be created in, opened (O_DIRECTORY, O_CLOEXEC): its path, the
+/// file's name, the folder's descriptor. Calls `fail` (which must not return) when the path names
+/// a folder, the folder does not exist or cannot be opened, or a directory has the file's name.
+struct TargetFolder {
+  std::string dir, name;
+  int fd = -1;
+};
+TargetFolder OpenTargetFolder(const std::string& path, const std::function<void(const std::string&)>& fail);
 
 class AtomicFile {
  public:

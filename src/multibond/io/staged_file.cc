@@ -20,14 +20,10 @@
 namespace multibond {
 
 StagedFile::StagedFile(std::string path) : path_(std::move(path)) {
-  const std::filesystem::path p(path_);
-  name_ = p.filename().string();
-  dir_ = p.has_parent_path() ? p.parent_path().string() : ".";
-  if (name_.empty() || name_ == "." || name_ == "..") Fail("it names a folder, not a file");
-  dir_fd_ = open(dir_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dir_fd_ < 0) Fail(errno == ENOENT ? fmt::format("no folder '{}'", dir_) : std::strerror(errno));
-  struct stat st {};
-  if (fstatat(dir_fd_, name_.c_str(), &st, AT_SYMLINK_NOFOLLOW) == 0 && S_ISDIR(st.st_mode)) Fail("it is a directory");
+  const TargetFolder folder = OpenTargetFolder(path_, [this](const std::string& why) { Fail(why); });
+  dir_ = folder.dir;
+  name_ = folder.name;
+  dir_fd_ = folder.fd;
   static std::random_device device;
   for (int attempt = 0; attempt < 16 && fd_ < 0; ++attempt) {
     temp_name_ = fmt::format(".{}.{}.{:08x}{}", name_, getpid(), device(), kTemporarySuffix);

@@ -418,26 +418,12 @@ class Expander {
     g_.Add(Make(axial, ElementKind::kOne, 1, "rotation", j.where));
     Bond(axial + "_proj", axial, axial + ".out");
     if (j.stops) {
-      AuxState angle;
-      angle.name = j.name + ".angle";
-      angle.kind = AuxState::Kind::kIntegral;
-      angle.of = axial;
-      angle.unit = "rad";
-      angle.initial = Eigen::MatrixXd::Zero(1, 1);
-      angle.where = j.where;
-      g_.AddAux(angle);
+      const std::string angle = AddAngle(j.name + ".angle", axial, j.where);
       for (const bool lower : {true, false}) {
         const std::string stop = j.name + (lower ? ".lower" : ".upper");
-        Element c = Make(stop, ElementKind::kSf, 1, "rotation", j.stops->where);
-        c.source.components = {TimeFunction::Constant(0.0)};
-        c.constraint = true;
-        c.switching.kind = Switching::Kind::kContact;
+        Element c = MakeContact(stop, angle, lower ? 1.0 : -1.0, lower ? -j.stops->lower : j.stops->upper, j.stops->restitution,
+                                j.stops->where);
         c.switching.limit = true;
-        c.switching.gap = angle.name;
-        c.switching.gap_scale = lower ? 1.0 : -1.0;
-        c.switching.gap_offset = lower ? -j.stops->lower : j.stops->upper;
-        c.switching.restitution = j.stops->restitution;
-        c.switching.where = j.stops->where;
         g_.Add(c);
         if (lower) Bond(stop, axial, stop);  // its flow is the rate: the angle leaves the lower stop as it grows
         else Bond(axial, stop, stop);
@@ -534,6 +520,35 @@ class Expander {
     return Formula{text, parsed.root, where};
   }
 
+  /// An angle [rad], the integral of the flow of the 1-junction `of` from 0; returns its name.
+  std::string AddAngle(const std::string& name, const std::string& of, const SourceLocation& where) {
+    AuxState a;
+    a.name = name;
+    a.kind = AuxState::Kind::kIntegral;
+    a.of = of;
+    a.unit = "rad";
+    a.initial = Eigen::MatrixXd::Zero(1, 1);
+    a.where = where;
+    g_.AddAux(a);
+    return name;
+  }
+
+  /// A rotational contact (docs/events.md) whose gap is scale * gap + offset; the caller bonds it
+  /// so that its flow is the separation velocity.
+  Element MakeContact(const std::string& name, const std::string& gap, double scale, double offset, double restitution,
+                      const SourceLocation& where) {
+    Element c = Make(name, ElementKind::kSf, 1, "rotation", where);
+    c.source.components = {TimeFunction::Constant(0.0)};
+    c.constraint = true;
+    c.switching.kind = Switching::Kind::kContact;
+    c.switching.gap = gap;
+    c.switching.gap_scale = scale;
+    c.switching.gap_offset = offset;
+    c.switching.restitution = restitution;
+    c.switching.where = where;
+    return c;
+  }
+
   /// A rigid mesh with backlash: its deflection rate d (the 1-junction `<mesh>.mesh`) is free,
   /// its deflection q (`<mesh>.mesh.q`) the integral of d, and the two flanks are contacts
   /// (docs/events.md) at q = b/2 (separating at -d, gap b/2 - q) and q = -b/2 (separating at d,
@@ -542,26 +557,12 @@ class Expander {
     const std::string name = gm.name + ".mesh";
     g_.Add(Make(name, ElementKind::kOne, 1, "rotation", gm.where));
     Bond(from, name, name + ".in");
-    AuxState q;
-    q.name = name + ".q";
-    q.kind = AuxState::Kind::kIntegral;
-    q.of = name;
-    q.unit = "rad";
-    q.initial = Eigen::MatrixXd::Zero(1, 1);
-    q.where = gm.where;
-    g_.AddAux(q);
+    const std::string q = AddAngle(name + ".q", name, gm.where);
     const double h = gm.backlash / 2;
     for (const bool positive : {true, false}) {
       const std::string flank = name + (positive ? ".flank_pos" : ".flank_neg");
-      Element c = Make(flank, ElementKind::kSf, 1, "rotation", gm.where);
-      c.source.components = {TimeFunction::Constant(0.0)};
-      c.constraint = true;
-      c.switching.kind = Switching::Kind::kContact;
-      c.switching.gap = q.name;  // gap h - q (the positive flank) or q + h
-      c.switching.gap_scale = positive ? -1.0 : 1.0;
-      c.switching.gap_offset = h;
-      c.switching.restitution = gm.restitution;
-      c.switching.where = gm.where;
+      // gap h - q (the positive flank) or q + h
+      Element c = MakeContact(flank, q, positive ? -1.0 : 1.0, h, gm.restitution, gm.where);
       // The mesh's K, if given, shares a load with redundant constraints as the rigid mesh's would.
       if (gm.stiffness > 0.0 && std::isfinite(gm.stiffness)) c.compliance = Eigen::VectorXd::Constant(1, 1.0 / gm.stiffness);
       g_.Add(c);
