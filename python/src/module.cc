@@ -127,6 +127,7 @@ struct PyResults {
   std::vector<double> data;  ///< row-major: rows x names.size()
   std::size_t rows = 0;
   RunSummary summary;
+  std::vector<EventRecord> events;  ///< the run's events (docs/events.md), as events.csv lists them
   /// For the run record (Results.meta), made when first asked for.
   std::shared_ptr<const std::string> model_file, model_text;
   std::string model_name, solver, coordinates, rhs_engine;
@@ -165,6 +166,7 @@ class RowRecorder : public Observer {
     ++r_.rows;
   }
   void OnFinish(const RunSummary& s) override { r_.summary = s; }
+  void OnEvent(const EventRecord& e) override { r_.events.push_back(e); }
 
  private:
   PyResults& r_;
@@ -506,6 +508,21 @@ PYBIND11_MODULE(_multibond, mod) {
       .def_property_readonly("t_reached", [](const PyResults& r) { return r.summary.t_reached; })
       .def_property_readonly("warnings", [](const PyResults& r) { return r.summary.warnings; })
       .def_property_readonly("meta", &Meta, "the run record (run.json's content, without the results file's entry)")
+      .def_property_readonly(
+          "events",
+          [](const PyResults& r) {
+            py::list out;
+            for (const EventRecord& e : r.events) {
+              py::dict d;
+              d["time"] = e.time;
+              d["kind"] = e.kind;
+              d["element"] = e.element;
+              d["description"] = e.description;
+              out.append(d);
+            }
+            return out;
+          },
+          "the run's events (docs/events.md): dicts with time, kind, element, description, as events.csv")
       .def("__repr__", [](const PyResults& r) {
         return fmt::format("<multibond.Results {}: {} rows x {} columns, t = 0..{:g} s>", RunStatusName(r.summary.status), r.rows,
                            r.names.size(), r.summary.t_reached);

@@ -131,3 +131,18 @@ def test_check_and_equations(msd, tmp_path):
     assert not c["ok"] and not c["states"]
     assert "causality.derivative" in [d.code for d in c["conflicts"]]
     assert all(d.line > 0 for d in c["conflicts"] if d.code == "causality.derivative")
+
+
+def test_events_of_a_bouncing_ball_follow_the_closed_form():
+    model = multibond.load(example("events/bouncing_ball.yaml"))
+    r = model.run(t_end=10.0, rtol=1e-10, atol=1e-12)
+    impacts = [e for e in r.events if e["kind"] == "impact"]
+    g, h0, e = 9.81, 1.0, 0.8
+    v1 = math.sqrt(2 * g * h0)
+    t = math.sqrt(2 * h0 / g)
+    for k in range(5):  # t(k+1) = t(k) + 2 e^k v1 / g
+        assert abs(impacts[k]["time"] - t) < 1e-8
+        assert impacts[k]["element"] == "ground"
+        t += 2 * e ** (k + 1) * v1 / g
+    assert [x["kind"] for x in r.events].count("contact") == 1  # rest after the accumulation
+    assert r.meta["events"]["count"] == len(r.events)
