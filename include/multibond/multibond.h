@@ -43,6 +43,11 @@ struct SimulationOptions {
   std::string jacobian = "auto";       ///< bdf, adams: "auto", "dense", "sparse"
   bool project = true;                 ///< keep orientations orthonormal (and momenta on ideal constraints)
   bool all_variables = false;          ///< Simulate: a column for every effort and flow
+  /// Events (docs/events.md): a contact whose rebound would fly shorter stays closed (0: a
+  /// millionth of the run); more events per second of run than the limit stop it. The file's
+  /// `simulation:` keys, else these defaults.
+  std::optional<double> event_rest_time;        ///< 0
+  std::optional<double> max_events_per_second;  ///< 1e4
   const std::atomic<bool>* stop = nullptr;  ///< set from another thread to stop a run
 };
 

@@ -71,6 +71,21 @@ TEST(ApiModel, OptionsOverTheFileOverTheDefaults) {
   EXPECT_NEAR(r.column("spring.q").back(), test::Position(0.5), 1e-9);  // RK4 at h = 1 ms: error ~ h^4
 }
 
+TEST(ApiModel, TheEventLimitIsAnOptionOverTheFile) {
+  // The stick-slip example has 2 events per 0.8008 s period: 2,500 over 1,000 s. A limit of 2 per
+  // second (2,000 in all) stops the run as an event storm; the file's default (1e4) does not.
+  Model model = Model::FromFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/events/stick_slip.yaml");
+  SimulationOptions o;
+  o.t_end = 1000.0;
+  o.dt = 0.5;
+  o.max_events_per_second = 2.0;
+  const Results stormy = model.Simulate(o);
+  EXPECT_FALSE(stormy.ok());
+  EXPECT_THAT(stormy.summary().message, HasSubstr("event storm"));
+  o.max_events_per_second.reset();
+  EXPECT_TRUE(model.Simulate(o).ok());
+}
+
 TEST(ApiModel, SetParameterChangesThePhysics) {
   Model model = Model::FromString(test::MassSpringDamper());
   model.SetParameter("spring", 400.0);

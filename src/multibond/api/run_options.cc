@@ -30,6 +30,9 @@ RunOptions ResolveRunOptions(const LoadedModel& lm, const SimulationOptions& giv
     throw std::invalid_argument("coordinates must be 'inertial' or 'joint' (got '" + coordinates + "')");
   }
   o.all_variables = given.all_variables;
+  // Events (docs/events.md): the options over the file's `simulation:` keys over the defaults.
+  o.event_rest_time = given.event_rest_time.value_or(file.event_rest_time.value_or(0.0));
+  o.max_events_per_second = given.max_events_per_second.value_or(file.max_events_per_second.value_or(o.max_events_per_second));
   o.stop = given.stop;
   o.max_forced_steps = static_cast<double>(limits.steps);
   return o;
