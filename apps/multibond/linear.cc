@@ -43,20 +43,6 @@ struct LinearArgs {
   std::vector<double> freqs;
 };
 
-/// Keeps the last sample only: the state at the end of a run to the operating point.
-class LastRow : public Observer {
- public:
-  void OnStart(const std::vector<Column>&) override {}
-  void OnSample(const std::vector<double>& row) override { row_ = row; }
-  void OnFinish(const RunSummary& s) override { summary_ = s; }
-  const std::vector<double>& row() const { return row_; }
-  const RunSummary& summary() const { return summary_; }
-
- private:
-  std::vector<double> row_;
-  RunSummary summary_;
-};
-
 struct OperatingPoint {
   double t = 0.0;
   Eigen::VectorXd x;
@@ -71,21 +57,21 @@ OperatingPoint FindOperatingPoint(const PreparedRun& p, const LinearArgs& a) {
   op.t = p.options.t_start;
   op.x = model.MakeInitialState();
   if (a.at && *a.at != p.options.t_start) {
-    if (!(*a.at > p.options.t_start) || *a.at > p.options.t_end)
-      throw CliExit{kExitUsage, fmt::format("--at {:g} s is outside the run, which goes from {:g} s to {:g} s (t_end: the model's "
-                                            "simulation settings or --t-end)", *a.at, p.options.t_start, p.options.t_end)};
-    RunOptions o = p.options;
-    o.t_end = *a.at;
-    o.dt = std::min(o.dt, *a.at - o.t_start);
+    RunOptions o;
+    try {
+      o = linear::RunToOperatingPoint(p.options, *a.at, "--at");
+    } catch (const std::invalid_argument& e) {
+      throw CliExit{kExitUsage, e.what()};
+    }
     const bool tty = isatty(fileno(stderr)) && !a.quiet;
     if (tty) o.progress = [&](double f) { std::fprintf(stderr, "\r  running to the operating point: t = %-10.4g s  %3.0f%%", o.t_start + f * (o.t_end - o.t_start), 100 * f); };
-    LastRow last;
+    linear::FinalState last;
     op.summary = Simulate(model, o, last);
     if (tty) std::fprintf(stderr, "\n");
     if (op.summary.status != RunStatus::kOk)
       throw CliExit{kExitSolver, fmt::format("the run to the operating point at t = {:g} s stopped: {}", *a.at, op.summary.message)};
     op.t = *a.at;
-    for (int i = 0; i < model.num_states(); ++i) op.x[i] = last.row()[1 + i];  // columns: time, then the states
+    op.x = last.State(model.num_states());
   }
   if (a.steady) {
     try {

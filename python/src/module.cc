@@ -383,18 +383,6 @@ py::object Run(py::object self, const RunArgs& a, const py::object& set) {
 
 // --- Linear analysis -------------------------------------------------------------------------
 
-/// Keeps the last sample only: the state at the end of a run to the operating point.
-class LastRow : public Observer {
- public:
-  void OnStart(const std::vector<Column>&) override {}
-  void OnSample(const std::vector<double>& row) override { row_ = row; }
-  void OnFinish(const RunSummary&) override {}
-  const std::vector<double>& row() const { return row_; }
-
- private:
-  std::vector<double> row_;
-};
-
 /// The linear model about the state at `at` (a run from the start, as `multibond linearize --at`)
 /// or the initial state, then, with `steady`, the steady state found from there (--steady).
 linear::LinearModel LinearizeAt(PyModel& m, std::optional<double> at, bool steady, const RunArgs& a) {
@@ -403,12 +391,8 @@ linear::LinearModel LinearizeAt(PyModel& m, std::optional<double> at, bool stead
   double t = o.t_start;
   Eigen::VectorXd x = model->MakeInitialState();
   if (at && *at != o.t_start) {
-    if (!(*at > o.t_start) || *at > o.t_end)
-      throw std::invalid_argument(fmt::format("at = {:g} s is outside the run, which goes from {:g} s to {:g} s (t_end: the model's "
-                                              "simulation settings or t_end=)", *at, o.t_start, o.t_end));
-    o.t_end = *at;
-    o.dt = std::min(o.dt, *at - o.t_start);
-    LastRow last;
+    o = linear::RunToOperatingPoint(o, *at, "at =");
+    linear::FinalState last;
     RunSummary summary;
     if (!SimulateReleased(*model, o, last, summary)) throw py::error_already_set();
     if (summary.status != RunStatus::kOk) {
@@ -418,7 +402,7 @@ linear::LinearModel LinearizeAt(PyModel& m, std::optional<double> at, bool stead
       throw py::error_already_set();
     }
     t = *at;
-    for (int i = 0; i < model->num_states(); ++i) x[i] = last.row()[1 + i];  // columns: time, then the states
+    x = last.State(model->num_states());
   }
   py::gil_scoped_release nogil;
   if (steady) x = linear::FindSteadyState(*model, t, x);

@@ -2,11 +2,9 @@
 // (exit 2, the results kept), --event-rest-time and --max-events-per-second and the model file's
 // keys event_rest_time and max_events_per_second.
 
-#include <sys/wait.h>
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -20,6 +18,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "support/cli_runner.h"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -32,19 +32,12 @@ struct Result {
   std::string err;  // stderr alone
 };
 
-/// Runs the CLI with `args`; stdout and stderr together, and stderr alone.
+/// Runs the CLI with `args` (split at spaces, no shell); stdout then stderr, and stderr alone.
 Result Cli(const std::string& args, const fs::path& err_file) {
-  const std::string command = "{ " + std::string(MULTIBOND_CLI) + " " + args + " 2> " + err_file.string() + "; } ; s=$?; cat " +
-                              err_file.string() + "; exit $s";
-  FILE* p = popen(command.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
-  const int status = pclose(p);
-  std::ifstream in(err_file);
-  std::stringstream err;
-  err << in.rdbuf();
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, err.str()};
+  std::vector<std::string> argv = multibond::testing::SplitArgs(args);
+  argv.insert(argv.begin(), MULTIBOND_CLI);
+  const multibond::testing::CliResult r = multibond::testing::RunProgram(argv, 600, "", err_file.string());
+  return {r.code, r.out + r.err, r.err};
 }
 
 std::string Example(const std::string& name) { return std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + name; }

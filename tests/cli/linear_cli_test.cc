@@ -1,12 +1,8 @@
 // The linear analysis commands as users and scripts see them: `multibond linearize`, `modes` and
 // `bode` on models with closed forms (exit codes, the files written or not, the numbers in them).
 
-#include <stdlib.h>
-#include <sys/wait.h>
-
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <set>
 #include <sstream>
@@ -17,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "support/cli_runner.h"
 #include "support/temp_dir.h"
 
 namespace {
@@ -33,15 +30,12 @@ struct Result {
   std::string err;  // stderr
 };
 
-/// Runs the CLI with `args` (a shell command line's tail); stdout and stderr apart.
+/// Runs the CLI with `args` (split at spaces, no shell); stdout and stderr apart.
 Result Cli(const std::string& args, const fs::path& err_file) {
-  const std::string command = std::string(MULTIBOND_CLI) + " " + args + " 2> '" + err_file.string() + "'";
-  FILE* p = popen(command.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
-  const int status = pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, ReadFile(err_file)};
+  std::vector<std::string> argv = multibond::testing::SplitArgs(args);
+  argv.insert(argv.begin(), MULTIBOND_CLI);
+  const multibond::testing::CliResult r = multibond::testing::RunProgram(argv, 600, "", err_file.string());
+  return {r.code, r.out, r.err};
 }
 
 std::string Example(const std::string& name) { return std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + name; }

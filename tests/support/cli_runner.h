@@ -21,19 +21,27 @@ struct CliResult {
   int code = -1;          ///< exit status; -1 when killed by a signal
   int signal = 0;         ///< the signal that ended it (0: it exited)
   bool timed_out = false; ///< killed at the deadline
-  std::string out;        ///< stdout and stderr together
+  std::string out;        ///< stdout and stderr together (stdout alone when stderr went to a file)
+  std::string err;        ///< stderr, when RunProgram was given a file for it
 };
 
 /// Runs `argv` (argv[0] a path) with stdin from /dev/null and at most `seconds` of wall time.
-inline CliResult RunProgram(const std::vector<std::string>& argv, double seconds = 60, const std::string& cwd = "") {
+/// `stderr_file`: stderr goes there (made anew, O_EXCL | O_NOFOLLOW) and into CliResult::err.
+inline CliResult RunProgram(const std::vector<std::string>& argv, double seconds = 60, const std::string& cwd = "",
+                            const std::string& stderr_file = "") {
   CliResult r;
+  if (!stderr_file.empty()) unlink(stderr_file.c_str());
   int fds[2];
   if (pipe2(fds, O_CLOEXEC) != 0) return r;
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
   posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
-  posix_spawn_file_actions_adddup2(&actions, fds[1], STDERR_FILENO);
+  if (stderr_file.empty()) {
+    posix_spawn_file_actions_adddup2(&actions, fds[1], STDERR_FILENO);
+  } else {
+    posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, stderr_file.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW, 0600);
+  }
   if (!cwd.empty()) posix_spawn_file_actions_addchdir_np(&actions, cwd.c_str());
   std::vector<std::string> copy = argv;
   std::vector<char*> args;
@@ -69,7 +77,28 @@ inline CliResult RunProgram(const std::vector<std::string>& argv, double seconds
   }
   if (WIFEXITED(status)) r.code = WEXITSTATUS(status);
   if (WIFSIGNALED(status)) r.signal = WTERMSIG(status);
+  if (!stderr_file.empty()) {
+    const int fd = open(stderr_file.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+    for (ssize_t n; fd >= 0 && (n = read(fd, buf, sizeof buf)) > 0;) r.err.append(buf, static_cast<size_t>(n));
+    if (fd >= 0) close(fd);
+  }
   return r;
+}
+
+/// `text` split at spaces: the argument vector of a test's own command line (no shell, no quoting).
+inline std::vector<std::string> SplitArgs(const std::string& text) {
+  std::vector<std::string> out;
+  std::string word;
+  for (const char c : text) {
+    if (c != ' ') {
+      word += c;
+    } else if (!word.empty()) {
+      out.push_back(word);
+      word.clear();
+    }
+  }
+  if (!word.empty()) out.push_back(word);
+  return out;
 }
 
 /// The multibond CLI with `args`.

@@ -241,6 +241,7 @@ LinearModel Linearize(const CompiledModel& model, double t, const Eigen::VectorX
   for (Eigen::Index j = 0; j < nz; ++j)
     if (c.state_of[j] >= 0) coordinate_of_state[c.state_of[j]] = static_cast<int>(j);
   const BondGraph& g = model.graph();
+  std::vector<int> motion_slots;  // per row of lm.motion: the inertia's flow slot
   for (const StateBlock& b : model.state_blocks()) {
     if (b.kind != StateBlock::Kind::kMomentum && b.kind != StateBlock::Kind::kDisplacement) continue;
     const Element& e = g.element(b.owner);
@@ -261,18 +262,13 @@ LinearModel Linearize(const CompiledModel& model, double t, const Eigen::VectorX
       for (int r = 0; r < b.size; ++r) {
         lm.motion_names.push_back(b.size == 1 ? e.name + ".f" : e.name + ".f." + comps[r]);
         lm.motion_units.push_back(var->unit.empty() ? "-" : var->unit);
+        motion_slots.push_back(var->offset + r);
       }
     }
   }
-  lm.motion.setZero(static_cast<Eigen::Index>(lm.motion_names.size()), nz);
-  Eigen::Index row = 0;
-  for (const StateBlock& b : model.state_blocks()) {
-    if (b.kind != StateBlock::Kind::kMomentum) continue;
-    const auto var = model.FindVariable(g.element(b.owner).name + ".f");
-    if (!var || var->in != VariableRef::In::kSlot || var->size != b.size) continue;
-    for (int r = 0; r < b.size; ++r, ++row)
-      for (Eigen::Index j = 0; j < nz; ++j) lm.motion(row, j) = slot_cols[j][var->offset + r];
-  }
+  lm.motion.resize(static_cast<Eigen::Index>(motion_slots.size()), nz);
+  for (size_t row = 0; row < motion_slots.size(); ++row)
+    for (Eigen::Index j = 0; j < nz; ++j) lm.motion(static_cast<Eigen::Index>(row), j) = slot_cols[j][motion_slots[row]];
   if (model.has_constraints()) ReduceToConstraintManifold(model, slot_cols, lm);
   // Products of signs leave -0 where nothing couples: written as 0.
   for (Eigen::MatrixXd* m : {&lm.A, &lm.B, &lm.C, &lm.D}) m->array() += 0.0;
@@ -289,7 +285,6 @@ struct SteadyProblem {
   Eigen::VectorXd x0;
   Coordinates c;
   Workspace ws, dws;
-  std::string fault;
   /// The state at z: x0 + T z, each orientation moved along the group (R = exp([theta x]) R0).
   Eigen::VectorXd StateAt(const double* z) const {
     Eigen::VectorXd x = x0;
@@ -338,9 +333,20 @@ int SteadyJacobian(N_Vector zv, N_Vector, SUNMatrix jm, void* user, N_Vector, N_
 
 }  // namespace
 
+RunOptions RunToOperatingPoint(const RunOptions& options, double at, const char* what) {
+  if (!(at > options.t_start) || at > options.t_end)
+    throw std::invalid_argument(fmt::format("{} {:g} s is outside the run, which goes from {:g} s to {:g} s (t_end: the model's "
+                                            "simulation settings, or given)",
+                                            what, at, options.t_start, options.t_end));
+  RunOptions o = options;
+  o.t_end = at;
+  o.dt = std::min(o.dt, at - o.t_start);
+  return o;
+}
+
 Eigen::VectorXd FindSteadyState(const CompiledModel& model, double t, const Eigen::VectorXd& x_start) {
   Require(model, x_start);
-  SteadyProblem p{model, t, x_start, MakeCoordinates(model, x_start), model.MakeWorkspace(), model.MakeWorkspace(), {}};
+  SteadyProblem p{model, t, x_start, MakeCoordinates(model, x_start), model.MakeWorkspace(), model.MakeWorkspace()};
   const sunindextype nz = p.c.basis.cols();
   if (nz == 0) return x_start;
   SUNContext ctx = nullptr;

@@ -10,10 +10,7 @@
 #include <Eigen/Dense>
 
 #include "multibond/analysis/linear_model.h"
-
-namespace multibond {
-class CompiledModel;
-}
+#include "multibond/sim/simulator.h"
 
 namespace multibond::linear {
 
@@ -28,5 +25,25 @@ LinearModel Linearize(const CompiledModel& model, double t, const Eigen::VectorX
 /// with dissipation, excluded), by KINSOL's Newton iteration with a line search and the exact
 /// Jacobian. Throws std::runtime_error saying why when none is found.
 Eigen::VectorXd FindSteadyState(const CompiledModel& model, double t, const Eigen::VectorXd& x_start);
+
+/// The run that reaches an operating point at time `at` from `options`: its end time `at`, an
+/// output interval no longer than it. Throws std::invalid_argument, naming the run's span, when
+/// `at` is not within (t_start, t_end] (`what` names the option in the message: "--at").
+RunOptions RunToOperatingPoint(const RunOptions& options, double at, const char* what);
+
+/// Keeps the last sample of a run: the state at its end (the operating point), and its summary.
+class FinalState : public Observer {
+ public:
+  void OnStart(const std::vector<Column>&) override {}
+  void OnSample(const std::vector<double>& row) override { row_ = row; }
+  void OnFinish(const RunSummary& s) override { summary_ = s; }
+  /// The model's n states at the last sample (its columns: time, then the states).
+  Eigen::VectorXd State(int n) const { return Eigen::Map<const Eigen::VectorXd>(row_.data() + 1, n); }
+  const RunSummary& summary() const { return summary_; }
+
+ private:
+  std::vector<double> row_;
+  RunSummary summary_;
+};
 
 }  // namespace multibond::linear
