@@ -72,6 +72,35 @@ TEST_P(BouncingBall, ImpactsFollowTheClosedFormThenItRests) {
   EXPECT_TRUE(warned);
 }
 
+TEST(PlasticContact, ClosesAtTheFirstImpactWithoutBeingTakenForAccumulatingImpacts) {
+  const std::string yaml = R"(
+model: plastic_ball
+domain: translation
+elements:
+  v:       {type: "1"}
+  ball:    {type: I, inertia: 1.0}
+  gravity: {type: Se, effort: -9.81}
+  ground:  {type: Sf, flow: 0, contact: {gap: h, restitution: 0}}
+states:
+  h: {kind: integral, of: v, initial: 1.0}
+bonds: [gravity -> v, v -> ball, ground -> v]
+)";
+  LoadedModel lm = LoadModelString(yaml);
+  const auto model = CompiledModel::Compile(std::move(lm.graph), lm.compile);
+  RunOptions o;
+  o.t_end = 2.0;
+  o.integrator.rtol = 1e-10;
+  o.integrator.atol = 1e-12;
+  RecordingObserver rec;
+  ASSERT_EQ(Simulate(*model, o, rec).status, RunStatus::kOk);
+  ASSERT_EQ(rec.events().size(), 1u);
+  EXPECT_EQ(rec.events()[0].kind, "contact");
+  EXPECT_FALSE(rec.events()[0].accumulated);
+  EXPECT_NEAR(rec.events()[0].time, std::sqrt(2.0 / 9.81), 1e-9);
+  EXPECT_TRUE(rec.summary().warnings.empty());  // no "impacts accumulated (Zeno)"
+  EXPECT_NEAR(rec.Last("energy.dissipated"), 9.81, 1e-8);  // the whole drop, m g h0
+}
+
 INSTANTIATE_TEST_SUITE_P(Solvers, BouncingBall, ::testing::Values("bdf", "dopri5"));
 
 TEST(CoulombBlock, SticksAtTheClosedFormTimeAndStaysExactlyStill) {

@@ -273,14 +273,16 @@ void CompiledModel::HandleEvents(double t, double* x, Workspace& ws, const int* 
         const double before = StoredEnergyTotal(x);
         double target = -e.restitution * g;
         ws.modes[i] = SwitchTable::kOpen;
-        bool rest = g >= 0.0 || e.restitution == 0.0;
-        if (!rest) {
+        const bool plastic = g >= 0.0 || e.restitution == 0.0;
+        bool accumulated = false;
+        if (!plastic) {
           // The relative acceleration in free flight, at the state after a full rebound.
           std::vector<double> trial(x, x + num_states());
           constraints_.ApplyImpulse(view, t, trial.data(), ws, e.lambda, target);
           const double a = ConstraintRate(t, trial.data(), ws, e.lambda);
-          rest = a < 0.0 && 2.0 * target / -a < rest_time;
+          accumulated = a < 0.0 && 2.0 * target / -a < rest_time;
         }
+        const bool rest = plastic || accumulated;
         if (rest) target = 0.0;
         evaluate();
         constraints_.ApplyImpulse(view, t, x, ws, e.lambda, target);
@@ -288,11 +290,17 @@ void CompiledModel::HandleEvents(double t, double* x, Workspace& ws, const int* 
         const double lost = before - StoredEnergyTotal(x);
         if (e.dissipation >= 0) x[e.dissipation] += lost;
         rec.kind = e.limit ? "limit" : (rest ? "contact" : "impact");
-        rec.description = rest ? fmt::format("closes at {:.6g} (impacts accumulate: the next rebound would last under {:g} s); "
-                                             "held in contact; {:.6g} J dissipated",
-                                             g, rest_time, lost)
-                               : fmt::format("relative velocity {:.6g} -> {:.6g} (restitution {:g}); {:.6g} J dissipated", g, target,
-                                             e.restitution, lost);
+        rec.accumulated = accumulated;
+        rec.rebound = !rest;
+        if (accumulated)
+          rec.description = fmt::format("closes at {:.6g} (impacts accumulate: the next rebound would last under {:g} s); "
+                                        "held in contact; {:.6g} J dissipated",
+                                        g, rest_time, lost);
+        else if (rest)
+          rec.description = fmt::format("closes at {:.6g} (restitution {:g}); held in contact; {:.6g} J dissipated", g, e.restitution, lost);
+        else
+          rec.description = fmt::format("relative velocity {:.6g} -> {:.6g} (restitution {:g}); {:.6g} J dissipated", g, target,
+                                        e.restitution, lost);
         break;
       }
       case SwitchTable::kClosed:

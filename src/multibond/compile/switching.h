@@ -29,6 +29,11 @@ struct EventRecord {
   std::string kind;
   std::string element;
   std::string description;
+  /// A contact that closed for good because its impacts accumulated (Zeno), not because it met
+  /// plastically (restitution 0) or grazing.
+  bool accumulated = false;
+  /// An impact the contact rebounded from (kind impact, or limit at a joint's end stop).
+  bool rebound = false;
 };
 
 class SwitchTable {

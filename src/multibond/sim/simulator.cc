@@ -480,9 +480,8 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   std::map<std::string, long> impacts;
   auto record = [&](const EventRecord& r) {
     ++summary.event_counts[r.kind];
-    const bool accumulated = r.description.find("accumulate") != std::string::npos;
-    if (r.kind == "impact" || (r.kind == "limit" && !accumulated)) ++impacts[r.element];
-    if ((r.kind == "contact" || r.kind == "limit") && accumulated) rested.emplace(r.element, std::pair{r.time, impacts[r.element]});
+    if (r.rebound) ++impacts[r.element];
+    if (r.accumulated) rested.emplace(r.element, std::pair{r.time, impacts[r.element]});
     observer.OnEvent(r);
     if (++num_events > max_events)
       throw EventStorm(fmt::format("event storm: more than {:.0f} events ({:g} per second of run); the last at t = {:.9g} s, "
