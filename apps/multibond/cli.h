@@ -81,5 +81,6 @@ Command AddPlotCommand(CLI::App& app);
 Command AddLinearizeCommand(CLI::App& app);
 Command AddModesCommand(CLI::App& app);
 Command AddBodeCommand(CLI::App& app);
+Command AddSweepCommand(CLI::App& app);
 
 }  // namespace multibond::cli

@@ -40,6 +40,7 @@ const char* ExitColumn(codes::Outcome o) {
     case codes::Outcome::kWarning: return "0 (warning)";
     case codes::Outcome::kModelError: return "1";
     case codes::Outcome::kFileError: return "74";
+    case codes::Outcome::kUsage: return "64";
   }
   return "?";
 }

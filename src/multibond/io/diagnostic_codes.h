@@ -17,6 +17,7 @@ enum class Outcome {
   kWarning = 0,     ///< the model runs; the diagnostic is shown
   kModelError = 1,  ///< the model is refused
   kFileError = 74,  ///< the model file cannot be read (I/O)
+  kUsage = 64,      ///< bad input of a command other than the model (a sweep's study)
 };
 
 // X(constant, code, outcome, meaning): one row per code, in the order of the documentation's table.
@@ -101,6 +102,12 @@ enum class Outcome {
   X(kPlotColumn, "plot.column", kModelError, "a column name of a figure list that is not a result column name") \
   X(kPlotColor, "plot.color", kModelError, "a colour that is not #rrggbb") \
   X(kPlotCheck, "plot.check", kModelError, "a check of a figure list without a column, a value or a positive tolerance") \
+  X(kSweepStudy, "sweep.study", kUsage, "a study (sweep) of the wrong shape: an unknown key, a value of the wrong type, no model, nothing swept or kept") \
+  X(kSweepUnknownParameter, "sweep.unknown_parameter", kUsage, "a swept or set parameter that the model does not declare") \
+  X(kSweepRange, "sweep.range", kUsage, "an empty or reversed range, fewer than 2 grid points, a log scale through zero, an empty list") \
+  X(kSweepDistribution, "sweep.distribution", kUsage, "an unknown distribution, or parameters that do not fit it (a reversed range, a negative deviation)") \
+  X(kSweepSeed, "sweep.seed", kUsage, "a seed that is not a whole number from 0 to 2^64-1, or a number of samples that is not a positive whole number") \
+  X(kSweepKeep, "sweep.keep", kUsage, "a kept quantity whose expression does not read or names no result column, or an unknown way to take it") \
   X(kInternalDoubleWriter, "internal.double_writer", kModelError,                                                              \
     "a variable computed twice: a causality conflict the analysis did not catch (a bug of multibond: please report it)")
 

@@ -1,0 +1,166 @@
+// multibond sweep STUDY -o DIR: parameter sweeps and Monte Carlo studies (docs/sweeps.md), on
+// threads and, under mpirun, on MPI ranks. The study is read and checked against the model before
+// any run (a problem of it: exit 64, located); the library does the rest (src/multibond/sweep/).
+
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include "cli.h"
+#include "multibond/core/interrupt.h"
+#include "multibond/io/yaml_document.h"
+#include "multibond/sweep/mpi_backend.h"
+#include "multibond/sweep/samples.h"
+#include "multibond/sweep/sweep.h"
+#include "run_options.h"
+
+namespace multibond::cli {
+
+namespace {
+
+struct SweepArgs {
+  std::string study;
+  std::string out;
+  RunArgs run;
+  std::vector<std::string> grids, lists, samples_of, keeps;
+  std::optional<long> samples;
+  std::optional<std::uint64_t> seed;
+  std::optional<std::string> method;
+  int threads = 0;
+  bool resume = false, no_progress = false;
+};
+
+/// Every diagnostic a problem of the study (sweep.*): exit 64, else the model's.
+bool StudyProblem(const ModelError& e) {
+  for (const Diagnostic& d : e.diagnostics())
+    if (d.code.rfind("sweep.", 0) != 0) return false;
+  return !e.diagnostics().empty();
+}
+
+/// The study: the file's (a study file), or one from the command line over a model file.
+sweep::Study ReadStudy(const SweepArgs& a, std::string& model_text, const InputLimits& limits) {
+  const std::string text = ReadModelText(a.study, limits);
+  sweep::Study s;
+  if (sweep::LooksLikeStudy(text)) {
+    s = sweep::ReadStudyString(text, a.study);
+  } else {
+    s.model = a.study;
+    s.file = "";
+  }
+  DiagnosticSink sink;
+  for (const auto& g : a.grids) sweep::AddAxisSpec(s, "--grid", g, sink);
+  for (const auto& l : a.lists) sweep::AddAxisSpec(s, "--list", l, sink);
+  for (const auto& d : a.samples_of) sweep::AddAxisSpec(s, "--sample", d, sink);
+  for (const auto& k : a.keeps) sweep::AddKeepSpec(s, k, sink);
+  if (a.method) s.method = *a.method == "grid" ? sweep::Study::Method::kGrid
+                           : *a.method == "monte_carlo" ? sweep::Study::Method::kMonteCarlo
+                                                        : sweep::Study::Method::kLatinHypercube;
+  if (a.samples) s.samples = *a.samples;
+  if (a.seed) {
+    s.seed = *a.seed;
+    s.seed_given = true;
+  }
+  for (const ParameterOverride& o : ParseSets(a.run.load.sets)) {
+    s.set.push_back({o.name, o.value});
+    s.set_where.push_back({sweep::kCommandLine, 1, 1});
+  }
+  if (s.file.empty() || !a.grids.empty() || !a.lists.empty() || !a.samples_of.empty() || !a.keeps.empty() || a.method || a.samples ||
+      a.seed)
+    sweep::CheckStudy(s, sink);
+  sink.ThrowIfErrors();
+  model_text = ReadModelText(s.model, limits);
+  return s;
+}
+
+int RunSweepCommand(const SweepArgs& a, const std::vector<std::string>& argv) {
+  (void)argv;
+  // Under mpirun only rank 0 speaks: the others' messages would be the same.
+  std::ostringstream quiet;
+  std::streambuf* cerr_buf = nullptr;
+  if (sweep::EnvironmentRank() != 0) cerr_buf = std::cerr.rdbuf(quiet.rdbuf());
+  struct Restore {
+    std::streambuf* b;
+    ~Restore() {
+      if (b) std::cerr.rdbuf(b);
+    }
+  } restore{cerr_buf};
+
+  const InputLimits limits = ParseLimits(a.run.load.limits);
+  std::string model_text;
+  std::unique_ptr<sweep::Runner> runner;
+  sweep::Study study;
+  try {
+    study = ReadStudy(a, model_text, limits);
+    runner = std::make_unique<sweep::Runner>(study, model_text, limits, a.run.jit);
+    if (sweep::CountRuns(study) > sweep::kMaxRuns) throw CliExit{kExitUsage, fmt::format("the study has more than {} runs", sweep::kMaxRuns)};
+  } catch (const ModelError& e) {
+    if (!StudyProblem(e)) throw;
+    PrintDiagnostics(e.diagnostics());
+    std::cerr << fmt::format("{} problem{} in the study; nothing was run\n", e.diagnostics().size(), e.diagnostics().size() == 1 ? "" : "s");
+    return kExitUsage;
+  }
+  // The run options: the command line over the study's `simulation:` over the model's.
+  RunArgs run = a.run;
+  if (!run.t_end) run.t_end = study.t_end;
+  if (!run.dt) run.dt = study.dt;
+  if (!run.rtol) run.rtol = study.rtol;
+  if (!run.atol) run.atol = study.atol;
+  if (!run.solver) run.solver = study.solver;
+  run.load.sets.clear();
+  for (const auto& [n, v] : study.set) run.load.sets.push_back(n + "=" + v);
+  const PreparedRun nominal = PrepareRun(study.model, run);
+  runner->set_run_options(nominal.options);
+
+  std::unique_ptr<sweep::MpiSession> mpi;
+  if (sweep::LaunchedByMpirun()) mpi = std::make_unique<sweep::MpiSession>();
+  sweep::SweepOptions o;
+  o.dir = a.out;
+  o.threads = a.threads;
+  o.resume = a.resume;
+  o.progress = !a.no_progress && ::isatty(STDERR_FILENO) && (!mpi || mpi->rank() == 0);
+  o.stop = &StopFlag();
+  sweep::SweepOutcome out;
+  try {
+    out = sweep::RunSweep(study, *runner, model_text, o, mpi.get());
+  } catch (const std::invalid_argument& e) {  // --resume of another study's folder
+    throw CliExit{kExitUsage, e.what()};
+  }
+  if (mpi && mpi->rank() != 0) return kExitOk;
+  const sweep::SweepFacts& f = out.facts;
+  std::cout << fmt::format("sweep '{}': {} runs ({} failed{}) in {:.3g} s on {} rank{} x {} thread{}; model: {}\n", study.name, f.runs,
+                           f.failed, f.resumed ? fmt::format(", {} from the journal", f.resumed) : "", f.wall_seconds, f.ranks,
+                           f.ranks == 1 ? "" : "s", f.threads, f.threads == 1 ? "" : "s", nominal.model->rhs_engine());
+  for (const sweep::RunResult& r : out.results)
+    if (!r.ok) std::cerr << fmt::format("run {} failed: {}\n", r.run, r.reason);
+  for (const std::string& p : out.plot_problems) std::cerr << "warning: plot " << p << '\n';
+  std::cout << fmt::format("wrote {}\n", (std::filesystem::path(a.out) / "sweep.csv").string());
+  return kExitOk;
+}
+
+}  // namespace
+
+Command AddSweepCommand(CLI::App& app) {
+  auto a = std::make_shared<SweepArgs>();
+  CLI::App* cmd = app.add_subcommand("sweep", "Run a parameter sweep or Monte Carlo study (docs/sweeps.md); under mpirun, over its ranks");
+  cmd->add_option("study", a->study, "study file (names the model), or a model file with the study given here")->required();
+  cmd->add_option("-o,--output", a->out, "output folder: sweep.csv, sweep.json, plots/")->required()->check(kPathName);
+  cmd->add_option("--grid", a->grids, "NAME=FROM:TO[:lin|log]:COUNT, a grid of a model parameter (repeatable: the product)");
+  cmd->add_option("--list", a->lists, "NAME=V1,V2,...: listed values of a model parameter");
+  cmd->add_option("--sample", a->samples_of, "NAME=uniform|loguniform:LOW:HIGH or normal|lognormal:MEAN:SD (Monte Carlo)");
+  cmd->add_option("--samples", a->samples, "number of runs of a sampled study")->check(CLI::Range(1L, 100000000L));
+  cmd->add_option("--seed", a->seed, "seed of a sampled study (runs are reproducible from it)");
+  cmd->add_option("--method", a->method, "grid, monte_carlo or latin_hypercube")->check(CLI::IsMember({"grid", "monte_carlo", "latin_hypercube"}));
+  cmd->add_option("--keep", a->keeps, "NAME=[final|max|min|mean|rms|settling_time[@BAND]|crossing_time@LEVEL|event_time:]EXPRESSION");
+  cmd->add_option("--threads", a->threads, "worker threads (per rank; default: every core, 1 per rank under mpirun)")->check(CLI::Range(1, 1024));
+  cmd->add_flag("--resume", a->resume, "go on with an interrupted sweep in the folder (the same study)");
+  cmd->add_flag("--no-progress", a->no_progress, "no progress line");
+  AddRunOptions(cmd, a->run);
+  return {cmd, [a](const std::vector<std::string>& argv) { return RunSweepCommand(*a, argv); }, [] { return true; }};
+}
+
+}  // namespace multibond::cli

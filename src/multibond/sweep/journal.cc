@@ -1,0 +1,129 @@
+// The journal of finished runs: appended, synced, read back on --resume.
+
+#include "multibond/sweep/journal.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+namespace multibond::sweep {
+
+namespace {
+
+constexpr const char* kHeader = "multibond sweep journal ";
+
+double ReadDouble(const std::string& s, bool& ok) {
+  double v = 0.0;
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v);
+  ok = ok && !s.empty() && ec == std::errc() && end == s.data() + s.size();
+  return v;
+}
+
+}  // namespace
+
+std::string CsvField(const std::string& s) {
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string o = "\"";
+  for (const char c : s) {
+    if (c == '"') o += '"';
+    o += c == '\n' || c == '\r' ? ' ' : c;
+  }
+  return o + "\"";
+}
+
+std::string JournalLine(const RunResult& r) {
+  std::string o = fmt::format("{},{}", r.run, r.ok ? "ok" : "failed");
+  for (const double v : r.values) o += "," + ExactText(v);
+  return o + "," + CsvField(r.reason);
+}
+
+bool ParseJournalLine(const std::string& line, size_t num_values, RunResult& r) {
+  size_t pos = 0;
+  std::vector<std::string> f;
+  for (size_t i = 0; i < num_values + 2; ++i) {
+    const size_t comma = line.find(',', pos);
+    if (comma == std::string::npos) return false;
+    f.push_back(line.substr(pos, comma - pos));
+    pos = comma + 1;
+  }
+  std::string reason = line.substr(pos);
+  if (reason.size() >= 2 && reason.front() == '"' && reason.back() == '"') {
+    std::string u;
+    for (size_t i = 1; i + 1 < reason.size(); ++i) {
+      u += reason[i];
+      if (reason[i] == '"') ++i;
+    }
+    reason = u;
+  }
+  long run = -1;
+  const auto [end, ec] = std::from_chars(f[0].data(), f[0].data() + f[0].size(), run);
+  if (ec != std::errc() || end != f[0].data() + f[0].size() || run < 0 || (f[1] != "ok" && f[1] != "failed")) return false;
+  bool ok = true;
+  r.run = run;
+  r.ok = f[1] == "ok";
+  r.values.clear();
+  for (size_t i = 0; i < num_values; ++i) r.values.push_back(ReadDouble(f[2 + i], ok));
+  r.reason = reason;
+  return ok;
+}
+
+Journal::Journal(std::string path, std::string hash, size_t num_values, bool resume)
+    : path_(std::move(path)), hash_(std::move(hash)), num_values_(num_values), last_sync_(std::chrono::steady_clock::now()) {
+  const std::string header = kHeader + hash_;
+  if (resume) {
+    std::ifstream in(path_, std::ios::binary);
+    if (!in) throw std::invalid_argument(fmt::format("--resume: there is no journal '{}' to resume from", path_));
+    std::stringstream ss;
+    ss << in.rdbuf();
+    const std::string text = ss.str();
+    const size_t first = text.find('\n');
+    if (first == std::string::npos || text.substr(0, first) != header)
+      throw std::invalid_argument(fmt::format("--resume: '{}' is the journal of another study (or of this one changed): "
+                                              "run without --resume to start anew, or into another folder", path_));
+    // Whole lines only: a line torn by a crash (no newline) is cut off before appending.
+    const size_t keep = text.rfind('\n') + 1;
+    size_t pos = first + 1;
+    while (pos < keep) {
+      const size_t nl = text.find('\n', pos);
+      RunResult r;
+      if (ParseJournalLine(text.substr(pos, nl - pos), num_values_, r)) finished_.push_back(std::move(r));
+      pos = nl + 1;
+    }
+    if (::truncate(path_.c_str(), static_cast<off_t>(keep)) != 0)
+      throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, std::strerror(errno)));
+    file_ = std::fopen(path_.c_str(), "ab");
+  } else {
+    const int fd = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0644);
+    if (fd >= 0) file_ = ::fdopen(fd, "wb");
+    if (file_) std::fprintf(file_, "%s\n", header.c_str());
+  }
+  if (!file_) throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, std::strerror(errno)));
+  Sync();
+}
+
+Journal::~Journal() {
+  if (file_) std::fclose(file_);
+}
+
+void Journal::Append(const RunResult& r) {
+  const std::string line = JournalLine(r) + "\n";
+  if (std::fwrite(line.data(), 1, line.size(), file_) != line.size() || std::fflush(file_) != 0)
+    throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, std::strerror(errno)));
+  if (std::chrono::steady_clock::now() - last_sync_ > std::chrono::milliseconds(250)) Sync();
+}
+
+void Journal::Sync() {
+  if (std::fflush(file_) != 0 || ::fsync(::fileno(file_)) != 0)
+    throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, std::strerror(errno)));
+  last_sync_ = std::chrono::steady_clock::now();
+}
+
+}  // namespace multibond::sweep
