@@ -43,16 +43,15 @@ bool StudyProblem(const ModelError& e) {
 }
 
 /// The study: the file's (a study file), or one from the command line over a model file.
-sweep::Study ReadStudy(const SweepArgs& a, std::string& model_text, const InputLimits& limits) {
+sweep::Study ReadStudy(const SweepArgs& a, std::string& model_text, const InputLimits& limits, DiagnosticSink& sink) {
   const std::string text = ReadModelText(a.study, limits);
   sweep::Study s;
   if (sweep::LooksLikeStudy(text)) {
-    s = sweep::ReadStudyString(text, a.study);
+    s = sweep::ReadStudyString(text, a.study, &sink);
   } else {
     s.model = a.study;
     s.file = "";
   }
-  DiagnosticSink sink;
   for (const auto& g : a.grids) sweep::AddAxisSpec(s, "--grid", g, sink);
   for (const auto& l : a.lists) sweep::AddAxisSpec(s, "--list", l, sink);
   for (const auto& d : a.samples_of) sweep::AddAxisSpec(s, "--sample", d, sink);
@@ -69,10 +68,8 @@ sweep::Study ReadStudy(const SweepArgs& a, std::string& model_text, const InputL
     s.set.push_back({o.name, o.value});
     s.set_where.push_back({sweep::kCommandLine, 1, 1});
   }
-  if (s.file.empty() || !a.grids.empty() || !a.lists.empty() || !a.samples_of.empty() || !a.keeps.empty() || a.method || a.samples ||
-      a.seed)
-    sweep::CheckStudy(s, sink);
-  sink.ThrowIfErrors();
+  sweep::CheckStudy(s, sink);
+  if (s.model.empty()) sink.ThrowIfErrors();
   model_text = ReadModelText(s.model, limits);
   return s;
 }
@@ -95,8 +92,9 @@ int RunSweepCommand(const SweepArgs& a, const std::vector<std::string>& argv) {
   std::unique_ptr<sweep::Runner> runner;
   sweep::Study study;
   try {
-    study = ReadStudy(a, model_text, limits);
-    runner = std::make_unique<sweep::Runner>(study, model_text, limits, a.run.jit);
+    DiagnosticSink problems;
+    study = ReadStudy(a, model_text, limits, problems);
+    runner = std::make_unique<sweep::Runner>(study, model_text, limits, a.run.jit, problems);
     if (sweep::CountRuns(study) > sweep::kMaxRuns) throw CliExit{kExitUsage, fmt::format("the study has more than {} runs", sweep::kMaxRuns)};
   } catch (const ModelError& e) {
     if (!StudyProblem(e)) throw;

@@ -41,8 +41,9 @@ std::string CsvField(const std::string& s) {
 
 std::string JournalLine(const RunResult& r) {
   std::string o = fmt::format("{},{}", r.run, r.ok ? "ok" : "failed");
-  for (const double v : r.values) o += "," + ExactText(v);
-  return o + "," + CsvField(r.reason);
+  for (const double v : r.values) (o += ',') += ExactText(v);
+  (o += ',') += CsvField(r.reason);
+  return o;
 }
 
 bool ParseJournalLine(const std::string& line, size_t num_values, RunResult& r) {

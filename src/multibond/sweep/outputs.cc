@@ -63,16 +63,16 @@ std::string PlotScript(const std::string& q, int qcol, const std::string& p, int
 
 std::string SweepCsv(const Study& s, const std::vector<std::vector<double>>& design, const std::vector<RunResult>& results) {
   std::string o = "run";
-  for (const Axis& a : s.axes) o += "," + a.name;
+  for (const Axis& a : s.axes) (o += ',') += a.name;
   o += ",status";
-  for (const Keep& k : s.keep) o += "," + k.name;
+  for (const Keep& k : s.keep) (o += ',') += k.name;
   o += ",reason\n";
   for (const RunResult& r : results) {
     o += std::to_string(r.run);
-    for (const double v : design[r.run]) o += "," + ExactText(v);
+    for (const double v : design[r.run]) (o += ',') += ExactText(v);
     o += r.ok ? ",ok" : ",failed";
-    for (const double v : r.values) o += "," + ExactText(v);
-    o += "," + CsvField(r.reason) + "\n";
+    for (const double v : r.values) (o += ',') += ExactText(v);
+    ((o += ',') += CsvField(r.reason)) += '\n';
   }
   return o;
 }

@@ -2,11 +2,14 @@
 
 #include "multibond/sweep/runner.h"
 
+#include <algorithm>
 #include <chrono>
+#include <tuple>
 #include <cmath>
 #include <limits>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "multibond/io/diagnostic_codes.h"
 #include "multibond/io/did_you_mean.h"
@@ -18,12 +21,23 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+/// Throws the diagnostics of `sink` in the order of their places (file, line, column).
+void ThrowSorted(const DiagnosticSink& sink) {
+  if (!sink.has_errors()) return;
+  std::vector<Diagnostic> ds = sink.diagnostics();
+  std::stable_sort(ds.begin(), ds.end(), [](const Diagnostic& a, const Diagnostic& b) {
+    return std::tie(a.where.file, a.where.line, a.where.column) < std::tie(b.where.file, b.where.line, b.where.column);
+  });
+  DiagnosticSink sorted;
+  for (Diagnostic& d : ds) sorted.Add(std::move(d));
+  sorted.ThrowIfErrors();
+}
+
 /// The nominal model: the file's parameters, then checks the names of `study` against them.
-LoadedModel LoadNominal(const Study& s, const std::string& text, const InputLimits& limits) {
+LoadedModel LoadNominal(const Study& s, const std::string& text, const InputLimits& limits, DiagnosticSink& sink) {
   LoadedModel plain = LoadModelString(text, s.model, limits);
   std::vector<std::string> names;
   for (const ModelParameter& p : plain.parameters) names.push_back(p.name);
-  DiagnosticSink sink;
   auto check = [&](const std::string& name, const SourceLocation& where) {
     if (std::find(names.begin(), names.end(), name) != names.end()) return;
     const std::string guess = DidYouMean(name, names);
@@ -34,13 +48,13 @@ LoadedModel LoadNominal(const Study& s, const std::string& text, const InputLimi
   };
   for (const Axis& a : s.axes) check(a.name, a.where);
   for (size_t i = 0; i < s.set.size(); ++i) check(s.set[i].first, i < s.set_where.size() ? s.set_where[i] : SourceLocation{kCommandLine, 1, 1});
-  sink.ThrowIfErrors();
+  if (sink.has_errors()) return plain;
   std::vector<ParameterOverride> set;
   for (const auto& [n, v] : s.set) set.push_back({n, v});
   return set.empty() ? std::move(plain) : LoadModelString(text, s.model, limits, set);
 }
 
-KeptQuantities CompileKept(const Study& s, const LoadedModel& lm, const std::string& jit) {
+KeptQuantities CompileKept(const Study& s, const LoadedModel& lm, const std::string& jit, DiagnosticSink& sink) {
   CompileOptions co = lm.compile;
   co.generate_code = false;  // the columns only: no need for generated code here
   (void)jit;
@@ -48,9 +62,8 @@ KeptQuantities CompileKept(const Study& s, const LoadedModel& lm, const std::str
   std::vector<std::string> columns, all;
   for (const Column& c : MakeColumns(*compiled, false)) columns.push_back(c.name);
   for (const Column& c : MakeColumns(*compiled, true)) all.push_back(c.name);
-  DiagnosticSink sink;
   KeptQuantities q(s.keep, columns, all, sink);
-  sink.ThrowIfErrors();
+  ThrowSorted(sink);
   return q;
 }
 
@@ -64,13 +77,14 @@ std::string FirstLine(std::string s) {
 
 std::string ExactText(double v) { return fmt::format("{}", v); }
 
-Runner::Runner(const Study& study, std::string model_text, const InputLimits& limits, std::string jit)
+Runner::Runner(const Study& study, std::string model_text, const InputLimits& limits, std::string jit, const DiagnosticSink& earlier)
     : study_(study),
       text_(std::move(model_text)),
       limits_(limits),
       jit_(std::move(jit)),
-      nominal_(LoadNominal(study_, text_, limits_)),
-      kept_(CompileKept(study_, nominal_, jit_)) {}
+      sink_(earlier),
+      nominal_(LoadNominal(study_, text_, limits_, sink_)),
+      kept_(CompileKept(study_, nominal_, jit_, sink_)) {}
 
 void Runner::set_run_options(RunOptions o) {
   options_ = std::move(o);

@@ -46,7 +46,9 @@ class Runner {
   /// `model_text` the model file's content (`study.model` names it in messages); `jit` "auto",
   /// "on" or "off" (BuildOptions::jit). Throws ModelError: the study's problems against the model
   /// (sweep.unknown_parameter, sweep.keep), or the nominal model's own.
-  Runner(const Study& study, std::string model_text, const InputLimits& limits, std::string jit);
+  /// `earlier`: problems of the study found before (ReadStudyString's), thrown with these, in the
+  /// order of the file.
+  Runner(const Study& study, std::string model_text, const InputLimits& limits, std::string jit, const DiagnosticSink& earlier = {});
   const LoadedModel& nominal() const { return nominal_; }
   const KeptQuantities& kept() const { return kept_; }
   /// The run options (the front end resolves them from the nominal model and the study);
@@ -64,6 +66,7 @@ class Runner {
   std::string text_;
   InputLimits limits_;
   std::string jit_;
+  DiagnosticSink sink_;  ///< the study's problems (thrown by the constructor)
   LoadedModel nominal_;
   KeptQuantities kept_;
   RunOptions options_;

@@ -2,6 +2,7 @@
 
 #include "multibond/sweep/samples.h"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <stdexcept>
@@ -44,7 +45,7 @@ std::mt19937_64 Generator(std::uint64_t seed, std::uint64_t stream, std::uint64_
 
 }  // namespace
 
-double OpenUnit(std::uint64_t bits) { return (static_cast<double>(bits >> 11) + 0.5) * 0x1p-53; }
+double OpenUnit(std::uint64_t bits) { return (static_cast<double>(bits >> 12) + 0.5) * 0x1p-52; }
 
 double Quantile(const Axis& a, double u) {
   switch (a.distribution) {
@@ -102,7 +103,8 @@ std::vector<std::vector<double>> Design(const Study& s) {
     std::mt19937_64 g = Generator(s.seed, 0, static_cast<std::uint64_t>(r));
     for (size_t j = 0; j < d; ++j) {
       double u = OpenUnit(g());
-      if (s.method == Study::Method::kLatinHypercube) u = (static_cast<double>(bins[j][r]) + u) / static_cast<double>(n);
+      if (s.method == Study::Method::kLatinHypercube)
+        u = std::min((static_cast<double>(bins[j][r]) + u) / static_cast<double>(n), 1.0 - 0x1p-53);
       runs[r][j] = Quantile(s.axes[j], u);
     }
   }

@@ -23,7 +23,7 @@ long CountRuns(const Study& study);
 /// The runs: Design(study)[run][axis]. Throws std::invalid_argument beyond kMaxRuns.
 std::vector<std::vector<double>> Design(const Study& study);
 
-/// A number in (0, 1), never 0 nor 1, from 53 bits of `bits`.
+/// A number in (0, 1), never 0 nor 1: the middle of one of 2^52 equal bins, from the high bits of `bits`.
 double OpenUnit(std::uint64_t bits);
 /// The value of `axis` (a distribution) at probability u in (0, 1).
 double Quantile(const Axis& axis, double u);

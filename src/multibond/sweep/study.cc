@@ -148,7 +148,7 @@ class StudyReader : public ValueReader {
     unsigned long long v = 0;
     const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
     if (text.empty() || ec != std::errc() || end != text.data() + text.size() || (!seed && v == 0) || (!seed && v > 100000000ULL)) {
-      sink_.Error(codes::kSweepSeed, Loc(n), what, fmt::format("{} is {}", what, Describe(n)),
+      sink_.Error(codes::kSweepSeed, Loc(n), what, fmt::format("the {} is {}", what, Describe(n)),
                   seed ? "a whole number from 0 to 18446744073709551615, e.g. 'seed: 1'" : "a whole number of runs from 1 to 10^8, e.g. 'samples: 100'");
       return seed ? 0 : 1;
     }
@@ -305,7 +305,7 @@ std::vector<std::string> Split(const std::string& s, char sep) {
 
 }  // namespace
 
-Study ReadStudyString(const std::string& text, const std::string& file) {
+Study ReadStudyString(const std::string& text, const std::string& file, DiagnosticSink* sink) {
   const InputLimits limits;
   LoadContext cx(file, text, limits);
   Study s;
@@ -315,8 +315,12 @@ Study ReadStudyString(const std::string& text, const std::string& file) {
     cx.sink.Error(codes::kSweepStudy, {file, e.mark.line + 1, e.mark.column + 1}, "", "unexpected structure in the study (" + e.msg + ")",
                   "compare this part of the file with docs/sweeps.md");
   }
-  CheckStudy(s, cx.sink);
+  if (!sink) CheckStudy(s, cx.sink);
   CodeUncoded(cx.sink);
+  if (sink) {
+    for (const Diagnostic& d : cx.sink.diagnostics()) sink->Add(d);
+    return s;
+  }
   cx.sink.ThrowIfErrors();
   return s;
 }

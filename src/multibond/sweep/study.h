@@ -77,8 +77,10 @@ inline constexpr const char* kCommandLine = "<command line>";
 /// The study file `path` (docs/sweeps.md). Throws ModelError (every problem found, located).
 Study ReadStudyFile(const std::string& path, const InputLimits& limits = {});
 /// The same from text; `file` names it in messages and relative model paths are resolved
-/// against its folder.
-Study ReadStudyString(const std::string& text, const std::string& file);
+/// against its folder. With `sink`, problems are added to it instead of thrown (so that the
+/// checks against the model can be reported with them), and CheckStudy is left to the caller
+/// (after the command line's additions).
+Study ReadStudyString(const std::string& text, const std::string& file, DiagnosticSink* sink = nullptr);
 /// Whether the YAML text is a study (it has `sweep:` or `keep:`) rather than a model.
 bool LooksLikeStudy(const std::string& text);
 

@@ -1,0 +1,6 @@
+multibond_test(sweep/study_test.cc LIBS multibond::sweep LABELS unit)
+multibond_test(sweep/samples_test.cc LIBS multibond::sweep LABELS unit)
+multibond_test(sweep/kept_test.cc LIBS multibond::sweep LABELS unit)
+multibond_test(sweep/journal_test.cc LIBS multibond::sweep LABELS unit)
+multibond_test(sweep/outputs_test.cc LIBS multibond::sweep LABELS unit)
+multibond_test(sweep/sweep_test.cc LIBS multibond::sweep LABELS physics)
