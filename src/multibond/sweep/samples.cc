@@ -21,11 +21,11 @@ std::vector<double> AxisValues(const Axis& a) {
   for (int i = 0; i < a.count; ++i) {
     const double f = static_cast<double>(i) / (a.count - 1);
     if (a.scale == Axis::Scale::kLog)
-      v[i] = std::exp(std::log(a.from) + f * (std::log(a.to) - std::log(a.from)));
+      v[i] = a.from * std::pow(a.to / a.from, f);  // exact at whole powers: 100 * 100^0.5 = 1000
     else
       v[i] = a.from + f * (a.to - a.from);
   }
-  // The ends exactly as given (exp(log(x)) may differ from x in the last bit).
+  // The ends exactly as given (from * (to/from)^1 may differ from `to` in the last bit).
   v.front() = a.from;
   v.back() = a.to;
   return v;
