@@ -32,7 +32,7 @@ struct SweepArgs {
   std::optional<std::uint64_t> seed;
   std::optional<std::string> method;
   int threads = 0;
-  bool resume = false, no_progress = false;
+  bool resume = false, no_progress = false, results = false;
 };
 
 /// Every diagnostic a problem of the study (sweep.*): exit 64, else the model's.
@@ -60,6 +60,7 @@ sweep::Study ReadStudy(const SweepArgs& a, std::string& model_text, const InputL
                            : *a.method == "monte_carlo" ? sweep::Study::Method::kMonteCarlo
                                                         : sweep::Study::Method::kLatinHypercube;
   if (a.samples) s.samples = *a.samples;
+  s.keep_results = s.keep_results || a.results;
   if (a.seed) {
     s.seed = *a.seed;
     s.seed_given = true;
@@ -155,6 +156,7 @@ Command AddSweepCommand(CLI::App& app) {
   cmd->add_option("--method", a->method, "grid, monte_carlo or latin_hypercube")->check(CLI::IsMember({"grid", "monte_carlo", "latin_hypercube"}));
   cmd->add_option("--keep", a->keeps, "NAME=[final|max|min|mean|rms|settling_time[@BAND]|crossing_time@LEVEL|event_time:]EXPRESSION");
   cmd->add_option("--threads", a->threads, "worker threads (per rank; default: every core, 1 per rank under mpirun)")->check(CLI::Range(1, 1024));
+  cmd->add_flag("--results", a->results, "also each run's full results: DIR/runs/run-<index>.csv");
   cmd->add_flag("--resume", a->resume, "go on with an interrupted sweep in the folder (the same study)");
   cmd->add_flag("--no-progress", a->no_progress, "no progress line");
   AddRunOptions(cmd, a->run);

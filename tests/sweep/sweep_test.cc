@@ -80,7 +80,9 @@ Study ListStudy(const std::string& values) {
 }
 
 TEST(Sweep, AFailedRunIsRecordedAndTheOthersGoOn) {
-  Fixture f(ListStudy("100,-5,400"));
+  Study s = ListStudy("100,-5,400");
+  s.keep_results = true;
+  Fixture f(std::move(s));
   testing::TempDir dir;
   SweepOptions o;
   o.dir = dir.path().string();
@@ -94,6 +96,11 @@ TEST(Sweep, AFailedRunIsRecordedAndTheOthersGoOn) {
   EXPECT_EQ(out.facts.failed, 1);
   const std::string csv = Read(dir.path() / "sweep.csv");
   EXPECT_NE(csv.find("\n1,-5,failed,nan,param.range: "), std::string::npos) << csv;
+  // Each run's rows too: the last row's spring.q is the kept final value.
+  const std::string rows = Read(dir.path() / "runs" / "run-2.csv");
+  const std::string last = rows.substr(rows.rfind('\n', rows.size() - 2) + 1);
+  EXPECT_NE(rows.find("spring.q"), std::string::npos);
+  EXPECT_NE(last.find("," + ExactText(out.results[2].values[0])), std::string::npos) << last;
 }
 
 TEST(Sweep, ResumeRunsOnlyWhatTheJournalLacks) {

@@ -14,6 +14,8 @@
 
 #include <fmt/format.h>
 
+#include "multibond/io/results_writer.h"
+
 namespace multibond::sweep {
 
 namespace {
@@ -29,20 +31,10 @@ double ReadDouble(const std::string& s, bool& ok) {
 
 }  // namespace
 
-std::string CsvField(const std::string& s) {
-  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
-  std::string o = "\"";
-  for (const char c : s) {
-    if (c == '"') o += '"';
-    o += c == '\n' || c == '\r' ? ' ' : c;
-  }
-  return o + "\"";
-}
-
 std::string JournalLine(const RunResult& r) {
   std::string o = fmt::format("{},{}", r.run, r.ok ? "ok" : "failed");
   for (const double v : r.values) (o += ',') += ExactText(v);
-  (o += ',') += CsvField(r.reason);
+  (o += ',') += CsvCell(r.reason);
   return o;
 }
 

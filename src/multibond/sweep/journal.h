@@ -44,7 +44,5 @@ class Journal {
 /// quoted). `ParseJournalLine` reads it back; false for a line that does not read.
 std::string JournalLine(const RunResult& r);
 bool ParseJournalLine(const std::string& line, size_t num_values, RunResult& r);
-/// A CSV field: as it is, or quoted with "" for a quote when it holds a comma, quote or newline.
-std::string CsvField(const std::string& s);
 
 }  // namespace multibond::sweep

@@ -13,6 +13,7 @@
 
 #include "multibond/core/process.h"
 #include "multibond/io/atomic_file.h"
+#include "multibond/io/results_writer.h"
 #include "multibond/sweep/journal.h"
 #include "multibond/version.h"
 
@@ -72,7 +73,7 @@ std::string SweepCsv(const Study& s, const std::vector<std::vector<double>>& des
     for (const double v : design[r.run]) (o += ',') += ExactText(v);
     o += r.ok ? ",ok" : ",failed";
     for (const double v : r.values) (o += ',') += ExactText(v);
-    ((o += ',') += CsvField(r.reason)) += '\n';
+    ((o += ',') += CsvCell(r.reason)) += '\n';
   }
   return o;
 }

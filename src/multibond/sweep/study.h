@@ -68,7 +68,7 @@ struct Study {
   /// Run settings over the model file's `simulation:`.
   std::optional<double> t_end, dt, rtol, atol;
   std::optional<std::string> solver;
-  bool keep_results = false;  ///< write each run's full results (runs/<index>.csv)
+  bool keep_results = false;  ///< write each run's full results (runs/run-<index>.csv)
 };
 
 /// Where a study given on the command line is said to be in messages.

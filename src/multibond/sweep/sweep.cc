@@ -10,6 +10,7 @@
 
 #include "multibond/core/interrupt.h"
 #include "multibond/core/sha256.h"
+#include "multibond/io/results_writer.h"
 #include "multibond/sweep/journal.h"
 #include "multibond/sweep/samples.h"
 #include "multibond/sweep/scheduler.h"
@@ -43,8 +44,13 @@ SweepOutcome RunSweep(const Study& study, const Runner& runner, const std::strin
   const int threads = o.threads > 0 ? o.threads : mpi ? 1 : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   std::vector<std::unique_ptr<Worker>> workers;
   for (int t = 0; t < threads; ++t) workers.push_back(std::make_unique<Worker>(runner.kept()));
+  // Each run's full results too (`results: true`): runs/run-<index>.csv, as `run` writes results.csv.
+  const std::filesystem::path runs_dir = std::filesystem::path(o.dir) / "runs";
+  if (study.keep_results) std::filesystem::create_directories(runs_dir);
   auto run_one = [&](long run, int thread) {
-    return runner.Run(run, design[run], workers[thread]->kept, workers[thread]->timing, o.stop);
+    std::unique_ptr<CsvWriter> rows;
+    if (study.keep_results) rows = std::make_unique<CsvWriter>((runs_dir / ("run-" + std::to_string(run) + ".csv")).string());
+    return runner.Run(run, design[run], workers[thread]->kept, workers[thread]->timing, o.stop, rows.get());
   };
   SweepOutcome out;
   if (rank != 0) {
