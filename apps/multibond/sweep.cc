@@ -24,15 +24,11 @@ namespace multibond::cli {
 namespace {
 
 struct SweepArgs {
-  std::string study;
+  sweep::StudyArguments study;
   std::string out;
   RunArgs run;
-  std::vector<std::string> grids, lists, samples_of, keeps;
-  std::optional<long> samples;
-  std::optional<std::uint64_t> seed;
-  std::optional<std::string> method;
   int threads = 0;
-  bool resume = false, no_progress = false, results = false;
+  bool resume = false, no_progress = false;
 };
 
 /// Every diagnostic a problem of the study (sweep.*): exit 64, else the model's.
@@ -40,39 +36,6 @@ bool StudyProblem(const ModelError& e) {
   for (const Diagnostic& d : e.diagnostics())
     if (d.code.rfind("sweep.", 0) != 0) return false;
   return !e.diagnostics().empty();
-}
-
-/// The study: the file's (a study file), or one from the command line over a model file.
-sweep::Study ReadStudy(const SweepArgs& a, std::string& model_text, const InputLimits& limits, DiagnosticSink& sink) {
-  const std::string text = ReadModelText(a.study, limits);
-  sweep::Study s;
-  if (sweep::LooksLikeStudy(text)) {
-    s = sweep::ReadStudyString(text, a.study, &sink);
-  } else {
-    s.model = a.study;
-    s.file = "";
-  }
-  for (const auto& g : a.grids) sweep::AddAxisSpec(s, "--grid", g, sink);
-  for (const auto& l : a.lists) sweep::AddAxisSpec(s, "--list", l, sink);
-  for (const auto& d : a.samples_of) sweep::AddAxisSpec(s, "--sample", d, sink);
-  for (const auto& k : a.keeps) sweep::AddKeepSpec(s, k, sink);
-  if (a.method) s.method = *a.method == "grid" ? sweep::Study::Method::kGrid
-                           : *a.method == "monte_carlo" ? sweep::Study::Method::kMonteCarlo
-                                                        : sweep::Study::Method::kLatinHypercube;
-  if (a.samples) s.samples = *a.samples;
-  s.keep_results = s.keep_results || a.results;
-  if (a.seed) {
-    s.seed = *a.seed;
-    s.seed_given = true;
-  }
-  for (const ParameterOverride& o : ParseSets(a.run.load.sets)) {
-    s.set.push_back({o.name, o.value});
-    s.set_where.push_back({sweep::kCommandLine, 1, 1});
-  }
-  sweep::CheckStudy(s, sink);
-  if (s.model.empty()) sink.ThrowIfErrors();
-  model_text = ReadModelText(s.model, limits);
-  return s;
 }
 
 int RunSweepCommand(const SweepArgs& a, const std::vector<std::string>& argv) {
@@ -94,7 +57,9 @@ int RunSweepCommand(const SweepArgs& a, const std::vector<std::string>& argv) {
   sweep::Study study;
   try {
     DiagnosticSink problems;
-    study = ReadStudy(a, model_text, limits, problems);
+    sweep::StudyArguments args = a.study;
+    for (const ParameterOverride& o : ParseSets(a.run.load.sets)) args.set.push_back({o.name, o.value});
+    study = sweep::StudyFromArguments(args, limits, problems, model_text);
     runner = std::make_unique<sweep::Runner>(study, model_text, limits, a.run.jit, problems);
     if (sweep::CountRuns(study) > sweep::kMaxRuns) throw CliExit{kExitUsage, fmt::format("the study has more than {} runs", sweep::kMaxRuns)};
   } catch (const ModelError& e) {
@@ -146,17 +111,17 @@ int RunSweepCommand(const SweepArgs& a, const std::vector<std::string>& argv) {
 Command AddSweepCommand(CLI::App& app) {
   auto a = std::make_shared<SweepArgs>();
   CLI::App* cmd = app.add_subcommand("sweep", "Run a parameter sweep or Monte Carlo study (docs/sweeps.md); under mpirun, over its ranks");
-  cmd->add_option("study", a->study, "study file (names the model), or a model file with the study given here")->required();
+  cmd->add_option("study", a->study.path, "study file (names the model), or a model file with the study given here")->required();
   cmd->add_option("-o,--output", a->out, "output folder: sweep.csv, sweep.json, plots/")->required()->check(kPathName);
-  cmd->add_option("--grid", a->grids, "NAME=FROM:TO[:lin|log]:COUNT, a grid of a model parameter (repeatable: the product)");
-  cmd->add_option("--list", a->lists, "NAME=V1,V2,...: listed values of a model parameter");
-  cmd->add_option("--sample", a->samples_of, "NAME=uniform|loguniform:LOW:HIGH or normal|lognormal:MEAN:SD (Monte Carlo)");
-  cmd->add_option("--samples", a->samples, "number of runs of a sampled study")->check(CLI::Range(1L, 100000000L));
-  cmd->add_option("--seed", a->seed, "seed of a sampled study (runs are reproducible from it)");
-  cmd->add_option("--method", a->method, "grid, monte_carlo or latin_hypercube")->check(CLI::IsMember({"grid", "monte_carlo", "latin_hypercube"}));
-  cmd->add_option("--keep", a->keeps, "NAME=[final|max|min|mean|rms|settling_time[@BAND]|crossing_time@LEVEL|event_time:]EXPRESSION");
+  cmd->add_option("--grid", a->study.grids, "NAME=FROM:TO[:lin|log]:COUNT, a grid of a model parameter (repeatable: the product)");
+  cmd->add_option("--list", a->study.lists, "NAME=V1,V2,...: listed values of a model parameter");
+  cmd->add_option("--sample", a->study.samples_of, "NAME=uniform|loguniform:LOW:HIGH or normal|lognormal:MEAN:SD (Monte Carlo)");
+  cmd->add_option("--samples", a->study.samples, "number of runs of a sampled study")->check(CLI::Range(1L, 100000000L));
+  cmd->add_option("--seed", a->study.seed, "seed of a sampled study (runs are reproducible from it)");
+  cmd->add_option("--method", a->study.method, "grid, monte_carlo or latin_hypercube")->check(CLI::IsMember({"grid", "monte_carlo", "latin_hypercube"}));
+  cmd->add_option("--keep", a->study.keeps, "NAME=[final|max|min|mean|rms|settling_time[@BAND]|crossing_time@LEVEL|event_time:]EXPRESSION");
   cmd->add_option("--threads", a->threads, "worker threads (per rank; default: every core, 1 per rank under mpirun)")->check(CLI::Range(1, 1024));
-  cmd->add_flag("--results", a->results, "also each run's full results: DIR/runs/run-<index>.csv");
+  cmd->add_flag("--results", a->study.results, "also each run's full results: DIR/runs/run-<index>.csv");
   cmd->add_flag("--resume", a->resume, "go on with an interrupted sweep in the folder (the same study)");
   cmd->add_flag("--no-progress", a->no_progress, "no progress line");
   AddRunOptions(cmd, a->run);

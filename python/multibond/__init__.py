@@ -15,9 +15,9 @@ models in parallel; Ctrl-C stops a run on the main thread and raises KeyboardInt
 import numpy as _np
 
 from ._errors import Diagnostic, ModelError, SimulationError
-from ._multibond import Model, Results, __version__
+from ._multibond import Model, Results, __version__, _sweep
 
-__all__ = ["load", "loads", "Model", "Results", "LinearModel", "ModelError", "SimulationError", "Diagnostic", "__version__"]
+__all__ = ["load", "loads", "sweep", "Model", "Results", "LinearModel", "ModelError", "SimulationError", "Diagnostic", "__version__"]
 
 
 def _parameter_values(parameters):
@@ -44,6 +44,46 @@ def loads(yaml_text, *, file="<string>", jit="auto", constraints=None, algebraic
     """Loads a model from its YAML text; ``file`` names it in diagnostics. As load()."""
     values = _parameter_values({**(parameters or {}), **more_parameters})
     return Model._loads(yaml_text, file, values, jit, constraints, algebraic_loops)
+
+
+def _spec(value):
+    """A grid, list or distribution as the command line writes it: "10:1000:log:20", "1,2,5", "uniform:1:2"."""
+    if isinstance(value, str):
+        return value
+    return ":".join(str(v) if isinstance(v, str) else repr(float(v)) for v in value)
+
+
+def sweep(study, out=None, *, grid=None, values=None, sample=None, keep=None, samples=None, seed=None, method=None,
+          parameters=None, threads=0, resume=False, jit="auto", t_end=None, dt=None, solver=None, rtol=None, atol=None,
+          results=False):
+    """Runs a parameter sweep or Monte Carlo study (docs/sweeps.md), as ``multibond sweep``, on
+    ``threads`` threads (0: every core) with the GIL released, and returns sweep.csv as a pandas
+    DataFrame (one row per run: run, the swept parameters, status, the kept quantities, reason).
+
+    ``study``: a study file, or a model file with the study given here: ``grid={"k": (10, 1000,
+    "log", 20)}`` (or "10:1000:log:20"), ``values={"c": [1, 2]}``, ``sample={"m": ("normal", 1,
+    0.1)}`` with ``samples`` and ``seed``, ``keep={"x_max": "max:spring.q"}``; ``parameters``
+    fixes others for every run. ``out``: the folder of sweep.csv, sweep.json and the plots (a
+    temporary one, removed, when None). Raises ModelError for a bad study (every problem, located)."""
+    import tempfile
+
+    import pandas as pd
+
+    grids = [f"{n}={_spec(v)}" for n, v in (grid or {}).items()]
+    lists = [f"{n}=" + (v if isinstance(v, str) else ",".join(repr(float(x)) for x in v)) for n, v in (values or {}).items()]
+    samples_of = [f"{n}={_spec(v)}" for n, v in (sample or {}).items()]
+    keeps = [f"{n}={v}" for n, v in (keep or {}).items()]
+    set_values = _parameter_values(parameters)
+
+    def run(folder):
+        csv = _sweep(str(study), str(folder), grids, lists, samples_of, keeps, samples, seed, method, set_values, int(threads),
+                     bool(resume), jit, t_end, dt, solver, rtol, atol, bool(results))
+        return pd.read_csv(csv, float_precision="round_trip", keep_default_na=False, na_values=["nan"])
+
+    if out is not None:
+        return run(out)
+    with tempfile.TemporaryDirectory(prefix="multibond-sweep-") as folder:
+        return run(folder)
 
 
 def _run(self, t_end=None, dt=None, solver=None, rtol=None, atol=None, set=None, *, step=None, max_step=None,

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <atomic>
 #include <csignal>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -33,6 +34,7 @@
 #include "multibond/io/model_loader.h"
 #include "multibond/io/results_writer.h"
 #include "multibond/sim/simulator.h"
+#include "multibond/sweep/sweep.h"
 #include "multibond/version.h"
 
 namespace py = pybind11;
@@ -453,6 +455,38 @@ py::dict Check(PyModel& m) {
   return out;
 }
 
+/// multibond.sweep (docs/sweeps.md): the study of `a` run into `out` on `threads` threads with
+/// the GIL released (Ctrl-C on the main thread stops it; the journal keeps what finished).
+/// Returns sweep.csv's path; the Python side reads it into a DataFrame.
+std::string Sweep(const sweep::StudyArguments& a, const std::string& out, int threads, bool resume, const std::string& jit,
+                  const SimulationOptions& given) {
+  if (jit != "auto" && jit != "on" && jit != "off") throw std::invalid_argument("jit must be 'auto', 'on' or 'off' (got '" + jit + "')");
+  const InputLimits limits;
+  DiagnosticSink problems;
+  std::string model_text;
+  const sweep::Study study = sweep::StudyFromArguments(a, limits, problems, model_text);
+  sweep::Runner runner(study, model_text, limits, jit, problems);
+  SimulationOptions o = given;
+  if (!o.t_end) o.t_end = study.t_end;
+  if (!o.dt) o.dt = study.dt;
+  if (!o.rtol) o.rtol = study.rtol;
+  if (!o.atol) o.atol = study.atol;
+  if (!o.solver) o.solver = study.solver;
+  runner.set_run_options(ResolveRunOptions(runner.nominal(), o, limits));
+  sweep::SweepOptions so;
+  so.dir = out;
+  so.threads = threads;
+  so.resume = resume;
+  SigintScope sigint;
+  so.stop = sigint.flag();
+  {
+    py::gil_scoped_release nogil;
+    sweep::RunSweep(study, runner, model_text, so, nullptr);
+  }
+  if (sigint.Deliver()) throw py::error_already_set();
+  return (std::filesystem::path(out) / "sweep.csv").string();
+}
+
 }  // namespace
 
 }  // namespace multibond::python
@@ -512,6 +546,26 @@ PYBIND11_MODULE(_multibond, mod) {
                            r.names.size(), r.summary.t_reached);
       });
 
+  mod.def(
+      "_sweep",
+      [](const std::string& path, const std::string& out, std::vector<std::string> grids, std::vector<std::string> lists,
+         std::vector<std::string> samples_of, std::vector<std::string> keeps, std::optional<long> samples, std::optional<std::uint64_t> seed,
+         std::optional<std::string> method, const std::vector<std::pair<std::string, std::string>>& set, int threads, bool resume,
+         const std::string& jit, std::optional<double> t_end, std::optional<double> dt, std::optional<std::string> solver,
+         std::optional<double> rtol, std::optional<double> atol, bool results) {
+        sweep::StudyArguments a{path, std::move(grids), std::move(lists), std::move(samples_of), std::move(keeps), samples, seed, std::move(method),
+                                set, results};
+        SimulationOptions o;
+        o.t_end = t_end;
+        o.dt = dt;
+        o.solver = std::move(solver);
+        o.rtol = rtol;
+        o.atol = atol;
+        return Sweep(a, out, threads, resume, jit, o);
+      },
+      py::arg("path"), py::arg("out"), py::arg("grids"), py::arg("lists"), py::arg("samples_of"), py::arg("keeps"), py::arg("samples"),
+      py::arg("seed"), py::arg("method"), py::arg("set"), py::arg("threads"), py::arg("resume"), py::arg("jit"), py::arg("t_end"), py::arg("dt"),
+      py::arg("solver"), py::arg("rtol"), py::arg("atol"), py::arg("results"));
   py::class_<PyModel>(mod, "Model", "A model loaded from YAML (docs/model-format.md)")
       .def_static("_load",
                   [](const std::string& path, const std::vector<std::pair<std::string, std::string>>& parameters, const std::string& jit,

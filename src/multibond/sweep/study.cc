@@ -18,6 +18,8 @@
 #include "multibond/io/yaml_document.h"
 #include "multibond/io/yaml_values.h"
 
+#include <algorithm>
+
 namespace multibond::sweep {
 
 namespace {
@@ -464,6 +466,36 @@ void CheckStudy(const Study& s, DiagnosticSink& sink) {
       sink.Error(codes::kSweepSeed, top, "", "a sampled study without a number of samples", "give 'samples: 100' (or --samples)");
     if (!s.seed_given) sink.Error(codes::kSweepSeed, top, "", "a sampled study without a seed", "give 'seed: 1' (or --seed): the runs are then reproducible");
   }
+}
+
+Study StudyFromArguments(const StudyArguments& a, const InputLimits& limits, DiagnosticSink& sink, std::string& model_text) {
+  const std::string text = ReadModelText(a.path, limits);
+  Study s;
+  if (LooksLikeStudy(text)) s = ReadStudyString(text, a.path, &sink);
+  else s.model = a.path;  // a model file: the study is in the arguments
+  for (const auto& g : a.grids) AddAxisSpec(s, "--grid", g, sink);
+  for (const auto& l : a.lists) AddAxisSpec(s, "--list", l, sink);
+  for (const auto& d : a.samples_of) AddAxisSpec(s, "--sample", d, sink);
+  for (const auto& k : a.keeps) AddKeepSpec(s, k, sink);
+  if (a.method) {
+    const auto it = std::find(kMethods.begin(), kMethods.end(), *a.method);
+    if (it == kMethods.end()) sink.Error(codes::kSweepStudy, {kCommandLine, 1, 1}, "", fmt::format("unknown method '{}'", *a.method), Hint(*a.method, kMethods));
+    else s.method = static_cast<Study::Method>(it - kMethods.begin());
+  }
+  if (a.samples) s.samples = *a.samples;
+  if (a.seed) {
+    s.seed = *a.seed;
+    s.seed_given = true;
+  }
+  for (const auto& kv : a.set) {
+    s.set.push_back(kv);
+    s.set_where.push_back({kCommandLine, 1, 1});
+  }
+  s.keep_results = s.keep_results || a.results;
+  CheckStudy(s, sink);
+  if (s.model.empty()) sink.ThrowIfErrors();
+  model_text = ReadModelText(s.model, limits);
+  return s;
 }
 
 const char* TakeName(Keep::Take t) { return kTakes[static_cast<size_t>(t)].c_str(); }

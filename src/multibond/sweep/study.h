@@ -94,6 +94,22 @@ void AddKeepSpec(Study& study, const std::string& spec, DiagnosticSink& sink);
 /// the axes, samples and seed. Problems go to `sink`.
 void CheckStudy(const Study& study, DiagnosticSink& sink);
 
+/// A study as a front end gives it: a study file (or a model file, the study then given by the
+/// rest), and additions in the command line's forms (--grid, --list, --sample, --keep, ...).
+struct StudyArguments {
+  std::string path;  ///< a study file, or a model file
+  std::vector<std::string> grids, lists, samples_of, keeps;
+  std::optional<long> samples;
+  std::optional<std::uint64_t> seed;
+  std::optional<std::string> method;  ///< grid, monte_carlo, latin_hypercube
+  std::vector<std::pair<std::string, std::string>> set;  ///< parameters fixed for every run, after the file's
+  bool results = false;
+};
+/// The study of `a`, checked (CheckStudy); its problems are added to `sink` (not thrown, so that
+/// the checks against the model can follow). Reads the model's text into `model_text`; a study
+/// file or model that cannot be read throws ModelError (io.*), as does a study without a model.
+Study StudyFromArguments(const StudyArguments& a, const InputLimits& limits, DiagnosticSink& sink, std::string& model_text);
+
 /// The names of Keep::Take as written (final, max, ...).
 const char* TakeName(Keep::Take t);
 /// A canonical text of everything that decides the runs' numbers (for the journal's hash, and
