@@ -90,9 +90,27 @@ int RunSweepCommand(const SweepArgs& a, const std::vector<std::string>& argv) {
   o.stop = &StopFlag();
   sweep::SweepOutcome out;
   try {
-    out = sweep::RunSweep(study, *runner, model_text, o, mpi.get());
-  } catch (const std::invalid_argument& e) {  // --resume of another study's folder
-    throw CliExit{kExitUsage, e.what()};
+    try {
+      out = sweep::RunSweep(study, *runner, model_text, o, mpi.get());
+    } catch (const std::invalid_argument& e) {  // --resume of another study's folder
+      throw CliExit{kExitUsage, e.what()};
+    }
+  } catch (...) {
+    if (!mpi || mpi->size() == 1) throw;
+    // The other ranks would wait for this one forever: say why, then end them all.
+    int code = kExitIo;
+    try {
+      throw;
+    } catch (const CliExit& e) {
+      std::cerr << "error: " << e.message << '\n';
+      code = e.code;
+    } catch (const Interrupted& e) {
+      std::cerr << "error: " << e.what() << '\n';
+      code = e.ExitCode();
+    } catch (const std::exception& e) {
+      std::cerr << "error: " << e.what() << '\n';
+    }
+    mpi->Abort(code);
   }
   if (mpi && mpi->rank() != 0) return kExitOk;
   const sweep::SweepFacts& f = out.facts;

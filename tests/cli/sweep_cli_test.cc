@@ -137,6 +137,17 @@ TEST(SweepCli, ResumeGoesOnFromTheJournal) {
   const auto o = RunProgram(other);
   EXPECT_EQ(o.code, 64) << o.out;
   EXPECT_NE(o.out.find("another study"), std::string::npos) << o.out;
+  // The same under mpirun: rank 0 refuses, and ends the ranks waiting for it (no hang).
+  const std::string mpirun = MULTIBOND_MPIEXEC;
+  if (mpirun.empty()) GTEST_SKIP() << "no mpirun";
+  setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+  setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+  std::vector<std::string> ranks = {mpirun, "--oversubscribe", "-n", "2"};
+  ranks.insert(ranks.end(), other.begin(), other.end());
+  const auto m = RunProgram(ranks, 120);
+  EXPECT_FALSE(m.timed_out);
+  EXPECT_EQ(m.code, 64) << m.out;
+  EXPECT_NE(m.out.find("another study"), std::string::npos) << m.out;
 }
 
 }  // namespace

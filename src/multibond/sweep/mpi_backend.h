@@ -39,8 +39,9 @@ class MpiSession {
   MpiSession& operator=(const MpiSession&) = delete;
   int rank() const { return rank_; }
   int size() const { return size_; }
-  /// Whether every rank says `ok` (an all-reduce): the ranks agree to start, or all stop.
-  bool AllOk(bool ok) const;
+  /// Ends every rank of the job with `code` (MPI_Abort): after an error on rank 0, the other
+  /// ranks would wait for it forever.
+  [[noreturn]] void Abort(int code) const;
 
  private:
   int rank_ = 0, size_ = 1;
