@@ -127,6 +127,13 @@ TEST(Study, CommandLineSpecs) {
   EXPECT_EQ(bad.diagnostics()[1].code, codes::kSweepKeep);
 }
 
+TEST(Study, RunSettingsMustBePositive) {
+  const auto ds = Problems("model: m.yaml\nsweep: {k: [1, 2]}\nkeep: {x: spring.q}\nsimulation: {t_end: -1, dt: 0}\n");
+  ASSERT_EQ(ds.size(), 2u);
+  EXPECT_EQ(ds[0].code, codes::kSweepStudy);
+  EXPECT_NE(ds[0].message.find("t_end is -1"), std::string::npos);
+}
+
 TEST(Study, KeptNamesMustBeColumnNames) {
   const auto ds = Problems("model: m.yaml\nsweep: {k: [1, 2]}\nkeep: {status: spring.q, k: spring.q}\n");
   int keeps = 0;

@@ -461,6 +461,9 @@ void CheckStudy(const Study& s, DiagnosticSink& sink) {
                  "a name of letters, digits and '_', other than run, status, reason and the swept parameters");
     names.push_back(k.name);
   }
+  for (const auto& [value, key] : {std::pair{s.t_end, "t_end"}, {s.dt, "dt"}, {s.rtol, "rtol"}, {s.atol, "atol"}})
+    if (value && !(*value > 0.0 && std::isfinite(*value)))
+      sink.Error(codes::kSweepStudy, top, "simulation", fmt::format("simulation: {} is {}", key, *value), "a positive number");
   if (s.method != Study::Method::kGrid) {
     if (s.samples <= 0)
       sink.Error(codes::kSweepSeed, top, "", "a sampled study without a number of samples", "give 'samples: 100' (or --samples)");
