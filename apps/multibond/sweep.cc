@@ -95,6 +95,13 @@ int RunSweepCommand(const SweepArgs& a, const std::vector<std::string>& argv) {
     } catch (const std::invalid_argument& e) {  // --resume of another study's folder
       throw CliExit{kExitUsage, e.what()};
     }
+  } catch (const Interrupted& e) {
+    if (mpi && mpi->size() > 1) {
+      std::cerr << "error: " << e.what() << '\n';
+      mpi->Abort(e.ExitCode());
+    }
+    std::cerr << "error: " << e.what() << '\n';
+    return e.ExitCode();
   } catch (...) {
     if (!mpi || mpi->size() == 1) throw;
     // The other ranks would wait for this one forever: say why, then end them all.
@@ -104,9 +111,6 @@ int RunSweepCommand(const SweepArgs& a, const std::vector<std::string>& argv) {
     } catch (const CliExit& e) {
       std::cerr << "error: " << e.message << '\n';
       code = e.code;
-    } catch (const Interrupted& e) {
-      std::cerr << "error: " << e.what() << '\n';
-      code = e.ExitCode();
     } catch (const std::exception& e) {
       std::cerr << "error: " << e.what() << '\n';
     }

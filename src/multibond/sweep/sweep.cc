@@ -103,7 +103,7 @@ SweepOutcome RunSweep(const Study& study, const Runner& runner, const std::strin
   }
   progress.Finish();
   journal.Sync();
-  if (o.stop && o.stop->load()) throw Interrupted("sweeping (the finished runs are in the journal: --resume goes on)");
+  if (o.stop && o.stop->load()) throw Interrupted("sweeping; the finished runs are in " + (std::filesystem::path(o.dir) / "sweep.journal").string() + ": --resume goes on");
   for (long i = 0; i < n; ++i)
     if (!done[i]) throw std::runtime_error("internal: a run of the sweep was never run");
 
