@@ -54,10 +54,9 @@ LoadedModel LoadNominal(const Study& s, const std::string& text, const InputLimi
   return set.empty() ? std::move(plain) : LoadModelString(text, s.model, limits, set);
 }
 
-KeptQuantities CompileKept(const Study& s, const LoadedModel& lm, const std::string& jit, DiagnosticSink& sink) {
+KeptQuantities CompileKept(const Study& s, const LoadedModel& lm, DiagnosticSink& sink) {
   CompileOptions co = lm.compile;
   co.generate_code = false;  // the columns only: no need for generated code here
-  (void)jit;
   const auto compiled = CompiledModel::Compile(lm.graph, co);
   std::vector<std::string> columns, all;
   for (const Column& c : MakeColumns(*compiled, false)) columns.push_back(c.name);
@@ -84,7 +83,7 @@ Runner::Runner(const Study& study, std::string model_text, const InputLimits& li
       jit_(std::move(jit)),
       sink_(earlier),
       nominal_(LoadNominal(study_, text_, limits_, sink_)),
-      kept_(CompileKept(study_, nominal_, jit_, sink_)) {}
+      kept_(CompileKept(study_, nominal_, sink_)) {}
 
 void Runner::set_run_options(RunOptions o) {
   options_ = std::move(o);
