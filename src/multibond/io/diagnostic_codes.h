@@ -88,7 +88,6 @@ enum class Outcome {
   X(kMechInitialGap, "mech.initial_gap", kWarning, "a joint whose attachment points are apart at t = 0")                     \
   X(kMechGearGeometry, "mech.gear_geometry", kModelError,                                                                     \
     "a gear mesh through its pitch point whose axes, radii and teeth do not roll together (a wrong axis sign, radii not in the ratio of the teeth, axes that do not meet)") \
-  X(kMechGearContact, "mech.gear_contact", kModelError, "a rigid gear mesh through its pitch point with a pressure angle (its separating force is a formula)") \
   X(kMechGearSlip, "mech.gear_slip", kWarning, "a gear mesh whose teeth slip at the pitch point at t = 0 (initial speeds that do not roll)") \
   X(kOutputUnknownVariable, "output.unknown_variable", kModelError, "an output naming no variable (reported by run)")         \
   X(kOutputSize, "output.size", kModelError, "an output whose terms or point do not have the sizes it needs")                \

@@ -273,7 +273,7 @@ void MechanismReader::ReadGears(const YAML::Node& gears, mech::Mechanism& m) {
     gm.name = name;
     gm.where = Loc(kv.first);
     CheckKeys(g, {"carrier", "a", "b", "K", "R", "stiffness", "damping", "rigid", "backlash", "restitution", "contact",
-                  "pressure_angle_deg", "helix_angle_deg", "internal", "pitch_point", "description"},
+                  "pressure_angle_deg", "helix_angle_deg", "flank", "internal", "pitch_point", "description"},
               name);
     gm.rigid = (g["rigid"] && Bool(g["rigid"], name)) || RigidByModel(name);
     gm.carrier = g["carrier"] ? g["carrier"].Scalar() : std::string(mech::kGround);
@@ -287,11 +287,17 @@ void MechanismReader::ReadGears(const YAML::Node& gears, mech::Mechanism& m) {
     if (g["pressure_angle_deg"]) gm.pressure_angle = Number(g["pressure_angle_deg"], name, Env{}) * std::numbers::pi / 180;
     if (g["helix_angle_deg"]) gm.helix_angle = Number(g["helix_angle_deg"], name, Env{}) * std::numbers::pi / 180;
     if (g["internal"]) gm.internal = Bool(g["internal"], name);
+    if (const YAML::Node f = g["flank"]) {
+      gm.coast_flank = f.Scalar() == "coast";
+      if (f.Scalar() != "coast" && f.Scalar() != "drive")
+        sink_.Error(Loc(f), name, fmt::format("'flank' is 'drive' or 'coast' (got '{}')", f.Scalar()),
+                    "drive: the flank that carries F_t > 0 (gear a pushing b along t); coast: the other");
+    }
     if (g["pitch_point"]) gm.pitch_point = Vec3(g["pitch_point"], name);
     const bool rack = g["b"] && g["b"].IsMap() && g["b"]["rack"] && Bool(g["b"]["rack"], name);
     gm.rack_b = rack;
     if (gm.contact != mech::GearMesh::Contact::kPitch)
-      for (const char* key : {"pressure_angle_deg", "helix_angle_deg", "internal", "pitch_point"})
+      for (const char* key : {"pressure_angle_deg", "helix_angle_deg", "flank", "internal", "pitch_point"})
         if (g[key]) sink_.Error(Loc(g[key]), name, fmt::format("'{}' belongs to a mesh through its pitch point", key), "add 'contact: pitch'");
     auto side = [&](const char* key, std::string* body, Eigen::Vector3d* axis, double* teeth) {
       const YAML::Node s = g[key];

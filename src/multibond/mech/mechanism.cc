@@ -202,10 +202,6 @@ class Expander {
     if (!(std::abs(gm.helix_angle) < 1.2))
       sink_.Error("param.range", gm.where, gm.name, fmt::format("the helix angle must be within +-69 degrees (got {:g})", gm.helix_angle * 180 / std::numbers::pi),
                   "helical gears: 15 to 30 degrees");
-    if (gm.rigid && gm.pressure_angle > 0.0)
-      sink_.Error("mech.gear_contact", gm.where, gm.name,
-                  "the separating force of a pressure angle, tan(angle) |F|, is a formula, and a rigid mesh does not take one yet",
-                  "make the mesh compliant (K, R), or give it pressure_angle_deg: 0");
     geometry_[gm.name] = geo;
     // The teeth's slip at the pitch point at t = 0: t . (v_pitch,a - v_pitch,b).
     const Body* c = IsGround(gm.carrier) ? nullptr : FindBody(gm.carrier);
@@ -566,15 +562,16 @@ class Expander {
   }
 
   /// A mesh through its pitch point (docs/mechanisms.md, "Tooth forces"): the coupling on
-  /// n . (v_pitch,a - v_pitch,b) with the stiffness and damping referred to the line
-  /// (K / (r_a cos helix)^2), and, with a pressure angle, the separating force tan(angle) |F| along s.
+  /// n . (v_pitch,a - v_pitch,b), n the line of action, with the stiffness and damping referred
+  /// to it (K / (r_a cos(helix) cos(pressure))^2); its effort is the normal force on b.
   void AddPitchGear(const GearMesh& gm) {
     const MeshGeometry& geo = geometry_.at(gm.name);
     const std::string vp = gm.name + ".vp", line = gm.name + ".line";
     AddPitchVelocities(vp, gm, geo, "");
     AddFrameElement(line, Coupling::Frame::kParent, gm.carrier, gm.carrier, geo.n.transpose(), gm.where);
     Bond(vp, line, line);
-    const double arm = geo.r_a * std::cos(gm.helix_angle);  // torque on a per unit force on the line
+    const double tangential = std::cos(gm.helix_angle) * std::cos(gm.pressure_angle);  // F_t per unit F_n
+    const double arm = geo.r_a * tangential;  // torque on a per unit normal force
     const double k = gm.stiffness / (arm * arm), r = gm.damping / (arm * arm);
     const std::string mesh = gm.name + ".mesh";
     if (gm.backlash > 0.0 && gm.rigid) {
@@ -587,40 +584,21 @@ class Expander {
         spring.law_effort = LawOf(fmt::format("{:.17g}*(q - clamp(q, {:.17g}, {:.17g}))", k, -h, h), gm.where);
       }
     }
-    const std::string f = mesh + ".in.e";  // the force along n on b (on a its opposite): the bond into the coupling
-    std::vector<std::pair<std::string, double>> sep;
-    if (gm.pressure_angle > 0.0) {
-      const std::string vs = gm.name + ".vs", sline = gm.name + ".sline", source = gm.name + ".separation";
-      AddPitchVelocities(vs, gm, geo, "_s");
-      AddFrameElement(sline, Coupling::Frame::kParent, gm.carrier, gm.carrier, geo.s.transpose(), gm.where);
-      Bond(vs, sline, sline);
-      g_.AddJunction(source + "_j", ElementKind::kZero, 1);
-      Bond(sline, source + "_j", source + ".in");
-      Element se = Make(source, ElementKind::kSe, 1, "translation", gm.where);
-      se.source.components = {TimeFunction::Constant(0.0)};
-      se.value = {LawOf(fmt::format("{:.17g}*abs({}.e2)", std::tan(gm.pressure_angle), line), gm.where)};
-      g_.Add(se);
-      Bond(source + "_j", source, source);
-      sep.push_back({source + ".e", 1.0});  // the separating force on b, along s
-    }
-    // Force on b: F n + F_s s (carrier frame); on a its opposite.
-    auto scalar = [&](const std::string& name, double cn, double cs, const char* unit) {
-      std::vector<std::pair<std::string, double>> terms = {{f, cn}};
-      if (!sep.empty()) terms.push_back({sep[0].first, cs});
-      OutputDecl o = SumOutput(gm.name + "." + name, terms, unit, gm.where);
+    const std::string f = mesh + ".in.e";  // the normal force on b along n (on a its opposite): the bond into the coupling
+    auto scalar = [&](const std::string& name, double c, const char* unit) {
+      OutputDecl o = SumOutput(gm.name + "." + name, {{f, c}}, unit, gm.where);
       o.components.clear();
       AddOutput(o);
     };
     const Eigen::Vector3d a = gm.axis_a.normalized();
-    scalar("torque", arm, 0.0, "N m");
-    scalar("F_t", std::cos(gm.helix_angle), 0.0, "N");
-    scalar("F_n", 1.0 / std::cos(gm.pressure_angle), 0.0, "N");
-    scalar("F_r", geo.radial_a.dot(geo.n), geo.radial_a.dot(geo.s), "N");  // pushes a towards its axis
-    scalar("F_a", -a.dot(geo.n), -a.dot(geo.s), "N");                       // on a, along a's axis
+    scalar("torque", arm, "N m");
+    scalar("F_t", tangential, "N");
+    scalar("F_n", 1.0, "N");
+    scalar("F_r", geo.radial_a.dot(geo.n), "N");  // pushes a towards its axis
+    scalar("F_a", -a.dot(geo.n), "N");            // on a, along a's axis
     if (!gm.rack_b) {
-      const Eigen::Vector3d b = gm.axis_b.normalized();
-      scalar("b.F_r", -geo.radial_b.dot(geo.n), -geo.radial_b.dot(geo.s), "N");
-      scalar("b.F_a", b.dot(geo.n), b.dot(geo.s), "N");
+      scalar("b.F_r", -geo.radial_b.dot(geo.n), "N");
+      scalar("b.F_a", gm.axis_b.normalized().dot(geo.n), "N");
     }
   }
 
@@ -1131,10 +1109,16 @@ MeshGeometry Mechanism::GeometryOf(const GearMesh& gm) const {
   }
   out.radial_a = ra / out.r_a;
   out.t = a.cross(out.radial_a);
-  const double cb_ = std::cos(gm.helix_angle), sb_ = std::sin(gm.helix_angle);
-  out.n = cb_ * out.t + sb_ * a;
+  // The line of action: F_t along t, F_t tan(helix) along a's axis, F_t tan(pressure) / cos(helix)
+  // along s, apart (the drive flank) or, for the coast flank, together.
+  auto line_of_action = [&] {
+    const double cp = std::cos(gm.pressure_angle), sp = std::sin(gm.pressure_angle);
+    const double flank = gm.coast_flank ? -1.0 : 1.0;
+    out.n = std::cos(gm.helix_angle) * cp * out.t + std::sin(gm.helix_angle) * cp * a + flank * sp * out.s;
+  };
   if (gm.rack_b) {
     out.s = out.radial_a;  // the separating force pushes the rack away from the pinion
+    line_of_action();
     return out;
   }
   const Eigen::Vector3d rb = perp(out.rho_b, b);
@@ -1174,6 +1158,7 @@ MeshGeometry Mechanism::GeometryOf(const GearMesh& gm) const {
   const bool b_ring = gm.internal && gm.teeth_b > gm.teeth_a;
   const Eigen::Vector3d v = perp(perp(out.rho_b, out.t), line);
   out.s = v.norm() > tol ? Eigen::Vector3d((b_ring ? 1.0 : -1.0) * v.normalized()) : Eigen::Vector3d::Zero();
+  line_of_action();
   return out;
 }
 

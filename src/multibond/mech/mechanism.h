@@ -124,13 +124,15 @@ struct GearMesh {
   /// Where the mesh acts (docs/mechanisms.md, "Tooth forces"). kSpin: a torque between the spins
   /// (the paper's model; the bearings carry no tooth force). kPitch: a force through the contact,
   /// the coupling acting on n . (v_pitch,a - v_pitch,b) with v_pitch = v_C + w x (R_c rho), rho the
-  /// carrier-fixed arm from the gear's centre to the pitch point, n = cos(helix) t + sin(helix) axis_a
-  /// (t: where a's pitch point moves as a turns about its axis), and a separating force
-  /// tan(pressure angle) |F| at the pitch point; both gears' bearings carry it, the carrier the reaction.
+  /// carrier-fixed arm from the gear's centre to the pitch point, n the line of action
+  /// cos(helix) cos(pressure) t + sin(helix) cos(pressure) axis_a +- sin(pressure) s (t: where a's
+  /// pitch point moves as a turns about its axis; s: apart, on b); both gears' bearings carry the
+  /// normal force, the carrier the reaction.
   enum class Contact { kSpin, kPitch };
   Contact contact = Contact::kSpin;
   double pressure_angle = 0.0;  ///< normal pressure angle [rad] (kPitch)
   double helix_angle = 0.0;     ///< helix angle [rad] of parallel-axis gears, signed (kPitch)
+  bool coast_flank = false;     ///< the line of action of the flank loaded by F_t < 0 (kPitch)
   bool internal = false;        ///< parallel axes: the gear with more teeth is a ring (internal teeth)
   bool rack_b = false;          ///< b is a rack: it translates; no axis or teeth (kPitch)
   double radius_a = 0.0;        ///< pitch radius of a [m], needed with a rack (0: from the geometry)
