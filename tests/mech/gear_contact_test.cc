@@ -82,6 +82,21 @@ TEST(GearContactTest, SpinContactKeepsTheTorqueOnlyModel) {
   EXPECT_LT(Last3(rec, "wheel_bearing.F").norm(), 1e-9);
 }
 
+// A rigid mesh through the pitch point (an ideal constraint on the line of action) carries the same
+// statics: its reaction is the normal force.
+TEST(GearContactTest, RigidPitchMeshCarriesTheSameLoads) {
+  const std::string text =
+      Replaced(Text(ExamplePath("gears/spur_pair.yaml")), "pressure_angle_deg: 20, K: 2.0e4, R: 20}", "pressure_angle_deg: 20, rigid: true}");
+  const LoadedModel lm = LoadModelString(text);
+  const RecordingObserver rec = RunModel(lm, 2.0, 0.01, Method::kBdf, 1e-8, 1e-10);
+  ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
+  const double ft = 20.0 / 0.1;
+  ExpectVector(Last3(rec, "pinion_bearing.F"), {ft * kTan20, ft, 0}, 1e-6 * ft, "pinion bearing");
+  EXPECT_NEAR(rec.Last("mesh.F_t"), ft, 1e-6 * ft);
+  EXPECT_NEAR(rec.Last("wheel.omega.z"), -5.0, 1e-8);
+  ExpectEnergyBalanced(rec, 1e-6);
+}
+
 // A planetary set (sun 20, planets 25, ring 70 teeth, module 4 mm; ring fixed, sun at 10 rad/s,
 // carrier under 90 N m): Willis, the sun's torque, and each planet bearing's tangential load
 // carrier torque / (3 planets x 0.09 m), with the planet's centripetal force radially.
