@@ -304,8 +304,11 @@ class Expander {
       g_.AddAux(rot);
     }
     if (!m_gravity().isZero()) {
+      // m g on the CoM; its work is gravity's potential energy, -m g . (r - r0), which the energy
+      // account counts as stored (energy.potential), not as work (Element::potential_work).
       Element grav = Make(b.name + ".gravity", ElementKind::kSe, 3, "translation", b.where);
       for (int i = 0; i < 3; ++i) grav.source.components.push_back(TimeFunction::Constant(b.mass.mass * m_gravity()[i]));
+      grav.potential_work = true;
       g_.Add(grav);
       Bond(b.name + ".gravity", b.name + ".v", b.name + ".gravity");
     }
