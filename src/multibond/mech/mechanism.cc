@@ -1103,14 +1103,19 @@ MeshGeometry Mechanism::GeometryOf(const GearMesh& gm) const {
   out.point = p;
   out.rho_a = p - ca;
   out.rho_b = p - cb;
-  const Eigen::Vector3d ra = perp(out.rho_a, a);
-  out.r_a = ra.norm();
-  if (out.r_a < tol) {
-    out.error = "the pitch point is on gear a's axis";
-    out.hint = "check the gears' positions, or the mesh's 'pitch_point'";
-    return out;
-  }
-  out.radial_a = ra / out.r_a;
+  // A gear's pitch radius and the unit vector from its axis to P; false if P is on the axis.
+  auto radial = [&](const Eigen::Vector3d& rho, const Eigen::Vector3d& axis, const char* gear, double* r, Eigen::Vector3d* unit) {
+    const Eigen::Vector3d v = perp(rho, axis);
+    *r = v.norm();
+    if (*r < tol) {
+      out.error = fmt::format("the pitch point is on gear {}'s axis", gear);
+      out.hint = "check the gears' positions, or the mesh's 'pitch_point'";
+      return false;
+    }
+    *unit = v / *r;
+    return true;
+  };
+  if (!radial(out.rho_a, a, "a", &out.r_a, &out.radial_a)) return out;
   out.t = a.cross(out.radial_a);
   // The line of action: F_t along t, F_t tan(helix) along a's axis, F_t tan(pressure) / cos(helix)
   // along s, apart (the drive flank) or, for the coast flank, together.
@@ -1124,14 +1129,7 @@ MeshGeometry Mechanism::GeometryOf(const GearMesh& gm) const {
     line_of_action();
     return out;
   }
-  const Eigen::Vector3d rb = perp(out.rho_b, b);
-  out.r_b = rb.norm();
-  if (out.r_b < tol) {
-    out.error = "the pitch point is on gear b's axis";
-    out.hint = "check the gears' positions, or the mesh's 'pitch_point'";
-    return out;
-  }
-  out.radial_b = rb / out.r_b;
+  if (!radial(out.rho_b, b, "b", &out.r_b, &out.radial_b)) return out;
   // Rolling: r_a w_a.a + r_b w_b.b = 0 (teeth_a s_a + teeth_b s_b = 0) means b's axis is t x radial_b.
   const Eigen::Vector3d b_expected = out.t.cross(out.radial_b);
   if (std::abs(out.t.dot(b)) > 1e-6 || b.dot(b_expected) < 1 - 1e-6) {
