@@ -1,2 +1,3 @@
 multibond_test(mech/mechanism_test.cc LIBS multibond::sim multibond::mech LABELS physics)
 multibond_test(mech/docs_mechanisms_test.cc LIBS multibond::io LABELS physics)
+multibond_test(mech/gear_contact_test.cc LIBS multibond::io LABELS physics)

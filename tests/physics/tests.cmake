@@ -8,3 +8,4 @@ multibond_test(physics/repaired_physics_test.cc LIBS multibond::io LABELS physic
 multibond_test(physics/equation_examples_test.cc LIBS multibond::io LABELS physics)
 multibond_test(physics/linear_examples_test.cc LIBS multibond::analysis LABELS physics)
 multibond_test(physics/event_examples_test.cc LIBS multibond::io LABELS physics)
+multibond_test(physics/gravity_potential_test.cc LIBS multibond::io LABELS physics)

@@ -40,7 +40,7 @@ EnergyAccount::EnergyAccount(const Input& in) {
   const StateLayout& layout = in.layout;
   term_of_element_.assign(g.num_elements(), -1);
   for (const StateBlock& blk : layout.blocks()) {
-    if (blk.kind == StateBlock::Kind::kWork) work_.push_back(blk.offset);
+    if (blk.kind == StateBlock::Kind::kWork) (g.element(blk.owner).potential_work ? potential_work_ : work_).push_back(blk.offset);
     if (blk.kind == StateBlock::Kind::kDissipation) dissipated_.push_back(blk.offset);
     if (blk.kind != StateBlock::Kind::kMomentum && blk.kind != StateBlock::Kind::kDisplacement) continue;
     const Element& e = g.element(blk.owner);
@@ -97,6 +97,7 @@ EnergyAccount::Totals EnergyAccount::StoredEnergies(const double* x, double* per
     per_term[k] = e;
     (terms_[k].kinetic ? t.kinetic : t.potential) += e;
   }
+  for (int offset : potential_work_) t.potential -= x[offset];
   return t;
 }
 
@@ -111,6 +112,7 @@ double EnergyAccount::Potential(const double* x) const {
   double sum = 0.0;
   for (const Term& et : terms_)
     if (!et.kinetic) sum += EnergyOf(et, x);
+  for (int offset : potential_work_) sum -= x[offset];
   return sum;
 }
 

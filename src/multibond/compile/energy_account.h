@@ -56,8 +56,8 @@ class EnergyAccount {
   int num_terms() const { return static_cast<int>(terms_.size()); }
   int term(int element) const { return term_of_element_.at(element); }  ///< or -1
   double Kinetic(const double* x) const;    ///< every I's
-  double Potential(const double* x) const;  ///< every C's
-  double Work(const double* x) const;        ///< total work of all sources so far (their work states)
+  double Potential(const double* x) const;  ///< every C's, and minus the work of the potential_work sources (gravity)
+  double Work(const double* x) const;        ///< total work of all sources so far (their work states), but the potential_work ones
   double Dissipated(const double* x) const;  ///< total dissipated in all resistors so far
 
  private:
@@ -73,6 +73,7 @@ class EnergyAccount {
   double EnergyOf(const Term& et, const double* x) const;
 
   std::vector<Term> terms_;
+  std::vector<int> potential_work_;  ///< work states of the sources whose work is a potential energy (gravity)
   std::vector<double> coef_;
   std::vector<int> term_of_element_;  ///< index in terms_, or -1
   std::vector<expr::Program> programs_;

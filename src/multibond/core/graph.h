@@ -134,6 +134,9 @@ struct Element {
   /// through transformers that cannot invert (a 2 x 3 selection) and on storage elements that
   /// would otherwise be in derivative causality (see docs/design.md, "Ideal constraints").
   bool constraint = false;
+  /// A source whose work is a potential energy (gravity on a body: its work is -m g . (r - r0)):
+  /// the energy account counts minus its work as stored potential energy, not as work.
+  bool potential_work = false;
   /// Constraint only: the compliance (1/K, > 0) of each component (one value: all of them), the
   /// coupling it stands for. With redundant constraints the reaction is then shared as that
   /// elastic structure would share it (least complementary energy); without, by W's diagonal.

@@ -87,6 +87,9 @@ enum class Outcome {
   X(kMechDuplicate, "mech.duplicate", kModelError, "two bodies, joints, gear meshes, drives or points of one name")           \
   X(kMechName, "mech.name", kModelError, "a part of a mechanism named 'ground' (the inertial frame)")                         \
   X(kMechInitialGap, "mech.initial_gap", kWarning, "a joint whose attachment points are apart at t = 0")                     \
+  X(kMechGearGeometry, "mech.gear_geometry", kModelError,                                                                     \
+    "a gear mesh through its pitch point whose axes, radii and teeth do not roll together (a wrong axis sign, radii not in the ratio of the teeth, axes that do not meet)") \
+  X(kMechGearSlip, "mech.gear_slip", kWarning, "a gear mesh whose teeth slip at the pitch point at t = 0 (initial speeds that do not roll)") \
   X(kOutputUnknownVariable, "output.unknown_variable", kModelError, "an output naming no variable (reported by run)")         \
   X(kOutputSize, "output.size", kModelError, "an output whose terms or point do not have the sizes it needs")                \
   X(kOutputDuplicate, "output.duplicate", kModelError, "two output columns of one name")                                     \

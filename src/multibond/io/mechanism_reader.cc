@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <functional>
 #include <map>
+#include <numbers>
 #include <optional>
 
 #include <fmt/format.h>
@@ -271,18 +272,51 @@ void MechanismReader::ReadGears(const YAML::Node& gears, mech::Mechanism& m) {
     mech::GearMesh gm;
     gm.name = name;
     gm.where = Loc(kv.first);
-    CheckKeys(g, {"carrier", "a", "b", "K", "R", "stiffness", "damping", "rigid", "backlash", "restitution", "description"}, name);
+    CheckKeys(g, {"carrier", "a", "b", "K", "R", "stiffness", "damping", "rigid", "backlash", "restitution", "contact",
+                  "pressure_angle_deg", "helix_angle_deg", "flank", "internal", "pitch_point", "description"},
+              name);
     gm.rigid = (g["rigid"] && Bool(g["rigid"], name)) || RigidByModel(name);
     gm.carrier = g["carrier"] ? g["carrier"].Scalar() : std::string(mech::kGround);
+    if (const YAML::Node c = g["contact"]) {
+      const std::string v = c.Scalar();
+      if (v == "pitch") gm.contact = mech::GearMesh::Contact::kPitch;
+      else if (v != "spin")
+        sink_.Error(Loc(c), name, fmt::format("'contact' is 'spin' or 'pitch' (got '{}')", v),
+                    "spin: a torque between the spins (the paper's model); pitch: a force at the pitch point that the bearings carry");
+    }
+    if (g["pressure_angle_deg"]) gm.pressure_angle = Number(g["pressure_angle_deg"], name, Env{}) * std::numbers::pi / 180;
+    if (g["helix_angle_deg"]) gm.helix_angle = Number(g["helix_angle_deg"], name, Env{}) * std::numbers::pi / 180;
+    if (g["internal"]) gm.internal = Bool(g["internal"], name);
+    if (const YAML::Node f = g["flank"]) {
+      gm.coast_flank = f.Scalar() == "coast";
+      if (f.Scalar() != "coast" && f.Scalar() != "drive")
+        sink_.Error(Loc(f), name, fmt::format("'flank' is 'drive' or 'coast' (got '{}')", f.Scalar()),
+                    "drive: the flank that carries F_t > 0 (gear a pushing b along t); coast: the other");
+    }
+    if (g["pitch_point"]) gm.pitch_point = Vec3(g["pitch_point"], name);
+    const bool rack = g["b"] && g["b"].IsMap() && g["b"]["rack"] && Bool(g["b"]["rack"], name);
+    gm.rack_b = rack;
+    if (gm.contact != mech::GearMesh::Contact::kPitch)
+      for (const char* key : {"pressure_angle_deg", "helix_angle_deg", "flank", "internal", "pitch_point"})
+        if (g[key]) sink_.Error(Loc(g[key]), name, fmt::format("'{}' belongs to a mesh through its pitch point", key), "add 'contact: pitch'");
     auto side = [&](const char* key, std::string* body, Eigen::Vector3d* axis, double* teeth) {
       const YAML::Node s = g[key];
       if (!s || !s.IsMap()) {
         sink_.Error(gm.where, name, fmt::format("a gear mesh needs '{}: {{body: ..., axis: ..., teeth: ...}}'", key));
         return;
       }
-      CheckKeys(s, {"body", "axis", "teeth"}, name);
+      CheckKeys(s, {"body", "axis", "teeth", "radius", "rack"}, name);
+      if (s["radius"]) {
+        if (std::string(key) != "a") sink_.Error(Loc(s["radius"]), name, "'radius' is given for gear a (the pinion of a rack)");
+        else gm.radius_a = Number(s["radius"], name, Env{});
+      }
+      if (s["rack"] && std::string(key) != "b") sink_.Error(Loc(s["rack"]), name, "the rack is gear b");
       if (s["body"]) *body = s["body"].Scalar();
       else sink_.Error(Loc(s), name, fmt::format("gear '{}' needs a 'body'", key));
+      if (rack && std::string(key) == "b") {
+        if (s["axis"] || s["teeth"]) sink_.Error(Loc(s), name, "a rack has no axis or teeth (it translates)", "remove them");
+        return;
+      }
       if (s["axis"]) *axis = Axis(s["axis"], name);
       else sink_.Error(Loc(s), name, fmt::format("gear '{}' needs an 'axis' (in the carrier's frame)", key));
       if (s["teeth"]) *teeth = Number(s["teeth"], name, Env{});  // a whole number in range: mech::Mechanism

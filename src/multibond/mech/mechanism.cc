@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <map>
+#include <numbers>
 #include <set>
 #include <tuple>
 #include <unordered_map>
@@ -138,10 +139,12 @@ class Expander {
       unique(gm.name, gm.where);
       body_ref(gm.carrier, gm.where, gm.name, true, true);
       body_ref(gm.body_a, gm.where, gm.name, false, true);
-      body_ref(gm.body_b, gm.where, gm.name, false, true);
+      body_ref(gm.body_b, gm.where, gm.name, false, !gm.rack_b);
+      if (gm.rack_b && gm.contact != GearMesh::Contact::kPitch)
+        sink_.Error("mech.gear_geometry", gm.where, gm.name, "a rack meshes through its pitch point", "add 'contact: pitch'");
       // A tooth count is a whole number of a size gears have: a denormal or fractional count makes
       // a ratio of no meaning (and 1e-310 an infinite one).
-      for (const auto& [side, teeth] : {std::pair{"a", gm.teeth_a}, std::pair{"b", gm.teeth_b}})
+      for (const auto& [side, teeth] : {std::pair{"a", gm.teeth_a}, std::pair{"b", gm.rack_b ? 1.0 : gm.teeth_b}})
         if (!(teeth >= 1 && teeth <= kMaxTeeth && teeth == std::floor(teeth)))
           sink_.Error("param.range", gm.where, gm.name,
                       fmt::format("gear '{}' has {:g} teeth: a tooth count is a whole number from 1 to {:g}", side, teeth, kMaxTeeth),
@@ -160,6 +163,9 @@ class Expander {
                     fmt::format("the carrier '{}' is one of the meshing gears (its spin relative to itself is always 0)", gm.carrier),
                     "the carrier is the body that holds both gears' axes (the ground, a housing, a planet carrier)");
     }
+    if (!sink_.has_errors())
+      for (const GearMesh& gm : m_.gears())
+        if (gm.contact == GearMesh::Contact::kPitch) CheckPitchMesh(gm);
     for (const Drive& d : m_.drives()) {
       unique(d.name, d.where);
       const bool angular = d.kind == Drive::Kind::kAngularVelocity || d.kind == Drive::Kind::kTorque;
@@ -178,6 +184,45 @@ class Expander {
     for (const Point& p : m_.points()) {
       unique(p.name, p.where);
       body_ref(p.body, p.where, p.name, false, !p.at.isZero());
+    }
+  }
+
+  /// A mesh through its pitch point: its geometry consistent with the axes and teeth (an error
+  /// says which axis or radius is wrong), its angles in range, and the teeth rolling at t = 0 (a
+  /// warning gives the slip speed).
+  void CheckPitchMesh(const GearMesh& gm) {
+    const MeshGeometry geo = m_.GeometryOf(gm);
+    if (!geo.error.empty()) {
+      sink_.Error("mech.gear_geometry", gm.where, gm.name, geo.error, geo.hint);
+      return;
+    }
+    if (!(gm.pressure_angle >= 0.0 && gm.pressure_angle < 1.2))
+      sink_.Error("param.range", gm.where, gm.name, fmt::format("the pressure angle must be in [0, 69) degrees (got {:g})", gm.pressure_angle * 180 / std::numbers::pi),
+                  "standard gears: 20 degrees");
+    if (!(std::abs(gm.helix_angle) < 1.2))
+      sink_.Error("param.range", gm.where, gm.name, fmt::format("the helix angle must be within +-69 degrees (got {:g})", gm.helix_angle * 180 / std::numbers::pi),
+                  "helical gears: 15 to 30 degrees");
+    geometry_[gm.name] = geo;
+    // The teeth's slip at the pitch point at t = 0: t . (v_pitch,a - v_pitch,b).
+    const Body* c = IsGround(gm.carrier) ? nullptr : FindBody(gm.carrier);
+    const Eigen::Matrix3d rc = c ? c->orientation : Eigen::Matrix3d::Identity();
+    auto pitch_velocity = [&](const std::string& name, const Eigen::Vector3d& rho) -> Eigen::Vector3d {
+      const Body* b = FindBody(name);
+      return b->velocity + b->omega.cross(rc * rho);
+    };
+    const Eigen::Vector3d va = pitch_velocity(gm.body_a, geo.rho_a), vb = pitch_velocity(gm.body_b, geo.rho_b);
+    const Eigen::Vector3d t = rc * geo.t;
+    const double slip = t.dot(va - vb);
+    if (std::abs(slip) > 1e-9 + 1e-6 * (std::abs(t.dot(va)) + std::abs(t.dot(vb)))) {
+      Diagnostic d;
+      d.severity = Diagnostic::Severity::kWarning;
+      d.code = "mech.gear_slip";
+      d.where = gm.where;
+      d.element = gm.name;
+      d.message = fmt::format("the teeth slip at {:.6g} m/s at t = 0 (pitch-line speeds {:.6g} and {:.6g} m/s): the mesh starts deflecting",
+                              slip, t.dot(va), t.dot(vb));
+      d.hint = "give the gears initial speeds that roll (teeth_a s_a + teeth_b s_b = 0), or start them at rest";
+      sink_.Add(d);
     }
   }
 
@@ -259,8 +304,11 @@ class Expander {
       g_.AddAux(rot);
     }
     if (!m_gravity().isZero()) {
+      // m g on the CoM; its work is gravity's potential energy, -m g . (r - r0), which the energy
+      // account counts as stored (energy.potential), not as work (Element::potential_work).
       Element grav = Make(b.name + ".gravity", ElementKind::kSe, 3, "translation", b.where);
       for (int i = 0; i < 3; ++i) grav.source.components.push_back(TimeFunction::Constant(b.mass.mass * m_gravity()[i]));
+      grav.potential_work = true;
       g_.Add(grav);
       Bond(b.name + ".gravity", b.name + ".v", b.name + ".gravity");
     }
@@ -479,7 +527,89 @@ class Expander {
     g_.Add(mtf);
   }
 
+  /// The velocity a carrier-fixed arm rho (carrier frame) gets from a gear's angular velocity,
+  /// scale * (w x R_c rho), into the 0-junction `sum` (a TF for the ground carrier, else an MTF).
+  void AddContactLever(const std::string& name, const std::string& body, const std::string& carrier, const Eigen::Vector3d& rho,
+                       double scale, const std::string& sum) {
+    Element e;
+    if (IsGround(carrier)) {
+      Eigen::Matrix3d skew;
+      skew << 0, -rho.z(), rho.y(), rho.z(), 0, -rho.x(), -rho.y(), rho.x(), 0;
+      e = Make(name, ElementKind::kTF, 0, "", {});
+      e.param = Param::Matrix(-scale * skew);
+    } else {
+      Modulus m;
+      m.kind = Modulus::Kind::kLever;
+      m.rotation = carrier + ".R";
+      m.lever = rho;
+      m.scale = scale;
+      e = Make(name, ElementKind::kMTF, 0, "", {});
+      e.modulus = m;
+    }
+    g_.Add(e);
+    Bond(body + ".omega", name, name + ".w");
+    Bond(name, sum, name + ".v");
+    info_[body].moment_terms.push_back({name + ".w.e", -1.0});
+  }
+
+  /// A 0-junction `sum` whose flow out is v_pitch,a - v_pitch,b (each v_C + w x R_c rho); its
+  /// effort is the force on b (on a its opposite).
+  void AddPitchVelocities(const std::string& sum, const GearMesh& gm, const MeshGeometry& geo, const std::string& tag) {
+    g_.AddJunction(sum, ElementKind::kZero, 3);
+    Bond(gm.body_a + ".v", sum, sum + ".a");
+    info_[gm.body_a].force_terms.push_back({sum + ".a.e", -1.0});
+    if (FindBody(gm.body_a)->mass.has_rotation()) AddContactLever(gm.name + ".a_arm" + tag, gm.body_a, gm.carrier, geo.rho_a, +1.0, sum);
+    Bond(sum, gm.body_b + ".v", sum + ".b");
+    info_[gm.body_b].force_terms.push_back({sum + ".b.e", +1.0});
+    if (FindBody(gm.body_b)->mass.has_rotation()) AddContactLever(gm.name + ".b_arm" + tag, gm.body_b, gm.carrier, geo.rho_b, -1.0, sum);
+  }
+
+  /// A mesh through its pitch point (docs/mechanisms.md, "Tooth forces"): the coupling on
+  /// n . (v_pitch,a - v_pitch,b), n the line of action, with the stiffness and damping referred
+  /// to it (K / (r_a cos(helix) cos(pressure))^2); its effort is the normal force on b.
+  void AddPitchGear(const GearMesh& gm) {
+    const MeshGeometry& geo = geometry_.at(gm.name);
+    const std::string vp = gm.name + ".vp", line = gm.name + ".line";
+    AddPitchVelocities(vp, gm, geo, "");
+    AddFrameElement(line, Coupling::Frame::kParent, gm.carrier, gm.carrier, geo.n.transpose(), gm.where);
+    Bond(vp, line, line);
+    const double tangential = std::cos(gm.helix_angle) * std::cos(gm.pressure_angle);  // F_t per unit F_n
+    const double arm = geo.r_a * tangential;  // torque on a per unit normal force
+    const double k = gm.stiffness / (arm * arm), r = gm.damping / (arm * arm);
+    const std::string mesh = gm.name + ".mesh";
+    if (gm.backlash > 0.0 && gm.rigid) {
+      AddBacklashContacts(line, gm, arm, "translation");
+    } else {
+      AddCompliance(line, mesh, Eigen::VectorXd::Constant(1, k), Eigen::VectorXd::Constant(1, r), "translation", {}, gm.where, gm.rigid);
+      if (gm.backlash > 0.0) {
+        Element& spring = g_.element(g_.Find(mesh + ".K"));
+        const double h = gm.backlash / 2 * arm;
+        spring.law_effort = LawOf(fmt::format("{:.17g}*(q - clamp(q, {:.17g}, {:.17g}))", k, -h, h), gm.where);
+      }
+    }
+    const std::string f = mesh + ".in.e";  // the normal force on b along n (on a its opposite): the bond into the coupling
+    auto scalar = [&](const std::string& name, double c, const char* unit) {
+      OutputDecl o = SumOutput(gm.name + "." + name, {{f, c}}, unit, gm.where);
+      o.components.clear();
+      AddOutput(o);
+    };
+    const Eigen::Vector3d a = gm.axis_a.normalized();
+    scalar("torque", arm, "N m");
+    scalar("F_t", tangential, "N");
+    scalar("F_n", 1.0, "N");
+    scalar("F_r", geo.radial_a.dot(geo.n), "N");  // pushes a towards its axis
+    scalar("F_a", -a.dot(geo.n), "N");            // on a, along a's axis
+    if (!gm.rack_b) {
+      scalar("b.F_r", -geo.radial_b.dot(geo.n), "N");
+      scalar("b.F_a", gm.axis_b.normalized().dot(geo.n), "N");
+    }
+  }
+
   void AddGear(const GearMesh& gm) {
+    if (gm.contact == GearMesh::Contact::kPitch) {
+      AddPitchGear(gm);
+      return;
+    }
     const std::string sum = gm.name + ".sum";
     g_.AddJunction(sum, ElementKind::kZero, 1);
     const std::pair<const std::string*, std::pair<Eigen::Vector3d, double>> sides[] = {
@@ -521,12 +651,12 @@ class Expander {
   }
 
   /// An angle [rad], the integral of the flow of the 1-junction `of` from 0; returns its name.
-  std::string AddAngle(const std::string& name, const std::string& of, const SourceLocation& where) {
+  std::string AddAngle(const std::string& name, const std::string& of, const SourceLocation& where, const std::string& unit = "rad") {
     AuxState a;
     a.name = name;
     a.kind = AuxState::Kind::kIntegral;
     a.of = of;
-    a.unit = "rad";
+    a.unit = unit;
     a.initial = Eigen::MatrixXd::Zero(1, 1);
     a.where = where;
     g_.AddAux(a);
@@ -553,18 +683,21 @@ class Expander {
   /// its deflection q (`<mesh>.mesh.q`) the integral of d, and the two flanks are contacts
   /// (docs/events.md) at q = b/2 (separating at -d, gap b/2 - q) and q = -b/2 (separating at d,
   /// gap q + b/2), their forces the mesh torque.
-  void AddBacklashContacts(const std::string& from, const GearMesh& gm) {
+  /// `arm` refers the play to the coupling's line (1 for a torque between spins; r_a cos(helix)
+  /// for a force at the pitch point, whose deflection is a length).
+  void AddBacklashContacts(const std::string& from, const GearMesh& gm, double arm = 1.0, const std::string& domain = "rotation") {
     const std::string name = gm.name + ".mesh";
-    g_.Add(Make(name, ElementKind::kOne, 1, "rotation", gm.where));
+    g_.Add(Make(name, ElementKind::kOne, 1, domain, gm.where));
     Bond(from, name, name + ".in");
-    const std::string q = AddAngle(name + ".q", name, gm.where);
-    const double h = gm.backlash / 2;
+    const std::string q = AddAngle(name + ".q", name, gm.where, arm != 1.0 ? "m" : "rad");
+    const double h = gm.backlash / 2 * arm;
     for (const bool positive : {true, false}) {
       const std::string flank = name + (positive ? ".flank_pos" : ".flank_neg");
       // gap h - q (the positive flank) or q + h
       Element c = MakeContact(flank, q, positive ? -1.0 : 1.0, h, gm.restitution, gm.where);
+      c.domain = domain;
       // The mesh's K, if given, shares a load with redundant constraints as the rigid mesh's would.
-      if (gm.stiffness > 0.0 && std::isfinite(gm.stiffness)) c.compliance = Eigen::VectorXd::Constant(1, 1.0 / gm.stiffness);
+      if (gm.stiffness > 0.0 && std::isfinite(gm.stiffness)) c.compliance = Eigen::VectorXd::Constant(1, arm * arm / gm.stiffness);
       g_.Add(c);
       if (positive) Bond(name, flank, flank);  // its flow is -d: the flanks part as q falls
       else Bond(flank, name, flank);
@@ -698,6 +831,7 @@ class Expander {
   std::unordered_map<std::string, const Body*> body_by_name_;
   std::unordered_map<std::string, BodyInfo> info_;
   std::unordered_map<std::string, std::string> relative_;
+  std::unordered_map<std::string, MeshGeometry> geometry_;
 };
 
 }  // namespace
@@ -861,6 +995,172 @@ JointTree Mechanism::MakeJointTree() const {
   for (const Body& b : bodies_)
     if (!in_tree.count(b.name)) add(b.name, kGround, nullptr);
   return tree;
+}
+
+}  // namespace multibond::mech
+
+namespace multibond::mech {
+
+MeshGeometry Mechanism::GeometryOf(const GearMesh& gm) const {
+  MeshGeometry out;
+  auto find = [&](const std::string& n) -> const Body* {
+    for (const Body& b : bodies_)
+      if (b.name == n) return &b;
+    return nullptr;
+  };
+  const Body* carrier = gm.carrier == kGround ? nullptr : find(gm.carrier);
+  const Body* ga = find(gm.body_a);
+  const Body* gb = find(gm.body_b);
+  if (!ga || !gb || (gm.carrier != kGround && !carrier)) {
+    out.error = "the mesh names a body that does not exist";
+    return out;
+  }
+  // The gears' centres in the carrier's frame (its CoM the origin; the ground: absolute).
+  auto local = [&](const Body* b) -> Eigen::Vector3d {
+    return carrier ? Eigen::Vector3d(carrier->orientation.transpose() * (b->position - carrier->position)) : b->position;
+  };
+  const Eigen::Vector3d ca = local(ga), cb = local(gb);
+  const Eigen::Vector3d a = gm.axis_a.normalized();
+  const double scale = std::max({(cb - ca).norm(), gm.radius_a, 1e-3});
+  const double tol = 1e-9 * scale;
+  auto perp = [](const Eigen::Vector3d& v, const Eigen::Vector3d& axis) -> Eigen::Vector3d { return v - axis * axis.dot(v); };
+  const Eigen::Vector3d b = gm.rack_b ? Eigen::Vector3d::Zero() : Eigen::Vector3d(gm.axis_b.normalized());
+  const bool parallel = gm.rack_b || a.cross(b).norm() < 1e-9;
+  Eigen::Vector3d line = a;  // the pitch element: along the axes, or from a bevel pair's apex
+  Eigen::Vector3d p;
+  if (gm.rack_b) {
+    const Eigen::Vector3d u = perp(cb - ca, a);
+    const double r = gm.radius_a;
+    if (gm.pitch_point) {
+      p = *gm.pitch_point;
+    } else if (!(r > 0) || u.norm() < tol) {
+      out.error = "a rack and pinion needs the pinion's pitch radius ('radius' of gear a) and the rack's centre off the pinion's axis";
+      out.hint = "give a: {..., radius: r} (module x teeth / 2) or the mesh's 'pitch_point'";
+      return out;
+    } else {
+      p = ca + r * u.normalized();
+    }
+  } else if (gm.pitch_point) {
+    p = *gm.pitch_point;
+    if (!parallel) {
+      // The apex: where the axes meet (the point of a's axis closest to b's).
+      const Eigen::Vector3d w = ca - cb;
+      const double ab = a.dot(b), den = 1 - ab * ab;
+      const double sa = (ab * b.dot(w) - a.dot(w)) / den;
+      line = perp(p - (ca + sa * a), Eigen::Vector3d(a.cross(b).normalized()));
+      if (line.norm() < tol) {
+        out.error = "the pitch point is at the apex of the bevel pair";
+        out.hint = "give a point on the pitch cones, away from where the axes meet";
+        return out;
+      }
+      line.normalize();
+    }
+  } else if (parallel) {
+    const Eigen::Vector3d d = perp(cb - ca, a);
+    const double dist = d.norm();
+    if (dist < tol) {
+      out.error = "the gears' centres are on one axis: there is no pitch point between them";
+      out.hint = "place the gears' centres one centre distance apart, or give the mesh's 'pitch_point'";
+      return out;
+    }
+    const Eigen::Vector3d u = d / dist;  // from a's axis towards b's
+    if (!gm.internal) {
+      p = ca + dist * gm.teeth_a / (gm.teeth_a + gm.teeth_b) * u;
+    } else if (gm.teeth_a == gm.teeth_b) {
+      out.error = "an internal mesh needs a ring with more teeth than its pinion";
+      out.hint = "check the teeth (the ring's count is the larger)";
+      return out;
+    } else if (gm.teeth_a > gm.teeth_b) {
+      p = ca + dist * gm.teeth_a / (gm.teeth_a - gm.teeth_b) * u;  // a is the ring: beyond the pinion
+    } else {
+      p = cb - dist * gm.teeth_b / (gm.teeth_b - gm.teeth_a) * u;  // b is the ring
+    }
+  } else {
+    // Bevel: the point where both gears' mid-planes meet the plane of the axes.
+    const Eigen::Vector3d nrm = a.cross(b).normalized();
+    const Eigen::Vector3d w = ca - cb;
+    const double ab = a.dot(b), den = 1 - ab * ab;
+    const double sa = (ab * b.dot(w) - a.dot(w)) / den, sb = (b.dot(w) - ab * a.dot(w)) / den;
+    const Eigen::Vector3d apex_a = ca + sa * a, apex_b = cb + sb * b;
+    if ((apex_a - apex_b).norm() > 1e-6 * scale) {
+      out.error = fmt::format("the gears' axes do not meet (they pass {:.3g} m apart): a bevel pair's axes intersect", (apex_a - apex_b).norm());
+      out.hint = "check the gears' positions and axes (crossed and worm gears are not modelled)";
+      return out;
+    }
+    Eigen::Matrix3d m;
+    m.row(0) = a.transpose();
+    m.row(1) = b.transpose();
+    m.row(2) = nrm.transpose();
+    p = m.fullPivLu().solve(Eigen::Vector3d(a.dot(ca), b.dot(cb), nrm.dot(ca)));
+    line = p - apex_a;
+    if (line.norm() < tol) {
+      out.error = "the gears' mid-planes meet at the apex of the bevel pair";
+      out.hint = "place each bevel gear's centre at its mean pitch circle, or give the mesh's 'pitch_point'";
+      return out;
+    }
+    line.normalize();
+  }
+  out.point = p;
+  out.rho_a = p - ca;
+  out.rho_b = p - cb;
+  // A gear's pitch radius and the unit vector from its axis to P; false if P is on the axis.
+  auto radial = [&](const Eigen::Vector3d& rho, const Eigen::Vector3d& axis, const char* gear, double* r, Eigen::Vector3d* unit) {
+    const Eigen::Vector3d v = perp(rho, axis);
+    *r = v.norm();
+    if (*r < tol) {
+      out.error = fmt::format("the pitch point is on gear {}'s axis", gear);
+      out.hint = "check the gears' positions, or the mesh's 'pitch_point'";
+      return false;
+    }
+    *unit = v / *r;
+    return true;
+  };
+  if (!radial(out.rho_a, a, "a", &out.r_a, &out.radial_a)) return out;
+  out.t = a.cross(out.radial_a);
+  // The line of action: F_t along t, F_t tan(helix) along a's axis, F_t tan(pressure) / cos(helix)
+  // along s, apart (the drive flank) or, for the coast flank, together.
+  auto line_of_action = [&] {
+    const double cp = std::cos(gm.pressure_angle), sp = std::sin(gm.pressure_angle);
+    const double flank = gm.coast_flank ? -1.0 : 1.0;
+    out.n = std::cos(gm.helix_angle) * cp * out.t + std::sin(gm.helix_angle) * cp * a + flank * sp * out.s;
+  };
+  if (gm.rack_b) {
+    out.s = out.radial_a;  // the separating force pushes the rack away from the pinion
+    line_of_action();
+    return out;
+  }
+  if (!radial(out.rho_b, b, "b", &out.r_b, &out.radial_b)) return out;
+  // Rolling: r_a w_a.a + r_b w_b.b = 0 (teeth_a s_a + teeth_b s_b = 0) means b's axis is t x radial_b.
+  const Eigen::Vector3d b_expected = out.t.cross(out.radial_b);
+  if (std::abs(out.t.dot(b)) > 1e-6 || b.dot(b_expected) < 1 - 1e-6) {
+    auto vec = [](const Eigen::Vector3d& v) {
+      auto c = [](double x) { return std::abs(x) < 5e-13 ? 0.0 : x; };
+      return fmt::format("[{:.6g}, {:.6g}, {:.6g}]", c(v.x()), c(v.y()), c(v.z()));
+    };
+    out.error = fmt::format(
+        "gear b's axis {} does not roll with gear a's: at the pitch point {} (carrier frame) the teeth roll without slip when "
+        "teeth_a s_a + teeth_b s_b = 0 with b's axis {}",
+        vec(b), vec(p), vec(b_expected));
+    out.hint = fmt::format("write b's axis as {} (external spur: the same as a's; internal: the opposite)", vec(b_expected));
+    return out;
+  }
+  if (std::abs(out.r_b / out.r_a - gm.teeth_b / gm.teeth_a) > 1e-6 * gm.teeth_b / gm.teeth_a) {
+    out.error = fmt::format("the pitch radii {:.6g} m (a) and {:.6g} m (b) are not in the ratio of the teeth {:g}:{:g}", out.r_a, out.r_b,
+                            gm.teeth_a, gm.teeth_b);
+    out.hint = "place the gears so that their pitch circles touch (radius = module x teeth / 2), or check the teeth";
+    return out;
+  }
+  if (!parallel && gm.helix_angle != 0.0) {
+    out.error = "a helix angle is modelled for parallel axes (helical gears and racks), not for bevel gears";
+    out.hint = "remove 'helix_angle_deg' (straight bevel gears)";
+    return out;
+  }
+  // The separating force on b: perpendicular to t and to the pitch element, into b (out of a ring b).
+  const bool b_ring = gm.internal && gm.teeth_b > gm.teeth_a;
+  const Eigen::Vector3d v = perp(perp(out.rho_b, out.t), line);
+  out.s = v.norm() > tol ? Eigen::Vector3d((b_ring ? 1.0 : -1.0) * v.normalized()) : Eigen::Vector3d::Zero();
+  line_of_action();
+  return out;
 }
 
 }  // namespace multibond::mech

@@ -15,6 +15,7 @@
 ///   J.F, J.M (force and moment of the joint on its child, inertial frame), J.t.K, J.t.R, J.r.K,
 ///   J.r.R (the couplings' C and R; a rigid coupling has J.t.rigid / J.r.rigid instead, an ideal
 ///   constraint whose effort is the reaction); G.torque, G.deflection (G.mesh.rigid when rigid);
+///   meshes through the pitch point also G.F_t, G.F_r, G.F_a, G.F_n, G.b.F_r, G.b.F_a;
 ///   D.torque (or D.force); points P.x,y,z.
 
 #include <optional>
@@ -120,7 +121,36 @@ struct GearMesh {
   /// `restitution` (0: plastic, the flanks stay together until the torque reverses).
   double backlash = 0.0;
   double restitution = 0.0;
+  /// Where the mesh acts (docs/mechanisms.md, "Tooth forces"). kSpin: a torque between the spins
+  /// (the paper's model; the bearings carry no tooth force). kPitch: a force through the contact,
+  /// the coupling acting on n . (v_pitch,a - v_pitch,b) with v_pitch = v_C + w x (R_c rho), rho the
+  /// carrier-fixed arm from the gear's centre to the pitch point, n the line of action
+  /// cos(helix) cos(pressure) t + sin(helix) cos(pressure) axis_a +- sin(pressure) s (t: where a's
+  /// pitch point moves as a turns about its axis; s: apart, on b); both gears' bearings carry the
+  /// normal force, the carrier the reaction.
+  enum class Contact { kSpin, kPitch };
+  Contact contact = Contact::kSpin;
+  double pressure_angle = 0.0;  ///< normal pressure angle [rad] (kPitch)
+  double helix_angle = 0.0;     ///< helix angle [rad] of parallel-axis gears, signed (kPitch)
+  bool coast_flank = false;     ///< the line of action of the flank loaded by F_t < 0 (kPitch)
+  bool internal = false;        ///< parallel axes: the gear with more teeth is a ring (internal teeth)
+  bool rack_b = false;          ///< b is a rack: it translates; no axis or teeth (kPitch)
+  double radius_a = 0.0;        ///< pitch radius of a [m], needed with a rack (0: from the geometry)
+  std::optional<Eigen::Vector3d> pitch_point;  ///< carrier frame from its CoM (ground: absolute); default from the geometry
   SourceLocation where;
+};
+
+/// The contact geometry of a mesh at t = 0, in the carrier's frame (ground: absolute): the pitch
+/// point, the arms from each gear's centre to it, the unit directions (t: where a's pitch point
+/// moves as a turns positively; n: the line of the coupling; s: the separating force on b) and the
+/// pitch radii. `error` is empty when the geometry is consistent (axes, radii and teeth), else it
+/// says what is wrong and `hint` how to fix it.
+struct MeshGeometry {
+  Eigen::Vector3d point = Eigen::Vector3d::Zero(), rho_a = Eigen::Vector3d::Zero(), rho_b = Eigen::Vector3d::Zero();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::Zero(), s = Eigen::Vector3d::Zero();
+  Eigen::Vector3d radial_a = Eigen::Vector3d::Zero(), radial_b = Eigen::Vector3d::Zero();  ///< unit, from the axis to the point
+  double r_a = 0.0, r_b = 0.0;
+  std::string error, hint;
 };
 
 /// A drive. Velocity drives impose a flow source on a compliant coupling (the paper's drive);
@@ -181,6 +211,8 @@ class Mechanism {
   void ExpandInto(BondGraph& g, DiagnosticSink& sink) const;
   /// A new graph with the expansion; throws ModelError.
   BondGraph Build(const std::string& name = "mechanism") const;
+  /// The contact geometry of a mesh (kPitch) from the bodies' positions at t = 0.
+  MeshGeometry GeometryOf(const GearMesh& gm) const;
 
  private:
   std::vector<Body> bodies_;

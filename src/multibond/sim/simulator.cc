@@ -203,14 +203,17 @@ struct RowPlan {
 };
 
 /// The energy balance: (work - (stored - stored at start) - dissipated) relative to the largest
-/// energy the run has handled so far (|work|, stored, dissipated). For a driven run whose work
-/// grows, that is the work itself; dividing by the current work instead would blow up whenever
-/// a conservative source's work passes through zero (a pendulum under gravity).
+/// energy the run has handled so far (|work|, kinetic, |potential|, dissipated). For a driven run
+/// whose work grows, that is the work itself; dividing by the current work instead would blow up
+/// whenever a conservative source's work passes through zero. Kinetic and potential energy count
+/// apart: a pendulum under gravity (its potential stored, no work) trades one for the other and
+/// their sum stays at its start.
 class EnergyBalance {
  public:
   explicit EnergyBalance(double stored0) : stored0_(stored0), scale_(std::abs(stored0)) {}
-  double Residual(double work, double stored, double dissipated) {
-    scale_ = std::max({scale_, std::abs(work), std::abs(stored), std::abs(dissipated)});
+  double Residual(double work, double kinetic, double potential, double dissipated) {
+    scale_ = std::max({scale_, std::abs(work), std::abs(kinetic), std::abs(potential), std::abs(dissipated)});
+    const double stored = kinetic + potential;
     const double num = work - (stored - stored0_) - dissipated;
     // Until some energy has flowed there is nothing to balance: a body held still by friction
     // moves by rounding (1e-41 J), and that over itself would read as a residual of -1.
@@ -392,7 +395,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
     const CompiledModel::EnergyTotals stored = model.StoredEnergies(x.data(), energies.data());
     const double work = model.Work(x.data()), kin = stored.kinetic, pot = stored.potential;
     const double diss = model.Dissipated(x.data());
-    const double residual = balance.Residual(work, kin + pot, diss);
+    const double residual = balance.Residual(work, kin, pot, diss);
     for (const RowPlan::Copy& k : plan.from_state) row[k.column] = x[k.offset];
     for (const RowPlan::Copy& k : plan.from_slot) row[k.column] = ws.slots[k.offset];
     for (const RowPlan::Sum& k : plan.sums) {
