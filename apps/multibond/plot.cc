@@ -34,7 +34,7 @@ int Plot(const PlotArgs& a, const std::vector<std::string>& argv) {
     std::cerr << fmt::format("error: no figure drawn from '{}' (see the warnings above); nothing was written\n", a.dir);
     return kExitIo;
   }
-  WriteResultsPage(a.dir, report, po.limits);
+  WriteResultsPage(a.dir, report, po.limits, a.model);
   std::cout << fmt::format("wrote {} figure files in {}/figures and {}/index.html\n", report.files.size(), a.dir, a.dir);
   return kExitOk;
 }
