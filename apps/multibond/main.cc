@@ -25,7 +25,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "multibond " + std::string(mb::kVersion));  // as `multibond version` prints it
   const std::vector<Command> commands = {AddCheckCommand(app), AddEquationsCommand(app), AddGraphCommand(app),
                                          AddRunCommand(app),   AddCompareCommand(app),   AddPlotCommand(app),
-                                         AddLinearizeCommand(app), AddModesCommand(app), AddBodeCommand(app)};
+                                         AddLinearizeCommand(app), AddModesCommand(app), AddBodeCommand(app), AddViewCommand(app)};
   app.add_subcommand("version", "Print the version");
   try {
     app.parse(argc, argv);

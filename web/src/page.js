@@ -62,9 +62,23 @@ function download(name, blob) {
 // ---------------------------------------------------------------------------------------------
 // The data.
 
+const timings = { start: performance.now() };
 const raw = JSON.parse(document.getElementById('mb-data').textContent);
 const columns = raw.columns.map((c, i) => ({ index: i, name: String(c.name), unit: String(c.unit) }));
-const values = raw.values.map(col => Float64Array.from(col, v => (v === null ? NaN : v)));
+/** A column: base64 of little-endian IEEE doubles (plot_web.h, Base64Doubles). */
+function decodeColumn(b64) {
+  let bytes;
+  if (typeof Uint8Array.fromBase64 === 'function') bytes = Uint8Array.fromBase64(b64);
+  else {
+    const s = atob(b64);
+    bytes = new Uint8Array(s.length);
+    for (let i = 0; i < s.length; ++i) bytes[i] = s.charCodeAt(i);
+  }
+  return new Float64Array(bytes.buffer, bytes.byteOffset, bytes.length / 8);
+}
+timings.parsed = performance.now();
+const values = raw.values.map(decodeColumn);
+timings.decoded = performance.now();
 const rows = values.length ? values[0].length : 0;
 const time = values[0] || new Float64Array(0);
 const byName = new Map(columns.map(c => [c.name, c.index]));
@@ -605,7 +619,7 @@ function gearGeometry(teeth, diameter, thickness, cone) {
   if (cone) {
     // A bevel gear: the teeth taper towards the apex (scale x, y along z).
     const p = geo.attributes.position;
-    for (let i = 0; i < p.count; ++i) { const s = 1 - 0.35 * (p.getZ(i) / thickness + 0.5); p.setX(i, p.getX(i) * s); p.setY(i, p.getY(i) * s); }
+    for (let i = 0; i < p.count; ++i) { const s = 1 - 0.2 * (p.getZ(i) / thickness + 0.5); p.setX(i, p.getX(i) * s); p.setY(i, p.getY(i) * s); }
     geo.computeVertexNormals();
   }
   return geo;  // axis z
@@ -681,8 +695,10 @@ function scenePanel(root) {
     mesh.name = b.name;
     scene.add(mesh);
     objects.set(b.name, mesh);
-    const m = sceneTransform(b.name, 0);
-    box.expandByPoint(new THREE.Vector3().setFromMatrixPosition(m));
+    mesh.matrix.copy(sceneTransform(b.name, 0));
+    mesh.updateMatrixWorld(true);
+    if (b.shape && b.shape.type !== 'inertia') box.expandByObject(mesh);
+    else box.expandByPoint(new THREE.Vector3().setFromMatrixPosition(mesh.matrix));
   });
   const size = Math.max(box.getSize(new THREE.Vector3()).length(), 0.2);
   const center = box.getCenter(new THREE.Vector3());
@@ -710,7 +726,7 @@ function scenePanel(root) {
     return { line, stride, n };
   }).filter(Boolean);
   const camera = new THREE.PerspectiveCamera(40, (holder.clientWidth || 800) / 480, size / 100, size * 100);
-  camera.position.copy(center).add(new THREE.Vector3(size * 0.9, -size * 1.2, size * 0.9));
+  camera.position.copy(center).add(new THREE.Vector3(size * 0.8, -size * 1.1, size * 0.8));
   camera.up.set(0, 0, 1);
   const controls = new OrbitControls(camera, renderer.domElement);
   controls.target.copy(center);
@@ -809,21 +825,26 @@ function main() {
 
   side.append(el('h2', { text: 'Columns' }));
   buildColumnList(side);
+  timings.list = performance.now();
   const eSec = section('mb-energy', 'Energy account', mainCol);
   energyPanel(eSec);
+  timings.energy = performance.now();
   const pSec = section('mb-plots-section', 'Plots', mainCol);
   pSec.append(el('p', { class: 'mb-note', text: 'Click a column to plot it; tick several and "plot selected" for shared axes (against time or another column). Drag to zoom, wheel to zoom, shift-drag to pan, double-click to reset.' }));
   pSec.append(el('div', { id: 'mb-plots' }));
   const s3 = section('mb-scene', '3D view', mainCol);
   scenePanel(s3);
+  timings.scene = performance.now();
   const gSec = section('mb-graph-section', 'Bond graph', mainCol);
   graphPanel(gSec);
+  timings.graph = performance.now();
   // A first plot: the model's named outputs, else the first column.
   const outputs = columns.filter(c => c.index > 0 && !c.synthetic && !c.name.includes('.')).map(c => c.index);
   if (outputs.length) plotGroup(outputs.slice(0, 12));
   else if (columns.length > 1) addPlot({ x: 0, ys: [1] });
   setRow(0, null);
   window.addEventListener('resize', resizePlots);
+  timings.ready = performance.now();
   document.body.dataset.ready = '1';
 }
 
@@ -831,6 +852,7 @@ function main() {
 window.multibondPage = {
   columns: () => columns.map(c => ({ name: c.name, unit: c.unit })),
   rows: () => rows,
+  timings: () => ({ ...timings }),
   setTime: t => { setRow(rowAt(t), null); return currentRow; },
   row: () => currentRow,
   plotCount: () => plots.length,

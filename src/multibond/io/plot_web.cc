@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <bit>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -13,6 +14,7 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <openssl/evp.h>
 #include <yaml-cpp/yaml.h>
 
 #include "multibond/causality/causality.h"
@@ -220,6 +222,17 @@ nlohmann::json GraphOf(const LoadedModel& lm, const WorkFolder& work, std::vecto
 
 }  // namespace
 
+std::string Base64Doubles(const std::vector<double>& v) {
+  static_assert(std::endian::native == std::endian::little, "the page reads little-endian doubles");
+  static_assert(sizeof(double) == 8);
+  const std::size_t bytes = v.size() * sizeof(double);
+  std::string out(4 * ((bytes + 2) / 3) + 1, '\0');
+  const int n = bytes == 0 ? 0 : EVP_EncodeBlock(reinterpret_cast<unsigned char*>(out.data()), reinterpret_cast<const unsigned char*>(v.data()),
+                                                static_cast<int>(bytes));
+  out.resize(static_cast<std::size_t>(n));
+  return out;
+}
+
 std::string FindPageAssets() {
   if (const char* env = std::getenv("MULTIBOND_WEB_DIR"); env && *env) return HasAssets(env) ? env : "";
   std::error_code ec;
@@ -256,11 +269,7 @@ nlohmann::json PageData(const PlotTable& table, const std::vector<PlotEvent>& ev
   nlohmann::json columns = nlohmann::json::array(), values = nlohmann::json::array();
   for (std::size_t k = 0; k < table.names().size(); ++k) {
     columns.push_back({{"name", table.names()[k]}, {"unit", table.units()[k]}});
-    const std::vector<double>& v = table.Col(table.names()[k]);
-    nlohmann::json col = nlohmann::json::array();
-    col.get_ref<nlohmann::json::array_t&>().reserve(v.size());
-    for (double x : v) col.push_back(std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr));
-    values.push_back(std::move(col));
+    values.push_back(Base64Doubles(table.Col(table.names()[k])));
   }
   data["columns"] = std::move(columns);
   data["values"] = std::move(values);
