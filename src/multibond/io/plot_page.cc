@@ -297,7 +297,7 @@ std::string ResultsPageHtml(const PlotTable& table, const nlohmann::json& run, c
     section = f.section;
     const std::string target = "figures/" + f.name + (present(f, ".svg") ? ".svg" : ".png");
     h << fmt::format("<figure id=\"{}\">\n", f.name);
-    h << fmt::format("<a href=\"{}\"><img loading=\"lazy\" src=\"figures/{}.png\" alt=\"{}\"></a>\n", target, f.name, HtmlEscape(f.Title()));
+    h << fmt::format("<a href=\"{}\"><img src=\"figures/{}.png\" loading=\"lazy\" alt=\"{}\"></a>\n", target, f.name, HtmlEscape(f.Title()));
     h << fmt::format("<figcaption><span class=\"caption\">{}</span> {}<br><span class=\"files\">figures/{}.png, "
                      "<a href=\"{}\">{}</a>{}</span></figcaption>\n",
                      MarkupToHtml(f.Title()), TextToHtml(f.shows, table), f.name, target, target,
