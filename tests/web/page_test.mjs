@@ -2,13 +2,14 @@
 //
 //   node tests/web/page_test.mjs --cli MULTIBOND --source SRC_DIR --work WORK_DIR [--screenshot PNG]
 //
-// For the mass-spring-damper (`multibond plot`), the differential (`multibond view`), a results
-// folder with hostile names and a 5,001-row x 200-column run, it checks: no console error and no
-// page error; no request but file:, data: and blob: (any other is aborted and fails the test);
-// every plot's canvas and the 3D view's WebGL canvas drawn (not blank); a click on an element of
-// the bond graph adds its plot; the 3D scene's body transforms at a chosen time equal the
-// results' values bit for bit; the exports (CSV, SVG, PNG) give the data; hostile text shown as
-// text only (no dialog, no element made from it); the large run ready in under two seconds.
+// For the mass-spring-damper (`multibond plot`), the differential and the bouncing ball
+// (`multibond view`), a results folder with hostile names and a 5,001-row x 200-column run, it
+// checks: no console error and no page error; no request but file:, data: and blob: (any other
+// is aborted and fails the test); every plot's canvas and the 3D view's WebGL canvas drawn (not
+// blank); a click on an element of the bond graph adds its plot; the 3D scene's body transforms
+// at a chosen time equal the results' values bit for bit; the events marked on every plot
+// against time; the exports (CSV, SVG, PNG) give the data; hostile text shown as text only (no
+// dialog, no element made from it); the large run ready in under two seconds.
 // Exit 77 (CTest: skipped) when Chromium or web/node_modules is missing.
 
 import { execFileSync } from 'node:child_process';
@@ -57,6 +58,10 @@ run(['plot', msd, '--model', path.join(source, 'examples/mass_spring_damper.yaml
 const diff = path.join(work, 'differential');
 run(['run', path.join(source, 'examples/differential.yaml'), '-o', diff]);
 run(['view', diff, '--no-open', '--model', path.join(source, 'examples/differential.yaml')]);
+
+const ball = path.join(work, 'bouncing-ball');
+run(['run', path.join(source, 'examples/events/bouncing_ball.yaml'), '-o', ball]);
+run(['view', ball, '--no-open']);
 
 // Hostile text in every place a results folder holds text: column names and units, the model's
 // name in run.json, an event's element and description.
@@ -223,6 +228,20 @@ const waitFile = async (name, ms = 10000) => {
     await page.screenshot({ path: args.screenshot });
     console.log(`wrote ${args.screenshot}`);
   }
+  await finish(p);
+}
+
+// Events: marked on every plot against time; the bar names the last one before the cursor.
+{
+  const p = await open(ball, 'bouncing ball');
+  const { page } = p;
+  const lines = await page.evaluate(() => window.multibondPage.eventLines());
+  check(lines.length >= 2 && lines.every(n => n > 0), `bouncing ball: every plot against time marks events (${lines.join(', ')} lines)`);
+  const first = fs.readFileSync(path.join(ball, 'events.csv'), 'utf8').split('\n')[1].split(',');
+  await page.evaluate(t => window.multibondPage.setTime(t), Number(first[0]) + 0.01);
+  const said = await page.$eval('#mb-event-at', e => e.textContent);
+  check(said.includes(first[1]) && said.includes(first[2]), `bouncing ball: the bar says the last event: ${said}`);
+  check(await blankCanvases(page, '.mb-plot canvas') === 0, 'bouncing ball: every plot canvas is drawn');
   await finish(p);
 }
 

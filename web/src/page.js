@@ -147,10 +147,11 @@ function setRow(r, from) {
 
 const plots = [];  // {u, timeX, panel, spec}
 
-function eventsPlugin() {
+function eventsPlugin(entry) {
   return {
     hooks: {
       draw: u => {
+        entry.eventLines = 0;
         if (!events.length) return;
         const { ctx } = u;
         const { left, top, width, height } = u.bbox;
@@ -163,6 +164,7 @@ function eventsPlugin() {
           const x = Math.round(u.valToPos(e.time, 'x', true));
           if (used.has(x)) continue;  // thinned: one line a pixel column
           used.add(x);
+          entry.eventLines += 1;
           ctx.strokeStyle = /^#[0-9a-fA-F]{6}$/.test(e.color) ? e.color : '#888888';
           ctx.setLineDash(e.kind === 'impact' ? [] : [4, 3]);
           ctx.beginPath();
@@ -234,6 +236,7 @@ function addPlot(spec, container = document.getElementById('mb-plots'), prepend 
   const { idx, data } = plotData(x, ys);
   const timeX = x === 0;
   const width = Math.max(300, body.clientWidth || container.clientWidth - 20 || 800);
+  const holder = { eventLines: 0 };
   const series = [{ label: label(columns[x]), value: (u, v) => (v == null ? '--' : `${fmtNum(v)} ${columns[x].unit}`) }];
   ys.forEach((c, k) => series.push({
     label: label(columns[c]),
@@ -254,7 +257,7 @@ function addPlot(spec, container = document.getElementById('mb-plots'), prepend 
     series, axes, scales,
     cursor: timeX ? { sync: { key: 'mb-time', setSeries: false }, drag: { x: true, y: false } } : { drag: { x: true, y: true } },
     legend: { live: true },
-    plugins: timeX ? [eventsPlugin(), wheelZoomPlugin()] : [wheelZoomPlugin()],
+    plugins: timeX ? [eventsPlugin(holder), wheelZoomPlugin()] : [wheelZoomPlugin()],
     hooks: {
       setCursor: [u => {
         if (u.cursor.idx == null) return;
@@ -266,7 +269,7 @@ function addPlot(spec, container = document.getElementById('mb-plots'), prepend 
   if (spec.bands) opts.bands = spec.bands;
   if (spec.fills) spec.fills.forEach((f, k) => { if (f) { series[k + 1].fill = f; } });
   const u = new uPlot(opts, data, body);
-  const entry = { u, timeX, panel, spec, idx, title };
+  const entry = { u, timeX, panel, spec, idx, title, lines: holder };
   plots.push(entry);
   const tools = el('span', { class: 'mb-tools' },
     el('button', { type: 'button', text: 'PNG', title: 'save this plot as PNG', onclick: () => exportPng(entry) }),
@@ -570,7 +573,34 @@ function graphPanel(root) {
     nodeShapes.push({ box, energy: energyCol });
     svg.append(grp);
   }
-  const key = el('p', { class: 'mb-note', text: 'Click an element to plot its columns (state, energy, ...). Fill: its power at the cursor\u2019s time (d/dt of its energy, dissipation or work): red takes power in, blue gives it out.' });
+  // Zoom (wheel) and pan (drag) by the view box.
+  let view = [0, 0, W, H];
+  const setView = v => { view = v; svg.setAttribute('viewBox', v.join(' ')); };
+  svg.addEventListener('wheel', ev => {
+    ev.preventDefault();
+    const r = svg.getBoundingClientRect();
+    const fx = (ev.clientX - r.left) / r.width, fy = (ev.clientY - r.top) / r.height;
+    const k = ev.deltaY < 0 ? 0.8 : 1.25;
+    const w = Math.min(W * 2, view[2] * k), h = Math.min(H * 2, view[3] * k);
+    setView([view[0] + (view[2] - w) * fx, view[1] + (view[3] - h) * fy, w, h]);
+  }, { passive: false });
+  svg.addEventListener('mousedown', ev => {
+    const r = svg.getBoundingClientRect(), x0 = ev.clientX, y0 = ev.clientY, v0 = view.slice();
+    let moved = false;
+    const move = e => {
+      moved = moved || Math.abs(e.clientX - x0) + Math.abs(e.clientY - y0) > 3;
+      setView([v0[0] - ((e.clientX - x0) * v0[2]) / r.width, v0[1] - ((e.clientY - y0) * v0[3]) / r.height, v0[2], v0[3]]);
+    };
+    const up = () => {
+      window.removeEventListener('mousemove', move);
+      window.removeEventListener('mouseup', up);
+      if (moved) svg.addEventListener('click', e => e.stopPropagation(), { capture: true, once: true });
+    };
+    window.addEventListener('mousemove', move);
+    window.addEventListener('mouseup', up);
+  });
+  svg.addEventListener('dblclick', () => setView([0, 0, W, H]));
+  const key = el('p', { class: 'mb-note', text: 'Wheel to zoom, drag to pan, double-click to fit. Click an element to plot its columns (state, energy, ...). Fill: its power at the cursor\u2019s time (d/dt of its energy, dissipation or work): red takes power in, blue gives it out.' });
   root.append(svg, key);
   const maxPower = nodeShapes.map(s => {
     let m = 0;
@@ -673,9 +703,11 @@ function scenePanel(root) {
   for (const s of ['0.01', '0.1', '0.25', '1', '4']) speed.append(el('option', { value: s, text: `${s}\u00d7` }));
   speed.value = '0.1';
   const forceScale = el('input', { type: 'range', min: '0', max: '100', value: '0', 'aria-label': 'force arrows', title: 'joint reaction force arrows: length per newton' });
-  const frames = el('button', { type: 'button', text: 'PNG frames (zip)', title: 'render every n-th row to a PNG and save them as a zip' });
+  const frames = el('button', { type: 'button', text: 'PNG frames (zip)', title: 'render up to 300 frames over the run to PNGs and save them as a zip (ffmpeg -i frame-%04d.png makes a video of them)' });
+  const video = el('button', { type: 'button', text: 'video (WebM)', title: 'record the run played at the chosen speed (the browser\u2019s own encoder)' });
+  if (typeof MediaRecorder === 'undefined') video.disabled = true;
   holder.style.height = '480px';
-  root.append(el('div', { class: 'mb-list-tools' }, play, el('label', { text: ' speed ' }), speed, el('label', { text: ' force arrows ' }), forceScale, frames), holder, readout);
+  root.append(el('div', { class: 'mb-list-tools' }, play, el('label', { text: ' speed ' }), speed, el('label', { text: ' force arrows ' }), forceScale, frames, video), holder, readout);
 
   const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
   renderer.setPixelRatio(devicePixelRatio);
@@ -789,6 +821,28 @@ function scenePanel(root) {
     update(saved);
     download('frames.zip', zipStored(files));
   });
+  video.addEventListener('click', async () => {
+    const stream = renderer.domElement.captureStream(30);
+    const rec = new MediaRecorder(stream, { mimeType: 'video/webm' });
+    const chunks = [];
+    rec.ondataavailable = e => chunks.push(e.data);
+    const done = new Promise(res => { rec.onstop = res; });
+    rec.start();
+    const seconds = Math.min(60, (time[rows - 1] - time[0]) / Number(speed.value));
+    const t0 = performance.now();
+    await new Promise(res => {
+      const frame = now => {
+        const t = time[0] + ((now - t0) / 1000) * Number(speed.value);
+        update(rowAt(t));
+        if ((now - t0) / 1000 < seconds) requestAnimationFrame(frame); else res();
+      };
+      requestAnimationFrame(frame);
+    });
+    rec.stop();
+    await done;
+    update(currentRow);
+    download('view.webm', new Blob(chunks, { type: 'video/webm' }));
+  });
   scene3d = { objects, update, renderer };
   update(0);
   new ResizeObserver(() => {
@@ -818,9 +872,17 @@ function main() {
   const scrub = el('input', { type: 'range', min: '0', max: String(Math.max(0, rows - 1)), value: '0', id: 'mb-scrub', 'aria-label': 'time' });
   const tRead = el('span', { class: 'mb-time', id: 'mb-time' });
   scrub.addEventListener('input', () => setRow(Number(scrub.value), scrub));
-  timeListeners.push(r => { scrub.value = String(r); tRead.textContent = `t = ${fmtNum(time[r])} s`; });
+  const evRead = el('span', { class: 'mb-note', id: 'mb-event-at' });
+  timeListeners.push(r => {
+    scrub.value = String(r);
+    tRead.textContent = `t = ${fmtNum(time[r])} s`;
+    // The last event at or before the cursor.
+    let last = null;
+    for (const e of events) { if (e.time <= time[r]) last = e; else break; }
+    evRead.textContent = last ? `last event: ${last.kind} ${last.element} at ${fmtNum(last.time)} s: ${last.description}` : '';
+  });
   const bar = el('div', { class: 'mb-bar' }, el('strong', { text: 'time ' }), scrub, tRead);
-  if (events.length) bar.append(el('span', { class: 'mb-note', text: ` \u00b7 ${raw.event_count || events.length} events marked on the plots against time` }));
+  if (events.length) bar.append(el('span', { class: 'mb-note', text: ` \u00b7 ${raw.event_count || events.length} events marked on the plots against time` }), evRead);
   mainCol.append(bar);
 
   side.append(el('h2', { text: 'Columns' }));
@@ -856,6 +918,7 @@ window.multibondPage = {
   setTime: t => { setRow(rowAt(t), null); return currentRow; },
   row: () => currentRow,
   plotCount: () => plots.length,
+  eventLines: () => plots.filter(p => p.timeX).map(p => p.lines.eventLines),
   bodyMatrix: name => (scene3d && scene3d.objects.has(name) ? Array.from(scene3d.objects.get(name).matrix.elements) : null),
   plotSvg: k => new XMLSerializer().serializeToString(plotSvg(plots[k])),
 };
