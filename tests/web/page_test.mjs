@@ -224,7 +224,12 @@ const waitFile = async (name, ms = 10000) => {
   const trails = await page.evaluate(() => document.querySelectorAll('#mb-3d canvas').length);
   check(trails === 1, 'differential: one WebGL canvas');
   if (args.screenshot) {
-    await page.evaluate(() => { window.multibondPage.setTime(0.6); document.getElementById('mb-scene').scrollIntoView(); });
+    // The README's picture: the drive torque and a planet bearing's force under the cursor, the
+    // seven links turning with the planets' rim points traced.
+    await page.setViewport({ width: 1400, height: 1150 });
+    await page.evaluate(() => window.multibondPage.plotColumns(['P1_bearing.F.x', 'P1_bearing.F.y', 'P1_bearing.F.z']));
+    await page.evaluate(() => window.multibondPage.plotColumns(['drive.torque']));
+    await page.evaluate(() => { window.multibondPage.setTime(0.6); document.getElementById('mb-scene').scrollIntoView(); window.scrollBy(0, -40); });
     await page.screenshot({ path: args.screenshot });
     console.log(`wrote ${args.screenshot}`);
   }

@@ -47,6 +47,13 @@ function fmtNum(v) {
   return a >= 1e-3 && a < 1e6 ? Number(v.toPrecision(5)).toString() : v.toExponential(4);
 }
 
+/** An axis tick: short, exact enough to tell neighbours apart (uPlot's default rounds 1e-5 to 0). */
+function fmtTick(v) {
+  if (v === 0) return '0';
+  const a = Math.abs(v);
+  return a >= 1e-3 && a < 1e5 ? Number(v.toPrecision(6)).toString() : v.toExponential(2).replace(/\.?0+e/, 'e');
+}
+
 function safeFileName(s) {
   return String(s).replace(/[^A-Za-z0-9_.-]+/g, '_').slice(0, 80) || 'plot';
 }
@@ -248,7 +255,9 @@ function addPlot(spec, container = document.getElementById('mb-plots'), prepend 
     value: (u, v) => (v == null ? '--' : `${fmtNum(v)} ${columns[c].unit}`),
   }));
   const axes = [{ label: label(columns[x]) }];
-  units.slice(0, 2).forEach((unit, k) => axes.push({ scale: unit, label: `[${unit}]`, side: k === 0 ? 3 : 1, grid: { show: k === 0 } }));
+  const ticks = (u, splits) => splits.map(v => (v == null ? '' : fmtTick(v)));
+  axes[0].values = ticks;
+  units.slice(0, 2).forEach((unit, k) => axes.push({ scale: unit, label: `[${unit}]`, side: k === 0 ? 3 : 1, grid: { show: k === 0 }, values: ticks, size: 60 }));
   const scales = { x: { time: false, auto: true } };
   if (!timeX) scales.x = { time: false, auto: true };
   for (const unit of units) scales[unit] = { auto: true };
@@ -707,7 +716,8 @@ function scenePanel(root) {
   const video = el('button', { type: 'button', text: 'video (WebM)', title: 'record the run played at the chosen speed (the browser\u2019s own encoder)' });
   if (typeof MediaRecorder === 'undefined') video.disabled = true;
   holder.style.height = '480px';
-  root.append(el('div', { class: 'mb-list-tools' }, play, el('label', { text: ' speed ' }), speed, el('label', { text: ' force arrows ' }), forceScale, frames, video), holder, readout);
+  root.append(el('div', { class: 'mb-list-tools' }, play, el('label', { text: ' speed ' }), speed, el('label', { text: ' force arrows ' }), forceScale, frames, video),
+    el('div', { class: 'mb-3d-row' }, holder, readout));
 
   const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
   renderer.setPixelRatio(devicePixelRatio);
@@ -888,13 +898,17 @@ function main() {
   side.append(el('h2', { text: 'Columns' }));
   buildColumnList(side);
   timings.list = performance.now();
+  // A mechanism's page opens on its 3D view; the others have it (a note) at the end.
+  const mechanism = raw.scene && Array.isArray(raw.scene.bodies) && raw.scene.bodies.length > 0;
+  const s3 = section('mb-scene', '3D view', mechanism ? mainCol : document.createElement('div'));
   const eSec = section('mb-energy', 'Energy account', mainCol);
+  const pSec = section('mb-plots-section', 'Plots', mainCol);
+  if (mechanism) mainCol.insertBefore(pSec, eSec);
   energyPanel(eSec);
   timings.energy = performance.now();
-  const pSec = section('mb-plots-section', 'Plots', mainCol);
   pSec.append(el('p', { class: 'mb-note', text: 'Click a column to plot it; tick several and "plot selected" for shared axes (against time or another column). Drag to zoom, wheel to zoom, shift-drag to pan, double-click to reset.' }));
   pSec.append(el('div', { id: 'mb-plots' }));
-  const s3 = section('mb-scene', '3D view', mainCol);
+  if (!mechanism) mainCol.append(s3);
   scenePanel(s3);
   timings.scene = performance.now();
   const gSec = section('mb-graph-section', 'Bond graph', mainCol);
@@ -903,7 +917,6 @@ function main() {
   // A first plot: the model's named outputs, else the first column.
   const outputs = columns.filter(c => c.index > 0 && !c.synthetic && !c.name.includes('.')).map(c => c.index);
   if (outputs.length) plotGroup(outputs.slice(0, 12));
-  else if (columns.length > 1) addPlot({ x: 0, ys: [1] });
   setRow(0, null);
   window.addEventListener('resize', resizePlots);
   timings.ready = performance.now();
@@ -918,6 +931,7 @@ window.multibondPage = {
   setTime: t => { setRow(rowAt(t), null); return currentRow; },
   row: () => currentRow,
   plotCount: () => plots.length,
+  plotColumns: names => addPlot({ x: 0, ys: names.map(n => byName.get(n)).filter(c => c !== undefined), height: 200 }).title,
   eventLines: () => plots.filter(p => p.timeX).map(p => p.lines.eventLines),
   bodyMatrix: name => (scene3d && scene3d.objects.has(name) ? Array.from(scene3d.objects.get(name).matrix.elements) : null),
   plotSvg: k => new XMLSerializer().serializeToString(plotSvg(plots[k])),
