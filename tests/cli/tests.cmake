@@ -17,3 +17,5 @@ add_dependencies(cli_formats_cli_test multibond_cli)
 target_compile_definitions(cli_formats_cli_test PRIVATE
   MULTIBOND_SYSTEM_PYTHON="$<$<BOOL:${MULTIBOND_SYSTEM_PYTHON}>:${MULTIBOND_SYSTEM_PYTHON}>"
   MULTIBOND_OCTAVE="$<$<BOOL:${MULTIBOND_OCTAVE}>:${MULTIBOND_OCTAVE}>")
+multibond_test(cli/view_cli_test.cc LABELS cli)
+add_dependencies(cli_view_cli_test multibond_cli)

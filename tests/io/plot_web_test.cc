@@ -238,5 +238,24 @@ TEST(PlotWebTest, PreparePageLaysOutTheGraphAndCopiesTheFilesWithoutFollowingLin
   EXPECT_THAT(with, HasSubstr("<link rel=\"stylesheet\" href=\"multibond-page.css\">"));
 }
 
+TEST(PlotWebTest, ARunTooLargeForThePageKeepsTheGalleryWithANote) {
+  TempDir d;
+  // 2^25 + 2 values: 2 columns of 2^24 + 1 rows, written as short lines.
+  {
+    std::ofstream out(d.path / "results.csv");
+    out << "time [s],x [m]\n";
+    for (size_t r = 0; r <= (size_t{1} << 24); ++r) out << "0,0\n";
+  }
+  struct stat st {};
+  const PlotTable t = PlotTable::Load(ResultsFolder(d.path.string()), std::uint64_t{1} << 30, &st);
+  ASSERT_GT(t.rows() * 2, kMaxPageValues);
+  const PageApp app = PreparePage(ResultsFolder(d.path.string()), t, {}, "", {}, "");
+  EXPECT_TRUE(app.data_json.empty());
+  ASSERT_EQ(app.notes.size(), 1u);
+  EXPECT_THAT(app.notes[0], HasSubstr("16777217 rows of 2 columns"));
+  const std::string html = ResultsPageHtml(t, nlohmann::json::object(), FigureList{}, {}, -1, {}, &app);
+  EXPECT_EQ(html.find("<script"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace multibond

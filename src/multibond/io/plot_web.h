@@ -39,6 +39,10 @@ constexpr std::size_t kMaxDataEvents = 20000;
 /// The most bodies, joints and points a scene holds; past them the 3D view is left out.
 constexpr std::size_t kMaxSceneParts = 10000;
 
+/// The most values (rows x columns) the page holds: 2^25, 256 MiB of doubles, about 350 MB of
+/// page. A larger run gets the gallery without the interactive part, and a note.
+constexpr std::size_t kMaxPageValues = std::size_t{1} << 25;
+
 /// The folder holding kPageScript and kPageStyle, or "" when none does. Looked for in order:
 /// $MULTIBOND_WEB_DIR; `<prefix>/share/multibond/web` next to the running program's
 /// `<prefix>/bin` (an installed multibond); the build tree's `web/` (where CMake bundles them).
