@@ -13,34 +13,20 @@
 #include <gtest/gtest.h>
 
 #include "support/cli_runner.h"
+#include "support/temp_dir.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::Not;
-
-std::string ReadFile(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::string t = (fs::temp_directory_path() / "multibond-view-test-XXXXXX").string();
-    path = mkdtemp(t.data());
-  }
-  ~TempDir() { fs::remove_all(path); }
-};
+using multibond::testing::ReadFile;
 
 const std::string kExamples = std::string(MULTIBOND_SOURCE_DIR) + "/examples/";
 
 TEST(ViewCliTest, WritesThePageWhenNeededAndSaysWhereItIs) {
-  TempDir t;
-  const fs::path dir = t.path / "msd";
+  const multibond::testing::TempDir t("multibond-view-test");
+  const fs::path dir = t.path() / "msd";
   ASSERT_EQ(multibond::testing::RunCli({"run", kExamples + "mass_spring_damper.yaml", "-o", dir.string(), "-q", "--t-end", "0.2"}).code, 0);
   const auto first = multibond::testing::RunCli({"view", dir.string(), "--no-open"});
   ASSERT_EQ(first.code, 0) << first.out;
@@ -64,7 +50,7 @@ TEST(ViewCliTest, WritesThePageWhenNeededAndSaysWhereItIs) {
 
   // No xdg-open on PATH: the path is printed, and view succeeds.
   const std::string path = getenv("PATH") ? getenv("PATH") : "";
-  setenv("PATH", t.path.c_str(), 1);
+  setenv("PATH", t.path().c_str(), 1);
   const auto no_browser = multibond::testing::RunCli({"view", dir.string()});
   setenv("PATH", path.c_str(), 1);
   EXPECT_EQ(no_browser.code, 0) << no_browser.out;
@@ -72,8 +58,8 @@ TEST(ViewCliTest, WritesThePageWhenNeededAndSaysWhereItIs) {
 }
 
 TEST(ViewCliTest, TheModelGivesTheSceneAndTheGraph) {
-  TempDir t;
-  const fs::path dir = t.path / "differential";
+  const multibond::testing::TempDir t("multibond-view-test");
+  const fs::path dir = t.path() / "differential";
   ASSERT_EQ(multibond::testing::RunCli({"run", kExamples + "differential.yaml", "-o", dir.string(), "-q", "--t-end", "0.05"}, 120).code, 0);
   const auto view = multibond::testing::RunCli({"view", dir.string(), "--no-open", "--model", kExamples + "differential.yaml"}, 120);
   ASSERT_EQ(view.code, 0) << view.out;
@@ -85,11 +71,11 @@ TEST(ViewCliTest, TheModelGivesTheSceneAndTheGraph) {
 }
 
 TEST(ViewCliTest, AFolderWithoutResultsIsAnError) {
-  TempDir t;
-  const auto view = multibond::testing::RunCli({"view", t.path.string(), "--no-open"});
+  const multibond::testing::TempDir t("multibond-view-test");
+  const auto view = multibond::testing::RunCli({"view", t.path().string(), "--no-open"});
   EXPECT_EQ(view.code, 74) << view.out;
   EXPECT_THAT(view.out, HasSubstr("results.csv"));
-  EXPECT_FALSE(fs::exists(t.path / "index.html"));
+  EXPECT_FALSE(fs::exists(t.path() / "index.html"));
 }
 
 }  // namespace

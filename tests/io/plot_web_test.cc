@@ -17,28 +17,14 @@
 #include <gtest/gtest.h>
 
 #include "multibond/io/plot_page.h"
+#include "support/temp_dir.h"
 
 namespace multibond {
 namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
-
-std::string ReadFile(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    std::string t = (fs::temp_directory_path() / "multibond-plot-web-XXXXXX").string();
-    path = mkdtemp(t.data());
-  }
-  ~TempDir() { fs::remove_all(path); }
-};
+using multibond::testing::ReadFile;
 
 std::vector<double> DecodeDoubles(const std::string& b64) {
   std::vector<unsigned char> bytes(b64.size());
@@ -79,8 +65,8 @@ PlotTable TableOf(const fs::path& dir, const std::string& csv) {
 }
 
 TEST(PlotWebTest, PageDataHasEveryColumnAndTheEvents) {
-  TempDir d;
-  const PlotTable t = TableOf(d.path, "time [s],x [m],\"<b>.y\" [N m]\n0,1,2\n0.5,-1.25,3\n");
+  const multibond::testing::TempDir d("multibond-plot-web");
+  const PlotTable t = TableOf(d.path(), "time [s],x [m],\"<b>.y\" [N m]\n0,1,2\n0.5,-1.25,3\n");
   std::vector<PlotEvent> events(kMaxDataEvents + 5, PlotEvent{0.25, "impact", "wall", "a <b>hit</b>"});
   events[1].kind = "stick";
   const nlohmann::json data = PageData(t, events);
@@ -202,19 +188,19 @@ TEST(PlotWebTest, GraphDrawingKeepsOnlyCheckedOperations) {
 }
 
 TEST(PlotWebTest, PreparePageLaysOutTheGraphAndCopiesTheFilesWithoutFollowingLinks) {
-  TempDir d;
-  const fs::path dir = d.path / "results", assets = d.path / "assets";
+  const multibond::testing::TempDir d("multibond-plot-web");
+  const fs::path dir = d.path() / "results", assets = d.path() / "assets";
   fs::create_directories(dir);
   fs::create_directories(assets);
   std::ofstream(assets / kPageScript) << "/* script */";
   std::ofstream(assets / kPageStyle) << "/* style */";
-  std::ofstream(d.path / "victim") << "precious";
-  fs::create_symlink(d.path / "victim", dir / kPageScript);
+  std::ofstream(d.path() / "victim") << "precious";
+  fs::create_symlink(d.path() / "victim", dir / kPageScript);
   const PlotTable t = TableOf(dir, "time [s],spring.q [m]\n0,0\n1,1\n");
   const ResultsFolder folder(dir.string());
   const PageApp app = PreparePage(folder, t, {}, std::string(MULTIBOND_SOURCE_DIR) + "/examples/mass_spring_damper.yaml", {}, assets.string());
   EXPECT_TRUE(app.assets);
-  EXPECT_EQ(ReadFile(d.path / "victim"), "precious");
+  EXPECT_EQ(ReadFile(d.path() / "victim"), "precious");
   EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(dir / kPageScript)));
   EXPECT_EQ(ReadFile(dir / kPageScript), "/* script */");
   EXPECT_EQ(ReadFile(dir / kPageStyle), "/* style */");
@@ -239,17 +225,17 @@ TEST(PlotWebTest, PreparePageLaysOutTheGraphAndCopiesTheFilesWithoutFollowingLin
 }
 
 TEST(PlotWebTest, ARunTooLargeForThePageKeepsTheGalleryWithANote) {
-  TempDir d;
+  const multibond::testing::TempDir d("multibond-plot-web");
   // 2^25 + 2 values: 2 columns of 2^24 + 1 rows, written as short lines.
   {
-    std::ofstream out(d.path / "results.csv");
+    std::ofstream out(d.path() / "results.csv");
     out << "time [s],x [m]\n";
     for (size_t r = 0; r <= (size_t{1} << 24); ++r) out << "0,0\n";
   }
   struct stat st {};
-  const PlotTable t = PlotTable::Load(ResultsFolder(d.path.string()), std::uint64_t{1} << 30, &st);
+  const PlotTable t = PlotTable::Load(ResultsFolder(d.path().string()), std::uint64_t{1} << 30, &st);
   ASSERT_GT(t.rows() * 2, kMaxPageValues);
-  const PageApp app = PreparePage(ResultsFolder(d.path.string()), t, {}, "", {}, "");
+  const PageApp app = PreparePage(ResultsFolder(d.path().string()), t, {}, "", {}, "");
   EXPECT_TRUE(app.data_json.empty());
   ASSERT_EQ(app.notes.size(), 1u);
   EXPECT_THAT(app.notes[0], HasSubstr("16777217 rows of 2 columns"));
