@@ -221,6 +221,18 @@ const waitFile = async (name, ms = 10000) => {
   check(scrub === expectRow, 'differential: the scrub bar follows the time');
   const readout = await page.$eval('#mb-readout', e => e.textContent);
   check(readout.includes('drive.torque') && readout.includes('P1_bearing'), 'differential: drive torque and bearing forces under the cursor');
+  // A path: the rim point of P1, y against x, drawn whole (not clipped to the first and last x).
+  await page.evaluate(() => {
+    document.querySelector('[data-column="Q_P1.y"]').click();
+    document.getElementById('mb-x').value = String(window.multibondPage.columns().findIndex(c => c.name === 'Q_P1.x'));
+    document.getElementById('mb-plot-selected').click();
+  });
+  const titles = await page.evaluate(() => window.multibondPage.plotTitles());
+  const k = titles.indexOf('Q_P1.y against Q_P1.x');
+  const [x0, x1] = k >= 0 ? (await page.evaluate(() => window.multibondPage.xRanges()))[k] : [NaN, NaN];
+  const qx = csv.col('Q_P1.x');
+  check(k >= 0 && x0 <= Math.min(...qx) && x1 >= Math.max(...qx), `differential: Q_P1.y against Q_P1.x spans x ${x0} to ${x1}`);
+  check(await blankCanvases(page, '.mb-plot canvas') === 0, 'differential: the path is drawn');
   const trails = await page.evaluate(() => document.querySelectorAll('#mb-3d canvas').length);
   check(trails === 1, 'differential: one WebGL canvas');
   if (args.screenshot) {

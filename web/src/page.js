@@ -14,6 +14,7 @@ import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
 import './page.css';
 
 const SVGNS = 'http://www.w3.org/2000/svg';
+const linearPath = uPlot.paths.linear();
 const PALETTE = ['#1f77b4', '#d62728', '#2ca02c', '#ff7f0e', '#9467bd', '#8c564b', '#e377c2', '#7f7f7f', '#bcbd22', '#17becf',
   '#003f5c', '#a05195'];
 const MAX_DISPLAY_POINTS = 2000;  // per series on screen (min/max per bucket); exports use every row
@@ -251,7 +252,9 @@ function addPlot(spec, container = document.getElementById('mb-plots'), prepend 
     stroke: PALETTE[k % PALETTE.length],
     width: 1.5,
     points: { show: false },
-    paths: timeX ? undefined : uPlot.paths.linear(),
+    // Against another column the data is a path, not sorted by x: draw every point in order
+    // (uPlot would clip to the window it finds by bisecting x).
+    paths: timeX ? undefined : (u, si) => linearPath(u, si, 0, u.data[0].length - 1),
     value: (u, v) => (v == null ? '--' : `${fmtNum(v)} ${columns[c].unit}`),
   }));
   const axes = [{ label: label(columns[x]) }];
@@ -259,13 +262,32 @@ function addPlot(spec, container = document.getElementById('mb-plots'), prepend 
   axes[0].values = ticks;
   units.slice(0, 2).forEach((unit, k) => axes.push({ scale: unit, label: `[${unit}]`, side: k === 0 ? 3 : 1, grid: { show: k === 0 }, values: ticks, size: 60 }));
   const scales = { x: { time: false, auto: true } };
-  if (!timeX) scales.x = { time: false, auto: true };
-  for (const unit of units) scales[unit] = { auto: true };
+  let fixedRanges = null;
+  if (!timeX) {
+    // Ranges from every point (uPlot's own would look at the first and last x only).
+    const padded = arr => {
+      let lo = Infinity, hi = -Infinity;
+      for (const a of arr) for (const v of a) if (Number.isFinite(v)) { lo = Math.min(lo, v); hi = Math.max(hi, v); }
+      if (!(hi >= lo)) return [0, 1];
+      const pad = (hi - lo) * 0.05 || Math.abs(hi) * 0.05 || 1;
+      return [lo - pad, hi + pad];
+    };
+    const xr = padded([data[0]]);
+    scales.x = { time: false, auto: false };
+    fixedRanges = { x: xr };
+    for (const unit of units) {
+      const yr = padded(ys.map((c, k) => (columns[c].unit === unit ? data[k + 1] : [])));
+      scales[unit] = { auto: false };
+      fixedRanges[unit] = yr;
+    }
+  } else {
+    for (const unit of units) scales[unit] = { auto: true };
+  }
   const opts = {
     width, height: spec.height || 260,
     series, axes, scales,
     cursor: timeX ? { sync: { key: 'mb-time', setSeries: false }, drag: { x: true, y: false } } : { drag: { x: true, y: true } },
-    legend: { live: true },
+    legend: { live: timeX },  // against a column, the cursor's bisection of x means nothing
     plugins: timeX ? [eventsPlugin(holder), wheelZoomPlugin()] : [wheelZoomPlugin()],
     hooks: {
       setCursor: [u => {
@@ -278,13 +300,17 @@ function addPlot(spec, container = document.getElementById('mb-plots'), prepend 
   if (spec.bands) opts.bands = spec.bands;
   if (spec.fills) spec.fills.forEach((f, k) => { if (f) { series[k + 1].fill = f; } });
   const u = new uPlot(opts, data, body);
+  if (fixedRanges) for (const [k, [min, max]] of Object.entries(fixedRanges)) u.setScale(k, { min, max });
   const entry = { u, timeX, panel, spec, idx, title, lines: holder };
   plots.push(entry);
   const tools = el('span', { class: 'mb-tools' },
     el('button', { type: 'button', text: 'PNG', title: 'save this plot as PNG', onclick: () => exportPng(entry) }),
     el('button', { type: 'button', text: 'SVG', title: 'save this plot as SVG', onclick: () => exportSvg(entry) }),
     el('button', { type: 'button', text: 'CSV', title: 'save these columns (every row) as CSV', onclick: () => exportCsv([x, ...ys]) }),
-    el('button', { type: 'button', text: 'reset zoom', onclick: () => u.setData(u.data, true) }),
+    el('button', { type: 'button', text: 'reset zoom', onclick: () => {
+      if (!fixedRanges) u.setData(u.data, true);
+      else for (const [k, [min, max]] of Object.entries(fixedRanges)) u.setScale(k, { min, max });
+    } }),
     el('button', { type: 'button', text: '\u00d7', title: 'close', onclick: () => { u.destroy(); panel.remove(); plots.splice(plots.indexOf(entry), 1); } }));
   head.append(tools);
   return entry;
@@ -932,6 +958,8 @@ window.multibondPage = {
   row: () => currentRow,
   plotCount: () => plots.length,
   plotColumns: names => addPlot({ x: 0, ys: names.map(n => byName.get(n)).filter(c => c !== undefined), height: 200 }).title,
+  plotTitles: () => plots.map(p => p.title),
+  xRanges: () => plots.map(p => [p.u.scales.x.min, p.u.scales.x.max]),
   eventLines: () => plots.filter(p => p.timeX).map(p => p.lines.eventLines),
   bodyMatrix: name => (scene3d && scene3d.objects.has(name) ? Array.from(scene3d.objects.get(name).matrix.elements) : null),
   plotSvg: k => new XMLSerializer().serializeToString(plotSvg(plots[k])),
