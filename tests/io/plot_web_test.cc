@@ -226,20 +226,14 @@ TEST(PlotWebTest, PreparePageLaysOutTheGraphAndCopiesTheFilesWithoutFollowingLin
 
 TEST(PlotWebTest, ARunTooLargeForThePageKeepsTheGalleryWithANote) {
   const multibond::testing::TempDir d("multibond-plot-web");
-  // 2^25 + 2 values: 2 columns of 2^24 + 1 rows, written as short lines.
-  {
-    std::ofstream out(d.path() / "results.csv");
-    out << "time [s],x [m]\n";
-    for (size_t r = 0; r <= (size_t{1} << 24); ++r) out << "0,0\n";
-  }
-  struct stat st {};
-  const PlotTable t = PlotTable::Load(ResultsFolder(d.path().string()), std::uint64_t{1} << 30, &st);
-  ASSERT_GT(t.rows() * 2, kMaxPageValues);
-  const PageApp app = PreparePage(ResultsFolder(d.path().string()), t, {}, "", {}, "");
-  EXPECT_TRUE(app.data_json.empty());
-  ASSERT_EQ(app.notes.size(), 1u);
-  EXPECT_THAT(app.notes[0], HasSubstr("16777217 rows of 2 columns"));
-  const std::string html = ResultsPageHtml(t, nlohmann::json::object(), FigureList{}, {}, -1, {}, &app);
+  const PlotTable t = TableOf(d.path(), "time [s],x [m]\n0,1\n1,2\n2,3\n");  // 6 values
+  const PageApp at = PreparePage(ResultsFolder(d.path().string()), t, {}, "", {}, "", 6);
+  EXPECT_FALSE(at.data_json.empty());
+  const PageApp over = PreparePage(ResultsFolder(d.path().string()), t, {}, "", {}, "", 5);
+  EXPECT_TRUE(over.data_json.empty());
+  ASSERT_EQ(over.notes.size(), 1u);
+  EXPECT_THAT(over.notes[0], HasSubstr("3 rows of 2 columns, more than the page holds (5 values)"));
+  const std::string html = ResultsPageHtml(t, nlohmann::json::object(), FigureList{}, {}, -1, {}, &over);
   EXPECT_EQ(html.find("<script"), std::string::npos);
 }
 

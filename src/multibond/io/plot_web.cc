@@ -366,12 +366,12 @@ nlohmann::json GraphDrawing(const nlohmann::json& dot_json, const BondGraph& g) 
 }
 
 PageApp PreparePage(const ResultsFolder& folder, const PlotTable& table, const std::vector<PlotEvent>& events,
-                    const std::string& model_path, const InputLimits& limits, const std::string& assets_dir) {
+                    const std::string& model_path, const InputLimits& limits, const std::string& assets_dir, std::size_t max_values) {
   PageApp app;
-  if (table.rows() * table.names().size() > kMaxPageValues) {
+  if (table.rows() * table.names().size() > max_values) {
     app.notes.push_back(fmt::format("No interactive view: the run has {} rows of {} columns, more than the page holds ({} values); "
                                     "the figures below are drawn from all of them.",
-                                    table.rows(), table.names().size(), kMaxPageValues));
+                                    table.rows(), table.names().size(), max_values));
     return app;
   }
   nlohmann::json data = PageData(table, events);

@@ -89,8 +89,10 @@ struct PageApp {
 /// Gathers the page's data from the folder's table and events and the model file `model_path`
 /// (may be ""; a model that does not load leaves out the graph and the scene with a note), and
 /// copies the assets from `assets_dir` (FindPageAssets(); "" for none) into the folder, through a
-/// private work folder and a rename (a planted link is replaced, not followed).
+/// private work folder and a rename (a planted link is replaced, not followed). A table of more
+/// than `max_values` values gets no interactive part (a note says why).
 PageApp PreparePage(const ResultsFolder& folder, const PlotTable& table, const std::vector<PlotEvent>& events,
-                    const std::string& model_path, const InputLimits& limits, const std::string& assets_dir);
+                    const std::string& model_path, const InputLimits& limits, const std::string& assets_dir,
+                    std::size_t max_values = kMaxPageValues);
 
 }  // namespace multibond
