@@ -153,16 +153,17 @@ function setRow(r, from) {
 // ---------------------------------------------------------------------------------------------
 // Plots.
 
-const plots = [];  // {u, timeX, panel, spec}
+const plots = [];  // {u, timeX, panel, spec, idx, title, lines}
 
 function eventsPlugin(entry) {
   return {
     hooks: {
-      draw: u => {
+      // Behind the curves: drawn after the canvas is cleared, before the axes and series.
+      drawClear: u => {
         entry.eventLines = 0;
         if (!events.length) return;
         const { ctx } = u;
-        const { left, top, width, height } = u.bbox;
+        const { top, height } = u.bbox;
         const [xmin, xmax] = [u.scales.x.min, u.scales.x.max];
         const used = new Set();
         ctx.save();
@@ -181,7 +182,6 @@ function eventsPlugin(entry) {
           ctx.stroke();
         }
         ctx.restore();
-        void left; void width;
       },
     },
   };
