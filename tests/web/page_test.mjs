@@ -174,6 +174,15 @@ const waitFile = async (name, ms = 10000) => {
   const after = await page.evaluate(() => window.multibondPage.plotCount());
   const titles = await page.$$eval('.mb-plot .mb-title', els => els.map(e => e.textContent));
   check(after > before && titles.some(t => t.startsWith('spring')), `mass-spring-damper: clicking 'spring' in the bond graph adds its plots (${before} -> ${after})`);
+  // Power at the cursor: the damper takes power in (red) whenever it moves; the force gives it
+  // out (blue) while the mass moves its way.
+  const v = csv.col('velocity'), tt = csv.col('time');
+  const moving = v.findIndex(x => x > 0.01);
+  await page.evaluate(t => window.multibondPage.setTime(t), tt[moving + 1]);
+  const fill = name => page.$eval(`.mb-node[data-element="${name}"] .mb-node-box`, e => e.getAttribute('fill'));
+  const [damperFill, forceFill] = [await fill('damper'), await fill('force')];
+  check(damperFill.startsWith('rgba(214,39,40') && forceFill.startsWith('rgba(31,119,180'),
+    `mass-spring-damper: at t = ${tt[moving + 1]} s the damper takes power in (${damperFill}), the force gives it out (${forceFill})`);
   // Exports of the first plot (spring's): CSV with every row, SVG, PNG.
   const first = await page.$('#mb-plots .mb-plot');
   const [csvButton, svgButton, pngButton] = await Promise.all(['CSV', 'SVG', 'PNG'].map(t => first.$(`xpath/.//button[text()="${t}"]`)));

@@ -604,8 +604,9 @@ function graphPanel(root) {
       grp.addEventListener('click', () => plotGroup(cols, n.element));
     }
     // Power at the cursor: the rate of change of the element's energy, dissipation or work.
-    const energyCol = ['energy', 'dissipated', 'work'].map(s => col(`${n.element}.${s}`)).find(Boolean);
-    nodeShapes.push({ box, energy: energyCol });
+    // (a source's work is what it gives out: its power in is minus the rate of its work)
+    const kind = ['energy', 'dissipated', 'work'].find(s => col(`${n.element}.${s}`));
+    nodeShapes.push({ box, energy: kind ? col(`${n.element}.${kind}`) : null, sign: kind === 'work' ? -1 : 1 });
     svg.append(grp);
   }
   // Zoom (wheel) and pan (drag) by the view box.
@@ -647,7 +648,7 @@ function graphPanel(root) {
     nodeShapes.forEach((s, k) => {
       if (!s.energy || !(maxPower[k] > 0)) return;
       const i = Math.max(1, r), dt = time[i] - time[i - 1];
-      const pw = dt > 0 ? (s.energy[i] - s.energy[i - 1]) / dt : 0;
+      const pw = dt > 0 ? (s.sign * (s.energy[i] - s.energy[i - 1])) / dt : 0;
       const a = Math.min(1, Math.abs(pw) / maxPower[k]);
       s.box.setAttribute('fill', pw >= 0 ? `rgba(214,39,40,${(0.1 + 0.7 * a).toFixed(3)})` : `rgba(31,119,180,${(0.1 + 0.7 * a).toFixed(3)})`);
     });
