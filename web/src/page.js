@@ -636,7 +636,7 @@ function graphPanel(root) {
     window.addEventListener('mouseup', up);
   });
   svg.addEventListener('dblclick', () => setView([0, 0, W, H]));
-  const key = el('p', { class: 'mb-note', text: 'Wheel to zoom, drag to pan, double-click to fit. Click an element to plot its columns (state, energy, ...). Fill: its power at the cursor\u2019s time (d/dt of its energy, dissipation or work): red takes power in, blue gives it out.' });
+  const key = el('p', { class: 'mb-note', text: 'Wheel to zoom, drag to pan, double-click to fit. Click an element to plot its columns (state, energy, ...). Fill: its power at the cursor\u2019s time (the rate of its energy or dissipation, minus that of a source\u2019s work): red takes power in, blue gives it out.' });
   root.append(svg, key);
   const maxPower = nodeShapes.map(s => {
     let m = 0;
