@@ -166,6 +166,10 @@ const waitFile = async (name, ms = 10000) => {
   const columns = await page.$$eval('#mb-column-list .mb-col-name', els => els.map(e => e.textContent));
   const csv = readCsv(path.join(msd, 'results.csv'));
   check(columns.length === csv.header.length - 1 && csv.header.slice(1).every(n => columns.includes(n)), `mass-spring-damper: the list has every column (${columns.length})`);
+  await page.type('#mb-search', 'energy');
+  const energy = await page.$$eval('#mb-column-list .mb-col-name', els => els.map(e => e.textContent));
+  check(energy.length === csv.header.filter(n => n.includes('energy')).length, `mass-spring-damper: search 'energy' lists the file's ${energy.length} columns (not the stack's own)`);
+  await page.$eval('#mb-search', e => { e.value = ''; });
   await page.type('#mb-search', 'spring');
   const filtered = await page.$$eval('#mb-column-list .mb-col-name', els => els.map(e => e.textContent));
   check(filtered.length > 0 && filtered.every(n => n.includes('spring')), `mass-spring-damper: search 'spring' lists ${filtered.join(', ')}`);

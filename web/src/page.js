@@ -458,6 +458,7 @@ function buildColumnList(root) {
     const groups = new Map();
     let shown = 0, matched = 0;
     for (const c of columns.slice(1)) {
+      if (c.synthetic) continue;
       if (q && !c.name.toLowerCase().includes(q) && !c.unit.toLowerCase().includes(q)) continue;
       ++matched;
       const g = groupBy.value === 'unit' ? `[${c.unit}]` : elementOf(c.name);
@@ -483,7 +484,7 @@ function buildColumnList(root) {
       }
       list.append(details);
     }
-    count.textContent = `${matched} of ${columns.length - 1} columns${shown < matched ? `, first ${shown} listed (narrow the search)` : ''}; ${rows} rows`;
+    count.textContent = `${matched} of ${raw.columns.length - 1} columns${shown < matched ? `, first ${shown} listed (narrow the search)` : ''}; ${rows} rows`;
   }
   search.addEventListener('input', render);
   groupBy.addEventListener('change', render);
@@ -952,7 +953,7 @@ function main() {
 
 // For the tests and for scripting from the console.
 window.multibondPage = {
-  columns: () => columns.map(c => ({ name: c.name, unit: c.unit })),
+  columns: () => columns.filter(c => !c.synthetic).map(c => ({ name: c.name, unit: c.unit })),
   rows: () => rows,
   timings: () => ({ ...timings }),
   setTime: t => { setRow(rowAt(t), null); return currentRow; },
