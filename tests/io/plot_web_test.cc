@@ -27,6 +27,7 @@ using ::testing::HasSubstr;
 using multibond::testing::ReadFile;
 
 std::vector<double> DecodeDoubles(const std::string& b64) {
+  if (b64.empty()) return {};
   std::vector<unsigned char> bytes(b64.size());
   const int n = EVP_DecodeBlock(bytes.data(), reinterpret_cast<const unsigned char*>(b64.data()), static_cast<int>(b64.size()));
   const size_t padding = b64.size() >= 2 ? (b64.end()[-1] == '=') + (b64.end()[-2] == '=') : 0;
