@@ -78,6 +78,7 @@ Command AddGraphCommand(CLI::App& app);
 Command AddRunCommand(CLI::App& app);
 Command AddCompareCommand(CLI::App& app);
 Command AddPlotCommand(CLI::App& app);
+Command AddViewCommand(CLI::App& app);
 Command AddLinearizeCommand(CLI::App& app);
 Command AddModesCommand(CLI::App& app);
 Command AddBodeCommand(CLI::App& app);

@@ -34,7 +34,7 @@ int Plot(const PlotArgs& a, const std::vector<std::string>& argv) {
     std::cerr << fmt::format("error: no figure drawn from '{}' (see the warnings above); nothing was written\n", a.dir);
     return kExitIo;
   }
-  WriteResultsPage(a.dir, report, po.limits);
+  WriteResultsPage(a.dir, report, po.limits, a.model);
   std::cout << fmt::format("wrote {} figure files in {}/figures and {}/index.html\n", report.files.size(), a.dir, a.dir);
   return kExitOk;
 }
@@ -49,7 +49,7 @@ Command AddPlotCommand(CLI::App& app) {
                   "figure list (YAML, docs/plots.md) to draw instead of the general figures, e.g. "
                   "examples/differential/figures.yaml for the paper's figures");
   cmd->add_option("--model", a->model,
-                  "model file, for the bond graph figure; without it the bond graph is left out: the model named in DIR/run.json "
+                  "model file, for the bond graph (figure and interactive) and the 3D view of a mechanism; without them the bond graph and 3D view are left out: the model named in DIR/run.json "
                   "is a record, not followed (docs/security.md)");
   cmd->add_option("--max-figures", a->max_figures, "draw at most N figures (gnuplot runs); the rest are left out with a warning")
       ->type_name("N")

@@ -20,3 +20,5 @@ target_compile_definitions(cli_formats_cli_test PRIVATE
 multibond_test(cli/sweep_cli_test.cc LABELS cli)
 add_dependencies(cli_sweep_cli_test multibond_cli)
 target_compile_definitions(cli_sweep_cli_test PRIVATE MULTIBOND_MPIEXEC="$<$<BOOL:${MULTIBOND_HAVE_MPI}>:${MPIEXEC_EXECUTABLE}>")
+multibond_test(cli/view_cli_test.cc LABELS cli)
+add_dependencies(cli_view_cli_test multibond_cli)

@@ -36,3 +36,4 @@ foreach(name result_names staged_file column_store results_files mat_writer h5_w
     MULTIBOND_SYSTEM_PYTHON="$<$<BOOL:${MULTIBOND_SYSTEM_PYTHON}>:${MULTIBOND_SYSTEM_PYTHON}>"
     MULTIBOND_OCTAVE="$<$<BOOL:${MULTIBOND_OCTAVE}>:${MULTIBOND_OCTAVE}>")
 endforeach()
+multibond_test(io/plot_web_test.cc LIBS multibond::io LABELS unit)

@@ -251,7 +251,8 @@ std::string TextToHtml(const std::string& text, const PlotTable& table) {
 }
 
 std::string ResultsPageHtml(const PlotTable& table, const nlohmann::json& run, const FigureList& list,
-                            const std::vector<std::string>& warnings, int figures_dir, const std::vector<PlotEvent>& events) {
+                            const std::vector<std::string>& warnings, int figures_dir, const std::vector<PlotEvent>& events,
+                            const PageApp* app) {
   auto present = [&](const Figure& f, const char* ext) { return IsNonEmptyRegularFile(figures_dir, f.name + ext); };
   const std::string model = JsonText(run, {"model", "name"}).empty() ? "a run" : JsonText(run, {"model", "name"});
   const std::string heading = list.title.empty() ? fmt::format("Results of {}", model) : TextToHtml(list.title, table);
@@ -259,12 +260,22 @@ std::string ResultsPageHtml(const PlotTable& table, const nlohmann::json& run, c
   h << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n";
   h << "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
   h << fmt::format("<title>multibond: {}</title>\n", model);
-  h << "<style>\n" << kCss << "\n</style>\n</head>\n<body>\n";
+  h << "<style>\n" << kCss << "\n</style>\n";
+  const bool interactive = app && app->assets;
+  if (interactive) h << fmt::format("<link rel=\"stylesheet\" href=\"{}\">\n", kPageStyle);
+  h << "</head>\n<body>\n";
   h << fmt::format("<h1>{}</h1>\n", heading);
   if (!list.intro.empty()) h << "<p>" << TextToHtml(list.intro, table) << "</p>\n";
   h << "<p>Drawn by <code>multibond plot</code> from <code>results.csv</code> and <code>run.json</code> in this folder. Click a "
        "figure for its SVG; each one's gnuplot script is in <code>plots/</code> (run it again from this folder: "
        "<code>gnuplot plots/NAME.gp</code>).</p>\n";
+  if (app) {
+    h << "<section id=\"interactive\">\n<div id=\"mb-app\">";
+    h << (interactive ? "<p>Loading the interactive view&hellip; (it needs JavaScript)</p>" : "");
+    h << "</div>\n";
+    for (const std::string& note : app->notes) h << "<p class=\"warn\">" << HtmlEscape(note) << "</p>\n";
+    h << "</section>\n";
+  }
   h << "<nav><strong>Figures:</strong> <a href=\"#summary\">summary</a>";
   if (!events.empty()) h << " <a href=\"#run-events\">events</a>";
   for (const Figure& f : list.figures)
@@ -286,12 +297,17 @@ std::string ResultsPageHtml(const PlotTable& table, const nlohmann::json& run, c
     section = f.section;
     const std::string target = "figures/" + f.name + (present(f, ".svg") ? ".svg" : ".png");
     h << fmt::format("<figure id=\"{}\">\n", f.name);
-    h << fmt::format("<a href=\"{}\"><img src=\"figures/{}.png\" alt=\"{}\"></a>\n", target, f.name, HtmlEscape(f.Title()));
+    h << fmt::format("<a href=\"{}\"><img src=\"figures/{}.png\" loading=\"lazy\" alt=\"{}\"></a>\n", target, f.name, HtmlEscape(f.Title()));
     h << fmt::format("<figcaption><span class=\"caption\">{}</span> {}<br><span class=\"files\">figures/{}.png, "
                      "<a href=\"{}\">{}</a>{}</span></figcaption>\n",
                      MarkupToHtml(f.Title()), TextToHtml(f.shows, table), f.name, target, target,
                      f.bond_graph ? "" : fmt::format(", script <a href=\"plots/{0}.gp\">plots/{0}.gp</a>", f.name));
     h << "</figure>\n";
+  }
+  if (interactive) {
+    // The data's JSON has '<', '>' and '&' escaped (JsonForScript): no text can end the element.
+    h << "<script type=\"application/json\" id=\"mb-data\">" << app->data_json << "</script>\n";
+    h << fmt::format("<script src=\"{}\"></script>\n", kPageScript);
   }
   h << "</body>\n</html>\n";
   return h.str();

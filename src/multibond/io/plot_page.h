@@ -16,6 +16,7 @@
 #include "multibond/io/plot_events.h"
 #include "multibond/io/plot_figures.h"
 #include "multibond/io/plot_table.h"
+#include "multibond/io/plot_web.h"
 
 namespace multibond {
 
@@ -31,8 +32,12 @@ std::string TextToHtml(const std::string& text, const PlotTable& table);
 /// The most events the page lists; "and N more" says how many are left out.
 constexpr std::size_t kMaxPageEvents = 200;
 
-/// The page's HTML; `events` (events.csv, file text) are listed in a table, escaped.
+/// The page's HTML; `events` (events.csv, file text) are listed in a table, escaped. With `app`,
+/// the interactive part (plot_web.h) comes first: its data as JSON in a
+/// <script type="application/json" id="mb-data"> element, and, when its assets were copied,
+/// the script and style that draw it.
 std::string ResultsPageHtml(const PlotTable& table, const nlohmann::json& run, const FigureList& list,
-                            const std::vector<std::string>& warnings, int figures_dir, const std::vector<PlotEvent>& events = {});
+                            const std::vector<std::string>& warnings, int figures_dir, const std::vector<PlotEvent>& events = {},
+                            const PageApp* app = nullptr);
 
 }  // namespace multibond

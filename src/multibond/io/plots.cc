@@ -21,6 +21,7 @@
 #include "multibond/io/plot_gnuplot.h"
 #include "multibond/io/plot_page.h"
 #include "multibond/io/plot_table.h"
+#include "multibond/io/plot_web.h"
 #include "multibond/io/results_folder.h"
 #include "multibond/io/safe_text.h"
 
@@ -216,7 +217,7 @@ PlotReport MakeFigures(const std::string& results_dir, const PlotOptions& option
   return report;
 }
 
-void WriteResultsPage(const std::string& results_dir, const PlotReport& report, const InputLimits& limits) {
+void WriteResultsPage(const std::string& results_dir, const PlotReport& report, const InputLimits& limits, const std::string& model_path) {
   const ResultsFolder folder(results_dir);
   struct stat st {};
   const PlotTable table = PlotTable::Load(folder, limits.results_bytes, &st);
@@ -231,8 +232,9 @@ void WriteResultsPage(const std::string& results_dir, const PlotReport& report, 
   std::vector<std::string> warnings = report.warnings;
   for (const std::string& w : events.warnings)
     if (std::find(warnings.begin(), warnings.end(), w) == warnings.end()) warnings.push_back(w);
+  const PageApp app = PreparePage(folder, table, events.events, model_path, limits, FindPageAssets());
   WriteFileAtomic((std::filesystem::path(results_dir) / "index.html").string(),
-                  ResultsPageHtml(table, run, list, warnings, figures_dir.get(), events.events));
+                  ResultsPageHtml(table, run, list, warnings, figures_dir.get(), events.events, &app));
 }
 
 }  // namespace multibond

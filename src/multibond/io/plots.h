@@ -84,8 +84,12 @@ PlotReport MakeFigures(const std::string& results_dir, const PlotOptions& option
 
 /// Writes `results_dir`/index.html: the run's record, its events (events.csv) and every figure of
 /// `report.figures` found in `results_dir`/figures (the general figures when `report` has none),
-/// with `report`'s warnings. Throws std::runtime_error when results.csv cannot be read or the page cannot be
-/// written. Figures are shown only when they are regular files (not links) in figures/.
-void WriteResultsPage(const std::string& results_dir, const PlotReport& report = {}, const InputLimits& limits = {});
+/// with `report`'s warnings, after the interactive view of every column (plot_web.h: its data in
+/// the page, its script and style copied next to it from FindPageAssets(); the bond graph and the
+/// 3D view from `model_path` when given). Throws std::runtime_error when results.csv cannot be
+/// read or the page cannot be written. Figures are shown only when they are regular files (not
+/// links) in figures/.
+void WriteResultsPage(const std::string& results_dir, const PlotReport& report = {}, const InputLimits& limits = {},
+                      const std::string& model_path = "");
 
 }  // namespace multibond
