@@ -39,7 +39,6 @@ bool StudyProblem(const ModelError& e) {
 }
 
 int RunSweepCommand(const SweepArgs& a, const std::vector<std::string>& argv) {
-  (void)argv;
   // Under mpirun only rank 0 speaks: the others' messages would be the same.
   std::ostringstream quiet;
   std::streambuf* cerr_buf = nullptr;
@@ -84,6 +83,7 @@ int RunSweepCommand(const SweepArgs& a, const std::vector<std::string>& argv) {
   if (sweep::LaunchedByMpirun()) mpi = std::make_unique<sweep::MpiSession>();
   sweep::SweepOptions o;
   o.dir = a.out;
+  o.command = CommandLine(argv);
   o.threads = a.threads;
   o.resume = a.resume;
   o.progress = !a.no_progress && ::isatty(STDERR_FILENO) && (!mpi || mpi->rank() == 0);

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "multibond/io/diagnostic_codes.h"
+#include "multibond/io/output_folder.h"
 #include "multibond/io/yaml_document.h"
 #include "multibond/sweep/samples.h"
 #include "support/temp_dir.h"
@@ -128,6 +129,42 @@ TEST(Sweep, ResumeRunsOnlyWhatTheJournalLacks) {
   // Another study in the same folder is refused.
   Fixture other(ListStudy("100,200,401"));
   EXPECT_THROW(RunSweep(other.s, other.runner, other.text, o, nullptr), std::invalid_argument);
+}
+
+// A results folder may come from anyone: a journal or a plots folder that is a link elsewhere is
+// not followed, and a second sweep into a folder that one is writing is refused.
+TEST(Sweep, LinksInTheFolderAreNotFollowedAndABusyFolderIsRefused) {
+  Fixture f(ListStudy("100,200"));
+  testing::TempDir dir, elsewhere;
+  SweepOptions o;
+  o.dir = dir.path().string();
+  o.threads = 1;
+  RunSweep(f.s, f.runner, f.text, o, nullptr);
+  const std::string journal = Read(dir.path() / "sweep.journal");
+  std::filesystem::rename(dir.path() / "sweep.journal", elsewhere.path() / "journal");
+  std::filesystem::create_symlink(elsewhere.path() / "journal", dir.path() / "sweep.journal");
+  o.resume = true;
+  EXPECT_THROW(RunSweep(f.s, f.runner, f.text, o, nullptr), std::runtime_error);
+  EXPECT_EQ(Read(elsewhere.path() / "journal"), journal);  // not truncated through the link
+  o.resume = false;
+  std::filesystem::remove(dir.path() / "sweep.journal");
+  std::filesystem::remove_all(dir.path() / "plots");
+  std::filesystem::create_directory_symlink(elsewhere.path(), dir.path() / "plots");
+  try {
+    RunSweep(f.s, f.runner, f.text, o, nullptr);
+    ADD_FAILURE() << "a plots folder that is a link was written through";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("it is a symbolic link"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(std::filesystem::exists(elsewhere.path() / "x_final_vs_k.gp"));
+  std::filesystem::remove(dir.path() / "plots");
+  const OutputFolder busy(dir.path().string(), "multibond sweep (the first)");
+  try {
+    RunSweep(f.s, f.runner, f.text, o, nullptr);
+    ADD_FAILURE() << "a second sweep wrote into a busy folder";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("the first"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Sweep, AnUnknownParameterIsLocatedWithADidYouMean) {

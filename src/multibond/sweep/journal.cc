@@ -8,8 +8,6 @@
 #include <cerrno>
 #include <charconv>
 #include <cstring>
-#include <fstream>
-#include <sstream>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -68,31 +66,30 @@ bool ParseJournalLine(const std::string& line, size_t num_values, RunResult& r) 
   return ok;
 }
 
+namespace {
+/// A journal line is at most a few hundred bytes a run; runs are at most a few million.
+constexpr size_t kMaxJournalBytes = size_t{1} << 30;
+}  // namespace
+
 Journal::Journal(std::string path, std::string hash, size_t num_values, bool resume)
     : path_(std::move(path)), hash_(std::move(hash)), num_values_(num_values), last_sync_(std::chrono::steady_clock::now()) {
   const std::string header = kHeader + hash_;
   if (resume) {
-    std::ifstream in(path_, std::ios::binary);
-    if (!in) throw std::invalid_argument(fmt::format("--resume: there is no journal '{}' to resume from", path_));
-    std::stringstream ss;
-    ss << in.rdbuf();
-    const std::string text = ss.str();
-    const size_t first = text.find('\n');
-    if (first == std::string::npos || text.substr(0, first) != header)
-      throw std::invalid_argument(fmt::format("--resume: '{}' is the journal of another study (or of this one changed): "
-                                              "run without --resume to start anew, or into another folder", path_));
-    // Whole lines only: a line torn by a crash (no newline) is cut off before appending.
-    const size_t keep = text.rfind('\n') + 1;
-    size_t pos = first + 1;
-    while (pos < keep) {
-      const size_t nl = text.find('\n', pos);
-      RunResult r;
-      if (ParseJournalLine(text.substr(pos, nl - pos), num_values_, r)) finished_.push_back(std::move(r));
-      pos = nl + 1;
+    // Opened without following a link: a journal that is a link elsewhere is refused (ELOOP).
+    const int fd = ::open(path_.c_str(), O_RDWR | O_APPEND | O_CLOEXEC | O_NOFOLLOW);
+    if (fd < 0 && errno == ENOENT) throw std::invalid_argument(fmt::format("--resume: there is no journal '{}' to resume from", path_));
+    if (fd < 0) throw std::runtime_error(fmt::format("cannot read '{}': {}", path_, std::strerror(errno)));
+    file_ = ::fdopen(fd, "a+b");
+    if (!file_) {
+      ::close(fd);
+      throw std::runtime_error(fmt::format("cannot read '{}': {}", path_, std::strerror(errno)));
     }
-    if (::truncate(path_.c_str(), static_cast<off_t>(keep)) != 0)
-      throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, std::strerror(errno)));
-    file_ = std::fopen(path_.c_str(), "ab");
+    try {
+      ReadBack(header);
+    } catch (...) {
+      std::fclose(file_);
+      throw;
+    }
   } else {
     const int fd = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0644);
     if (fd >= 0) file_ = ::fdopen(fd, "wb");
@@ -100,6 +97,32 @@ Journal::Journal(std::string path, std::string hash, size_t num_values, bool res
   }
   if (!file_) throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, std::strerror(errno)));
   Sync();
+}
+
+void Journal::ReadBack(const std::string& header) {
+  std::string text;
+  char buffer[1 << 16];
+  for (size_t got; (got = std::fread(buffer, 1, sizeof buffer, file_)) > 0;) {
+    text.append(buffer, got);
+    if (text.size() > kMaxJournalBytes)
+      throw std::invalid_argument(fmt::format("--resume: '{}' is larger than a journal can be ({} bytes)", path_, kMaxJournalBytes));
+  }
+  if (std::ferror(file_)) throw std::runtime_error(fmt::format("cannot read '{}': {}", path_, std::strerror(errno)));
+  const size_t first = text.find('\n');
+  if (first == std::string::npos || text.substr(0, first) != header)
+    throw std::invalid_argument(fmt::format("--resume: '{}' is the journal of another study (or of this one changed): "
+                                            "run without --resume to start anew, or into another folder", path_));
+  // Whole lines only: a line torn by a crash (no newline) is cut off before appending.
+  const size_t keep = text.rfind('\n') + 1;
+  size_t pos = first + 1;
+  while (pos < keep) {
+    const size_t nl = text.find('\n', pos);
+    RunResult r;
+    if (ParseJournalLine(text.substr(pos, nl - pos), num_values_, r)) finished_.push_back(std::move(r));
+    pos = nl + 1;
+  }
+  if (::ftruncate(::fileno(file_), static_cast<off_t>(keep)) != 0)
+    throw std::runtime_error(fmt::format("cannot write '{}': {}", path_, std::strerror(errno)));
 }
 
 Journal::~Journal() {

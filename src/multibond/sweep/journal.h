@@ -33,6 +33,8 @@ class Journal {
   const std::string& path() const { return path_; }
 
  private:
+  /// Reads the runs back from the open journal (resume) and cuts off a torn last line.
+  void ReadBack(const std::string& header);
   std::string path_, hash_;
   size_t num_values_;
   std::FILE* file_ = nullptr;

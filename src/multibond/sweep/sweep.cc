@@ -10,6 +10,7 @@
 
 #include "multibond/core/interrupt.h"
 #include "multibond/core/sha256.h"
+#include "multibond/io/output_folder.h"
 #include "multibond/io/results_writer.h"
 #include "multibond/sweep/journal.h"
 #include "multibond/sweep/samples.h"
@@ -18,6 +19,11 @@
 namespace multibond::sweep {
 
 namespace {
+
+/// Throws when `p` is a symbolic link: the sweep writes into it, and would write where it points.
+void RefuseLink(const std::filesystem::path& p) {
+  if (std::filesystem::is_symlink(p)) throw std::runtime_error("cannot write into '" + p.string() + "': it is a symbolic link");
+}
 
 /// A run stopped by the stop flag is not a result: it is run again on --resume.
 bool Recordable(const RunResult& r) { return r.ok || r.reason != "interrupted"; }
@@ -46,7 +52,10 @@ SweepOutcome RunSweep(const Study& study, const Runner& runner, const std::strin
   for (int t = 0; t < threads; ++t) workers.push_back(std::make_unique<Worker>(runner.kept()));
   // Each run's full results too (`results: true`): runs/run-<index>.csv, as `run` writes results.csv.
   const std::filesystem::path runs_dir = std::filesystem::path(o.dir) / "runs";
-  if (study.keep_results) std::filesystem::create_directories(runs_dir);
+  if (study.keep_results) {
+    RefuseLink(runs_dir);
+    std::filesystem::create_directories(runs_dir);
+  }
   auto run_one = [&](long run, int thread) {
     std::unique_ptr<CsvWriter> rows;
     if (study.keep_results) rows = std::make_unique<CsvWriter>((runs_dir / ("run-" + std::to_string(run) + ".csv")).string());
@@ -59,7 +68,10 @@ SweepOutcome RunSweep(const Study& study, const Runner& runner, const std::strin
     return out;
   }
 
-  std::filesystem::create_directories(o.dir);
+  // One command at a time in the folder, as `run` and `plot` (a second sweep is refused, naming
+  // the first); the folders the sweep writes into must not be links to elsewhere.
+  const OutputFolder folder(o.dir, o.command);
+  RefuseLink(std::filesystem::path(o.dir) / "plots");
   const std::string hash = StudyHash(study, model_text);
   Journal journal((std::filesystem::path(o.dir) / "sweep.journal").string(), hash, study.keep.size(), o.resume);
   out.results.resize(static_cast<size_t>(n));

@@ -15,7 +15,8 @@
 namespace multibond::sweep {
 
 struct SweepOptions {
-  std::string dir;      ///< the output folder (created)
+  std::string dir;      ///< the output folder (created; held by one command at a time, io/output_folder.h)
+  std::string command = "multibond sweep";  ///< what the folder's lock records (the command line)
   int threads = 0;      ///< worker threads (per rank); 0: every core without MPI, 1 under MPI
   bool resume = false;  ///< skip the runs the folder's journal holds (the same study)
   bool progress = false;
