@@ -97,6 +97,7 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   if (tty) std::fprintf(stderr, "\n");
   nlohmann::json record = MakeRunRecord(a.model, lm.text, lm.graph.name(), o, summary, argv);
   record["rhs_engine"] = model->rhs_engine();
+  record["states"] = model->num_states();
   record["options"]["jit"] = a.run.jit;
   record["options"]["coordinates"] = p.coordinates;
   record["options"]["ideal_constraints"] = lm.compile.ideal_constraints;  // derivative causality solved by constraints
