@@ -1,12 +1,13 @@
 // The scaling benchmark (docs/scaling.md): the chain of bench/make_chain.py, N bodies on
 // compliant or ideal (rigid) revolute joints, on the plan interpreter (no generated code, so that
 // the figures do not include a compiler's time or its limits).
-//   BM_ChainRhs/N         one right-hand side of the compliant chain: ns per state should be flat
-//   BM_RigidChainSolve/N  one right-hand side of the rigid chain at a new state: the constraint
-//                         solve (B, W, its sparse L D L^T, the multipliers) each time; ns per
-//                         multiplier should be flat (the factor's order keeps a chain's W without
-//                         fill-in)
-// Run: build/release/bench/multibond_bench --benchmark_filter=Chain
+//   BM_ScalingChainRhs/N         one right-hand side of the compliant chain: the CPU time per
+//                                state (per_state) should be flat
+//   BM_ScalingRigidChainSolve/N  one right-hand side of the rigid chain at a new state: the
+//                                constraint solve (B, W, its sparse L D L^T, the multipliers)
+//                                each time; the CPU time per multiplier (per_multiplier) should be
+//                                flat (the factor's order keeps a chain's W without fill-in)
+// Run: build/release/bench/multibond_bench --benchmark_filter=Scaling
 
 #include <benchmark/benchmark.h>
 
@@ -42,7 +43,7 @@ std::shared_ptr<const mb::CompiledModel> Chain(int n, bool rigid) {
   return mb::CompiledModel::Compile(lm.graph, co);
 }
 
-void BM_ChainRhs(benchmark::State& state) {
+void BM_ScalingChainRhs(benchmark::State& state) {
   const auto model = Chain(static_cast<int>(state.range(0)), false);
   mb::Workspace ws = model->MakeWorkspace();
   const Eigen::VectorXd x = model->MakeInitialState();
@@ -54,20 +55,20 @@ void BM_ChainRhs(benchmark::State& state) {
     t += 1e-9;
   }
   state.counters["states"] = static_cast<double>(model->num_states());
-  state.counters["ns_per_state"] = benchmark::Counter(static_cast<double>(model->num_states()) * 1e-9,
+  state.counters["per_state"] = benchmark::Counter(static_cast<double>(model->num_states()),
                                                       benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
-BENCHMARK(BM_ChainRhs)->RangeMultiplier(10)->Range(10, 10000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ScalingChainRhs)->RangeMultiplier(10)->Range(10, 10000)->Unit(benchmark::kMicrosecond);
 
-void BM_RigidChainSolve(benchmark::State& state) {
+void BM_ScalingRigidChainSolve(benchmark::State& state) {
   const auto model = Chain(static_cast<int>(state.range(0)), true);
   // Two states in turn, a momentum moved by a hair (rhs_in_turn.h): each evaluation forms B and
   // W and factorises W again, as an integrator's stages do.
   mb::bench::RhsInTurn(state, *model, "b0.p", 0, 1e-9);
   state.counters["multipliers"] = static_cast<double>(model->num_multipliers());
-  state.counters["ns_per_multiplier"] = benchmark::Counter(static_cast<double>(model->num_multipliers()) * 1e-9,
+  state.counters["per_multiplier"] = benchmark::Counter(static_cast<double>(model->num_multipliers()),
                                                            benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
-BENCHMARK(BM_RigidChainSolve)->Arg(10)->Arg(30)->Arg(100)->Arg(300)->Arg(1000)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ScalingRigidChainSolve)->Arg(10)->Arg(30)->Arg(100)->Arg(300)->Arg(1000)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
