@@ -7,6 +7,7 @@
 #include <benchmark/benchmark.h>
 
 #include "multibond/io/model_loader.h"
+#include "rhs_in_turn.h"
 #include "multibond/sim/joint_coordinates.h"
 #include "multibond/sim/simulator.h"
 
@@ -28,20 +29,8 @@ std::shared_ptr<const mb::CompiledModel> IdealDifferential() {
 void BM_IdealDifferentialRhs(benchmark::State& state) {
   const auto model = IdealDifferential();
   if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
-  mb::Workspace ws = model->MakeWorkspace();
-  // Two states that differ in an orientation, in turn: an evaluation at the state of the one
-  // before would reuse its B and factor (SolveConstraintsAt), which an integrator's stages never do.
-  Eigen::VectorXd xs[2] = {model->MakeInitialState(), model->MakeInitialState()};
-  xs[1][model->FindVariable("G.R")->offset + 1] += 1e-9;
-  Eigen::VectorXd xdot(xs[0].size());
-  double t = 0.0;
-  int k = 0;
-  for (auto _ : state) {
-    model->CalcStateDerivatives(t, xs[k].data(), xdot.data(), ws);
-    benchmark::DoNotOptimize(xdot.data());
-    t += 1e-9;
-    k ^= 1;
-  }
+  // Two states that differ in an orientation, in turn (rhs_in_turn.h).
+  mb::bench::RhsInTurn(state, *model, "G.R", 1, 1e-9);
   state.counters["states"] = static_cast<double>(model->num_states());
   state.counters["multipliers"] = static_cast<double>(model->num_multipliers());
 }

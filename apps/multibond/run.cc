@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <iostream>
@@ -44,6 +45,7 @@ std::string HumanBytes(std::uint64_t bytes) {
 }
 
 int Run(const RunCommand& a, const std::vector<std::string>& argv) {
+  const auto started = std::chrono::steady_clock::now();
   std::vector<ResultFormat> formats;
   try {
     formats = ParseResultFormats(a.format);
@@ -82,15 +84,20 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   ResultsFiles results(folder.path(), formats, expected_rows, a.compress);
   AtomicFile run_json(folder.File("run.json"));  // a name it cannot take is said before the run
   RunSummary summary;
+  const auto simulate_start = std::chrono::steady_clock::now();
   try {
     summary = Simulate(*model, o, results);
   } catch (const std::invalid_argument& e) {
     std::cerr << "error: " << e.what() << '\n';
     return kExitUsage;
   }
+  // The integration's part: the time in Simulate less the rows' writing (the observer's part).
+  const double integrate_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - simulate_start).count() - results.write_seconds();
   if (tty) std::fprintf(stderr, "\n");
   nlohmann::json record = MakeRunRecord(a.model, lm.text, lm.graph.name(), o, summary, argv);
   record["rhs_engine"] = model->rhs_engine();
+  record["states"] = model->num_states();
   record["options"]["jit"] = a.run.jit;
   record["options"]["coordinates"] = p.coordinates;
   record["options"]["ideal_constraints"] = lm.compile.ideal_constraints;  // derivative causality solved by constraints
@@ -108,8 +115,17 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
     j["set"] = q.set;
   }
   record["parameters"] = std::move(parameters);
-  // The binary files hold the record as it is here (their own sizes and hashes are in run.json).
+  // The binary files hold the record as it is here (their own sizes and hashes are in run.json);
+  // their time is in write_results, and the record says only that.
   results.Finish(record);
+  // Where the time went (docs/scaling.md): each phase's wall time; write_results is the rows'
+  // writing and the files' finishing.
+  nlohmann::json phases = nlohmann::json::object();
+  for (const auto& [phase, seconds] : p.phase_seconds) phases[phase] = seconds;
+  phases["integrate"] = std::max(0.0, integrate_seconds);
+  phases["write_results"] = results.write_seconds();
+  record["phase_seconds"] = std::move(phases);
+  record["command_wall_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   // Published together, run.json last: it records the size and hash of each results file it goes
   // with ("results": results.csv's, "files": every one), and a results file without a run.json
   // beside it is from a command that did not finish.

@@ -1,5 +1,6 @@
 #include "run_options.h"
 
+#include <chrono>
 #include <iostream>
 #include <stdexcept>
 
@@ -48,10 +49,21 @@ void AddRunOptions(CLI::App* cmd, RunArgs& a) {
 /// A model loaded and compiled, with its run options resolved: the command line over the model
 /// file's `simulation:` section over the built-in defaults.
 PreparedRun PrepareRun(const std::string& path, const RunArgs& a, const std::vector<std::string>& extra_sets, const char* extra_option) {
-  PreparedRun p{Load(path, a.load, extra_sets, extra_option), nullptr, {}, {}, {}};
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point mark = Clock::now();
+  auto lap = [&mark] {
+    const Clock::time_point now = Clock::now();
+    const double seconds = std::chrono::duration<double>(now - mark).count();
+    mark = now;
+    return seconds;
+  };
+  PreparedRun p{Load(path, a.load, extra_sets, extra_option), nullptr, {}, {}, {}, {}};
+  p.phase_seconds.emplace_back("load", lap());
   CompileOptions co = p.lm.compile;
   co.generate_code = a.jit != "off";
   p.model = CompiledModel::Compile(p.lm.graph, co);
+  (void)lap();
+  p.phase_seconds.insert(p.phase_seconds.end(), p.model->compile_seconds().begin(), p.model->compile_seconds().end());
   // --jit on for a model that generated code does not cover is a usage error; a compiler that fails is the machine's.
   if (a.jit == "on" && !p.model->uses_generated_code())
     throw CliExit{p.model->algebraic_loops().empty() ? kExitIo : kExitUsage, "--jit on, but " + p.model->rhs_engine()};
@@ -100,6 +112,7 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a, const std::vec
   } catch (const std::invalid_argument& e) {
     throw CliExit{kExitUsage, e.what()};
   }
+  p.phase_seconds.emplace_back("setup", lap());
   return p;
 }
 

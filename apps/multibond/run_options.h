@@ -5,6 +5,8 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "cli.h"
 #include "multibond/sim/simulator.h"
@@ -30,6 +32,9 @@ struct PreparedRun {
   RunOptions options;
   std::string solver;
   std::string coordinates;  ///< "joint" or "inertial"
+  /// The wall time of each phase so far, in order [s]: load (read, parse, expand the model),
+  /// the compile passes (CompiledModel::compile_seconds), setup (the run's options and columns).
+  std::vector<std::pair<std::string, double>> phase_seconds;
 };
 
 /// Throws ModelError (bad model, bad output), CliExit 64 (unknown solver, options the run would

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include <algorithm>
+#include <chrono>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -137,6 +138,30 @@ TEST_F(CliTest, RunWritesResultsWithUnitsAndRunRecord) {
   EXPECT_FALSE(run["multibond_version"].get<std::string>().empty());
   EXPECT_GT(run["solver_stats"]["steps"].get<long>(), 0);
   EXPECT_LT(std::abs(run["energy"]["residual"].get<double>()), 1e-8);
+}
+
+TEST_F(CliTest, RunRecordsTheWallTimeOfEachPhase) {
+  // run.json's phase_seconds: every phase from loading the model to writing the results, each a
+  // time (nonnegative), together no more than the command's wall time, as it records it and as
+  // measured from outside.
+  const auto start = std::chrono::steady_clock::now();
+  const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --t-end 1 --dt 0.01");
+  const double outside = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  ASSERT_TRUE(run.contains("phase_seconds"));
+  const nlohmann::json& phases = run["phase_seconds"];
+  double sum = 0.0;
+  for (const char* phase : {"load", "causality", "compile_plan", "constraints", "generate_code", "setup", "integrate", "write_results"}) {
+    ASSERT_TRUE(phases.contains(phase)) << phase;
+    ASSERT_TRUE(phases[phase].is_number()) << phase;
+    EXPECT_GE(phases[phase].get<double>(), 0.0) << phase;
+    sum += phases[phase].get<double>();
+  }
+  EXPECT_EQ(phases.size(), 8u);
+  EXPECT_GT(phases["integrate"].get<double>(), 0.0);
+  EXPECT_LE(sum, run["command_wall_seconds"].get<double>());
+  EXPECT_LE(run["command_wall_seconds"].get<double>(), outside);
 }
 
 TEST_F(CliTest, RunIsDeterministic) {

@@ -32,7 +32,7 @@ struct Chain {
   std::vector<int> offset, rows;
   std::vector<double> b, v;
 
-  explicit Chain(double variant) {
+  explicit Chain(double variant, int num_bodies = 5) : bodies(num_bodies) {
     for (int j = 0; j < bodies; ++j) {
       const Eigen::Vector3d u(1.0, 0.5 * j - 1.0, 0.3 + variant);
       Eigen::Matrix3d d = Eigen::Vector3d(1.0 + j, 2.0 + variant, 0.5 + 0.25 * j).asDiagonal();
@@ -113,6 +113,68 @@ TEST(ConstraintFactor, FixedSparsePatternSolvesLikeADenseFactorisation) {
   f.SolvePivoted(s, pivoted.data());
   EXPECT_EQ(s.rank, m);
   EXPECT_LT(RelativeError(pivoted, want), 1e-12);
+}
+
+TEST(ConstraintFactor, ALongChainIsFoundIndependentSparselyAndFactorisedWithoutFillIn) {
+  // 120 bodies, 357 multipliers: more than the dense setup takes (kDenseSetup), so the sparse
+  // L D L^T decides that all are independent, and the minimum-degree order is found without an
+  // m x m matrix. The factor has W's pattern (no fill-in), so a solve costs O(m).
+  const Chain initial(0.0, 120), later(0.7, 120);
+  ConstraintFactor f(initial.offset, initial.rows, {});
+  const int m = f.num_multipliers();
+  ASSERT_EQ(m, 3 * 119);
+  ConstraintScratch s = FilledScratch(f, initial.b, initial.v);
+  EXPECT_TRUE(s.w.empty()) << "no dense m x m array for a large system until it is needed";
+  f.FindIndependent(s);
+  EXPECT_TRUE(f.dependent().empty());
+  ASSERT_EQ(f.factor_size(), m);
+  EXPECT_EQ(f.factor_entries(), 3 * 119 + 9 * 118);
+  EXPECT_TRUE(s.w.empty()) << "found without the dense pivoted solve";
+
+  s = FilledScratch(f, later.b, later.v);
+  Eigen::VectorXd rhs(m);
+  for (int i = 0; i < m; ++i) rhs[i] = std::sin(1.0 + i) * (1.0 + 0.1 * i);
+  const Eigen::MatrixXd w = later.DenseW();
+  const Eigen::VectorXd want = w.ldlt().solve(rhs);
+  ASSERT_TRUE(f.Factor(s));
+  Eigen::VectorXd sparse(m);
+  f.Solve(rhs.data(), sparse.data(), s);
+  EXPECT_LT(RelativeError(sparse, want), 1e-10);
+  EXPECT_LT((w * sparse - rhs).lpNorm<Eigen::Infinity>(), 1e-12 * rhs.lpNorm<Eigen::Infinity>());
+}
+
+TEST(ConstraintFactor, ALongChainWithARepeatedJointFallsBackToThePivotedSearch) {
+  // The same long chain with its last joint given twice: W is singular, the sparse test fails,
+  // and the pivoted dense solve finds the three repeated multipliers redundant; the factor on
+  // the rest still solves a consistent system exactly.
+  Chain chain(0.0, 120);
+  const int joint = static_cast<int>(chain.offset.size()) - 4;  // the last joint's first column
+  for (int k = 0; k < 3; ++k) {
+    const int begin = chain.offset[joint + k], end = chain.offset[joint + k + 1];
+    std::vector<int> rows(chain.rows.begin() + begin, chain.rows.begin() + end);
+    std::vector<double> b(chain.b.begin() + begin, chain.b.begin() + end), v(chain.v.begin() + begin, chain.v.begin() + end);
+    chain.rows.insert(chain.rows.end(), rows.begin(), rows.end());
+    chain.b.insert(chain.b.end(), b.begin(), b.end());
+    chain.v.insert(chain.v.end(), v.begin(), v.end());
+    chain.offset.push_back(static_cast<int>(chain.rows.size()));
+  }
+  ConstraintFactor f(chain.offset, chain.rows, {});
+  const int m = f.num_multipliers();
+  ASSERT_EQ(m, 3 * 119 + 3);
+  ConstraintScratch s = FilledScratch(f, chain.b, chain.v);
+  f.FindIndependent(s);
+  EXPECT_EQ(f.dependent().size(), 3u);
+  ASSERT_EQ(f.factor_size(), m - 3);
+  EXPECT_EQ(f.factor_entries(), 3 * 119 + 9 * 118) << "the independent chain keeps W's pattern";
+  const Eigen::MatrixXd w = chain.DenseW();
+  Eigen::VectorXd x(m);
+  for (int i = 0; i < m; ++i) x[i] = std::cos(0.3 * i);
+  const Eigen::VectorXd rhs = w * x;  // consistent
+  s = FilledScratch(f, chain.b, chain.v);
+  ASSERT_TRUE(f.Factor(s));
+  Eigen::VectorXd lambda(m);
+  f.Solve(rhs.data(), lambda.data(), s);
+  EXPECT_LT((w * lambda - rhs).lpNorm<Eigen::Infinity>(), 1e-11 * rhs.lpNorm<Eigen::Infinity>());
 }
 
 TEST(ConstraintFactor, GeneratedFactorAndSolveAreBitIdenticalToTheInterpreter) {

@@ -15,7 +15,8 @@ namespace multibond {
 
 void Simulation::Impl::Start(std::shared_ptr<const CompiledModel> compiled) {
   model = std::move(compiled);
-  CheckIntegratorOptions(model->num_states(), model->jacobian_pattern(), options.integrator);
+  CheckIntegratorOptions(model->num_states(), UsesNewtonMatrix(options.integrator.method) ? model->jacobian_pattern() : nullptr,
+                         options.integrator);
   system = std::make_unique<ModelSystem>(*model);
   t = options.t_start;
   x = model->MakeInitialState();

@@ -2,6 +2,8 @@
 
 #include <dlfcn.h>
 
+#include <chrono>
+
 #include "multibond/compile/jit.h"
 
 namespace multibond {
@@ -17,7 +19,16 @@ std::shared_ptr<const CompiledModel> CompiledModel::Compile(BondGraph graph, con
 void CompiledModel::Build() {
   // Each pass reads what the ones before it made (docs/design.md, "The compiled model's parts
   // and passes").
+  // Each pass's time (compile_seconds): causality, the plan, the ideal constraints, the code.
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point mark = Clock::now();
+  auto lap = [&](const char* phase) {
+    const Clock::time_point now = Clock::now();
+    compile_seconds_.emplace_back(phase, std::chrono::duration<double>(now - mark).count());
+    mark = now;
+  };
   PrepareConstraintGraph();  // structure, causality; ideal constraints become effort sources
+  lap("causality");
   AssignSlots();             // slot classes, their names; the multipliers' offsets
   layout_ = StateLayout({graph_, structure_, effort_class_, flow_class_, class_offset_, class_size_, class_units_,
                          signal_class_, internal_class_, options_.energy_account});  // blocks, x0, gathers, names
@@ -38,11 +49,13 @@ void CompiledModel::Build() {
     d.hint = "add a storage element in the loop, or use compliant joints";
     throw ModelError(d);
   }
+  lap("compile_plan");
   BuildConstraints(deps.reads, deps.writes);  // constraints.cc
   BuildSwitches();                            // switching.cc
   FindIndependentConstraints();
-  BuildJacobianPattern();  // jacobian_pattern.cc
+  lap("constraints");
   GenerateCode();
+  lap("generate_code");
 }
 
 void CompiledModel::GenerateCode() {

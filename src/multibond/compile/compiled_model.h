@@ -10,10 +10,12 @@
 
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -147,7 +149,13 @@ class CompiledModel {
   /// coefficients): the structure of the Jacobian, never missing an entry that the numbers can
   /// make nonzero. Null for a model with ideal constraints (the multipliers couple everything
   /// they reach) or with solved algebraic loops (so do the torn unknowns).
-  const JacobianPattern* jacobian_pattern() const { return jacobian_pattern_.n > 0 ? &jacobian_pattern_ : nullptr; }
+  /// Found on the first call, not at compile time: only the Newton matrix of an implicit solver
+  /// needs it (and a constrained model's is dense, n x n: not for `check`, nor an explicit run).
+  const JacobianPattern* jacobian_pattern() const;
+  /// The wall time of each compile pass, in order [s]: causality (structure, causality, the
+  /// constraint graph), compile_plan (slots, layout, energy account, plan), constraints (the
+  /// ideal-constraint solver's tables, switching elements, the independent set), generate_code.
+  const std::vector<std::pair<std::string, double>>& compile_seconds() const { return compile_seconds_; }
   /// The algebraic loops solved at every evaluation (CompileOptions::solve_algebraic_loops): each
   /// by its elements and the variable it is torn at, the unknown of its linear system.
   struct AlgebraicLoop {
@@ -354,7 +362,7 @@ class CompiledModel {
   struct SourceTable;
   ConstraintSolver::PlanView ConstraintPlan(const SourceTable* sources) const;
   /// jacobian_pattern_ from the plan's reads and writes (compile/jacobian_pattern.cc).
-  void BuildJacobianPattern();
+  void BuildJacobianPattern() const;
 
   BondGraph graph_;
   CompileOptions options_;
@@ -375,7 +383,9 @@ class CompiledModel {
   std::vector<ModulusEval> moduli_;
   std::vector<int> needed_moduli_;  ///< indices of moduli_ that EvalModuli must compute
   std::vector<TimeFunction> source_fns_;
-  JacobianPattern jacobian_pattern_;
+  std::vector<std::pair<std::string, double>> compile_seconds_;
+  mutable std::once_flag jacobian_once_;
+  mutable JacobianPattern jacobian_pattern_;
   /// Algebraic loops torn (solve_algebraic_loops): per torn variable, its slot (which holds the
   /// unknown), its size and the slot its writer writes to instead (beyond the classes' slots).
   struct Tear {

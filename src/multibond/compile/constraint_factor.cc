@@ -7,11 +7,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <set>
 
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseCore>
 #include <fmt/format.h>
 
 #include "multibond/compile/code_text.h"
 #include "multibond/compile/exact_sum.h"
+#include "multibond/core/error.h"
 
 namespace multibond {
 
@@ -20,12 +25,33 @@ using code::CommentText;
 using code::Fma;
 using code::Neg;
 
+
 ConstraintFactor::ConstraintFactor(std::vector<int> offset, std::vector<int> rows, std::vector<double> compliance)
     : m_(static_cast<int>(offset.size()) - 1), offset_(std::move(offset)), rows_(std::move(rows)), compliance_(std::move(compliance)) {
   // The nonzeros of W = B^T M^-1 B: the pairs of columns that share momentum rows, with the
   // positions of the shared rows in their compressed columns (rows are sorted within a column).
+  // The candidates j <= i of column i are the columns of its rows (each row's columns listed
+  // once): a constraint touches one or two bodies, so this is linear in the number of
+  // constraints, not quadratic.
+  int num_rows = 0;
+  for (int r : rows_) num_rows = std::max(num_rows, r + 1);
+  std::vector<int> row_start(num_rows + 1, 0), row_columns(rows_.size());
+  for (int r : rows_) ++row_start[r + 1];
+  for (int r = 0; r < num_rows; ++r) row_start[r + 1] += row_start[r];
+  std::vector<int> fill(row_start.begin(), row_start.end() - 1);
   for (int i = 0; i < m_; ++i)
-    for (int j = 0; j <= i; ++j) {
+    for (int p = offset_[i]; p < offset_[i + 1]; ++p) row_columns[fill[rows_[p]]++] = i;  // increasing i within a row
+  std::vector<int> candidates, seen(m_, -1);
+  for (int i = 0; i < m_; ++i) {
+    candidates.clear();
+    for (int p = offset_[i]; p < offset_[i + 1]; ++p)
+      for (int k = row_start[rows_[p]]; k < row_start[rows_[p] + 1] && row_columns[k] <= i; ++k)
+        if (seen[row_columns[k]] != i) {
+          seen[row_columns[k]] = i;
+          candidates.push_back(row_columns[k]);
+        }
+    std::sort(candidates.begin(), candidates.end());
+    for (int j : candidates) {
       const int first = static_cast<int>(w_terms_.size());
       int p = offset_[i], q = offset_[j];
       while (p < offset_[i + 1] && q < offset_[j + 1]) {
@@ -35,18 +61,23 @@ ConstraintFactor::ConstraintFactor(std::vector<int> offset, std::vector<int> row
       }
       if (static_cast<int>(w_terms_.size()) > first) w_pairs_.push_back({i, j, first, static_cast<int>(w_terms_.size())});
     }
+  }
 }
 
 void ConstraintFactor::SizeScratch(ConstraintScratch& s) const {
   const int m = m_;
   s.b.assign(rows_.size(), 0.0);
   s.v.assign(rows_.size(), 0.0);
-  s.w.assign(static_cast<size_t>(m) * m, 0.0);
   s.rhs.assign(m, 0.0);
   s.scale.assign(m, 0.0);
   s.perm.assign(m, 0);
-  s.nullspace.assign(static_cast<size_t>(m) * m, 0.0);
-  s.gram.assign(static_cast<size_t>(m) * m, 0.0);
+  // The dense arrays (m x m) of the pivoted solve and of Share: sized now for a small system;
+  // for a large one (above kDenseSetup multipliers) only when first needed, a configuration
+  // where the independent set stops being independent or a redundant one (EnsureDense).
+  s.w.clear();
+  s.nullspace.clear();
+  s.gram.clear();
+  if (m <= kDenseSetup) EnsureDense(s);
   s.proj.assign(m, 0.0);
   s.weight.assign(m, 0.0);
   s.factor.assign(pattern_.values(), 0.0);
@@ -55,6 +86,7 @@ void ConstraintFactor::SizeScratch(ConstraintScratch& s) const {
 
 void ConstraintFactor::FormFull(ConstraintScratch& s) const {
   // W = B^T M^-1 B over the rows the two columns share (precomputed pairs).
+  EnsureDense(s);
   const int m = m_;
   const double* b = s.b.data();
   const double* v = s.v.data();
@@ -137,6 +169,8 @@ void ConstraintFactor::Solve(const double* rhs, double* out, ConstraintScratch& 
 }
 
 void ConstraintFactor::Share(ConstraintScratch& s, double* lambda) const {
+  if (dependent_.empty() && (s.factored || s.rank == m_)) return;  // nothing redundant: no null space
+  EnsureDense(s);
   const int m = m_;
   double* nsp = s.nullspace.data();  // column k: nsp[k * m ..]
   double* c = s.weight.data();
@@ -288,74 +322,141 @@ void ConstraintFactor::SolvePivoted(ConstraintScratch& s, double* lambda) const 
   s.rank = rank;
 }
 
+void ConstraintFactor::EnsureDense(ConstraintScratch& s) const {
+  const size_t mm = static_cast<size_t>(m_) * m_;
+  if (s.w.size() == mm) return;
+  s.w.assign(mm, 0.0);
+  s.nullspace.assign(mm, 0.0);
+  s.gram.assign(mm, 0.0);
+}
+
+void ConstraintFactor::MinimumDegree(const std::vector<int>& position, int n, std::vector<int>& order,
+                                    std::vector<std::vector<int>>& lower) const {
+  // W's graph on the independent constraints: constraints sharing a body's momentum are adjacent.
+  std::vector<std::vector<int>> adjacent(n);  // sorted; only vertices not yet eliminated
+  for (const WPair& pr : w_pairs_) {
+    const int i = pr.i < static_cast<int>(position.size()) ? position[pr.i] : -1;
+    const int j = pr.j < static_cast<int>(position.size()) ? position[pr.j] : -1;
+    if (i < 0 || j < 0 || i == j) continue;
+    adjacent[i].push_back(j);
+    adjacent[j].push_back(i);
+  }
+  std::set<std::pair<int, int>> by_degree;  // (degree, vertex): the first is the next pivot
+  for (int u = 0; u < n; ++u) {
+    std::sort(adjacent[u].begin(), adjacent[u].end());
+    adjacent[u].erase(std::unique(adjacent[u].begin(), adjacent[u].end()), adjacent[u].end());
+    by_degree.insert({static_cast<int>(adjacent[u].size()), u});
+  }
+  // Eliminating a vertex joins its remaining neighbours (the fill-in); they are the rows of L's
+  // column at its position.
+  std::vector<std::vector<int>> columns(n);  // per vertex: the positions of its L row's columns
+  std::vector<int> joined;
+  order.clear();
+  while (!by_degree.empty()) {
+    const int best = by_degree.begin()->second;
+    by_degree.erase(by_degree.begin());
+    const int pos = static_cast<int>(order.size());
+    order.push_back(best);
+    const std::vector<int> neighbours = std::move(adjacent[best]);
+    for (int a : neighbours) {
+      by_degree.erase({static_cast<int>(adjacent[a].size()), a});
+      columns[a].push_back(pos);
+      joined.clear();  // a's neighbours and best's other ones, without best
+      std::set_union(adjacent[a].begin(), adjacent[a].end(), neighbours.begin(), neighbours.end(), std::back_inserter(joined));
+      joined.erase(std::remove_if(joined.begin(), joined.end(), [&](int u) { return u == a || u == best; }), joined.end());
+      adjacent[a].swap(joined);
+      by_degree.insert({static_cast<int>(adjacent[a].size()), a});
+    }
+  }
+  lower.assign(n, {});
+  for (int p = 0; p < n; ++p) lower[p] = std::move(columns[order[p]]);
+}
+
+bool ConstraintFactor::SparseFullRank(ConstraintScratch& s, const std::vector<int>& order) const {
+  // W scaled to a unit diagonal, as the pivoted solve scales it, in the factor's order (lower
+  // triangle), factorised by Eigen's simplicial L D L^T in that order (no fill-in beyond the
+  // pattern MinimumDegree found).
+  std::vector<double> scale(m_, 0.0);
+  for (const WPair& pr : w_pairs_)
+    if (pr.i == pr.j) {
+      const double wii = WEntry(pr, s.b.data(), s.v.data());
+      scale[pr.i] = wii > 0.0 ? 1.0 / std::sqrt(wii) : 0.0;
+    }
+  if (std::find(scale.begin(), scale.end(), 0.0) != scale.end()) return false;  // a constraint on nothing
+  std::vector<int> pos_of(m_);
+  for (int p = 0; p < m_; ++p) pos_of[order[p]] = p;
+  std::vector<Eigen::Triplet<double, int>> entries;
+  entries.reserve(w_pairs_.size());
+  for (const WPair& pr : w_pairs_)
+    entries.emplace_back(std::max(pos_of[pr.i], pos_of[pr.j]), std::min(pos_of[pr.i], pos_of[pr.j]),
+                         WEntry(pr, s.b.data(), s.v.data()) * scale[pr.i] * scale[pr.j]);
+  Eigen::SparseMatrix<double, Eigen::ColMajor, int> w(m_, m_);
+  w.setFromTriplets(entries.begin(), entries.end());
+  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double, Eigen::ColMajor, int>, Eigen::Lower, Eigen::NaturalOrdering<int>> ldlt(w);
+  return ldlt.info() == Eigen::Success && ldlt.vectorD().minCoeff() > 1e-8;
+}
+
 void ConstraintFactor::FindIndependent(ConstraintScratch& s) {
   pattern_ = IndependentFactor{};
   dependent_.clear();
   share_pairs_.clear();
   if (m_ == 0) return;
-  // At the initial state: the pivoted factorisation's first `rank` pivots are an independent set.
-  FormFull(s);
-  std::fill(s.rhs.begin(), s.rhs.end(), 0.0);
-  std::vector<double> lambda(m_, 0.0);
-  SolvePivoted(s, lambda.data());
-  std::vector<int> independent(s.perm.begin(), s.perm.begin() + s.rank);
-  std::sort(independent.begin(), independent.end());
-  for (int j = 0; j < m_; ++j)
-    if (!std::binary_search(independent.begin(), independent.end(), j)) dependent_.push_back(j);
+  // Which constraints are independent at the initial state. A large system is first factorised
+  // sparse (Eigen's simplicial L D L^T in the factor's order) with W scaled to a unit diagonal:
+  // when every pivot is above 1e-8 (three decades above the dense test's 1e-11), all are
+  // independent, found in time linear in a chain's or a tree's size. Otherwise, and for small
+  // systems (where it is as fast and decides as it always has), the pivoted dense
+  // factorisation's first `rank` pivots are an independent set.
+  // The factor's order (order[pos] = index in independent) and the pattern of L, row by row:
+  // lower[pos] = its columns, sorted.
+  std::vector<int> independent, order;
+  std::vector<std::vector<int>> lower;
+  if (m_ > kDenseSetup) {
+    std::vector<int> all(m_);
+    for (int j = 0; j < m_; ++j) all[j] = j;
+    MinimumDegree(all, m_, order, lower);
+    if (SparseFullRank(s, order)) independent = std::move(all);
+  }
+  if (independent.empty()) {
+    FormFull(s);
+    std::fill(s.rhs.begin(), s.rhs.end(), 0.0);
+    std::vector<double> lambda(m_, 0.0);
+    SolvePivoted(s, lambda.data());
+    independent.assign(s.perm.begin(), s.perm.begin() + s.rank);
+    std::sort(independent.begin(), independent.end());
+    order.clear();
+  }
+  for (int j = 0, k = 0; j < m_; ++j) {
+    if (k < static_cast<int>(independent.size()) && independent[k] == j) ++k;
+    else dependent_.push_back(j);
+  }
   for (size_t k = 0; k < w_pairs_.size(); ++k) {
     const WPair& pr = w_pairs_[k];
     if (pr.i == pr.j || std::binary_search(dependent_.begin(), dependent_.end(), pr.i) ||
         std::binary_search(dependent_.begin(), dependent_.end(), pr.j))
       share_pairs_.push_back(static_cast<int>(k));
   }
-  // W's graph on the independent constraints: constraints sharing a body's momentum are adjacent.
   const int n = static_cast<int>(independent.size());
   std::vector<int> position(m_, -1);
   for (int k = 0; k < n; ++k) position[independent[k]] = k;
-  std::vector<std::vector<char>> adjacent(n, std::vector<char>(n, 0));
-  for (const WPair& pr : w_pairs_)
-    if (position[pr.i] >= 0 && position[pr.j] >= 0)
-      adjacent[position[pr.i]][position[pr.j]] = adjacent[position[pr.j]][position[pr.i]] = 1;
-  // Minimum-degree order (ties to the lowest index, so it is reproducible): eliminating the
-  // constraint with the fewest neighbours first keeps the fill-in of L small (in the differential,
-  // 405 nonzeros and a quarter of the dense factorisation's operations). Eliminating a vertex
-  // joins its remaining neighbours: `adjacent` becomes the pattern of L + L^T.
+  if (order.empty()) MinimumDegree(position, n, order, lower);
   IndependentFactor& f = pattern_;
-  std::vector<char> done(n, 0);
-  std::vector<int> order;  // order[pos] = index in independent
-  for (int step = 0; step < n; ++step) {
-    int best = 0, best_degree = n + 1;  // the first vertex not done has degree <= n
-    for (int u = 0; u < n; ++u) {
-      if (done[u]) continue;
-      int degree = 0;
-      for (int w = 0; w < n; ++w) degree += !done[w] && adjacent[u][w];
-      if (degree < best_degree) best = u, best_degree = degree;
-    }
-    done[best] = 1;
-    std::vector<int> neighbours;
-    for (int u = 0; u < n; ++u)
-      if (!done[u] && adjacent[best][u]) neighbours.push_back(u);
-    for (int a : neighbours)
-      for (int c : neighbours)
-        if (a != c) adjacent[a][c] = 1;
-    order.push_back(best);
-  }
   std::vector<int> pos_of(n);
   for (int p = 0; p < n; ++p) {
     pos_of[order[p]] = p;
     f.multiplier.push_back(independent[order[p]]);
   }
-  // L's pattern row by row in the new order (columns sorted).
-  std::vector<std::vector<int>> index_of(n, std::vector<int>(n, -1));  // [row][col] -> entry of L
   f.row_offset.push_back(0);
   for (int i = 0; i < n; ++i) {
-    for (int j = 0; j < i; ++j)
-      if (adjacent[order[i]][order[j]]) {
-        index_of[i][j] = f.entries();
-        f.cols.push_back(j);
-      }
+    f.cols.insert(f.cols.end(), lower[i].begin(), lower[i].end());
     f.row_offset.push_back(f.entries());
   }
+  // The entry of L at (i, j), j < i, in the pattern.
+  auto index_of = [&f](int i, int j) {
+    const auto begin = f.cols.begin() + f.row_offset[i], end = f.cols.begin() + f.row_offset[i + 1];
+    const auto it = std::lower_bound(begin, end, j);
+    return it != end && *it == j ? static_cast<int>(it - f.cols.begin()) : -1;
+  };
   // Runs of three consecutive positions on both sides become one Dot3, the rest Dot1s.
   auto cut = [](const std::vector<std::pair<int, int>>& terms, int target, std::vector<IndependentFactor::Dot>& dot3,
                 std::vector<IndependentFactor::Dot>& dot1) {
@@ -376,9 +477,14 @@ void ConstraintFactor::FindIndependent(ConstraintScratch& s) {
   for (int i = 0; i < n; ++i)
     for (int e = f.row_offset[i]; e < f.row_offset[i + 1]; ++e) {
       const int j = f.cols[e];
+      // The columns k < j that rows i and j share: a merge of their sorted columns.
       std::vector<std::pair<int, int>> terms;
-      for (int k = 0; k < j; ++k)
-        if (index_of[i][k] >= 0 && index_of[j][k] >= 0) terms.push_back({index_of[i][k], index_of[j][k]});
+      for (int p = f.row_offset[i], q = f.row_offset[j]; p < f.row_offset[i + 1] && q < f.row_offset[j + 1];) {
+        if (f.cols[p] >= j || f.cols[q] >= j) break;
+        if (f.cols[p] < f.cols[q]) ++p;
+        else if (f.cols[p] > f.cols[q]) ++q;
+        else terms.push_back({p++, q++});
+      }
       cut(terms, e, f.l3, f.l1);
       f.l3_offset.push_back(static_cast<int>(f.l3.size()));
       f.l1_offset.push_back(static_cast<int>(f.l1.size()));
@@ -389,7 +495,7 @@ void ConstraintFactor::FindIndependent(ConstraintScratch& s) {
     const int i = std::max(pos_of[position[pr.i]], pos_of[position[pr.j]]);
     const int j = std::min(pos_of[position[pr.i]], pos_of[position[pr.j]]);
     cut(std::vector<std::pair<int, int>>(w_terms_.begin() + pr.begin, w_terms_.begin() + pr.end),
-        i == j ? i : n + index_of[i][j], f.w3, f.w1);
+        i == j ? i : n + index_of(i, j), f.w3, f.w1);
   }
 }
 

@@ -5,13 +5,15 @@
 /// multiplier. It knows nothing of the plan or the graph (the ConstraintSolver forms B and V):
 ///  - W's nonzeros are the pairs of columns that share a momentum row (found once);
 ///  - at compile time, a pivoted L D L^T of W at the initial state picks an independent set of
-///    constraints, and a minimum-degree order of it fixes the pattern of a sparse L D L^T;
+///    constraints (for a large system, a sparse L D L^T that finds them all independent, kDenseSetup),
+///    and a minimum-degree order of it fixes the pattern of a sparse L D L^T;
 ///  - at run time, W on that set is factorised in its fixed pattern (Factor) and solved (Solve),
 ///    else (a configuration where the set is nearly dependent) the scaled, pivoted dense L D L^T
 ///    over all constraints solves it (FormFull, SolvePivoted);
 ///  - redundant constraints leave lambda free along B's null space: Share picks the split that
 ///    minimises the complementary energy (Menabrea's theorem).
-/// Nothing here allocates after construction and FindIndependent.
+/// Nothing here allocates after construction and FindIndependent (but for a large system, above
+/// kDenseSetup multipliers, the dense arrays of the pivoted fallback, once, when it is first needed).
 
 #include <string>
 #include <utility>
@@ -116,6 +118,20 @@ class ConstraintFactor {
   };  ///< a nonzero of W and its range in w_terms_
   /// W's entry for `pr`: the products of B's and V's entries over the rows its columns share.
   double WEntry(const WPair& pr, const double* b, const double* v) const;
+  /// Up to this many multipliers, the independent set is found by the pivoted dense solve, and
+  /// the dense arrays are sized with the scratch; above, a sparse L D L^T (Eigen) decides first.
+  static constexpr int kDenseSetup = 256;
+  /// The m x m arrays of the pivoted solve and of Share, sized if they are not.
+  void EnsureDense(ConstraintScratch& s) const;
+  /// The minimum-degree order (ties to the lowest index, so it is reproducible) of W's graph on
+  /// the n constraints of the independent set (position: multiplier -> its index there, or -1):
+  /// order[pos] = index; and the pattern of L in it, lower[pos] = its columns (sorted). Each
+  /// elimination joins the pivot's remaining neighbours: the cost follows the fill-in (linear
+  /// for a chain or a tree of joints), not the square of n.
+  void MinimumDegree(const std::vector<int>& position, int n, std::vector<int>& order, std::vector<std::vector<int>>& lower) const;
+  /// True when the L D L^T of W (scaled to a unit diagonal, at s.b and s.v) in `order` (a
+  /// minimum-degree order of every constraint) has every pivot above 1e-8: all are independent.
+  bool SparseFullRank(ConstraintScratch& s, const std::vector<int>& order) const;
 
   int m_ = 0;
   std::vector<int> offset_, rows_;  ///< B's compressed columns

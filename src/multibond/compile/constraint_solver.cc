@@ -16,6 +16,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <queue>
+#include <unordered_map>
 
 #include <fmt/format.h>
 
@@ -41,15 +44,13 @@ void ConstraintSolver::AssignMultipliers(const std::vector<int>& bond_dim) {
     cg.size = bond_dim[cg.members.front().slot];  // still the member's bond (Build maps it)
     cg.lambda = num_lambda_;
     num_lambda_ += cg.size;
+    for (const auto& m : cg.members) lambda_of_bond_[m.slot] = cg.lambda;  // the last constraint a bond is a member of
   }
 }
 
 int ConstraintSolver::MultiplierOf(int bond) const {
-  int lambda = 0;
-  for (const Group& cg : groups_)
-    for (const auto& m : cg.members)
-      if (m.slot == bond) lambda = cg.lambda;
-  return lambda;
+  const auto it = lambda_of_bond_.find(bond);
+  return it == lambda_of_bond_.end() ? 0 : it->second;
 }
 
 std::vector<std::string> ConstraintSolver::names() const {
@@ -130,24 +131,56 @@ void ConstraintSolver::Build(const BuildInput& in) {
   std::vector<int> b_offset, b_rows;
   negated_v_.clear();
   auto gi_of = [&](const Group& cg) { return static_cast<int>(&cg - groups_.data()); };
+  // Indexes that keep each constraint's tables proportional to what it reaches (not to the
+  // plan's size): the multiplier instructions by multiplier, the readers of each slot class (in
+  // plan order), and the storage gather whose rate each slot class is.
+  std::unordered_map<int, std::vector<int>> starts_of;
+  for (int k = 0; k < np; ++k)
+    if (plan[k].op == Op::kMultiplier) starts_of[plan[k].coef].push_back(k);
+  std::vector<int> reader_offset(num_classes + 1, 0), readers;
+  for (int k = 0; k < np; ++k)
+    for (int c : in.plan_reads[k]) ++reader_offset[c + 1];
+  for (int c = 0; c < num_classes; ++c) reader_offset[c + 1] += reader_offset[c];
+  readers.resize(reader_offset[num_classes]);
+  {
+    std::vector<int> fill(reader_offset.begin(), reader_offset.end() - 1);
+    for (int k = 0; k < np; ++k)
+      for (int c : in.plan_reads[k]) readers[fill[c]++] = k;
+  }
+  std::unordered_map<int, int> storage_gather_at;  // a storage gather's effort slot -> the gather
+  for (size_t gi = 0; gi < gathers.size(); ++gi)
+    if (storage(gathers[gi])) storage_gather_at.emplace(gathers[gi].effort, static_cast<int>(gi));
+  // Per constraint, the classes reached: reached_at[c] is the plan index of the instruction that
+  // reached c first (-1: a multiplier instruction), or np; reset after each constraint.
+  std::vector<int> reached_at(num_classes, np), in_closure(np, 0);
   for (Group& cg : groups_) {
-    // The multiplier's instructions (two for a cut), then every instruction reading what they reach.
-    std::vector<char> reached(num_classes, 0);
+    // The multiplier's instructions (two for a cut), then every instruction reading what they
+    // reach, in plan order: an instruction joins the closure when it reads a class reached
+    // before it (the plan is visited in order from a heap of candidates, so this is the scan of
+    // the whole plan, restricted to what the multiplier reaches).
+    std::vector<int> reached;  // the classes reached, in the order they were
     cg.starts.clear();
-    for (int k = 0; k < np; ++k)
-      if (plan[k].op == Op::kMultiplier && plan[k].coef == cg.lambda) {
-        cg.starts.push_back(k);
-        reached[in.plan_writes[k]] = 1;
-      }
+    if (const auto it = starts_of.find(cg.lambda); it != starts_of.end()) cg.starts = it->second;
     MB_ASSERT(!cg.starts.empty(), "constraint without its multiplier instruction");
+    std::priority_queue<int, std::vector<int>, std::greater<int>> candidates;
+    auto reach = [&](int c, int at) {
+      if (reached_at[c] != np) return;
+      reached_at[c] = at;
+      reached.push_back(c);
+      for (int r = reader_offset[c]; r < reader_offset[c + 1]; ++r)
+        if (readers[r] > at) candidates.push(readers[r]);
+    };
+    for (int k : cg.starts) reach(in.plan_writes[k], -1);
     cg.closure.clear();
-    for (int k = 0; k < np; ++k)
-      for (int c : in.plan_reads[k])
-        if (reached[c]) {
-          reached[in.plan_writes[k]] = 1;
-          cg.closure.push_back(k);
-          break;
-        }
+    while (!candidates.empty()) {
+      const int k = candidates.top();
+      candidates.pop();
+      if (in_closure[k]) continue;
+      in_closure[k] = 1;
+      cg.closure.push_back(k);
+      reach(in.plan_writes[k], k);
+    }
+    for (int k : cg.closure) in_closure[k] = 0;
     const Element& e = g.element(cg.element);
     // A cut (of a storage element) is undone by making that element independent; a rigid
     // coupling by making it compliant.
@@ -163,8 +196,8 @@ void ConstraintSolver::Build(const BuildInput& in) {
     auto refuse = [&](const std::string& what) {
       throw ModelError(Diagnostic{Diagnostic::Severity::kError, e.where, e.name, what, hint, {}, "constraint.unsupported"});
     };
-    for (int c = 0; c < num_classes; ++c) {
-      if (!reached[c]) continue;
+    std::sort(reached.begin(), reached.end());
+    for (int c : reached) {
       for (int k = 0; k < in.class_size[c]; ++k) {
         const int slot = in.class_offset[c] + k;
         if (member_of[slot] >= 0) {
@@ -191,10 +224,11 @@ void ConstraintSolver::Build(const BuildInput& in) {
         refuse(fmt::format("the {} of the ideal constraint '{}' passes through the resistor '{}' (to '{}'): a constraint whose "
                            "{} acts through a resistor is not supported", own, cg.name, g.element(plan[k].element).name,
                            in.class_names[in.plan_writes[k]], own));
-    for (size_t gi = 0; gi < gathers.size(); ++gi)
-      if (storage(gathers[gi]))
-        for (int c = 0; c < num_classes; ++c)
-          if (reached[c] && in.class_offset[c] == gathers[gi].effort) cg.momenta.push_back(static_cast<int>(gi));
+    for (int c : reached)
+      if (const auto it = storage_gather_at.find(in.class_offset[c]); it != storage_gather_at.end()) cg.momenta.push_back(it->second);
+    std::sort(cg.momenta.begin(), cg.momenta.end());
+    cg.momenta.erase(std::unique(cg.momenta.begin(), cg.momenta.end()), cg.momenta.end());
+    for (int c : reached) reached_at[c] = np;
     for (int k = 0; k < cg.size; ++k) {
       b_offset.push_back(static_cast<int>(b_rows.size()));
       for (int gi : cg.momenta) {
@@ -222,10 +256,12 @@ void ConstraintSolver::Build(const BuildInput& in) {
   // The tangent pass is read only at the constrained variables: it runs the instructions those
   // depend on (for rigid couplings the flow side of the plan), not what only feeds other rates.
   std::vector<char> feeds(num_classes, 0);
+  std::vector<int> class_of_slot(in.num_slots, -1);
+  for (int c = 0; c < num_classes; ++c)
+    for (int k = 0; k < in.class_size[c]; ++k) class_of_slot[in.class_offset[c] + k] = c;
   for (const Group& cg : groups_)
     for (const auto& m : cg.members)
-      for (int c = 0; c < num_classes; ++c)
-        if (in.class_offset[c] <= m.slot && m.slot < in.class_offset[c] + in.class_size[c]) feeds[c] = 1;
+      if (m.slot >= 0 && m.slot < in.num_slots && class_of_slot[m.slot] >= 0) feeds[class_of_slot[m.slot]] = 1;
   tangent_plan_.clear();
   for (int k = np - 1; k >= 0; --k)
     if (feeds[in.plan_writes[k]]) {

@@ -26,6 +26,7 @@
 
 #include <memory>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -214,6 +215,7 @@ class ConstraintSolver {
 
   std::vector<Group> groups_;
   int num_lambda_ = 0;
+  std::unordered_map<int, int> lambda_of_bond_;  ///< a member's bond -> its constraint's offset (MultiplierOf)
   std::vector<TimeFunction> targets_;  ///< the prescribed flows' functions (Member::target)
   std::vector<int> reaction_plan_;     ///< plan indices the multipliers reach (their instructions too), in order
   std::vector<int> reaction_gathers_;  ///< gathers that read a slot the multipliers reach

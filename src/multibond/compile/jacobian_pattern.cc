@@ -31,7 +31,12 @@ Deps Range(int first, int count) {
 
 }  // namespace
 
-void CompiledModel::BuildJacobianPattern() {
+const JacobianPattern* CompiledModel::jacobian_pattern() const {
+  std::call_once(jacobian_once_, [this] { BuildJacobianPattern(); });
+  return jacobian_pattern_.n > 0 ? &jacobian_pattern_ : nullptr;
+}
+
+void CompiledModel::BuildJacobianPattern() const {
   jacobian_pattern_ = JacobianPattern{};
   const int n = num_states();
   // A multiplier's value depends on the whole constrained system, and a torn variable on

@@ -182,9 +182,11 @@ void StateLayout::IndexNames(const Input& in) {
   };
   // A name already taken is kept: what FindVariable looks up first is indexed first.
   auto add_slot = [&](const std::string& name, int cls, int size, int components) {
-    if (names_.count(name)) return;
-    names_.emplace(name, Named{VariableRef::In::kSlot, in.class_offset[cls], size, unit_of(cls), components});
+    const auto [it, added] = names_.try_emplace(name);  // one look-up, not two
+    if (added) it->second = Named{VariableRef::In::kSlot, in.class_offset[cls], size, unit_of(cls), components};
   };
+  // Room for every name at once (up to four per element, two per named bond): no rehashing.
+  names_.reserve(in.signal_class.size() + blocks_.size() + 4 * static_cast<size_t>(g.num_elements()) + 2 * static_cast<size_t>(g.num_bonds()));
   // Signals: a slot of their own.
   for (const auto& [name, cls] : in.signal_class) add_slot(name, cls, 1, -1);
   // States by full name of their block; of blocks of one name, the first.

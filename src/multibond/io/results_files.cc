@@ -1,6 +1,7 @@
 #include "multibond/io/results_files.h"
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <stdexcept>
 
@@ -71,6 +72,19 @@ namespace {
 
 bool Has(const std::vector<ResultFormat>& formats, ResultFormat f) { return std::find(formats.begin(), formats.end(), f) != formats.end(); }
 
+/// Adds the time from its making to its end to `total` [s] (ResultsFiles::write_seconds).
+class WriteTimer {
+ public:
+  explicit WriteTimer(double& total) : total_(total), start_(std::chrono::steady_clock::now()) {}
+  ~WriteTimer() { total_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(); }
+  WriteTimer(const WriteTimer&) = delete;
+  WriteTimer& operator=(const WriteTimer&) = delete;
+
+ private:
+  double& total_;
+  std::chrono::steady_clock::time_point start_;
+};
+
 }  // namespace
 
 ResultsFiles::ResultsFiles(std::string folder, std::vector<ResultFormat> formats, long expected_rows, bool compress)
@@ -84,16 +98,19 @@ ResultsFiles::ResultsFiles(std::string folder, std::vector<ResultFormat> formats
 }
 
 void ResultsFiles::OnStart(const std::vector<Column>& columns) {
+  const WriteTimer timer(write_seconds_);
   if (csv_) csv_->OnStart(columns);
   if (store_) store_->OnStart(columns);
 }
 
 void ResultsFiles::OnSample(const std::vector<double>& row) {
+  const WriteTimer timer(write_seconds_);
   if (csv_) csv_->OnSample(row);
   if (store_) store_->OnSample(row);
 }
 
 void ResultsFiles::OnFinish(const RunSummary& summary) {
+  const WriteTimer timer(write_seconds_);
   if (csv_) csv_->OnFinish(summary);
   if (store_) store_->OnFinish(summary);
 }
@@ -101,6 +118,7 @@ void ResultsFiles::OnFinish(const RunSummary& summary) {
 void ResultsFiles::OnEvent(const EventRecord& event) { events_.push_back(event); }
 
 void ResultsFiles::Finish(const nlohmann::json& record) {
+  const WriteTimer timer(write_seconds_);
   if (!events_.empty()) {
     events_file_ = std::make_unique<AtomicFile>((std::filesystem::path(folder_) / kEventsFileName).string());
     std::string text = "time [s],kind,element,description\n";

@@ -64,12 +64,16 @@ class ResultsFiles : public Observer {
   void Publish();
 
   const std::vector<ResultFormat>& formats() const { return formats_; }
+  /// The time spent writing so far [s]: the rows as they came, and Finish (run.json's
+  /// phase_seconds.write_results; the rest of the run's wall time is the integration's).
+  double write_seconds() const { return write_seconds_; }
   const ColumnStore* columns() const { return store_.get(); }
 
  private:
   std::string folder_;
   std::vector<ResultFormat> formats_;
   bool compress_;
+  double write_seconds_ = 0.0;
   std::unique_ptr<CsvWriter> csv_;
   std::unique_ptr<ColumnStore> store_;
   std::unique_ptr<StagedFile> mat_, h5_;

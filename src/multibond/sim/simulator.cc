@@ -329,7 +329,9 @@ void CheckRunOptions(const CompiledModel& model, const RunOptions& options) {
   if (!(options.max_events_per_second > 0.0))
     throw std::invalid_argument(fmt::format("the event limit must be > 0 events per second (got {})", options.max_events_per_second));
   if (options.joint_coordinates.empty()) {
-    CheckIntegratorOptions(model.num_states(), model.jacobian_pattern(), options.integrator);
+    // The pattern only for a method that forms a Newton matrix (found on request: dense n x n for a constrained model).
+    CheckIntegratorOptions(model.num_states(), UsesNewtonMatrix(options.integrator.method) ? model.jacobian_pattern() : nullptr,
+                           options.integrator);
   } else {
     // The integrator sees the joint-coordinate state: its own size and pattern.
     const JointCoordinateSystem chart(model, options.joint_coordinates);

@@ -131,7 +131,7 @@ void CheckIntegratorOptions(int n, const JacobianPattern* pattern, const Integra
 }
 
 std::unique_ptr<Integrator> MakeIntegrator(OdeSystem& system, const IntegratorOptions& options) {
-  CheckIntegratorOptions(system.num_states(), system.jacobian_pattern(), options);
+  CheckIntegratorOptions(system.num_states(), UsesNewtonMatrix(options.method) ? system.jacobian_pattern() : nullptr, options);
   if (system.num_states() == 0) return std::make_unique<StatelessIntegrator>(options);
   switch (options.method) {
     case Method::kBdf:

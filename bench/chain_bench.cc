@@ -1,0 +1,74 @@
+// The scaling benchmark (docs/scaling.md): the chain of bench/make_chain.py, N bodies on
+// compliant or ideal (rigid) revolute joints, on the plan interpreter (no generated code, so that
+// the figures do not include a compiler's time or its limits).
+//   BM_ScalingChainRhs/N         one right-hand side of the compliant chain: the CPU time per
+//                                state (per_state) should be flat
+//   BM_ScalingRigidChainSolve/N  one right-hand side of the rigid chain at a new state: the
+//                                constraint solve (B, W, its sparse L D L^T, the multipliers)
+//                                each time; the CPU time per multiplier (per_multiplier) should be
+//                                flat (the factor's order keeps a chain's W without fill-in)
+// Run: build/release/bench/multibond_bench --benchmark_filter=Scaling
+
+#include <benchmark/benchmark.h>
+
+#include <cstdio>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "multibond/io/model_loader.h"
+#include "multibond/sim/simulator.h"
+#include "rhs_in_turn.h"
+
+namespace mb = multibond;
+
+namespace {
+
+/// bench/make_chain.py's model text for n bodies.
+std::string ChainText(int n, bool rigid) {
+  const std::string command =
+      "python3 " + std::string(MULTIBOND_SOURCE_DIR) + "/bench/make_chain.py " + std::to_string(n) + (rigid ? " --rigid" : "");
+  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
+  if (!pipe) throw std::runtime_error("cannot run " + command);
+  std::string text;
+  char buffer[65536];
+  for (size_t got; (got = fread(buffer, 1, sizeof buffer, pipe.get())) > 0;) text.append(buffer, got);
+  return text;
+}
+
+std::shared_ptr<const mb::CompiledModel> Chain(int n, bool rigid) {
+  const mb::LoadedModel lm = mb::LoadModelString(ChainText(n, rigid), "chain.yaml");
+  mb::CompileOptions co = lm.compile;
+  co.generate_code = false;
+  return mb::CompiledModel::Compile(lm.graph, co);
+}
+
+void BM_ScalingChainRhs(benchmark::State& state) {
+  const auto model = Chain(static_cast<int>(state.range(0)), false);
+  mb::Workspace ws = model->MakeWorkspace();
+  const Eigen::VectorXd x = model->MakeInitialState();
+  Eigen::VectorXd xdot(x.size());
+  double t = 0.0;
+  for (auto _ : state) {
+    model->CalcStateDerivatives(t, x.data(), xdot.data(), ws);
+    benchmark::DoNotOptimize(xdot.data());
+    t += 1e-9;
+  }
+  state.counters["states"] = static_cast<double>(model->num_states());
+  state.counters["per_state"] = benchmark::Counter(static_cast<double>(model->num_states()),
+                                                      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_ScalingChainRhs)->RangeMultiplier(10)->Range(10, 10000)->Unit(benchmark::kMicrosecond);
+
+void BM_ScalingRigidChainSolve(benchmark::State& state) {
+  const auto model = Chain(static_cast<int>(state.range(0)), true);
+  // Two states in turn, a momentum moved by a hair (rhs_in_turn.h): each evaluation forms B and
+  // W and factorises W again, as an integrator's stages do.
+  mb::bench::RhsInTurn(state, *model, "b0.p", 0, 1e-9);
+  state.counters["multipliers"] = static_cast<double>(model->num_multipliers());
+  state.counters["per_multiplier"] = benchmark::Counter(static_cast<double>(model->num_multipliers()),
+                                                           benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_ScalingRigidChainSolve)->Arg(10)->Arg(30)->Arg(100)->Arg(300)->Arg(1000)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
