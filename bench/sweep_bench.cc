@@ -68,12 +68,12 @@ void BM_SweepRunParts(benchmark::State& state) {
   const std::string text = mb::ReadModelText(kModel, {});
   sw::Runner runner(s, text, {}, "off");
   runner.set_run_options(Options());
-  sw::KeptObserver kept(runner.kept());
-  sw::RunTiming t;
+  const auto ws = runner.NewWorkspace();
+  const sw::RunTiming& t = ws->timing;
   const auto design = sw::Design(s);
   long i = 0;
   for (auto _ : state) {
-    const sw::RunResult r = runner.Run(i % 20, design[i % 20], kept, t, nullptr);
+    const sw::RunResult r = runner.Run(i % 20, design[i % 20], *ws, nullptr);
     benchmark::DoNotOptimize(r.values.data());
     ++i;
   }

@@ -14,6 +14,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "multibond/io/model_loader.h"
+#include "multibond/io/yaml_document.h"
 #include "support/mechanism_chain.h"
 #include "multibond/sim/simulator.h"
 
@@ -672,6 +673,35 @@ TEST(ModelLoader, LoadsAChainOf5000Bodies) {
   EXPECT_GE(lm.graph.Find("b4999.v"), 0);
   EXPECT_GE(lm.graph.Find("j4999.r.K"), 0) << "the last joint's rotational spring";
   EXPECT_TRUE(lm.warnings.empty());
+}
+
+// A model parsed once loads again and again with other parameter values (a sweep's runs), each
+// load the same graph as loading the text anew with those values: the loader does not change the
+// parsed document (setting a parameter once nulled the file's value in it).
+TEST(ParsedModel, LoadsLikeTheTextForEveryParameterValue) {
+  const std::string file = std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml";
+  const std::string text = ReadModelText(file, {});
+  const ParsedModel parsed(text, file, {});
+  for (const char* k : {"3000", "1000", "2.5e4", "3000"}) {
+    const std::vector<ParameterOverride> set = {{"mesh_K", k}};
+    const LoadedModel a = parsed.Load(set), b = LoadModelString(text, file, {}, set);
+    ASSERT_EQ(a.graph.num_elements(), b.graph.num_elements());
+    int meshes = 0;
+    for (int i = 0; i < a.graph.num_elements(); ++i) {
+      const Element &x = a.graph.element(i), &y = b.graph.element(i);
+      ASSERT_EQ(x.name, y.name);
+      EXPECT_EQ(x.param.is_scalar, y.param.is_scalar) << x.name;
+      EXPECT_EQ(x.param.scalar, y.param.scalar) << x.name;
+      EXPECT_EQ(x.param.matrix, y.param.matrix) << x.name;
+      if (x.name == "mesh_GA.mesh.K") {
+        EXPECT_EQ(x.param.scalar, std::stod(k));
+        ++meshes;
+      }
+    }
+    EXPECT_EQ(meshes, 1);
+    ASSERT_EQ(a.parameters.size(), b.parameters.size());
+    EXPECT_EQ(a.parameters.front().value, b.parameters.front().value);
+  }
 }
 
 }  // namespace

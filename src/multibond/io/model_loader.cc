@@ -35,10 +35,9 @@ const std::vector<std::string> kTopKeys = {"model", "description", "domain", "el
                                            "simulation", "submodels", "gravity", "bodies", "joints", "gears", "drives", "points",
                                            "constraints", "rigid", "algebraic_loops", "parameters", "signals"};
 
-LoadedModel Load(LoadContext& cx, const std::vector<ParameterOverride>& overrides) {
+LoadedModel Load(LoadContext& cx, const YAML::Node& root, const std::vector<ParameterOverride>& overrides) {
   LoadedModel out{BondGraph("model"), {}, {}, cx.file, cx.text, {}, nullptr, {}};
   DiagnosticSink& sink = cx.sink;
-  const YAML::Node root = YamlDocument(cx).Parse();
   ValueReader values(cx);
   values.CheckKeys(root, kTopKeys, "");
   std::string name = "model";
@@ -91,16 +90,13 @@ LoadedModel Load(LoadContext& cx, const std::vector<ParameterOverride>& override
   return out;
 }
 
-}  // namespace
-
-LoadedModel LoadModelString(const std::string& yaml, const std::string& file, const InputLimits& limits,
-                            const std::vector<ParameterOverride>& parameters) {
+/// Runs `f`, turning a YAML exception (a node of a shape the loader did not expect somewhere it
+/// did not check) into a model error with the place yaml-cpp knows.
+template <typename F>
+auto Explained(const std::string& file, F&& f) {
   try {
-    LoadContext cx(file, yaml, limits);
-    return Load(cx, parameters);
+    return f();
   } catch (const YAML::Exception& e) {
-    // A node of a shape the loader did not expect somewhere it did not check: still a model
-    // error, with the place yaml-cpp knows.
     Diagnostic d;
     d.where = {file, e.mark.line >= 0 ? e.mark.line + 1 : 0, e.mark.line >= 0 ? e.mark.column + 1 : 0};
     d.code = codes::kYamlStructure;
@@ -108,6 +104,34 @@ LoadedModel LoadModelString(const std::string& yaml, const std::string& file, co
     d.hint = "compare this part of the file with docs/model-format.md";
     throw ModelError(d);
   }
+}
+
+}  // namespace
+
+LoadedModel LoadModelString(const std::string& yaml, const std::string& file, const InputLimits& limits,
+                            const std::vector<ParameterOverride>& parameters) {
+  return Explained(file, [&] {
+    LoadContext cx(file, yaml, limits);
+    const YAML::Node root = YamlDocument(cx).Parse();
+    return Load(cx, root, parameters);
+  });
+}
+
+ParsedModel::ParsedModel(std::string text, std::string file, const InputLimits& limits)
+    : file_(std::move(file)), text_(std::move(text)), limits_(limits) {
+  root_ = Explained(file_, [&] {
+    LoadContext cx(file_, text_, limits_);
+    return std::make_unique<YAML::Node>(YamlDocument(cx).Parse());
+  });
+}
+
+ParsedModel::~ParsedModel() = default;
+
+LoadedModel ParsedModel::Load(const std::vector<ParameterOverride>& parameters) const {
+  return Explained(file_, [&] {
+    LoadContext cx(file_, text_, limits_);
+    return multibond::Load(cx, *root_, parameters);
+  });
 }
 
 LoadedModel LoadModelFile(const std::string& path, const InputLimits& limits, const std::vector<ParameterOverride>& parameters) {

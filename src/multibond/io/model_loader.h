@@ -16,6 +16,10 @@
 #include "multibond/mech/mechanism.h"
 #include "multibond/solve/integrator.h"
 
+namespace YAML {
+class Node;
+}
+
 namespace multibond {
 
 /// Run settings a model file may carry (the command line overrides them).
@@ -55,5 +59,24 @@ LoadedModel LoadModelFile(const std::string& path, const InputLimits& limits = {
 /// The same for a model's text; `file` names it in diagnostics.
 LoadedModel LoadModelString(const std::string& yaml, const std::string& file = "<string>", const InputLimits& limits = {},
                             const std::vector<ParameterOverride>& parameters = {});
+
+/// A model's text parsed once (its YAML read and checked within the limits), to be loaded many
+/// times with other parameter values without parsing the text again: a sweep's runs. Load is the
+/// same as LoadModelString(text, file, limits, parameters). yaml-cpp's nodes may not be read from
+/// two threads at once: each thread keeps its own ParsedModel.
+class ParsedModel {
+ public:
+  /// Throws ModelError for a text that does not parse (as LoadModelString).
+  ParsedModel(std::string text, std::string file, const InputLimits& limits);
+  ~ParsedModel();
+  ParsedModel(const ParsedModel&) = delete;
+  ParsedModel& operator=(const ParsedModel&) = delete;
+  LoadedModel Load(const std::vector<ParameterOverride>& parameters = {}) const;
+
+ private:
+  std::string file_, text_;
+  InputLimits limits_;
+  std::unique_ptr<YAML::Node> root_;
+};
 
 }  // namespace multibond

@@ -118,7 +118,7 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
     Entry& e = entries[it->second];
     e.p.text = o.value;
     e.p.set = true;
-    e.value = YAML::Node();
+    e.value.reset();  // rebinds the handle: assigning would set the document's node to null
     e.failed = false;
   }
 

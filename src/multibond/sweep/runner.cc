@@ -91,8 +91,13 @@ void Runner::set_run_options(RunOptions o) {
   options_.progress = nullptr;
 }
 
-RunResult Runner::Run(long run, const std::vector<double>& values, KeptObserver& kept, RunTiming& timing, const std::atomic<bool>* stop,
-                      Observer* also) const {
+std::unique_ptr<RunWorkspace> Runner::NewWorkspace() const {
+  return std::make_unique<RunWorkspace>(text_, study_.model, limits_, kept_);
+}
+
+RunResult Runner::Run(long run, const std::vector<double>& values, RunWorkspace& ws, const std::atomic<bool>* stop, Observer* also) const {
+  KeptObserver& kept = ws.kept;
+  RunTiming& timing = ws.timing;
   RunResult r;
   r.run = run;
   r.values.assign(study_.keep.size(), std::numeric_limits<double>::quiet_NaN());
@@ -102,7 +107,7 @@ RunResult Runner::Run(long run, const std::vector<double>& values, KeptObserver&
   ++timing.runs;
   try {
     auto t0 = Clock::now();
-    LoadedModel lm = LoadModelString(text_, study_.model, limits_, set);
+    LoadedModel lm = ws.parsed.Load(set);
     timing.load += Since(t0);
     t0 = Clock::now();
     CompileOptions co = lm.compile;

@@ -12,6 +12,7 @@
 /// once, each with its own KeptObserver (its workspace).
 
 #include <atomic>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,16 @@ struct RunTiming {
   }
 };
 
+/// What one thread of a sweep keeps between its runs: the model's text parsed once (no parse per
+/// run), the kept quantities' workspace, and where the time went. Runner::NewWorkspace makes one.
+struct RunWorkspace {
+  RunWorkspace(const std::string& text, const std::string& file, const InputLimits& limits, const KeptQuantities& q)
+      : parsed(text, file, limits), kept(q) {}
+  ParsedModel parsed;
+  KeptObserver kept;
+  RunTiming timing;
+};
+
 class Runner {
  public:
   /// `model_text` the model file's content (`study.model` names it in messages); `jit` "auto",
@@ -58,8 +69,10 @@ class Runner {
   /// The run `run` with the swept parameters at `values` (in the study's axis order). Failures of
   /// the run (a parameter out of the model's range, a solver failure) are its result, not thrown.
   /// `observer` may be any Observer that forwards to `kept` (e.g. to keep the rows as well).
-  RunResult Run(long run, const std::vector<double>& values, KeptObserver& kept, RunTiming& timing, const std::atomic<bool>* stop,
+  RunResult Run(long run, const std::vector<double>& values, RunWorkspace& ws, const std::atomic<bool>* stop,
                 Observer* also = nullptr) const;
+  /// A workspace for one thread's runs.
+  std::unique_ptr<RunWorkspace> NewWorkspace() const;
 
  private:
   const Study& study_;

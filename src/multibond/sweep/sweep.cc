@@ -28,13 +28,6 @@ void RefuseLink(const std::filesystem::path& p) {
 /// A run stopped by the stop flag is not a result: it is run again on --resume.
 bool Recordable(const RunResult& r) { return r.ok || r.reason != "interrupted"; }
 
-/// What each worker thread keeps: its observer (workspace of the kept quantities) and timing.
-struct Worker {
-  explicit Worker(const KeptQuantities& q) : kept(q) {}
-  KeptObserver kept;
-  RunTiming timing;
-};
-
 }  // namespace
 
 std::string StudyHash(const Study& study, const std::string& model_text) {
@@ -48,8 +41,8 @@ SweepOutcome RunSweep(const Study& study, const Runner& runner, const std::strin
   const long n = static_cast<long>(design.size());
   const int rank = mpi ? mpi->rank() : 0;
   const int threads = o.threads > 0 ? o.threads : mpi ? 1 : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-  std::vector<std::unique_ptr<Worker>> workers;
-  for (int t = 0; t < threads; ++t) workers.push_back(std::make_unique<Worker>(runner.kept()));
+  std::vector<std::unique_ptr<RunWorkspace>> workers;
+  for (int t = 0; t < threads; ++t) workers.push_back(runner.NewWorkspace());
   // Each run's full results too (`results: true`): runs/run-<index>.csv, as `run` writes results.csv.
   const std::filesystem::path runs_dir = std::filesystem::path(o.dir) / "runs";
   if (study.keep_results) {
@@ -59,7 +52,7 @@ SweepOutcome RunSweep(const Study& study, const Runner& runner, const std::strin
   auto run_one = [&](long run, int thread) {
     std::unique_ptr<CsvWriter> rows;
     if (study.keep_results) rows = std::make_unique<CsvWriter>((runs_dir / ("run-" + std::to_string(run) + ".csv")).string());
-    return runner.Run(run, design[run], workers[thread]->kept, workers[thread]->timing, o.stop, rows.get());
+    return runner.Run(run, design[run], *workers[thread], o.stop, rows.get());
   };
   SweepOutcome out;
   if (rank != 0) {
