@@ -51,6 +51,9 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a, const std::vec
   PreparedRun p{Load(path, a.load, extra_sets, extra_option), nullptr, {}, {}, {}};
   CompileOptions co = p.lm.compile;
   co.generate_code = a.jit != "off";
+  // auto: the run starts on the interpreter and switches when the code is loaded (same bits);
+  // on: the code must be there before the run starts.
+  co.jit_background = a.jit == "auto";
   p.model = CompiledModel::Compile(p.lm.graph, co);
   // --jit on for a model that generated code does not cover is a usage error; a compiler that fails is the machine's.
   if (a.jit == "on" && !p.model->uses_generated_code())
