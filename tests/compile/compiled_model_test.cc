@@ -277,6 +277,18 @@ TEST(OneAnswerRun, TheGeneratedCodeFusesItsSumsWhereTheCpuHasFma) {
   EXPECT_THAT(src, ::testing::HasSubstr("__builtin_fma("));
 }
 
+/// A short run of a model (0.05 s, samples every 5 ms, every variable) with its file's solver.
+RunOptions ShortRun(const LoadedModel& lm) {
+  RunOptions o;
+  o.t_end = 0.05;
+  o.dt = 0.005;
+  o.integrator.method = ParseMethod(lm.simulation.solver.value_or("bdf"));
+  o.integrator.rtol = lm.simulation.rtol.value_or(1e-8);
+  o.integrator.atol = lm.simulation.atol.value_or(1e-10);
+  o.all_variables = true;
+  return o;
+}
+
 // Before: runs with and without the generated code wrote different numbers (fused multiply-adds
 // on one side, Eigen's vectorised 3x3 products and sums from +0.0 on the other).
 TEST(OneAnswerRun, TheDifferentialGivesTheSameSamplesOnBothEngines) {
@@ -287,13 +299,7 @@ TEST(OneAnswerRun, TheDifferentialGivesTheSameSamplesOnBothEngines) {
     co.generate_code = engine == 1;
     const auto model = CompiledModel::Compile(lm.graph, co);
     ASSERT_EQ(model->uses_generated_code(), engine == 1) << model->rhs_engine();
-    RunOptions o;
-    o.t_end = 0.05;
-    o.dt = 0.005;
-    o.integrator.method = ParseMethod(lm.simulation.solver.value_or("bdf"));
-    o.integrator.rtol = lm.simulation.rtol.value_or(1e-8);
-    o.integrator.atol = lm.simulation.atol.value_or(1e-10);
-    o.all_variables = true;
+    const RunOptions o = ShortRun(lm);
     RecordingObserver rec;
     Simulate(*model, o, rec);
     rows[engine] = rec.rows();
@@ -465,13 +471,7 @@ class SwitchObserver : public RecordingObserver {
 TEST(GeneratedCodeAtScale, ARunThatSwitchesToTheGeneratedCodeMidwayGivesTheSameBits) {
   FreshJitCache cache;  // nothing cached: the compiler takes far longer than the first sample
   const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml");
-  RunOptions o;
-  o.t_end = 0.05;
-  o.dt = 0.005;
-  o.integrator.method = ParseMethod(lm.simulation.solver.value_or("bdf"));
-  o.integrator.rtol = lm.simulation.rtol.value_or(1e-8);
-  o.integrator.atol = lm.simulation.atol.value_or(1e-10);
-  o.all_variables = true;
+  const RunOptions o = ShortRun(lm);
   CompileOptions co = lm.compile;
   co.generate_code = false;
   RecordingObserver interpreted;

@@ -138,6 +138,10 @@ void CompiledModel::LoadGeneratedRhs(const std::vector<std::string>& units) {
     jit_ready_.store(jit_code_.get(), std::memory_order_release);
   } else {
     rhs_engine_ = "interpreter (code generation failed: " + jit.description + ")";
+    // In the background nobody looks at the engine before the run's end: said here (not for a
+    // compile that the end of the run or a stop cancelled).
+    if (jit_state_ == JitState::kCompiling && !jit_cancel_ && !StopRequested())
+      std::fprintf(stderr, "warning: running on the interpreter: %s\n", rhs_engine_.c_str());
   }
   {
     std::lock_guard<std::mutex> lock(jit_mutex_);

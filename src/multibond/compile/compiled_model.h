@@ -44,7 +44,8 @@ struct CompileOptions {
   bool generate_code = false;
   /// With generate_code: Compile returns at once and the code is compiled in the background while
   /// the interpreter evaluates; the evaluation switches to the generated code when it is loaded
-  /// (both give the same bits). Models with ideal constraints compile before Compile returns.
+  /// (both give the same bits); a compile that fails says so on stderr. Models with ideal
+  /// constraints compile before Compile returns.
   bool jit_background = false;
   /// Compilers still running after this many seconds are ended and the interpreter goes on
   /// (what was built stays cached for the next run); 0: no limit.
