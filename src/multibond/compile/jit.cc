@@ -7,6 +7,7 @@
 #include <fcntl.h>
 #include <openssl/evp.h>
 #include <sys/mman.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -249,6 +250,7 @@ struct Limits {
   const std::atomic<bool>* cancel = nullptr;
   std::atomic<bool>* abandon = nullptr;  ///< set by a thread that was interrupted: the others stop too
   double budget_seconds = 0;
+  int nice = 0;  ///< the compilers' niceness (JitControl::nice)
   /// Why the batch stops now ("" when it goes on).
   std::string Stop() const {
     if ((cancel && cancel->load()) || (abandon && abandon->load())) return "cancelled";
@@ -264,6 +266,9 @@ std::string RunCompiler(const std::vector<std::string>& argv, const std::string&
   std::string error;
   const pid_t pid = StartProcess(argv, "", log, &error, /*merge_stdout=*/true);
   if (pid < 0) return error;
+  // The child leads its process group: the driver and what it started so far are in it, what it
+  // starts later inherits its niceness. Best effort: a compiler at full priority is only slower.
+  if (limits.nice > 0) setpriority(PRIO_PGRP, static_cast<id_t>(pid), limits.nice);
   // Polled without reaping (WNOWAIT); WaitProcess then reaps it and says how it ended.
   for (int pause = 1;; pause = std::min(2 * pause, 20)) {
     siginfo_t info{};
@@ -517,6 +522,7 @@ JitBatch CompileAndLoadUnits(const std::vector<std::string>& sources, const std:
   limits.cancel = control.cancel;
   limits.abandon = &abandon;
   limits.budget_seconds = control.budget_seconds;
+  limits.nice = control.nice;
   if (control.budget_seconds > 0)
     limits.deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(control.budget_seconds));
   std::atomic<size_t> next{0};

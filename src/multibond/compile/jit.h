@@ -55,6 +55,7 @@ struct JitControl {
   /// since the start. Called from the compiling threads, one call at a time.
   std::function<void(int done, int total, double seconds)> progress;
   bool light = false;  ///< -O1 instead of -O2: the same bits, for a large model's many units
+  int nice = 0;        ///< > 0: the compilers run at this niceness (behind a run that goes on meanwhile)
 };
 
 /// Several units loaded together.
