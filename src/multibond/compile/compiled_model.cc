@@ -102,11 +102,13 @@ void CompiledModel::GenerateCode() {
 
 void CompiledModel::LoadGeneratedRhs(const std::vector<std::string>& units) {
   JitControl control;
-  control.budget_seconds = options_.jit_budget_seconds;
+  // The budget is the background's: a compile asked for before the run (--jit on) runs to its end.
+  const bool background = jit_state_ == JitState::kCompiling;
+  if (background) control.budget_seconds = options_.jit_budget_seconds;
   control.cancel = &jit_cancel_;
   control.light = units.size() > 1;
   // In the background the run goes on meanwhile: the compilers take what CPU it leaves.
-  if (jit_state_ == JitState::kCompiling) control.nice = 10;
+  if (background) control.nice = 10;
   // Progress on a terminal, for a compile that takes more than a second.
   const bool tty = isatty(STDERR_FILENO) == 1;
   bool shown = false;

@@ -47,8 +47,8 @@ struct CompileOptions {
   /// (both give the same bits); a compile that fails says so on stderr. Models with ideal
   /// constraints compile before Compile returns.
   bool jit_background = false;
-  /// Compilers still running after this many seconds are ended and the interpreter goes on
-  /// (what was built stays cached for the next run); 0: no limit.
+  /// With jit_background: compilers still running after this many seconds are ended and the
+  /// interpreter goes on (what was built stays cached for the next run); 0: no limit.
   double jit_budget_seconds = 60;
   /// A generated right-hand side longer than CompiledModel::kOneFunctionChars (or than this) is
   /// split into units of about this many characters, each its own shared object, compiled in
