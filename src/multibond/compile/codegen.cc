@@ -183,11 +183,18 @@ std::vector<std::vector<std::string>> CompiledModel::GenerateBodies(std::size_t 
   // When the body is longer than kOneFunctionChars (or unit_chars), a new function starts after the piece that takes
   // the current one to kFunctionChars, a new unit after the one that takes it to unit_chars;
   // what a function declares (a lever arm) is declared again where another one needs it.
+  // The state derivatives first (they do not depend on the cut; their size counts for it).
+  std::vector<std::string> gathers(layout_.gathers().size());
+  std::vector<std::vector<int>> gather_reads(gathers.size());
+  std::size_t total = 0;
+  for (size_t k = 0; k < gathers.size(); ++k) {
+    EmitGather(layout_.gathers()[k], gathers[k], &gather_reads[k]);
+    total += gathers[k].size();
+  }
   std::vector<std::string> pieces(plan_.size() + 1);
   std::set<std::string> levers_done;
   const size_t numbers = code::value_table ? code::value_table->size() : 0;
   for (size_t i = 0; i < plan_.size(); ++i) EmitInstr(plan_[i], pieces[i + 1], levers_done);
-  std::size_t total = 0;
   for (const std::string& piece : pieces) total += piece.size();
   std::vector<int> unit_of(pieces.size(), 0), function_of(pieces.size(), 0);
   if (total > std::min(unit_chars, kOneFunctionChars)) {
@@ -233,16 +240,13 @@ std::vector<std::vector<std::string>> CompiledModel::GenerateBodies(std::size_t 
     }
   }
   std::vector<std::string> after(pieces.size());  // the state derivatives to write after piece p
-  for (const Gather& gt : layout_.gathers()) {
-    std::string g;
-    std::vector<int> reads;
-    EmitGather(gt, g, &reads);
+  for (size_t k = 0; k < gathers.size(); ++k) {
     // After the last piece it reads from; at the end if it reads a slot no piece writes.
     int at = 0;
-    for (int slot : reads)
+    for (int slot : gather_reads[k])
       at = std::max(at, slot >= 0 && slot < static_cast<int>(written_by.size()) && written_by[slot] >= 0 ? written_by[slot]
                                                                                                       : num_pieces - 1);
-    after[at] += g;
+    after[at] += gathers[k];
   }
   std::vector<std::vector<std::string>> units(static_cast<size_t>(unit_of.back()) + 1);
   for (int p = 0; p < num_pieces; ++p) {

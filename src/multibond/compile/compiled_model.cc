@@ -101,12 +101,14 @@ void CompiledModel::GenerateCode() {
 }
 
 void CompiledModel::LoadGeneratedRhs(const std::vector<std::string>& units) {
+  // One function in one unit (GenerateUnits: multibond_rhs and multibond_rhs_fast), else parts.
+  const bool whole = units.size() == 1 && units.front().find("multibond_rhs_fast(") != std::string::npos;
   JitControl control;
   // The budget is the background's: a compile asked for before the run (--jit on) runs to its end.
   const bool background = jit_state_ == JitState::kCompiling;
   if (background) control.budget_seconds = options_.jit_budget_seconds;
   control.cancel = &jit_cancel_;
-  control.light = units.size() > 1;
+  control.light = !whole;
   // In the background the run goes on meanwhile: the compilers take what CPU it leaves.
   if (background) control.nice = 10;
   // Progress on a terminal, for a compile that takes more than a second.
@@ -119,17 +121,16 @@ void CompiledModel::LoadGeneratedRhs(const std::vector<std::string>& units) {
                    seconds);
       shown = true;
     };
-  std::string engine;
   JitBatch jit;
   try {
-    jit = CompileAndLoadUnits(units, units.size() == 1 ? "multibond_rhs" : "multibond_part", control);
+    jit = CompileAndLoadUnits(units, whole ? "multibond_rhs" : "multibond_part", control);
   } catch (const Interrupted& e) {
     if (jit_state_ != JitState::kCompiling) throw;  // Compile's own: the stop goes on up
     jit.description = e.what();                      // in the background: the run sees the stop itself
   }
   if (shown) std::fputc('\n', stderr);
   auto code = std::make_unique<JitCode>();
-  if (jit.ok() && units.size() == 1) {
+  if (jit.ok() && whole) {
     code->rhs = reinterpret_cast<GeneratedRhs>(jit.symbols.front());
     code->fast = reinterpret_cast<GeneratedRhs>(dlsym(jit.libraries.front().get(), "multibond_rhs_fast"));
   } else if (jit.ok()) {

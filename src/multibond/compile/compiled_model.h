@@ -149,10 +149,11 @@ class CompiledModel {
   };
   GeneratedUnits GenerateUnits(std::size_t unit_chars) const;
   /// The body of the right-hand side (GenerateBody); when it is longer than kOneFunctionChars
-  /// (or `unit_chars`), cut into units of about `unit_chars`, each into functions of about
+  /// (the differential's is 33 KB; with values from a table GCC takes 1.5 times as long on one
+  /// function as with literals) or than `unit_chars`, cut into units of about `unit_chars`, each into functions of about
   /// kFunctionChars.
   std::vector<std::vector<std::string>> GenerateBodies(std::size_t unit_chars) const;
-  static constexpr std::size_t kOneFunctionChars = 64 * 1024, kFunctionChars = 8 * 1024;
+  static constexpr std::size_t kOneFunctionChars = 40 * 1024, kFunctionChars = 8 * 1024;
   /// C++ source of the constraint system's sparse L D L^T for the pattern fixed at compile time
   /// (ConstraintFactor::GenerateSource): `multibond_ldlt_factor(b, v, factor)` (1 on success)
   /// and `multibond_ldlt_solve(rhs, lambda, factor, y)`.
