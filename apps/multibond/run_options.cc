@@ -61,6 +61,9 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a, const std::vec
   p.phase_seconds.emplace_back("load", lap());
   CompileOptions co = p.lm.compile;
   co.generate_code = a.jit != "off";
+  // auto: the run starts on the interpreter and switches when the code is loaded (same bits);
+  // on: the code must be there before the run starts.
+  co.jit_background = a.jit == "auto";
   p.model = CompiledModel::Compile(p.lm.graph, co);
   (void)lap();
   p.phase_seconds.insert(p.phase_seconds.end(), p.model->compile_seconds().begin(), p.model->compile_seconds().end());

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <sstream>
 #include <string>
 #include <thread>
 
@@ -276,6 +277,18 @@ TEST(OneAnswerRun, TheGeneratedCodeFusesItsSumsWhereTheCpuHasFma) {
   EXPECT_THAT(src, ::testing::HasSubstr("__builtin_fma("));
 }
 
+/// A short run of a model (0.05 s, samples every 5 ms, every variable) with its file's solver.
+RunOptions ShortRun(const LoadedModel& lm) {
+  RunOptions o;
+  o.t_end = 0.05;
+  o.dt = 0.005;
+  o.integrator.method = ParseMethod(lm.simulation.solver.value_or("bdf"));
+  o.integrator.rtol = lm.simulation.rtol.value_or(1e-8);
+  o.integrator.atol = lm.simulation.atol.value_or(1e-10);
+  o.all_variables = true;
+  return o;
+}
+
 // Before: runs with and without the generated code wrote different numbers (fused multiply-adds
 // on one side, Eigen's vectorised 3x3 products and sums from +0.0 on the other).
 TEST(OneAnswerRun, TheDifferentialGivesTheSameSamplesOnBothEngines) {
@@ -286,13 +299,7 @@ TEST(OneAnswerRun, TheDifferentialGivesTheSameSamplesOnBothEngines) {
     co.generate_code = engine == 1;
     const auto model = CompiledModel::Compile(lm.graph, co);
     ASSERT_EQ(model->uses_generated_code(), engine == 1) << model->rhs_engine();
-    RunOptions o;
-    o.t_end = 0.05;
-    o.dt = 0.005;
-    o.integrator.method = ParseMethod(lm.simulation.solver.value_or("bdf"));
-    o.integrator.rtol = lm.simulation.rtol.value_or(1e-8);
-    o.integrator.atol = lm.simulation.atol.value_or(1e-10);
-    o.all_variables = true;
+    const RunOptions o = ShortRun(lm);
     RecordingObserver rec;
     Simulate(*model, o, rec);
     rows[engine] = rec.rows();
@@ -330,6 +337,173 @@ TEST(OneAnswerRun, AStopWhileCompilingIsNotAFallback) {
   ResetStop();
   if (old_cxx) setenv("MULTIBOND_CXX", saved.c_str(), 1);
   else unsetenv("MULTIBOND_CXX");
+}
+
+
+// ---------------------------------------------------------------------------------------------
+// Generated code at scale (docs/design.md): the text depends on the structure only, large models
+// in units compiled in parallel, a library loaded once per process, the switch from the
+// interpreter to the code compiled in the background.
+
+/// Points the JIT cache at a fresh folder for the scope of one test.
+struct FreshJitCache {
+  testing::TempDir dir{"multibond-jit-scale"};
+  std::string before;
+  bool had = false;
+  FreshJitCache() {
+    if (const char* old = std::getenv("MULTIBOND_CACHE")) {
+      had = true;
+      before = old;
+    }
+    setenv("MULTIBOND_CACHE", dir.path().c_str(), 1);
+  }
+  ~FreshJitCache() {
+    if (had) setenv("MULTIBOND_CACHE", before.c_str(), 1);
+    else unsetenv("MULTIBOND_CACHE");
+  }
+  int Libraries() const {
+    int n = 0;
+    for (const auto& e : std::filesystem::directory_iterator(dir.path())) n += e.path().extension() == ".so";
+    return n;
+  }
+};
+
+/// The mass-spring-damper example with its mass, stiffness, resistance and force replaced.
+LoadedModel MassSpringDamper(const std::string& mass, const std::string& stiffness, const std::string& resistance,
+                             const std::string& force) {
+  std::ifstream in(std::string(MULTIBOND_SOURCE_DIR) + "/examples/mass_spring_damper.yaml");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string text = ss.str();
+  auto replace = [&text](const std::string& from, const std::string& to) {
+    const size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  };
+  replace("inertia: 1.0", "inertia: " + mass);
+  replace("stiffness: 100.0", "stiffness: " + stiffness);
+  replace("resistance: 2.0", "resistance: " + resistance);
+  replace("{step: {value: 1.0", "{step: {value: " + force);
+  return LoadModelString(text, "mass_spring_damper.yaml");
+}
+
+TEST(GeneratedCodeAtScale, TheTextDependsOnTheStructureNotOnTheParameterValues) {
+  const LoadedModel a = MassSpringDamper("2.5", "100.0", "2.0", "1.0"), b = MassSpringDamper("4.0", "250.0", "3.5", "7.5");
+  const auto ma = CompiledModel::Compile(a.graph, a.compile), mb = CompiledModel::Compile(b.graph, b.compile);
+  const CompiledModel::GeneratedUnits ga = ma->GenerateUnits(CompileOptions::kDefaultUnitChars);
+  const CompiledModel::GeneratedUnits gb = mb->GenerateUnits(CompileOptions::kDefaultUnitChars);
+  ASSERT_EQ(ga.units.size(), 1u);
+  EXPECT_EQ(ga.units, gb.units);
+  EXPECT_NE(ga.values, gb.values);
+  // The numbers are in the table, not in the text: 1/m, k, R and the force.
+  for (double v : {0.25, 250.0, 3.5, 7.5}) {
+    EXPECT_THAT(gb.values, ::testing::Contains(v));
+    EXPECT_THAT(gb.units.front(), ::testing::Not(::testing::HasSubstr(fmt::format("{:a}", v))));
+  }
+  // The same cache entry: the second model reuses the library the first one loaded, and each
+  // gives its interpreter's bits.
+  FreshJitCache cache;
+  CompileOptions co = a.compile;
+  co.generate_code = true;
+  const auto ja = CompiledModel::Compile(a.graph, co), jb = CompiledModel::Compile(b.graph, co);
+  ASSERT_TRUE(ja->uses_generated_code()) << ja->rhs_engine();
+  EXPECT_THAT(ja->rhs_engine(), ::testing::Not(::testing::HasSubstr("already loaded")));
+  EXPECT_THAT(jb->rhs_engine(), ::testing::HasSubstr("already loaded by this process"));
+  EXPECT_EQ(cache.Libraries(), 1);
+  ExpectSameBits("mass_spring_damper (a)", Engines{ma, ja});
+  ExpectSameBits("mass_spring_damper (b)", Engines{mb, jb});
+}
+
+/// An example compiled with its generated code split into units of about `unit_chars`.
+std::shared_ptr<const CompiledModel> CompileSplit(const std::string& example, std::size_t unit_chars, bool background = false) {
+  const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + example);
+  CompileOptions co = lm.compile;
+  co.generate_code = true;
+  co.jit_unit_chars = unit_chars;
+  co.jit_background = background;
+  return CompiledModel::Compile(lm.graph, co);
+}
+
+TEST(GeneratedCodeAtScale, SplitUnitsGiveTheBitsOfOneUnitAndOfTheInterpreter) {
+  const std::pair<std::string, std::size_t> examples[] = {
+      {"differential.yaml", 3000}, {"mass_spring_damper_3d.yaml", 300}, {"compliant_gear_pair.yaml", 300}};
+  for (const auto& [example, unit_chars] : examples) {
+    const Engines e = CompileBoth(example);
+    ASSERT_TRUE(e.generated->uses_generated_code()) << e.generated->rhs_engine();
+    const auto split = CompileSplit(example, unit_chars);
+    ASSERT_TRUE(split->uses_generated_code()) << split->rhs_engine();
+    EXPECT_GT(split->GenerateUnits(unit_chars).units.size(), 1u) << example;
+    EXPECT_THAT(split->rhs_engine(), ::testing::HasSubstr(" units in ")) << example;
+    ExpectSameBits(example + " (split, against the interpreter)", Engines{e.interpreter, split});
+    ExpectSameBits(example + " (split, against one unit)", Engines{e.generated, split});
+  }
+}
+
+TEST(GeneratedCodeAtScale, ASecondModelOfTheSameTextLoadsNothingAgain) {
+  FreshJitCache cache;
+  const auto first = CompileSplit("differential.yaml", 3000);
+  const int units = static_cast<int>(first->GenerateUnits(3000).units.size());
+  ASSERT_GT(units, 2);
+  EXPECT_THAT(first->rhs_engine(), ::testing::HasSubstr(fmt::format("{} units in {}: {} compiled, 0 from the cache, 0 already loaded",
+                                                                    units, cache.dir.path().string(), units)));
+  EXPECT_EQ(cache.Libraries(), units);  // each unit cached under its own hash
+  const auto second = CompileSplit("differential.yaml", 3000);
+  EXPECT_THAT(second->rhs_engine(), ::testing::HasSubstr(fmt::format("0 compiled, 0 from the cache, {} already loaded", units)));
+}
+
+/// Records the samples; at the first it notes whether the generated code is there yet, at
+/// `wait_at` it waits for it: the run switches engines between those two samples.
+class SwitchObserver : public RecordingObserver {
+ public:
+  SwitchObserver(const CompiledModel& model, size_t wait_at) : model_(model), wait_at_(wait_at) {}
+  void OnSample(const std::vector<double>& row) override {
+    RecordingObserver::OnSample(row);
+    if (rows().size() == 1) ready_at_start = model_.generated_code_ready();
+    if (rows().size() == wait_at_) ready_after_wait = model_.WaitForGeneratedCode() && model_.generated_code_ready();
+  }
+  bool ready_at_start = true, ready_after_wait = false;
+
+ private:
+  const CompiledModel& model_;
+  size_t wait_at_;
+};
+
+TEST(GeneratedCodeAtScale, ARunThatSwitchesToTheGeneratedCodeMidwayGivesTheSameBits) {
+  FreshJitCache cache;  // nothing cached: the compiler takes far longer than the first sample
+  const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml");
+  const RunOptions o = ShortRun(lm);
+  CompileOptions co = lm.compile;
+  co.generate_code = false;
+  RecordingObserver interpreted;
+  Simulate(*CompiledModel::Compile(lm.graph, co), o, interpreted);
+  for (const std::size_t unit_chars : {std::size_t{0}, std::size_t{3000}}) {  // one unit; several
+    const auto model = CompileSplit("differential.yaml", unit_chars, /*background=*/true);
+    EXPECT_THAT(model->rhs_engine(), ::testing::HasSubstr("compiles in the background"));
+    SwitchObserver switched(*model, 5);
+    Simulate(*model, o, switched);
+    EXPECT_FALSE(switched.ready_at_start) << "the generated code was there before the run: no switch to test";
+    EXPECT_TRUE(switched.ready_after_wait) << model->rhs_engine();
+    EXPECT_THAT(model->rhs_engine(), ::testing::StartsWith("generated code"));
+    ASSERT_EQ(switched.rows().size(), interpreted.rows().size());
+    for (size_t i = 0; i < interpreted.rows().size(); ++i)
+      EXPECT_TRUE(SameBits("sample", interpreted.rows()[i].data(), switched.rows()[i].data(),
+                           static_cast<int>(interpreted.rows()[i].size())))
+          << "row " << i << ", units of " << unit_chars;
+  }
+}
+
+// A compile that exceeds its budget leaves the interpreter in charge, with the reason.
+TEST(GeneratedCodeAtScale, ACompileOverItsBudgetLeavesTheInterpreter) {
+  FreshJitCache cache;
+  const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml");
+  CompileOptions co = lm.compile;
+  co.generate_code = true;
+  co.jit_background = true;
+  co.jit_budget_seconds = 1e-6;
+  const auto model = CompiledModel::Compile(lm.graph, co);
+  EXPECT_FALSE(model->WaitForGeneratedCode());
+  EXPECT_THAT(model->rhs_engine(), ::testing::HasSubstr("the compile time budget (1e-06 s) is spent"));
+  ExpectSameBits("differential (over budget)", CompileBoth("differential.yaml"));
 }
 
 }  // namespace

@@ -333,6 +333,27 @@ TEST(Formulas, InterpreterAndGeneratedCodeGiveTheSameBits) {
   }
 }
 
+// Large models' generated code comes in units (docs/design.md, "Generated code at scale"): each
+// unit has the formulas' functions; the formulas' constants are read from the value table.
+TEST(Formulas, SplitUnitsGiveTheSameBitsAndTakeTheConstantsFromTheTable) {
+  CompileOptions jit;
+  jit.generate_code = true;
+  jit.jit_unit_chars = 1;  // every instruction a unit of its own
+  for (BondGraph g : {Pendulum(2.0), Oscillator("1/2*q^2 + 5/2*q^4", true, 1.0, 1.0)}) {
+    const auto interpreted = CompiledModel::Compile(g);
+    const auto generated = CompiledModel::Compile(g, jit);
+    ASSERT_TRUE(generated->uses_generated_code()) << generated->rhs_engine();
+    EXPECT_THAT(generated->rhs_engine(), HasSubstr(" units in "));
+    const RecordingObserver a = Simulated(*interpreted, 3.0, 0.01), b = Simulated(*generated, 3.0, 0.01);
+    ASSERT_EQ(a.rows().size(), b.rows().size());
+    for (size_t k = 0; k < a.rows().size(); ++k) EXPECT_EQ(a.rows()[k], b.rows()[k]) << "row " << k;
+  }
+  const CompiledModel::GeneratedUnits units = CompiledModel::Compile(Pendulum(2.0))->GenerateUnits(CompileOptions::kDefaultUnitChars);
+  ASSERT_EQ(units.units.size(), 1u);
+  EXPECT_THAT(units.values, ::testing::Contains(-9.81));
+  EXPECT_THAT(units.units.front(), ::testing::Not(HasSubstr("0x1.39eb851eb851fp+3")));  // 9.81 as a literal
+}
+
 TEST(Formulas, EquationsShowTheFormula) {
   const auto model = CompiledModel::Compile(Pendulum(1.0));
   const std::string text = FormatEquations(*model, EquationFormat::kText);

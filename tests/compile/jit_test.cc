@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -16,6 +17,7 @@
 #include <string>
 #include <thread>
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -90,6 +92,49 @@ TEST_F(JitTest, ACompileErrorIsReportedNotThrown) {
   const JitResult r = CompileAndLoad("this is not C++\n", "answer");
   EXPECT_EQ(r.symbol, nullptr);
   EXPECT_THAT(r.description, ::testing::HasSubstr("compiling the generated code"));
+  EXPECT_TRUE(Libraries().empty());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Several units (docs/design.md, "Generated code at scale").
+
+std::vector<std::string> Units(int n) {
+  std::vector<std::string> out;
+  for (int k = 0; k < n; ++k) out.push_back(fmt::format("extern \"C\" double answer() {{ return {}.0; }}\n", k));
+  return out;
+}
+
+TEST_F(JitTest, UnitsAreCachedEachUnderItsOwnHashAndLoadedOnceAProcess) {
+  const JitBatch first = CompileAndLoadUnits(Units(3), "answer");
+  ASSERT_TRUE(first.ok()) << first.description;
+  ASSERT_EQ(first.symbols.size(), 3u);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(reinterpret_cast<double (*)()>(first.symbols[k])(), k);  // each its own library
+  EXPECT_EQ(first.compiled, 3);
+  EXPECT_EQ(Libraries().size(), 3u);
+  // The same texts again: nothing compiled, nothing read from the disk.
+  const JitBatch again = CompileAndLoadUnits(Units(3), "answer");
+  ASSERT_TRUE(again.ok()) << again.description;
+  EXPECT_EQ(again.compiled, 0);
+  EXPECT_EQ(again.from_disk, 0);
+  EXPECT_EQ(again.reused, 3);
+  EXPECT_EQ(again.symbols, first.symbols);
+  // A unit whose cached file changed since is checked again (and, here, found intact).
+  const fs::path so = Libraries().front();
+  fs::permissions(so, fs::perms(0400));
+  const JitBatch checked = CompileAndLoadUnits(Units(3), "answer");
+  ASSERT_TRUE(checked.ok()) << checked.description;
+  EXPECT_EQ(checked.reused, 2);
+  EXPECT_EQ(checked.from_disk, 1);
+  EXPECT_EQ(checked.compiled, 0);
+}
+
+TEST_F(JitTest, ACancelledBatchLoadsNothingAndThrowsNothing) {
+  std::atomic<bool> cancel{true};
+  JitControl control;
+  control.cancel = &cancel;
+  const JitBatch b = CompileAndLoadUnits(Units(2), "answer", control);
+  EXPECT_FALSE(b.ok());
+  EXPECT_THAT(b.description, ::testing::HasSubstr("cancelled"));
   EXPECT_TRUE(Libraries().empty());
 }
 

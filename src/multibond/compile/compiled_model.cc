@@ -1,10 +1,17 @@
 #include "multibond/compile/compiled_model.h"
 
 #include <dlfcn.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+
+#include <fmt/format.h>
 
 #include <chrono>
 
 #include "multibond/compile/jit.h"
+#include "multibond/core/interrupt.h"
 
 namespace multibond {
 
@@ -92,17 +99,84 @@ void CompiledModel::GenerateCode() {
   } else if (options_.generate_code && !tears_.empty()) {
     rhs_engine_ = "interpreter (algebraic loops are solved around the plan, which the generated code does not do)";
   } else if (options_.generate_code) {
-    const JitResult jit = CompileAndLoad(GenerateSource(), "multibond_rhs");
-    void* fast = jit.symbol ? dlsym(jit.library.get(), "multibond_rhs_fast") : nullptr;
-    if (jit.symbol && fast) {
-      generated_ = reinterpret_cast<GeneratedRhs>(jit.symbol);
-      generated_fast_ = reinterpret_cast<GeneratedRhs>(fast);
-      generated_library_ = jit.library;
-      rhs_engine_ = "generated code (" + jit.description + ")";
-    } else {
-      rhs_engine_ = "interpreter (code generation failed: " + jit.description + ")";
+    // The text is made here (it needs the plan only); the compilers may run in the background.
+    GeneratedUnits g = GenerateUnits(options_.jit_unit_chars > 0 ? options_.jit_unit_chars : CompileOptions::kDefaultUnitChars);
+    jit_values_ = std::move(g.values);
+    if (!options_.jit_background) {
+      LoadGeneratedRhs(g.units);
+      return;
     }
+    pending_engine_ = fmt::format("interpreter while the generated code ({} unit{}) compiles in the background", g.units.size(),
+                                  g.units.size() == 1 ? "" : "s");
+    jit_state_ = JitState::kCompiling;
+    jit_thread_ = std::thread([this, units = std::move(g.units)] { LoadGeneratedRhs(units); });
   }
+}
+
+void CompiledModel::LoadGeneratedRhs(const std::vector<std::string>& units) {
+  // One function in one unit (GenerateUnits: multibond_rhs and multibond_rhs_fast), else parts.
+  const bool whole = units.size() == 1 && units.front().find("multibond_rhs_fast(") != std::string::npos;
+  JitControl control;
+  // The budget is the background's: a compile asked for before the run (--jit on) runs to its end.
+  const bool background = jit_state_ == JitState::kCompiling;
+  if (background) control.budget_seconds = options_.jit_budget_seconds;
+  control.cancel = &jit_cancel_;
+  control.light = !whole;
+  // In the background the run goes on meanwhile: the compilers take what CPU it leaves.
+  if (background) control.nice = 10;
+  // Progress on a terminal, for a compile that takes more than a second.
+  const bool tty = isatty(STDERR_FILENO) == 1;
+  bool shown = false;
+  if (tty)
+    control.progress = [&shown, &units](int done, int total, double seconds) {
+      if (seconds < 1.0) return;
+      std::fprintf(stderr, "\rcompiling the generated code: %d of %d unit%s (%.1f s)", done, total, units.size() == 1 ? "" : "s",
+                   seconds);
+      shown = true;
+    };
+  JitBatch jit;
+  try {
+    jit = CompileAndLoadUnits(units, whole ? "multibond_rhs" : "multibond_part", control);
+  } catch (const Interrupted& e) {
+    if (jit_state_ != JitState::kCompiling) throw;  // Compile's own: the stop goes on up
+    jit.description = e.what();                      // in the background: the run sees the stop itself
+  }
+  if (shown) std::fputc('\n', stderr);
+  auto code = std::make_unique<JitCode>();
+  if (jit.ok() && whole) {
+    code->rhs = reinterpret_cast<GeneratedRhs>(jit.symbols.front());
+    code->fast = reinterpret_cast<GeneratedRhs>(dlsym(jit.libraries.front().get(), "multibond_rhs_fast"));
+  } else if (jit.ok()) {
+    for (void* part : jit.symbols) code->parts.push_back(reinterpret_cast<GeneratedRhs>(part));
+  }
+  if (jit.ok() && (code->fast || !code->parts.empty())) {
+    code->libraries = std::move(jit.libraries);
+    jit_code_ = std::move(code);
+    rhs_engine_ = "generated code (" + jit.description + ")";
+    jit_ready_.store(jit_code_.get(), std::memory_order_release);
+  } else {
+    rhs_engine_ = "interpreter (code generation failed: " + jit.description + ")";
+    // In the background nobody looks at the engine before the run's end: said here (not for a
+    // compile that the end of the run or a stop cancelled).
+    if (jit_state_ == JitState::kCompiling && !jit_cancel_ && !StopRequested())
+      std::fprintf(stderr, "warning: running on the interpreter: %s\n", rhs_engine_.c_str());
+  }
+  {
+    std::lock_guard<std::mutex> lock(jit_mutex_);
+    jit_state_.store(JitState::kDone, std::memory_order_release);
+  }
+  jit_done_.notify_all();
+}
+
+bool CompiledModel::WaitForGeneratedCode() const {
+  std::unique_lock<std::mutex> lock(jit_mutex_);
+  jit_done_.wait(lock, [this] { return jit_state_.load() != JitState::kCompiling; });
+  return uses_generated_code();
+}
+
+CompiledModel::~CompiledModel() {
+  jit_cancel_ = true;  // a compile still running is ended: its finished units stay cached
+  if (jit_thread_.joinable()) jit_thread_.join();
 }
 
 Eigen::VectorXd CompiledModel::MakeInitialState() const { return layout_.x0(); }

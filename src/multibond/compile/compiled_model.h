@@ -8,12 +8,16 @@
 /// nothing but their sums. Every other computed variable is one instruction of the plan, in an
 /// order found by topological sort of the causal dependencies (a cycle is an algebraic loop).
 
+#include <atomic>
+#include <condition_variable>
+#include <cstddef>
 #include <functional>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <set>
 #include <string>
+#include <thread>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -39,6 +43,19 @@ struct CompileOptions {
   /// compiler (cached by the source's hash; see compile/jit.h). Falls back to the plan
   /// interpreter, with the reason in CompiledModel::rhs_engine(), if no compiler works.
   bool generate_code = false;
+  /// With generate_code: Compile returns at once and the code is compiled in the background while
+  /// the interpreter evaluates; the evaluation switches to the generated code when it is loaded
+  /// (both give the same bits); a compile that fails says so on stderr. Models with ideal
+  /// constraints compile before Compile returns.
+  bool jit_background = false;
+  /// With jit_background: compilers still running after this many seconds are ended and the
+  /// interpreter goes on (what was built stays cached for the next run); 0: no limit.
+  double jit_budget_seconds = 60;
+  /// A generated right-hand side longer than CompiledModel::kOneFunctionChars (or than this) is
+  /// split into units of about this many characters, each its own shared object, compiled in
+  /// parallel (docs/design.md, "Generated code at scale"). 0: the default (kDefaultUnitChars).
+  std::size_t jit_unit_chars = 0;
+  static constexpr std::size_t kDefaultUnitChars = 128 * 1024;
   /// Solve algebraic loops instead of refusing them: each loop is torn at one variable, which
   /// every evaluation solves for from a small linear system (see docs/design.md).
   bool solve_algebraic_loops = false;
@@ -118,9 +135,26 @@ class CompiledModel {
   Eigen::VectorXd MakeInitialState() const;
 
   /// C++ source of the right-hand side, generated from the plan: one straight-line function
-  /// `multibond_rhs(t, x, xdot, w, moduli, ctx)` with every offset and coefficient a literal.
+  /// `multibond_rhs(t, x, xdot, w, moduli, ctx)` with every offset a literal and every number
+  /// through code::Num (a literal unless a code::ValueScope is open).
   std::string GenerateSource(bool with_fast = true) const;
   std::string GenerateBody() const;
+  /// The right-hand side as the JIT compiles it: its numbers in `values` (which the code reads
+  /// as src->values), so that the text depends only on the model's structure (and on which
+  /// coefficients are exactly 0 or +-1). One unit (`multibond_rhs` and `multibond_rhs_fast`)
+  /// when the body is one function (GenerateBodies), else units at instruction boundaries, each
+  /// `multibond_part(t, x, xdot, w, moduli, ctx)`, to be called in order.
+  struct GeneratedUnits {
+    std::vector<std::string> units;
+    std::vector<double> values;
+  };
+  GeneratedUnits GenerateUnits(std::size_t unit_chars) const;
+  /// The body of the right-hand side (GenerateBody); when it is longer than kOneFunctionChars
+  /// (the differential's is 33 KB; with values from a table GCC takes 1.5 times as long on one
+  /// function as with literals) or than `unit_chars`, cut into units of about `unit_chars`, each into functions of about
+  /// kFunctionChars.
+  std::vector<std::vector<std::string>> GenerateBodies(std::size_t unit_chars) const;
+  static constexpr std::size_t kOneFunctionChars = 40 * 1024, kFunctionChars = 8 * 1024;
   /// C++ source of the constraint system's sparse L D L^T for the pattern fixed at compile time
   /// (ConstraintFactor::GenerateSource): `multibond_ldlt_factor(b, v, factor)` (1 on success)
   /// and `multibond_ldlt_solve(rhs, lambda, factor, y)`.
@@ -132,9 +166,23 @@ class CompiledModel {
   /// of ConstraintSolver::Solve): `multibond_tangent` and `multibond_react`.
   std::string GenerateTangentSource() const;
   std::string GenerateReactSource() const;
-  /// How the right-hand side is evaluated: "generated code (<library>)" or "interpreter (<why>)".
-  const std::string& rhs_engine() const { return rhs_engine_; }
-  bool uses_generated_code() const { return generated_ != nullptr; }
+  /// How the right-hand side is evaluated: "generated code (<library>)" or "interpreter (<why>)";
+  /// while compiling in the background (CompileOptions::jit_background), says so.
+  const std::string& rhs_engine() const {
+    return jit_state_.load(std::memory_order_acquire) == JitState::kCompiling ? pending_engine_ : rhs_engine_;
+  }
+  /// True when the generated code evaluates, or is being compiled in the background to do so.
+  bool uses_generated_code() const {
+    return generated_ != nullptr || jit_ready_.load(std::memory_order_acquire) != nullptr ||
+           jit_state_.load(std::memory_order_acquire) == JitState::kCompiling;
+  }
+  /// Waits for a background compile to end; then true when the generated code evaluates.
+  bool WaitForGeneratedCode() const;
+  /// True when the generated code evaluates now (not still compiling in the background).
+  bool generated_code_ready() const { return generated_ != nullptr || jit_ready_.load(std::memory_order_acquire) != nullptr; }
+  ~CompiledModel();
+  CompiledModel(const CompiledModel&) = delete;
+  CompiledModel& operator=(const CompiledModel&) = delete;
 
   const BondGraph& graph() const { return graph_; }
   const Structure& structure() const { return structure_; }
@@ -398,11 +446,32 @@ class CompiledModel {
   /// The plan with the torn variables solved for (EvalPlan on a model with algebraic loops).
   void EvalTorn(double t, const double* x, Workspace& ws) const;
 
-  /// The generated right-hand side (null: the interpreter runs the plan).
+  /// The generated plan at zero multipliers of a model with ideal constraints (null: none).
   using GeneratedRhs = void (*)();  ///< cast to its real signature at the call (see codegen.cc)
   GeneratedRhs generated_ = nullptr;
-  GeneratedRhs generated_fast_ = nullptr;
-  std::shared_ptr<void> generated_library_;  ///< keeps the shared object loaded
+  /// The generated right-hand side of a model without constraints: one unit's functions, or the
+  /// parts of a split one; published once (jit_ready_), never changed after.
+  struct JitCode {
+    GeneratedRhs rhs = nullptr, fast = nullptr;
+    std::vector<GeneratedRhs> parts;
+    std::vector<std::shared_ptr<void>> libraries;  ///< keep the shared objects loaded
+  };
+  std::vector<double> jit_values_;  ///< the numbers the generated code reads (GenerateUnits)
+  std::unique_ptr<JitCode> jit_code_;
+  std::atomic<const JitCode*> jit_ready_{nullptr};  ///< null: the interpreter evaluates
+  enum class JitState { kNone, kCompiling, kDone };
+  std::atomic<JitState> jit_state_{JitState::kNone};
+  std::string pending_engine_;       ///< rhs_engine() while compiling in the background
+  std::atomic<bool> jit_cancel_{false};
+  std::thread jit_thread_;
+  mutable std::mutex jit_mutex_;
+  mutable std::condition_variable jit_done_;
+  /// Compiles and loads `units`, then publishes the code and rhs_engine_ (the compile thread's
+  /// work, or Compile's own).
+  void LoadGeneratedRhs(const std::vector<std::string>& units);
+  /// The generated right-hand side at (t, x), the moduli already in ws; `fast`: into registers
+  /// where the code has a function for it.
+  void RunGenerated(const JitCode& g, bool fast, double t, const double* x, double* xdot, Workspace& ws) const;
   /// A state-reading instruction's kernel (the table's emit_state: the flow M^-1 of a momentum
   /// or displacement) as C++, from the input expressions src(k) to the outputs dst(k).
   void EmitStateKernel(const Instr& in, const std::function<std::string(int)>& src,
@@ -413,6 +482,8 @@ class CompiledModel {
   void EmitInstr(const Instr& in, std::string& o, std::set<std::string>& levers_done) const {
     EmitInstr(in, o, levers_done, CodeNames{});
   }
+  /// The right-hand side's functions around `body` (GenerateSource).
+  std::string WrapSource(const std::string& body, bool with_fast) const;
   /// A state block's derivative from the slots (EvalGather) as C++; `reads` gets the slots read.
   void EmitGather(const Gather& gt, std::string& o, std::vector<int>* reads = nullptr) const;
   /// The sources' time functions as generated code calls them (its struct MbSources).
@@ -422,6 +493,7 @@ class CompiledModel {
     double (*deriv)(const void*, int, double);
     const void* programs;  ///< the formulas' programs and the solver of laws used backwards (kSolve)
     double (*solve)(const void*, int, int, int, double, double, const double*, double*);
+    const double* values;  ///< the numbers of generated code (GenerateUnits)
   };
   SourceTable Sources() const;
   std::string rhs_engine_ = "interpreter";

@@ -102,7 +102,7 @@ double EvalSourceDerivative(const void* fns, int i, double t) { return static_ca
 }  // namespace
 
 CompiledModel::SourceTable CompiledModel::Sources() const {
-  return {source_fns_.data(), &EvalSource, &EvalSourceDerivative, programs_.data(), &expr::SolveForIndexed};
+  return {source_fns_.data(), &EvalSource, &EvalSourceDerivative, programs_.data(), &expr::SolveForIndexed, jit_values_.data()};
 }
 
 void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot, Workspace& ws) const {
@@ -110,14 +110,29 @@ void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot
     CalcConstrained(t, x, xdot, ws, /*share=*/false);  // the motion does not depend on the split
     return;
   }
-  if (!generated_fast_) {
+  // Read once per evaluation: the code compiled in the background may arrive between two.
+  const JitCode* g = jit_ready_.load(std::memory_order_acquire);
+  if (!g) {
     CalcDerivatives(t, x, xdot, ws);
     return;
   }
   if (!needed_moduli_.empty()) EvalModuli(x, ws.moduli.data());
+  RunGenerated(*g, /*fast=*/true, t, x, xdot, ws);
+}
+
+void CompiledModel::RunGenerated(const JitCode& g, bool fast, double t, const double* x, double* xdot, Workspace& ws) const {
   const SourceTable sources = Sources();
-  reinterpret_cast<void (*)(double, const double*, double*, const double*, const SourceTable*)>(generated_fast_)(
-      t, x, xdot, ws.moduli.data(), &sources);
+  if (fast && g.fast) {
+    reinterpret_cast<void (*)(double, const double*, double*, const double*, const SourceTable*)>(g.fast)(t, x, xdot, ws.moduli.data(),
+                                                                                                         &sources);
+    return;
+  }
+  using Rhs = void (*)(double, const double*, double*, double*, const double*, const SourceTable*);
+  if (g.rhs) {
+    reinterpret_cast<Rhs>(g.rhs)(t, x, xdot, ws.slots.data(), ws.moduli.data(), &sources);
+    return;
+  }
+  for (GeneratedRhs part : g.parts) reinterpret_cast<Rhs>(part)(t, x, xdot, ws.slots.data(), ws.moduli.data(), &sources);
 }
 
 
@@ -142,6 +157,10 @@ void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace&
     const SourceTable sources = Sources();
     reinterpret_cast<void (*)(double, const double*, double*, double*, const double*, const SourceTable*)>(generated_)(
         t, x, xdot, w, mod, &sources);
+    return;
+  }
+  if (const JitCode* g = jit_ready_.load(std::memory_order_acquire)) {
+    RunGenerated(*g, /*fast=*/false, t, x, xdot, ws);
     return;
   }
   const plan::ExecArgs args{t, x, w, w, mod, ws.lambda.data(), tables()};

@@ -188,13 +188,6 @@ class Compiler {
   std::vector<bool> busy_;
 };
 
-/// An exact literal of any double: hexadecimal for finite values (code::Lit), the bits for
-/// infinities and NaNs (a folded 1/0 or 0/0 keeps its sign and payload).
-std::string ExactLit(double v) {
-  if (std::isfinite(v)) return code::Lit(v);
-  return fmt::format("(__builtin_bit_cast(double, 0x{:016x}ULL))", std::bit_cast<std::uint64_t>(v));
-}
-
 /// The steps as Run executes them (Program::code): a load or a constant step only records where
 /// its register's value is to be read, and the operations that use the register read it there
 /// (nothing writes the state, the slots or the time while a program runs, so reading an input at
@@ -432,10 +425,10 @@ std::string EmitProgram(const Program& p, const std::string& prefix, const EmitN
           case Input::In::kTime: e = names.t; break;
           case Input::In::kState: e = fmt::format("{}[{}]", names.x, s.input.offset); break;
           case Input::In::kSlot: e = fmt::format("{}[{}]", names.w, s.input.offset); break;
-          case Input::In::kConstant: e = ExactLit(s.input.value); break;
+          case Input::In::kConstant: e = code::Num(s.input.value); break;
         }
         break;
-      case Step::Op::kConst: e = ExactLit(s.value); break;
+      case Step::Op::kConst: e = code::Num(s.value); break;
       case Step::Op::kNeg: e = code::Neg(r(s.a)); break;
       case Step::Op::kAdd: e = r(s.a) + " + " + r(s.b); break;
       case Step::Op::kSub: e = r(s.a) + " - " + r(s.b); break;

@@ -6,15 +6,26 @@
 #include <dlfcn.h>
 #include <fcntl.h>
 #include <openssl/evp.h>
+#include <sys/mman.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <filesystem>
+#include <fstream>
+#include <mutex>
 #include <random>
+#include <sstream>
+#include <thread>
+#include <unordered_map>
 #include <vector>
 
 #include <fmt/format.h>
@@ -63,8 +74,9 @@ std::string Sha256(const std::string& text) {
   return Hex(digest, len);
 }
 
-/// SHA-256 of what `fd` holds from its start ("" when it cannot be read).
-std::string Sha256(int fd) {
+/// SHA-256 of what `fd` holds from its start ("" when it cannot be read); with `copy` >= 0, the
+/// bytes hashed are written there too.
+std::string Sha256(int fd, int copy = -1) {
   EVP_MD_CTX* ctx = EVP_MD_CTX_new();
   EVP_DigestInit_ex(ctx, EVP_sha256(), nullptr);
   char buf[1 << 16];
@@ -76,6 +88,12 @@ std::string Sha256(int fd) {
     if (n < 0) ok = false;
     if (n <= 0) break;
     EVP_DigestUpdate(ctx, buf, static_cast<size_t>(n));
+    for (ssize_t done = 0; copy >= 0 && ok && done < n;) {
+      const ssize_t w = write(copy, buf + done, static_cast<size_t>(n - done));
+      if (w < 0 && errno == EINTR) continue;
+      if (w <= 0) ok = false;
+      else done += w;
+    }
     at += n;
   }
   unsigned char digest[EVP_MAX_MD_SIZE];
@@ -196,8 +214,10 @@ std::string Trim(std::string s) {
 
 /// The library `stem`.so of the folder `dir`, opened when it is ours, regular, writable by no one
 /// else and of the SHA-256 its sidecar `stem`.so.sha256 records; else why not (`missing` when
-/// there is none).
-std::string OpenVerified(int dir, const std::string& stem, Fd& out, bool* missing) {
+/// there is none). `out` is a sealed in-memory copy of the bytes hashed (memfd; the file itself
+/// where there is none): what is loaded is what was checked, and stays so whatever later
+/// happens to the file. `file` receives the file's status (its identity for the process cache).
+std::string OpenVerified(int dir, const std::string& stem, Fd& out, bool* missing, struct stat* file) {
   const std::string so = stem + ".so", sum = so + ".sha256";
   Fd fd(openat(dir, so.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC));
   if (fd.get() < 0) {
@@ -211,16 +231,69 @@ std::string OpenVerified(int dir, const std::string& stem, Fd& out, bool* missin
   char buf[130] = {};
   const ssize_t n = pread(sfd.get(), buf, sizeof buf - 1, 0);
   const std::string recorded = Trim(n > 0 ? std::string(buf, static_cast<size_t>(n)) : std::string());
-  const std::string actual = Sha256(fd.get());
+  if (fstat(fd.get(), file) != 0) return fmt::format("cannot examine {}: {}", so, Errno());
+  Fd copy(memfd_create(stem.c_str(), MFD_CLOEXEC | MFD_ALLOW_SEALING));
+  const std::string actual = Sha256(fd.get(), copy.get());
   if (recorded.size() != 64 || actual != recorded) return fmt::format("{} does not match the SHA-256 recorded in {}", so, sum);
-  out = std::move(fd);
+  if (copy.get() >= 0 && fcntl(copy.get(), F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_WRITE | F_SEAL_SEAL) == 0)
+    out = std::move(copy);
+  else
+    out = std::move(fd);
   return "";
+}
+
+using Clock = std::chrono::steady_clock;
+
+/// What ends a batch's compilers early: its budget's deadline and its cancellation.
+struct Limits {
+  Clock::time_point deadline = Clock::time_point::max();
+  const std::atomic<bool>* cancel = nullptr;
+  std::atomic<bool>* abandon = nullptr;  ///< set by a thread that was interrupted: the others stop too
+  double budget_seconds = 0;
+  int nice = 0;  ///< the compilers' niceness (JitControl::nice)
+  /// Why the batch stops now ("" when it goes on).
+  std::string Stop() const {
+    if ((cancel && cancel->load()) || (abandon && abandon->load())) return "cancelled";
+    if (Clock::now() >= deadline) return fmt::format("the compile time budget ({} s) is spent", budget_seconds);
+    return "";
+  }
+};
+
+/// The compiler run as RunProcess runs a program, but also ended when `limits` say so (the
+/// message says why). Throws Interrupted when a stop is asked for.
+std::string RunCompiler(const std::vector<std::string>& argv, const std::string& log, const Limits& limits) {
+  if (std::string why = limits.Stop(); !why.empty()) return why;
+  std::string error;
+  const pid_t pid = StartProcess(argv, "", log, &error, /*merge_stdout=*/true);
+  if (pid < 0) return error;
+  // The child leads its process group: the driver and what it started so far are in it, what it
+  // starts later inherits its niceness. Best effort: a compiler at full priority is only slower.
+  if (limits.nice > 0) setpriority(PRIO_PGRP, static_cast<id_t>(pid), limits.nice);
+  // Polled without reaping (WNOWAIT); WaitProcess then reaps it and says how it ended.
+  for (int pause = 1;; pause = std::min(2 * pause, 20)) {
+    siginfo_t info{};
+    if (waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOHANG | WNOWAIT) == 0 && info.si_pid == pid) break;
+    if (std::string why = limits.Stop(); !why.empty()) {
+      EndProcess(pid);
+      return why;
+    }
+    if (StopRequested()) break;  // WaitProcess ends it and throws Interrupted
+    std::this_thread::sleep_for(std::chrono::milliseconds(pause));
+  }
+  error = WaitProcess(pid, argv[0]);
+  if (error.empty()) return error;
+  std::ifstream in(log);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string text = Trim(ss.str());
+  if (text.size() > 400) text = text.substr(0, 400) + "...";
+  return text.empty() ? error : error + ": " + text;
 }
 
 /// Compiles `source` into `stem`.so of the folder `dir` (descriptor `dfd`), published by rename
 /// with its sidecar; returns why not ("" when it is there). Throws Interrupted.
 std::string Build(const fs::path& dir, int dfd, const std::string& stem, const std::string& source, const Compiler& cxx,
-                  const std::vector<std::string>& flags) {
+                  const std::vector<std::string>& flags, const Limits& limits) {
   const std::string tag = UniqueTag();
   Temporaries temps{dfd, {}};
   // The source under a unique name first, then under its fixed one (the compiler records the
@@ -236,7 +309,7 @@ std::string Build(const fs::path& dir, int dfd, const std::string& stem, const s
   argv.insert(argv.end(), {(dir / cc).string(), "-o", (dir / so_tmp).string()});
   std::string failure;
   try {
-    failure = RunProcess(argv, "", (dir / log).string(), /*merge_stdout=*/true, 400);
+    failure = RunCompiler(argv, (dir / log).string(), limits);
   } catch (const Interrupted&) {
     throw Interrupted("compiling the generated code");  // the compiler is gone; `temps` removes its files
   }
@@ -263,25 +336,28 @@ void* LoadFd(int fd, const fs::path& path) {
 }
 
 /// Builds (if needed), checks and loads `stem`.so in the private folder `dir`; fills `r`.
+/// `built` is set when a compiler ran; `file`: the status of the library's file when checked.
 void BuildAndLoad(const fs::path& dir, int dfd, const std::string& stem, const std::string& source, const Compiler& cxx,
-                  const std::vector<std::string>& flags, const std::string& symbol, JitResult& r) {
+                  const std::vector<std::string>& flags, const std::string& symbol, JitResult& r, const Limits& limits,
+                  bool* built, struct stat* file) {
   std::string notes;
   const fs::path so = dir / (stem + ".so");
   Fd fd;
   bool missing = false;
-  if (std::string why = OpenVerified(dfd, stem, fd, &missing); !why.empty()) {
+  if (std::string why = OpenVerified(dfd, stem, fd, &missing, file); !why.empty()) {
     if (!missing) {
       // Cut short, overwritten or not ours: never loaded; built again.
       notes += fmt::format("; the cached library was not loaded ({}): built again", why);
       unlinkat(dfd, (stem + ".so").c_str(), 0);
       unlinkat(dfd, (stem + ".so.sha256").c_str(), 0);
     }
-    if (std::string failure = Build(dir, dfd, stem, source, cxx, flags); !failure.empty()) {
+    if (built) *built = true;
+    if (std::string failure = Build(dir, dfd, stem, source, cxx, flags, limits); !failure.empty()) {
       r.description = failure + notes;
       return;
     }
     missing = false;
-    if (std::string again = OpenVerified(dfd, stem, fd, &missing); !again.empty()) {
+    if (std::string again = OpenVerified(dfd, stem, fd, &missing, file); !again.empty()) {
       r.description = "the library just built cannot be loaded: " + again + notes;
       return;
     }
@@ -316,7 +392,7 @@ fs::path JitCacheFolder() {
   return {};
 }
 
-const std::vector<std::string>& JitFlags() {
+std::vector<std::string> JitFlags(bool light) {
   // -march=native: the object is built per machine (the key includes the flags).
   // -ffp-contract=off: no fused multiply-add where the source has a product and a sum, as in the
   // library (src/CMakeLists.txt): generated code and interpreter give the same bits. The sums'
@@ -325,49 +401,183 @@ const std::vector<std::string>& JitFlags() {
   // -fno-tree-slp-vectorize: GCC's straight-line vectoriser packs the scalar results of the
   // generated code into vectors with more shuffles than it saves; without it the differential's
   // right-hand side takes 151 ns instead of 174 (GCC 12; clang accepts the flag too).
-  static const std::vector<std::string> flags = {"-std=c++20",  "-O2",   "-march=native", "-ffp-contract=off", "-fno-tree-slp-vectorize",
-                                                 "-fPIC",       "-shared", "-fno-math-errno"};
-  return flags;
+  // -O1 (light): what the units of a large model take, half the compile time of -O2 for the same
+  // bits (neither reorders floating-point operations; docs/design.md, "Generated code at scale").
+  return {"-std=c++20", light ? "-O1" : "-O2", "-march=native", "-ffp-contract=off", "-fno-tree-slp-vectorize",
+          "-fPIC",      "-shared",               "-fno-math-errno"};
+}
+
+}  // namespace
+
+namespace {
+
+/// The libraries this process loaded from the cache folder, by name: reused while the file in
+/// the folder is still the one checked (same inode, size, mode, owner, modification and change
+/// times: a chmod or a write changes the last), without hashing it again. Never unloaded (a process loads few models).
+struct LoadedLibrary {
+  std::shared_ptr<void> library;
+  struct stat file;  ///< its file in the cache folder when it was checked
+};
+
+std::mutex& LoadedMutex() {
+  static std::mutex* m = new std::mutex;
+  return *m;
+}
+
+std::unordered_map<std::string, LoadedLibrary>& Loaded() {
+  static auto* loaded = new std::unordered_map<std::string, LoadedLibrary>;  // never destroyed: in use until exit
+  return *loaded;
+}
+
+bool SameFile(int dfd, const std::string& name, const struct stat& b) {
+  struct stat a {};
+  return fstatat(dfd, name.c_str(), &a, AT_SYMLINK_NOFOLLOW) == 0 && a.st_dev == b.st_dev &&
+         a.st_ino == b.st_ino && a.st_size == b.st_size && a.st_mtim.tv_sec == b.st_mtim.tv_sec &&
+         a.st_mtim.tv_nsec == b.st_mtim.tv_nsec && a.st_ctim.tv_sec == b.st_ctim.tv_sec && a.st_ctim.tv_nsec == b.st_ctim.tv_nsec &&
+         a.st_mode == b.st_mode && a.st_uid == b.st_uid;
+}
+
+/// The library `stem`.so already loaded by this process, when the folder still holds that file.
+std::shared_ptr<void> FindLoaded(int dfd, const std::string& stem) {
+  std::lock_guard<std::mutex> lock(LoadedMutex());
+  auto it = Loaded().find(stem);
+  if (it == Loaded().end()) return nullptr;
+  if (!SameFile(dfd, stem + ".so", it->second.file)) {
+    Loaded().erase(it);  // replaced or damaged since: the disk cache's checks decide again
+    return nullptr;
+  }
+  return it->second.library;
+}
+
+void RememberLoaded(const std::string& stem, const std::shared_ptr<void>& library, const struct stat& file) {
+  std::lock_guard<std::mutex> lock(LoadedMutex());
+  Loaded()[stem] = LoadedLibrary{library, file};
 }
 
 }  // namespace
 
 JitResult CompileAndLoad(const std::string& source, const std::string& symbol) {
+  JitBatch b = CompileAndLoadUnits({source}, symbol);
   JitResult r;
+  r.description = b.description;
+  r.warning = b.warning;
+  if (b.ok()) {
+    r.library = b.libraries.front();
+    r.symbol = b.symbols.front();
+  }
+  return r;
+}
+
+JitBatch CompileAndLoadUnits(const std::vector<std::string>& sources, const std::string& symbol, const JitControl& control) {
+  JitBatch batch;
+  const auto start = Clock::now();
+  const size_t n = sources.size();
   const Compiler cxx = FindCompiler();
-  const std::vector<std::string>& flags = JitFlags();
-  std::string key_text = cxx.identity;
-  for (const auto& f : flags) key_text += " " + f;
-  key_text += "\n" + source;
-  const std::string stem = "rhs-" + Sha256(key_text);
+  const std::vector<std::string> flags = JitFlags(control.light);
+  std::string key_prefix = cxx.identity;
+  for (const auto& f : flags) key_prefix += " " + f;
+  key_prefix += "\n";
+  std::vector<std::string> stems(n);
+  for (size_t i = 0; i < n; ++i) stems[i] = "rhs-" + Sha256(key_prefix + sources[i]);
+
   const fs::path cache = JitCacheFolder();
   Fd dfd;
-  std::string refused = cache.empty() ? "no cache folder ($MULTIBOND_CACHE, $XDG_CACHE_HOME and $HOME are not set)"
-                                      : OpenPrivateFolder(cache, dfd);
-  if (refused.empty()) {
-    BuildAndLoad(cache, dfd.get(), stem, source, cxx, flags, symbol, r);
-    return r;
-  }
+  const std::string refused = cache.empty() ? "no cache folder ($MULTIBOND_CACHE, $XDG_CACHE_HOME and $HOME are not set)"
+                                            : OpenPrivateFolder(cache, dfd);
   // No shared fallback: a folder of our own that nobody else can have prepared, gone after loading.
-  r.warning = fmt::format("the JIT cache is not used: {}; the generated code is compiled in a private temporary folder "
-                          "(set MULTIBOND_CACHE to a folder of yours that only you can write)",
-                          refused);
   PrivateTempFolder tmp;
-  std::string templ = (fs::temp_directory_path() / "multibond-jit-XXXXXX").string();
-  if (!mkdtemp(templ.data())) {
-    r.description = fmt::format("{}; cannot create a private temporary folder: {}", refused, Errno());
-    return r;
+  fs::path dir = cache;
+  if (!refused.empty()) {
+    batch.warning = fmt::format("the JIT cache is not used: {}; the generated code is compiled in a private temporary folder "
+                                "(set MULTIBOND_CACHE to a folder of yours that only you can write)",
+                                refused);
+    std::string templ = (fs::temp_directory_path() / "multibond-jit-XXXXXX").string();
+    if (!mkdtemp(templ.data())) {
+      batch.description = fmt::format("{}; cannot create a private temporary folder: {}", refused, Errno());
+      return batch;
+    }
+    tmp.path = dir = templ;
+    if (std::string why = OpenPrivateFolder(tmp.path, dfd); !why.empty()) {
+      batch.description = refused + "; " + why;
+      return batch;
+    }
   }
-  tmp.path = templ;
-  Fd tfd;
-  if (std::string why = OpenPrivateFolder(tmp.path, tfd); !why.empty()) {
-    r.description = refused + "; " + why;
-    return r;
+
+  std::vector<JitResult> results(n);
+  std::vector<size_t> todo;
+  for (size_t i = 0; i < n; ++i) {
+    std::shared_ptr<void> lib = refused.empty() ? FindLoaded(dfd.get(), stems[i]) : nullptr;
+    if (lib) {
+      results[i].library = lib;
+      results[i].symbol = dlsym(lib.get(), symbol.c_str());
+      results[i].description = (dir / (stems[i] + ".so")).string();
+      ++batch.reused;
+    } else {
+      todo.push_back(i);
+    }
   }
-  BuildAndLoad(tmp.path, tfd.get(), stem, source, cxx, flags, symbol, r);
-  if (r.symbol) r.description = "compiled in a private temporary folder, not cached: " + refused;
-  else r.description = refused + "; " + r.description;
-  return r;
+
+  std::atomic<bool> abandon{false};
+  Limits limits;
+  limits.cancel = control.cancel;
+  limits.abandon = &abandon;
+  limits.budget_seconds = control.budget_seconds;
+  limits.nice = control.nice;
+  if (control.budget_seconds > 0)
+    limits.deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(control.budget_seconds));
+  std::atomic<size_t> next{0};
+  std::atomic<int> compiled{0};
+  std::mutex progress_mutex;
+  int done = 0;
+  std::exception_ptr interrupted;
+  auto work = [&] {
+    for (size_t k; (k = next++) < todo.size();) {
+      const size_t i = todo[k];
+      bool built = false;
+      struct stat file {};
+      try {
+        BuildAndLoad(dir, dfd.get(), stems[i], sources[i], cxx, flags, symbol, results[i], limits, &built, &file);
+      } catch (const Interrupted&) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        if (!interrupted) interrupted = std::current_exception();
+        abandon = true;
+        return;
+      }
+      if (built) ++compiled;
+      if (results[i].symbol && refused.empty()) RememberLoaded(stems[i], results[i].library, file);
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      ++done;
+      if (control.progress) control.progress(done, static_cast<int>(todo.size()), std::chrono::duration<double>(Clock::now() - start).count());
+    }
+  };
+  const size_t threads = std::min<size_t>(todo.size(), std::max(1u, std::thread::hardware_concurrency()));
+  if (threads <= 1) {
+    work();
+  } else {
+    std::vector<std::thread> pool;
+    for (size_t k = 0; k < threads; ++k) pool.emplace_back(work);
+    for (std::thread& t : pool) t.join();
+  }
+  if (interrupted) std::rethrow_exception(interrupted);
+
+  batch.compiled = compiled;
+  batch.from_disk = static_cast<int>(todo.size()) - batch.compiled;
+  for (size_t i = 0; i < n; ++i) {
+    if (results[i].symbol) continue;
+    batch.description = n == 1 ? results[i].description : fmt::format("unit {} of {}: {}", i + 1, n, results[i].description);
+    if (!refused.empty()) batch.description = refused + "; " + batch.description;
+    return batch;
+  }
+  for (JitResult& r : results) {
+    batch.symbols.push_back(r.symbol);
+    batch.libraries.push_back(std::move(r.library));
+  }
+  if (!refused.empty()) batch.description = "compiled in a private temporary folder, not cached: " + refused;
+  else if (n == 1) batch.description = results.front().description + (batch.reused ? " (already loaded by this process)" : "");
+  else
+    batch.description = fmt::format("{} units in {}: {} compiled, {} from the cache, {} already loaded by this process", n,
+                                    dir.string(), batch.compiled, batch.from_disk, batch.reused);
+  return batch;
 }
 
 }  // namespace multibond

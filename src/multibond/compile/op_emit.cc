@@ -14,7 +14,7 @@ namespace {
 using code::Chain;
 using code::Fma;
 using code::LinComb;
-using code::Lit;
+using code::Num;
 using code::Neg;
 
 void Line(std::string& o, const std::string& s) {
@@ -33,12 +33,12 @@ std::string Rot(const EmitArgs& a, int r, int i, int j, bool transpose) { return
 
 void EmitStateScale(const Instr& in, const double* c, const std::function<std::string(int)>& src,
                     const std::function<std::string(int)>& dst, std::string& o) {
-  for (int k = 0; k < in.n; ++k) Line(o, fmt::format("{} = {} * {};", dst(k), Lit(c[in.coef]), src(k)));
+  for (int k = 0; k < in.n; ++k) Line(o, fmt::format("{} = {} * {};", dst(k), Num(c[in.coef]), src(k)));
 }
 
 void EmitStateDiag3(const Instr& in, const double* c, const std::function<std::string(int)>& src,
                     const std::function<std::string(int)>& dst, std::string& o) {
-  for (int k = 0; k < 3; ++k) Line(o, fmt::format("{} = {} * {};", dst(k), Lit(c[in.coef + k]), src(k)));
+  for (int k = 0; k < 3; ++k) Line(o, fmt::format("{} = {} * {};", dst(k), Num(c[in.coef + k]), src(k)));
 }
 
 void EmitStateMatrix(const Instr& in, const double* c, const std::function<std::string(int)>& src,
@@ -61,7 +61,7 @@ void EmitIFlowRotated(const Instr& in, const double* c, const std::function<std:
     Line(o, fmt::format("  const double hb{} = {};", i, Chain({{x(a + i), src(0)}, {x(a + 3 + i), src(1)}, {x(a + 6 + i), src(2)}})));
   for (int i = 0; i < 3; ++i) {
     if (diagonal)
-      Line(o, fmt::format("  const double wb{} = {} * hb{};", i, Lit(c[in.coef + i]), i));
+      Line(o, fmt::format("  const double wb{} = {} * hb{};", i, Num(c[in.coef + i]), i));
     else
       Line(o, fmt::format("  const double wb{} = {};", i,
                           LinComb({{c[in.coef + 3 * i], "hb0"}, {c[in.coef + 3 * i + 1], "hb1"}, {c[in.coef + 3 * i + 2], "hb2"}})));
@@ -77,9 +77,9 @@ void EmitSource(const Instr& in, const EmitArgs& a) {
   for (int k = 0; k < in.n; ++k) {
     const TimeFunction& f = a.tables.sources[in.coef + k];
     if (f.kind == TimeFunction::Kind::kConstant)
-      Line(*a.out, fmt::format("{} = {};", Out(a, in.dst + k), Lit(f.value)));
+      Line(*a.out, fmt::format("{} = {};", Out(a, in.dst + k), Num(f.value)));
     else if (f.kind == TimeFunction::Kind::kStep)
-      Line(*a.out, fmt::format("{} = t >= {} ? {} : {};", Out(a, in.dst + k), Lit(f.start), Lit(f.value), Lit(f.before)));
+      Line(*a.out, fmt::format("{} = t >= {} ? {} : {};", Out(a, in.dst + k), Num(f.start), Num(f.value), Num(f.before)));
     else
       Line(*a.out, fmt::format("{} = src->eval(src->fns, {}, t);", Out(a, in.dst + k), in.coef + k));
   }
@@ -92,12 +92,12 @@ void EmitState(const Instr& in, const EmitArgs& a) {
 
 void EmitScale(const Instr& in, const EmitArgs& a) {
   const double* c = a.tables.coef;
-  for (int k = 0; k < in.n; ++k) Line(*a.out, fmt::format("{} = {} * {};", Out(a, in.dst + k), Lit(c[in.coef]), In(a, in.src + k)));
+  for (int k = 0; k < in.n; ++k) Line(*a.out, fmt::format("{} = {} * {};", Out(a, in.dst + k), Num(c[in.coef]), In(a, in.src + k)));
 }
 
 void EmitDiag(const Instr& in, const EmitArgs& a) {
   const double* c = a.tables.coef;
-  for (int k = 0; k < in.n; ++k) Line(*a.out, fmt::format("{} = {} * {};", Out(a, in.dst + k), Lit(c[in.coef + k]), In(a, in.src + k)));
+  for (int k = 0; k < in.n; ++k) Line(*a.out, fmt::format("{} = {} * {};", Out(a, in.dst + k), Num(c[in.coef + k]), In(a, in.src + k)));
 }
 
 void EmitMatrix(const Instr& in, const EmitArgs& a) {
@@ -127,7 +127,7 @@ void EmitRotFwd(const Instr& in, const EmitArgs& a) {
       for (int j = 0; j < 3; ++j) row.push_back({Rot(a, in.aux, i, j, in.transpose), In(a, in.src + j)});
       terms.push_back({LeftFactor(in, c, r, i), fmt::format("({})", Chain(row))});
     }
-    Line(*a.out, fmt::format("{} = {} * ({});", Out(a, in.dst + r), Lit(in.scale), LinComb(terms)));
+    Line(*a.out, fmt::format("{} = {} * ({});", Out(a, in.dst + r), Num(in.scale), LinComb(terms)));
   }
 }
 
@@ -140,14 +140,15 @@ void EmitRotBwd(const Instr& in, const EmitArgs& a) {
   for (int col = 0; col < 3; ++col) {
     std::vector<std::pair<double, std::string>> terms;
     for (int i = 0; i < in.m; ++i) terms.push_back({LeftFactor(in, c, i, col), In(a, in.src + i)});
-    used[col] = LinComb(terms) != "(-0.0)";
-    if (used[col]) Line(o, fmt::format("  const double z{} = {};", col, LinComb(terms)));
+    const std::string z = LinComb(terms);  // once: each call takes its numbers into the value table
+    used[col] = z != "(-0.0)";
+    if (used[col]) Line(o, fmt::format("  const double z{} = {};", col, z));
   }
   for (int i = 0; i < 3; ++i) {
     std::vector<std::pair<std::string, std::string>> products;
     for (int col = 0; col < 3; ++col)
       if (used[col]) products.push_back({Rot(a, in.aux, col, i, in.transpose), fmt::format("z{}", col)});
-    Line(o, fmt::format("  {} = {} * ({});", Out(a, in.dst + i), Lit(in.scale), Chain(products)));
+    Line(o, fmt::format("  {} = {} * ({});", Out(a, in.dst + i), Num(in.scale), Chain(products)));
   }
   Line(o, "}");
 }
@@ -171,7 +172,7 @@ void EmitLever(const Instr& in, const EmitArgs& a) {
   const std::string* q = fwd ? arm : v;
   for (int i = 0; i < 3; ++i) {
     const int j = (i + 1) % 3, k = (i + 2) % 3;
-    Line(*a.out, fmt::format("{} = {} * {};", Out(a, in.dst + i), Lit(in.scale), Fma(Neg(p[k]), q[j], p[j] + " * " + q[k])));
+    Line(*a.out, fmt::format("{} = {} * {};", Out(a, in.dst + i), Num(in.scale), Fma(Neg(p[k]), q[j], p[j] + " * " + q[k])));
   }
 }
 
@@ -220,7 +221,7 @@ void EmitExpr(const Instr& in, const EmitArgs& a) {
 
 void EmitSolve(const Instr& in, const EmitArgs& a) {
   // The interpreter's very solver, called back (MbSources::solve): the same bits in both engines.
-  Line(*a.out, fmt::format("{} = {} * src->solve(src->programs, {}, {}, {}, {}{}, t, {}, {});", Out(a, in.dst), Lit(in.scale),
+  Line(*a.out, fmt::format("{} = {} * src->solve(src->programs, {}, {}, {}, {}{}, t, {}, {});", Out(a, in.dst), Num(in.scale),
                            in.coef, in.aux, in.count, in.transpose ? "-" : "", In(a, in.src), a.names.x, a.names.out));
 }
 
