@@ -389,7 +389,17 @@ LoadedModel MassSpringDamper(const std::string& mass, const std::string& stiffne
 
 TEST(GeneratedCodeAtScale, TheTextDependsOnTheStructureNotOnTheParameterValues) {
   const LoadedModel a = MassSpringDamper("2.5", "100.0", "2.0", "1.0"), b = MassSpringDamper("4.0", "250.0", "3.5", "7.5");
-  const auto ma = CompiledModel::Compile(a.graph, a.compile), mb = CompiledModel::Compile(b.graph, b.compile);
+  // Without the value table (one model's default) the numbers are literals: the texts differ.
+  {
+    const auto la = CompiledModel::Compile(a.graph, a.compile), lb = CompiledModel::Compile(b.graph, b.compile);
+    const CompiledModel::GeneratedUnits ta = la->GenerateUnits(CompileOptions::kDefaultUnitChars);
+    EXPECT_NE(ta.units, lb->GenerateUnits(CompileOptions::kDefaultUnitChars).units);
+    EXPECT_TRUE(ta.values.empty());
+    EXPECT_THAT(ta.units.front(), ::testing::HasSubstr(fmt::format("{:a}", 100.0)));
+  }
+  CompileOptions table = a.compile;
+  table.jit_value_table = true;
+  const auto ma = CompiledModel::Compile(a.graph, table), mb = CompiledModel::Compile(b.graph, table);
   const CompiledModel::GeneratedUnits ga = ma->GenerateUnits(CompileOptions::kDefaultUnitChars);
   const CompiledModel::GeneratedUnits gb = mb->GenerateUnits(CompileOptions::kDefaultUnitChars);
   ASSERT_EQ(ga.units.size(), 1u);
@@ -403,7 +413,7 @@ TEST(GeneratedCodeAtScale, TheTextDependsOnTheStructureNotOnTheParameterValues) 
   // The same cache entry: the second model reuses the library the first one loaded, and each
   // gives its interpreter's bits.
   FreshJitCache cache;
-  CompileOptions co = a.compile;
+  CompileOptions co = table;
   co.generate_code = true;
   const auto ja = CompiledModel::Compile(a.graph, co), jb = CompiledModel::Compile(b.graph, co);
   ASSERT_TRUE(ja->uses_generated_code()) << ja->rhs_engine();

@@ -338,7 +338,7 @@ TEST(Formulas, InterpreterAndGeneratedCodeGiveTheSameBits) {
 TEST(Formulas, SplitUnitsGiveTheSameBitsAndTakeTheConstantsFromTheTable) {
   CompileOptions jit;
   jit.generate_code = true;
-  jit.jit_unit_chars = 1;  // every instruction a unit of its own
+  jit.jit_unit_chars = 1;  // every instruction a unit of its own (split units read the table always)
   for (BondGraph g : {Pendulum(2.0), Oscillator("1/2*q^2 + 5/2*q^4", true, 1.0, 1.0)}) {
     const auto interpreted = CompiledModel::Compile(g);
     const auto generated = CompiledModel::Compile(g, jit);
@@ -348,7 +348,9 @@ TEST(Formulas, SplitUnitsGiveTheSameBitsAndTakeTheConstantsFromTheTable) {
     ASSERT_EQ(a.rows().size(), b.rows().size());
     for (size_t k = 0; k < a.rows().size(); ++k) EXPECT_EQ(a.rows()[k], b.rows()[k]) << "row " << k;
   }
-  const CompiledModel::GeneratedUnits units = CompiledModel::Compile(Pendulum(2.0))->GenerateUnits(CompileOptions::kDefaultUnitChars);
+  CompileOptions table;
+  table.jit_value_table = true;  // one unit: the table when asked (a sweep)
+  const CompiledModel::GeneratedUnits units = CompiledModel::Compile(Pendulum(2.0), table)->GenerateUnits(CompileOptions::kDefaultUnitChars);
   ASSERT_EQ(units.units.size(), 1u);
   EXPECT_THAT(units.values, ::testing::Contains(-9.81));
   EXPECT_THAT(units.units.front(), ::testing::Not(HasSubstr("0x1.39eb851eb851fp+3")));  // 9.81 as a literal

@@ -68,9 +68,19 @@ std::string CompiledModel::WrapSource(const std::string& body, bool with_fast) c
 
 CompiledModel::GeneratedUnits CompiledModel::GenerateUnits(std::size_t unit_chars) const {
   GeneratedUnits g;
-  const code::ValueScope numbers(&g.values);  // every number from the table: the text is the structure's
-  const std::vector<std::vector<std::string>> units = GenerateBodies(unit_chars);
+  // Every number from the table: the text is the structure's. A large model's units always read
+  // it (one library for all its parameter values, where compiling costs most); one function
+  // keeps its numbers as literals, which the compiler folds, unless jit_value_table asks.
+  std::vector<std::vector<std::string>> units;
+  {
+    const code::ValueScope numbers(&g.values);
+    units = GenerateBodies(unit_chars);
+  }
   if (units.size() == 1 && units.front().size() == 1) {
+    if (!options_.jit_value_table) {
+      g.values.clear();
+      units = GenerateBodies(unit_chars);
+    }
     g.units.push_back(WrapSource(units.front().front(), /*with_fast=*/true));
     return g;
   }
