@@ -132,6 +132,28 @@ drives:
   for (const auto& row : rec.rows()) EXPECT_NEAR(row[rec.Index("angle")], amplitude * std::sin(W * row[0]), 1e-6 * amplitude) << "t = " << row[0];
 }
 
+// An ideal drive ('rigid: true', no K or R): the body's speed is the ramp exactly and the drive's
+// torque is J dw/dt minus a constant braking torque's -tau (it supplies both).
+TEST(MechanismReader, AnIdealDriveNeedsNoCouplingAndImposesItsSpeed) {
+  const LoadedModel lm = LoadModelString(R"y(model: ideal_drive
+bodies:
+  b: {mass: 1.0, inertia: [0.1, 0.1, 0.2]}
+drives:
+  spin:  {type: angular_velocity, body: b, axis: z, rigid: true, value: {ramp: {slope: 3}}}
+  brake: {type: torque, body: b, axis: z, value: -0.5}
+)y",
+                                         "m.yaml");
+  ASSERT_TRUE(lm.mechanism->drives()[0].rigid);
+  EXPECT_TRUE(Find(lm, "spin.source").constraint);
+  const RecordingObserver rec = testing::RunModel(lm, 2.0, 0.1);
+  ASSERT_EQ(rec.summary().status, RunStatus::kOk);
+  for (const auto& row : rec.rows()) {
+    EXPECT_NEAR(row[rec.Index("b.omega.z")], 3.0 * row[0], 1e-9) << "t = " << row[0];
+    if (row[0] == 0.0) continue;  // the ramp's corner: its rate at t = 0 is the one before it
+    EXPECT_NEAR(row[rec.Index("spin.torque")], 0.2 * 3.0 + 0.5, 1e-9) << "t = " << row[0];
+  }
+}
+
 TEST(MechanismReader, ADrivesFormulaIsCheckedWhereItIsWritten) {
   const std::string head = "model: bad\nparameters: {c: 0.1}\nbodies:\n  b: {mass: 1.0, inertia: 0.1}\ndrives:\n";
   // A syntax error at its character.

@@ -230,6 +230,71 @@ TEST(RigidBody, CompoundPendulumReactionAtTheBottomOfTheSwing) {
   EXPECT_NEAR(rec.At("bar.F.z", crossings[0]), expected, 1e-4 * expected);  // the only coupling
 }
 
+TEST(JointSensors, RevoluteAngleAndRateFollowThePendulumsOrientationAndPosition) {
+  const double theta0 = 0.5;
+  double ip, mass;
+  Mechanism m = Pendulum(theta0, &ip, &mass);
+  const double t0 = 2 * pi * std::sqrt(ip / (mass * 9.81 * 0.5));
+  const RecordingObserver rec = Simulated(m, t0, 1e-3, 1e-12, 1e-14);
+  const int angle = rec.Index("hinge.angle"), rate = rec.Index("hinge.rate"), wy = rec.Index("bar.omega.y");
+  ASSERT_GE(angle, 0);
+  ASSERT_GE(rate, 0);
+  double max_orientation = 0.0, max_position = 0.0, max_rate = 0.0, min_angle = 0.0;
+  for (size_t k = 0; k < rec.rows().size(); ++k) {
+    const auto& row = rec.rows()[k];
+    const Eigen::Matrix3d r = OrientationAt(rec, k, "bar");
+    // About y: R = [[c, 0, s], [0, 1, 0], [-s, 0, c]]; the CoM hangs at R (0, 0, -l) = (-l s, 0, -l c).
+    const double from_orientation = std::atan2(r(0, 2), r(0, 0));
+    const double from_position = std::atan2(-row[rec.Index("bar.r.x")], -row[rec.Index("bar.r.z")]);
+    max_orientation = std::max(max_orientation, std::abs(row[angle] + theta0 - from_orientation));
+    max_position = std::max(max_position, std::abs(row[angle] + theta0 - from_position));
+    max_rate = std::max(max_rate, std::abs(row[rate] - row[wy]));
+    min_angle = std::min(min_angle, row[angle]);
+  }
+  EXPECT_LT(max_orientation, 1e-9);
+  EXPECT_LT(max_position, 1e-8);  // the compliant hinge deflects by ~1e-9 m on an arm of 0.5 m (2.6e-9 rad)
+  EXPECT_EQ(max_rate, 0.0);       // the same flow, projected on a fixed axis
+  EXPECT_NEAR(min_angle, -2 * theta0, 1e-6);  // a full swing to the other side
+}
+
+TEST(JointSensors, PrismaticSlideAndSpeedAreTheDisplacementAndVelocityAlongTheAxis) {
+  Mechanism m;
+  Body b;
+  b.name = "slider";
+  b.mass = MassProperties::Box(1000, {0.1, 0.1, 0.1});
+  b.position = {0.3, 0.0, 0.0};
+  m.AddBody(b);
+  // A slider along x in a carriage turned 90 degrees about z: the joint's axis y in the
+  // carriage's frame is the world's -x.
+  Body c;
+  c.name = "carriage";
+  c.mass = MassProperties::Box(1000, {0.2, 0.2, 0.05});
+  c.orientation = Eigen::AngleAxisd(pi / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  m.AddBody(c);
+  m.AddJoint(MakeFixed("mount", kGround, "carriage", Eigen::Vector3d::Zero(), 1e9, 1e3, 1e8, 1e2));
+  m.AddJoint(MakePrismatic("rail", "carriage", "slider", Eigen::Vector3d(0, -0.3, 0), Eigen::Vector3d::UnitY(), 1e9, 1e3, 1e8, 1e2));
+  Drive d;
+  d.name = "push";
+  d.kind = Drive::Kind::kForce;
+  d.body = "slider";
+  d.axis = Eigen::Vector3d::UnitX();
+  d.value = TimeFunction::Constant(2.0);
+  m.AddDrive(d);
+  const RecordingObserver rec = Simulated(m, 1.0, 1e-2);
+  const int slide = rec.Index("rail.slide"), speed = rec.Index("rail.speed");
+  ASSERT_GE(slide, 0);
+  ASSERT_GE(speed, 0);
+  double max_slide = 0.0, max_speed = 0.0;
+  for (const auto& row : rec.rows()) {
+    max_slide = std::max(max_slide, std::abs(row[slide] + (row[rec.Index("slider.r.x")] - 0.3)));
+    max_speed = std::max(max_speed, std::abs(row[speed] + row[rec.Index("slider.v.x")]));
+  }
+  EXPECT_LT(max_slide, 1e-9);
+  EXPECT_LT(max_speed, 1e-9);
+  const double accel = 2.0 / b.mass.mass;
+  EXPECT_NEAR(rec.Last("rail.slide"), -accel / 2, 1e-6 * accel);  // F t^2 / 2m at t = 1 s, along -x
+}
+
 /// Two spur gears (20 and 40 teeth) on revolute joints to `carrier`, gear a driven at 10 rad/s
 /// relative to the carrier, gear b loaded by a viscous drag to the carrier.
 Mechanism GearPair(bool spinning_carrier) {

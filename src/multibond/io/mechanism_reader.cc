@@ -193,6 +193,7 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
     const bool needs_axis = type == "revolute" || type == "prismatic";
     if (needs_axis && !j["axis"]) sink_.Error(joint.where, name, fmt::format("a {} joint needs an 'axis' (in the parent's frame)", type));
     const Eigen::Vector3d axis = j["axis"] ? Axis(j["axis"], name) : Eigen::Vector3d::UnitZ();
+    if (needs_axis) joint.axis = axis;  // the joint sensor's axis (docs/mechanisms.md, "Joint sensors")
     const Eigen::MatrixXd all = Eigen::Matrix3d::Identity();
     const Eigen::MatrixXd perp = mech::Perpendicular(axis);
     using F = mech::Coupling::Frame;
@@ -385,7 +386,7 @@ void MechanismReader::ReadDrives(const YAML::Node& drives, mech::Mechanism& m) {
     drive.kind = kinds.at(type);
     const bool velocity = drive.kind == mech::Drive::Kind::kAngularVelocity || drive.kind == mech::Drive::Kind::kVelocity;
     std::vector<std::string> keys = {"type", "body", "axis", "value", "description"};
-    if (velocity) keys.insert(keys.end(), {"reference", "K", "R", "stiffness", "damping"});
+    if (velocity) keys.insert(keys.end(), {"reference", "K", "R", "stiffness", "damping", "rigid"});
     if (drive.kind == mech::Drive::Kind::kForce) keys.push_back("at");
     CheckKeys(d, keys, name);
     if (d["body"]) drive.body = d["body"].Scalar();
@@ -396,7 +397,8 @@ void MechanismReader::ReadDrives(const YAML::Node& drives, mech::Mechanism& m) {
     if (d["value"]) drive.value = read_value(d["value"], name, &drive.formula);
     else sink_.Error(drive.where, name, "a drive needs a 'value' (a number, a time function or a formula)");
     if (d["at"]) drive.point = Vec3(d["at"], name);
-    if (velocity) {
+    if (velocity && d["rigid"]) drive.rigid = Bool(d["rigid"], name);
+    if (velocity && !drive.rigid) {
       Eigen::VectorXd k, r;
       Gains(d, name, 1, &k, &r);
       drive.stiffness = k[0];

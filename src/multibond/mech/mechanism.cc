@@ -177,7 +177,7 @@ class Expander {
       if (d.kind == Drive::Kind::kVelocity && !IsGround(d.reference))
         sink_.Error("mech.reference", d.where, d.name, "a velocity drive acts relative to the ground", "remove 'reference'");
       const bool velocity = d.kind == Drive::Kind::kAngularVelocity || d.kind == Drive::Kind::kVelocity;
-      if (velocity && !(d.stiffness > 0)) sink_.Error("param.range", d.where, d.name, "a velocity drive acts through a coupling: its stiffness must be > 0", "give K and R (the paper's drive: K = 1000, R = 5)");
+      if (velocity && !d.rigid && !(d.stiffness > 0)) sink_.Error("param.range", d.where, d.name, "a velocity drive acts through a coupling: its stiffness must be > 0", "give K and R (the paper's drive: K = 1000, R = 5)");
       if (velocity && !(d.damping >= 0)) sink_.Error("param.range", d.where, d.name, "drive damping must be >= 0");
       if (d.axis.norm() < 1e-12) sink_.Error("param.range", d.where, d.name, "drive axis must be a non-zero vector");
     }
@@ -436,7 +436,18 @@ class Expander {
         if (!j.parent_point.isZero()) AddLever(j.name + ".t_parent_arm", j.parent, j.parent_point, -1.0, sum);
       }
       AddFrameElement(j.name + ".t_frame", c.frame, j.parent, j.child, c.directions, j.where);
-      Bond(sum, j.name + ".t_frame", j.name + ".t_frame");
+      if (Slides(j)) {
+        // The relative velocity of the joint's points, a 1-junction the slide sensor also reads.
+        const std::string rel = j.name + ".t_rel";
+        Element r = Make(rel, ElementKind::kOne, 3, "translation", j.where);
+        r.components = kXyz;
+        g_.Add(r);
+        Bond(sum, rel, rel);
+        Bond(rel, j.name + ".t_frame", j.name + ".t_frame");
+        AddAxialSensor(j, rel, "translation");
+      } else {
+        Bond(sum, j.name + ".t_frame", j.name + ".t_frame");
+      }
       AddCompliance(j.name + ".t_frame", j.name + ".t", c.stiffness, c.damping, "translation", DirectionNames(c), j.where,
                     c.rigid);
       AddOutput(SumOutput(j.name + ".F", {{j.name + ".t_child.e", -1.0}}, "N", j.where));
@@ -451,7 +462,35 @@ class Expander {
                     c.rigid);
       AddOutput(SumOutput(j.name + ".M", {{j.name + ".r_in.e", -1.0}}, "N m", j.where));
     }
+    if (Turns(j)) AddAxialSensor(j, RelativeOmega(j.child, j.parent), "rotation");
     if (j.stops || j.friction) AddAxialSwitches(j);
+  }
+
+  /// A revolute joint with its axis: it gets the angle and rate sensor.
+  static bool Turns(const Joint& j) { return (j.kind == "revolute" || j.stops || j.friction) && !j.axis.isZero(); }
+  /// A prismatic joint with its axis (and a translation coupling): it gets the slide and speed sensor.
+  static bool Slides(const Joint& j) { return j.kind == "prismatic" && !j.axis.isZero(); }
+
+  /// The joint sensor on the free axis (docs/mechanisms.md, "Joint sensors"): the relative rate
+  /// about (revolute) or along (prismatic) the axis in the parent's frame, the 1-junction
+  /// `<joint>.axial` fed from the relative flow `rel` (no other bond: it carries no effort), and
+  /// its integral from the assembled position, the state `<joint>.angle` or `<joint>.slide`;
+  /// outputs `<joint>.rate` or `<joint>.speed`.
+  void AddAxialSensor(const Joint& j, const std::string& rel, const std::string& domain) {
+    const bool rotation = domain == "rotation";
+    const std::string axial = j.name + ".axial";
+    AddSpin(axial + "_proj", j.parent, j.axis, 1.0);
+    Bond(rel, axial + "_proj", axial + ".in");
+    if (rotation && IsGround(j.parent)) info_[j.child].moment_terms.push_back({axial + ".in.e", -1.0});
+    g_.Add(Make(axial, ElementKind::kOne, 1, domain, j.where));
+    Bond(axial + "_proj", axial, axial + ".out");
+    AddAngle(j.name + (rotation ? ".angle" : ".slide"), axial, j.where, rotation ? "rad" : "m");
+    OutputDecl rate;
+    rate.name = j.name + (rotation ? ".rate" : ".speed");
+    rate.variable = axial + ".f";
+    rate.unit = rotation ? "rad/s" : "m/s";
+    rate.where = j.where;
+    AddOutput(rate);
   }
 
   /// A revolute joint's end stops and friction (docs/events.md): the rotation rate about its
@@ -459,14 +498,9 @@ class Expander {
   /// position), contacts at the stops (`<joint>.lower`, gap angle - lower; `<joint>.upper`, gap
   /// upper - angle), a friction on the rate (`<joint>.friction`, a capacity).
   void AddAxialSwitches(const Joint& j) {
-    const std::string rel = RelativeOmega(j.child, j.parent), axial = j.name + ".axial";
-    AddSpin(axial + "_proj", j.parent, j.axis, 1.0);
-    Bond(rel, axial + "_proj", axial + ".in");
-    if (IsGround(j.parent)) info_[j.child].moment_terms.push_back({axial + ".in.e", -1.0});
-    g_.Add(Make(axial, ElementKind::kOne, 1, "rotation", j.where));
-    Bond(axial + "_proj", axial, axial + ".out");
+    const std::string axial = j.name + ".axial";  // made by AddAxialSensor
     if (j.stops) {
-      const std::string angle = AddAngle(j.name + ".angle", axial, j.where);
+      const std::string angle = j.name + ".angle";
       for (const bool lower : {true, false}) {
         const std::string stop = j.name + (lower ? ".lower" : ".upper");
         Element c = MakeContact(stop, angle, lower ? 1.0 : -1.0, lower ? -j.stops->lower : j.stops->upper, j.stops->restitution,
@@ -717,14 +751,24 @@ class Expander {
           auto& terms = angular ? info_[d.body].moment_terms : info_[d.body].force_terms;
           terms.push_back({d.name + ".in.e", -1.0});
         }
-        g_.AddJunction(diff, ElementKind::kZero, 1);
-        Bond(axis, diff, d.name + ".spin");
         Element src = Make(d.name + ".source", ElementKind::kSf, 1, angular ? "rotation" : "translation", d.where);
         src.source.components = {d.value};
         if (d.formula.given()) {
           src.source.components = {TimeFunction::Constant(0.0)};  // a placeholder: the formula is the value
           src.value = {d.formula};
         }
+        if (d.rigid) {
+          // An ideal drive: the source is an ideal constraint on the spin; its effort is the reaction.
+          src.constraint = true;
+          g_.Add(src);
+          Bond(axis, d.name + ".source", d.name + ".source");
+          OutputDecl o = SumOutput(d.name + (angular ? ".torque" : ".force"), {{d.name + ".source.e", -1.0}}, angular ? "N m" : "N", d.where);
+          o.components.clear();
+          AddOutput(o);
+          break;
+        }
+        g_.AddJunction(diff, ElementKind::kZero, 1);
+        Bond(axis, diff, d.name + ".spin");
         g_.Add(src);
         Bond(diff, d.name + ".source", d.name + ".source");
         AddCompliance(diff, d.name + ".coupling", Eigen::VectorXd::Constant(1, d.stiffness), Eigen::VectorXd::Constant(1, d.damping),
@@ -881,6 +925,7 @@ Joint MakeRevolute(std::string name, std::string parent, std::string child, cons
   Joint j = Base(std::move(name), "revolute", std::move(parent), std::move(child), at);
   j.translation = Uniform(Eigen::Matrix3d::Identity(), k_t, r_t, Coupling::Frame::kWorld);
   j.rotation = Uniform(Perpendicular(axis), k_r, r_r, Coupling::Frame::kParent);
+  j.axis = axis;
   return j;
 }
 
@@ -904,6 +949,7 @@ Joint MakePrismatic(std::string name, std::string parent, std::string child, con
   Joint j = Base(std::move(name), "prismatic", std::move(parent), std::move(child), at);
   j.translation = Uniform(Perpendicular(axis), k_t, r_t, Coupling::Frame::kParent);
   j.rotation = Uniform(Eigen::Matrix3d::Identity(), k_r, r_r, Coupling::Frame::kParent);
+  j.axis = axis;
   return j;
 }
 
