@@ -295,6 +295,28 @@ TEST(JointSensors, PrismaticSlideAndSpeedAreTheDisplacementAndVelocityAlongTheAx
   EXPECT_NEAR(rec.Last("rail.slide"), -accel / 2, 1e-6 * accel);  // F t^2 / 2m at t = 1 s, along -x
 }
 
+// A ball on a spherical joint at its centre, spinning freely about (0.6, 0.8, 0) at 0.5 rad/s (a
+// sphere: the axis stays): after t the relative rotation is the rotation vector (0.3 t, 0.4 t, 0),
+// turned about x and y at once, an angle of 0.5 t (to 2.5 rad < pi).
+TEST(JointSensors, SphericalRotationIsTheRotationVectorOfTheRelativeOrientation) {
+  Mechanism m;
+  Body b;
+  b.name = "ball";
+  b.mass = MassProperties::Box(1000, {0.1, 0.1, 0.1});
+  b.omega = {0.3, 0.4, 0.0};
+  b.orientation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  m.AddBody(b);
+  m.AddJoint(MakeSpherical("ball_joint", kGround, "ball", Eigen::Vector3d::Zero(), 1e6, 10));
+  const RecordingObserver rec = Simulated(m, 5.0, 1e-2);
+  for (const auto& row : rec.rows()) {
+    const double t = row[0];
+    EXPECT_NEAR(row[rec.Index("ball_joint.rotation.x")], 0.3 * t, 1e-8) << t;
+    EXPECT_NEAR(row[rec.Index("ball_joint.rotation.y")], 0.4 * t, 1e-8) << t;
+    EXPECT_NEAR(row[rec.Index("ball_joint.rotation.z")], 0.0, 1e-8) << t;
+    EXPECT_NEAR(row[rec.Index("ball_joint.rotation.angle")], 0.5 * t, 1e-8) << t;
+  }
+}
+
 /// Two spur gears (20 and 40 teeth) on revolute joints to `carrier`, gear a driven at 10 rad/s
 /// relative to the carrier, gear b loaded by a viscous drag to the carrier.
 Mechanism GearPair(bool spinning_carrier) {

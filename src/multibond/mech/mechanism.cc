@@ -463,7 +463,73 @@ class Expander {
       AddOutput(SumOutput(j.name + ".M", {{j.name + ".r_in.e", -1.0}}, "N m", j.where));
     }
     if (Turns(j)) AddAxialSensor(j, RelativeOmega(j.child, j.parent), "rotation");
+    if ((j.kind == "coupling" || j.kind == "spherical") && !HasIdealConstraints() && Spins(j.child) && (IsGround(j.parent) || Spins(j.parent)))
+      AddRotationSensor(j);
     if (j.stops || j.friction) AddAxialSwitches(j);
+  }
+
+  /// The relative rotation sensor of a joint without a single free axis (docs/mechanisms.md,
+  /// "Joint sensors"): the relative angular velocity in the parent's frame, R_p^T (w_c - w_p) (the
+  /// 1-junction `<joint>.rel_w`, no other bond), integrated into the orientation state
+  /// `<joint>.relative` = R_p^T R_c (R_p^T R_c)(0)^T, and its rotation vector as the signals
+  /// `<joint>.rotvec.angle` (in [0, pi]) and `<joint>.rotvec.x|y|z`, the outputs `<joint>.rotation.*`.
+  void AddRotationSensor(const Joint& j) {
+    const std::string rel = RelativeOmega(j.child, j.parent), w = j.name + ".rel_w", q = j.name + ".relative";
+    AddFrameElement(w + "_frame", Coupling::Frame::kParent, j.parent, j.child, Eigen::Matrix3d::Identity(), j.where);
+    Bond(rel, w + "_frame", w + ".in");
+    if (IsGround(j.parent)) info_[j.child].moment_terms.push_back({w + ".in.e", -1.0});
+    Element junction = Make(w, ElementKind::kOne, 3, "rotation", j.where);
+    junction.components = kXyz;
+    g_.Add(junction);
+    Bond(w + "_frame", w, w + ".out");
+    AuxState a;
+    a.name = q;
+    a.kind = AuxState::Kind::kOrientation;
+    a.of = w;
+    a.where = j.where;
+    g_.AddAux(a);
+    // v = 2 sin(theta) u from the skew part, 2 cos(theta) = trace - 1; the vector theta u.
+    const std::string vx = fmt::format("({0}.32 - {0}.23)", q), vy = fmt::format("({0}.13 - {0}.31)", q),
+                      vz = fmt::format("({0}.21 - {0}.12)", q);
+    const std::string norm = fmt::format("sqrt({0}*{0} + {1}*{1} + {2}*{2})", vx, vy, vz);
+    const std::string angle = j.name + ".rotvec.angle";
+    // The signals `<joint>.rotvec.*`, reported as the outputs `<joint>.rotation.*`.
+    auto signal = [&](const std::string& component, const std::string& text) {
+      Signal sg;
+      sg.name = j.name + ".rotvec." + component;
+      sg.value = LawOf(text, j.where);
+      sg.unit = "rad";
+      sg.where = j.where;
+      g_.AddSignal(sg);
+      OutputDecl o;
+      o.name = j.name + ".rotation." + component;
+      o.variable = sg.name;
+      o.unit = "rad";
+      o.where = j.where;
+      AddOutput(o);
+    };
+    signal("angle", fmt::format("atan2({0}, {1}.11 + {1}.22 + {1}.33 - 1)", norm, q));
+    const char* axes[] = {"x", "y", "z"};
+    const std::string v[] = {vx, vy, vz};
+    for (int k = 0; k < 3; ++k)  // theta v / |v|; 0 where v = 0 (no rotation)
+      signal(axes[k], fmt::format("{} * {} / ({} + 1e-300)", angle, v[k], norm));
+  }
+
+  /// A body with an angular velocity (not a point mass).
+  bool Spins(const std::string& body) const {
+    const auto it = body_by_name_.find(body);
+    return it != body_by_name_.end() && it->second->mass.has_rotation();
+  }
+  /// Whether a joint, mesh or drive is an ideal constraint: such models take no formulas yet, so
+  /// their joints get no rotation sensor (a signal).
+  bool HasIdealConstraints() const {
+    for (const Joint& j : m_.joints())
+      if ((j.translation && j.translation->rigid) || (j.rotation && j.rotation->rigid) || j.stops || j.friction) return true;
+    for (const GearMesh& gm : m_.gears())
+      if (gm.rigid) return true;
+    for (const Drive& d : m_.drives())
+      if (d.rigid) return true;
+    return false;
   }
 
   /// A revolute joint with its axis: it gets the angle and rate sensor.
