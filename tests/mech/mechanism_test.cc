@@ -257,11 +257,17 @@ TEST(JointSensors, RevoluteAngleAndRateFollowThePendulumsOrientationAndPosition)
   EXPECT_NEAR(min_angle, -2 * theta0, 1e-6);  // a full swing to the other side
 }
 
+/// A cube of 0.1 m and 1 kg (a sphere's inertia: the same about every axis).
+Body Cube(const std::string& name) {
+  Body b;
+  b.name = name;
+  b.mass = MassProperties::Box(1000, {0.1, 0.1, 0.1});
+  return b;
+}
+
 TEST(JointSensors, PrismaticSlideAndSpeedAreTheDisplacementAndVelocityAlongTheAxis) {
   Mechanism m;
-  Body b;
-  b.name = "slider";
-  b.mass = MassProperties::Box(1000, {0.1, 0.1, 0.1});
+  Body b = Cube("slider");
   b.position = {0.3, 0.0, 0.0};
   m.AddBody(b);
   // A slider along x in a carriage turned 90 degrees about z: the joint's axis y in the
@@ -300,9 +306,7 @@ TEST(JointSensors, PrismaticSlideAndSpeedAreTheDisplacementAndVelocityAlongTheAx
 // turned about x and y at once, an angle of 0.5 t (to 2.5 rad < pi).
 TEST(JointSensors, SphericalRotationIsTheRotationVectorOfTheRelativeOrientation) {
   Mechanism m;
-  Body b;
-  b.name = "ball";
-  b.mass = MassProperties::Box(1000, {0.1, 0.1, 0.1});
+  Body b = Cube("ball");
   b.omega = {0.3, 0.4, 0.0};
   b.orientation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   m.AddBody(b);
@@ -372,6 +376,13 @@ Mechanism GearPair(bool spinning_carrier) {
 
 TEST(GearMeshTest, FixedCarrierSpeedRatioIsTheTeethRatio) {
   const RecordingObserver rec = Simulated(GearPair(false), 3.0, 1e-3);
+  // The mesh phase is a's rolling angle, its bearing's angle; b turns back by the teeth ratio up
+  // to the mesh deflection, the integral of d = s_a + (40/20) s_b: q = phase + 2 angle_b.
+  for (const auto& row : rec.rows()) {
+    EXPECT_EQ(row[rec.Index("mesh.phase")], row[rec.Index("a_bearing.angle")]) << row[0];
+    EXPECT_NEAR(row[rec.Index("mesh.phase")] + 40.0 / 20.0 * row[rec.Index("b_bearing.angle")], row[rec.Index("mesh.mesh.K.q")], 1e-9) << row[0];
+  }
+  EXPECT_GT(rec.Last("mesh.phase"), 25.0);  // about 10 rad/s for 3 s
   const double wa = rec.Last("a.omega.z"), wb = rec.Last("b.omega.z");
   EXPECT_NEAR(wa, 10.0, 1e-6 * 10);
   EXPECT_NEAR(wb / wa, -20.0 / 40.0, 1e-6);

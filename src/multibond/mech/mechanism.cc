@@ -741,6 +741,15 @@ class Expander {
     torque.variable = sum + ".e";
     torque.where = gm.where;
     AddOutput(torque);
+    // The mesh phase: gear a's rolling angle relative to the carrier, the integral of s_a (the
+    // 1-junction `<mesh>.rolling`, no other bond: it carries no torque), the state `<mesh>.phase`.
+    const std::string rolling = gm.name + ".rolling";
+    AddSpin(rolling + "_proj", gm.carrier, gm.axis_a, 1.0);
+    Bond(RelativeOmega(gm.body_a, gm.carrier), rolling + "_proj", rolling + ".in");
+    if (IsGround(gm.carrier)) info_[gm.body_a].moment_terms.push_back({rolling + ".in.e", -1.0});
+    g_.Add(Make(rolling, ElementKind::kOne, 1, "rotation", gm.where));
+    Bond(rolling + "_proj", rolling, rolling + ".out");
+    AddAngle(gm.name + ".phase", rolling, gm.where);
   }
 
   /// A formula made by the expansion (its numbers written exactly): parsed, located at `where`.

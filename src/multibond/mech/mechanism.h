@@ -18,7 +18,9 @@
 ///   meshes through the pitch point also G.F_t, G.F_r, G.F_a, G.F_n, G.b.F_r, G.b.F_a;
 ///   D.torque (or D.force); points P.x,y,z;
 ///   joint sensors: revolute J.axial (1-junction, the rate about the axis), state J.angle, output
-///   J.rate; prismatic J.t_rel (the points' relative velocity), J.axial, state J.slide, output J.speed.
+///   J.rate; prismatic J.t_rel (the points' relative velocity), J.axial, state J.slide, output J.speed;
+///   coupling and spherical J.rel_w, state J.relative, signals J.rotvec.*, outputs J.rotation.*;
+///   gear meshes (spin contact) G.rolling, state G.phase.
 
 #include <optional>
 #include <string>
