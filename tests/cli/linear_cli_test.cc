@@ -187,7 +187,7 @@ TEST_F(LinearCliTest, LinearizeWithIdealConstraintsIsOnTheConstraintManifold) {
   const Result r = Run("modes " + Example("differential_ideal.yaml") + " -o " + dir.string());
   ASSERT_EQ(r.code, 0) << r.out << r.err;
   const nlohmann::json j = Json(dir / "linear.json");
-  EXPECT_EQ(j["states"].size(), 49u);  // 44 and the five meshes' phases (sensor states, no energy)
+  EXPECT_EQ(j["states"].size(), 44u);
   bool noted = false;
   for (const auto& note : j["notes"]) noted = noted || note.get<std::string>().find("constraint manifold") != std::string::npos;
   EXPECT_TRUE(noted);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <tuple>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -180,7 +181,7 @@ TEST(RigidBody, HorizontalGyroscopePrecessesAtMglOverIsS) {
 }
 
 /// A uniform bar of length 1 m hanging from a stiff revolute joint about y at its top end.
-Mechanism Pendulum(double theta0, double* inertia_pivot, double* mass) {
+Mechanism Pendulum(double theta0, double* inertia_pivot, double* mass, bool sensors = false) {
   const double len = 1.0, l = len / 2;
   const MassProperties bar = MassProperties::Box(2700, {0.02, 0.02, len});
   *inertia_pivot = bar.inertia(1, 1) + bar.mass * l * l;
@@ -195,6 +196,7 @@ Mechanism Pendulum(double theta0, double* inertia_pivot, double* mass) {
   m.AddBody(b);
   Joint j = MakeRevolute("hinge", kGround, "bar", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitY(), 1e9, 2e3, 1e7, 20);
   j.child_point = {0, 0, l};
+  j.sensors = sensors;
   m.AddJoint(j);
   return m;
 }
@@ -230,10 +232,22 @@ TEST(RigidBody, CompoundPendulumReactionAtTheBottomOfTheSwing) {
   EXPECT_NEAR(rec.At("bar.F.z", crossings[0]), expected, 1e-4 * expected);  // the only coupling
 }
 
+// Off by default (each is a state the integrator carries): the hinge's sensor, its junction on the
+// axis and its angle, only when asked for.
+TEST(JointSensors, AreOffUnlessAskedFor) {
+  double ip, mass;
+  const BondGraph off = Pendulum(0.5, &ip, &mass).Build("off");
+  EXPECT_LT(off.Find("hinge.axial"), 0);
+  EXPECT_LT(off.FindAux("hinge.angle"), 0);
+  const BondGraph on = Pendulum(0.5, &ip, &mass, true).Build("on");
+  EXPECT_GE(on.Find("hinge.axial"), 0);
+  EXPECT_GE(on.FindAux("hinge.angle"), 0);
+}
+
 TEST(JointSensors, RevoluteAngleAndRateFollowThePendulumsOrientationAndPosition) {
   const double theta0 = 0.5;
   double ip, mass;
-  Mechanism m = Pendulum(theta0, &ip, &mass);
+  Mechanism m = Pendulum(theta0, &ip, &mass, true);
   const double t0 = 2 * pi * std::sqrt(ip / (mass * 9.81 * 0.5));
   const RecordingObserver rec = Simulated(m, t0, 1e-3, 1e-12, 1e-14);
   const int angle = rec.Index("hinge.angle"), rate = rec.Index("hinge.rate"), wy = rec.Index("bar.omega.y");
@@ -278,7 +292,9 @@ TEST(JointSensors, PrismaticSlideAndSpeedAreTheDisplacementAndVelocityAlongTheAx
   c.orientation = Eigen::AngleAxisd(pi / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   m.AddBody(c);
   m.AddJoint(MakeFixed("mount", kGround, "carriage", Eigen::Vector3d::Zero(), 1e9, 1e3, 1e8, 1e2));
-  m.AddJoint(MakePrismatic("rail", "carriage", "slider", Eigen::Vector3d(0, -0.3, 0), Eigen::Vector3d::UnitY(), 1e9, 1e3, 1e8, 1e2));
+  Joint rail = MakePrismatic("rail", "carriage", "slider", Eigen::Vector3d(0, -0.3, 0), Eigen::Vector3d::UnitY(), 1e9, 1e3, 1e8, 1e2);
+  rail.sensors = true;
+  m.AddJoint(rail);
   Drive d;
   d.name = "push";
   d.kind = Drive::Kind::kForce;
@@ -310,7 +326,9 @@ TEST(JointSensors, SphericalRotationIsTheRotationVectorOfTheRelativeOrientation)
   b.omega = {0.3, 0.4, 0.0};
   b.orientation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   m.AddBody(b);
-  m.AddJoint(MakeSpherical("ball_joint", kGround, "ball", Eigen::Vector3d::Zero(), 1e6, 10));
+  Joint joint = MakeSpherical("ball_joint", kGround, "ball", Eigen::Vector3d::Zero(), 1e6, 10);
+  joint.sensors = true;
+  m.AddJoint(joint);
   const RecordingObserver rec = Simulated(m, 5.0, 1e-2);
   for (const auto& row : rec.rows()) {
     const double t = row[0];
@@ -323,7 +341,7 @@ TEST(JointSensors, SphericalRotationIsTheRotationVectorOfTheRelativeOrientation)
 
 /// Two spur gears (20 and 40 teeth) on revolute joints to `carrier`, gear a driven at 10 rad/s
 /// relative to the carrier, gear b loaded by a viscous drag to the carrier.
-Mechanism GearPair(bool spinning_carrier) {
+Mechanism GearPair(bool spinning_carrier, bool sensors = false) {
   Mechanism m;
   auto disc = [](const std::string& name, double d, const Eigen::Vector3d& at) {
     Body b;
@@ -350,8 +368,11 @@ Mechanism GearPair(bool spinning_carrier) {
   m.AddBody(disc("b", 0.2, {0.0, 0, 0.05}));
   const Eigen::Vector3d pa = spinning_carrier ? Eigen::Vector3d(0.15, 0, 0.05) : Eigen::Vector3d(0.15, 0, 0.05);
   const Eigen::Vector3d pb(0.0, 0, 0.05);
-  m.AddJoint(MakeRevolute("a_bearing", carrier, "a", pa, Eigen::Vector3d::UnitZ(), 1e7, 100, 1e4, 10));
-  m.AddJoint(MakeRevolute("b_bearing", carrier, "b", pb, Eigen::Vector3d::UnitZ(), 1e7, 100, 1e4, 10));
+  for (const auto& [name, body, at] : {std::tuple{"a_bearing", "a", pa}, std::tuple{"b_bearing", "b", pb}}) {
+    Joint bearing = MakeRevolute(name, carrier, body, at, Eigen::Vector3d::UnitZ(), 1e7, 100, 1e4, 10);
+    bearing.sensors = sensors;
+    m.AddJoint(bearing);
+  }
   GearMesh gm;
   gm.name = "mesh";
   gm.carrier = carrier;
@@ -361,6 +382,7 @@ Mechanism GearPair(bool spinning_carrier) {
   gm.teeth_b = 40;
   gm.stiffness = 1e4;
   gm.damping = 2;
+  gm.sensors = sensors;
   m.AddGear(gm);
   Drive drive;
   drive.name = "motor";
@@ -375,7 +397,7 @@ Mechanism GearPair(bool spinning_carrier) {
 }
 
 TEST(GearMeshTest, FixedCarrierSpeedRatioIsTheTeethRatio) {
-  const RecordingObserver rec = Simulated(GearPair(false), 3.0, 1e-3);
+  const RecordingObserver rec = Simulated(GearPair(false, true), 3.0, 1e-3);
   // The mesh phase is a's rolling angle, its bearing's angle; b turns back by the teeth ratio up
   // to the mesh deflection, the integral of d = s_a + (40/20) s_b: q = phase + 2 angle_b.
   for (const auto& row : rec.rows()) {

@@ -436,7 +436,7 @@ class Expander {
         if (!j.parent_point.isZero()) AddLever(j.name + ".t_parent_arm", j.parent, j.parent_point, -1.0, sum);
       }
       AddFrameElement(j.name + ".t_frame", c.frame, j.parent, j.child, c.directions, j.where);
-      if (Slides(j)) {
+      if (Slides(j) && j.sensors) {
         // The relative velocity of the joint's points, a 1-junction the slide sensor also reads.
         const std::string rel = j.name + ".t_rel";
         Element r = Make(rel, ElementKind::kOne, 3, "translation", j.where);
@@ -463,7 +463,7 @@ class Expander {
       AddOutput(SumOutput(j.name + ".M", {{j.name + ".r_in.e", -1.0}}, "N m", j.where));
     }
     if (Turns(j)) AddAxialSensor(j, RelativeOmega(j.child, j.parent), "rotation");
-    if ((j.kind == "coupling" || j.kind == "spherical") && !HasIdealConstraints() && Spins(j.child) && (IsGround(j.parent) || Spins(j.parent)))
+    if (j.sensors && (j.kind == "coupling" || j.kind == "spherical") && !HasIdealConstraints() && Spins(j.child) && (IsGround(j.parent) || Spins(j.parent)))
       AddRotationSensor(j);
     if (j.stops || j.friction) AddAxialSwitches(j);
   }
@@ -532,8 +532,8 @@ class Expander {
     return false;
   }
 
-  /// A revolute joint with its axis: it gets the angle and rate sensor.
-  static bool Turns(const Joint& j) { return (j.kind == "revolute" || j.stops || j.friction) && !j.axis.isZero(); }
+  /// A joint with an axis of rotation that needs its rate: a revolute joint's sensor, end stops, friction.
+  static bool Turns(const Joint& j) { return ((j.kind == "revolute" && j.sensors) || j.stops || j.friction) && !j.axis.isZero(); }
   /// A prismatic joint with its axis (and a translation coupling): it gets the slide and speed sensor.
   static bool Slides(const Joint& j) { return j.kind == "prismatic" && !j.axis.isZero(); }
 
@@ -541,7 +541,8 @@ class Expander {
   /// about (revolute) or along (prismatic) the axis in the parent's frame, the 1-junction
   /// `<joint>.axial` fed from the relative flow `rel` (no other bond: it carries no effort), and
   /// its integral from the assembled position, the state `<joint>.angle` or `<joint>.slide`;
-  /// outputs `<joint>.rate` or `<joint>.speed`.
+  /// outputs `<joint>.rate` or `<joint>.speed`. Without `sensors`, end stops get the junction and
+  /// the angle state (their gap), friction the junction only (its rate).
   void AddAxialSensor(const Joint& j, const std::string& rel, const std::string& domain) {
     const bool rotation = domain == "rotation";
     const std::string axial = j.name + ".axial";
@@ -550,7 +551,8 @@ class Expander {
     if (rotation && IsGround(j.parent)) info_[j.child].moment_terms.push_back({axial + ".in.e", -1.0});
     g_.Add(Make(axial, ElementKind::kOne, 1, domain, j.where));
     Bond(axial + "_proj", axial, axial + ".out");
-    AddAngle(j.name + (rotation ? ".angle" : ".slide"), axial, j.where, rotation ? "rad" : "m");
+    if (j.sensors || j.stops) AddAngle(j.name + (rotation ? ".angle" : ".slide"), axial, j.where, rotation ? "rad" : "m");
+    if (!j.sensors) return;
     OutputDecl rate;
     rate.name = j.name + (rotation ? ".rate" : ".speed");
     rate.variable = axial + ".f";
@@ -741,8 +743,10 @@ class Expander {
     torque.variable = sum + ".e";
     torque.where = gm.where;
     AddOutput(torque);
-    // The mesh phase: gear a's rolling angle relative to the carrier, the integral of s_a (the
-    // 1-junction `<mesh>.rolling`, no other bond: it carries no torque), the state `<mesh>.phase`.
+    if (!gm.sensors) return;
+    // The mesh phase (with `sensors`): gear a's rolling angle relative to the carrier, the integral
+    // of s_a (the 1-junction `<mesh>.rolling`, no other bond: it carries no torque), the state
+    // `<mesh>.phase`.
     const std::string rolling = gm.name + ".rolling";
     AddSpin(rolling + "_proj", gm.carrier, gm.axis_a, 1.0);
     Bond(RelativeOmega(gm.body_a, gm.carrier), rolling + "_proj", rolling + ".in");

@@ -17,7 +17,7 @@
 ///   constraint whose effort is the reaction); G.torque, G.deflection (G.mesh.rigid when rigid);
 ///   meshes through the pitch point also G.F_t, G.F_r, G.F_a, G.F_n, G.b.F_r, G.b.F_a;
 ///   D.torque (or D.force); points P.x,y,z;
-///   joint sensors: revolute J.axial (1-junction, the rate about the axis), state J.angle, output
+///   joint sensors (with `sensors`): revolute J.axial (1-junction, the rate about the axis), state J.angle, output
 ///   J.rate; prismatic J.t_rel (the points' relative velocity), J.axial, state J.slide, output J.speed;
 ///   coupling and spherical J.rel_w, state J.relative, signals J.rotvec.*, outputs J.rotation.*;
 ///   gear meshes (spin contact) G.rolling, state G.phase.
@@ -90,6 +90,9 @@ struct Joint {
     SourceLocation where;
   };
   std::optional<Friction> friction;
+  /// The joint sensor (docs/mechanisms.md, "Joint sensors"), off by default: each is a state the
+  /// integrator carries. End stops keep their angle state either way.
+  bool sensors = false;
   SourceLocation where;
 };
 
@@ -120,6 +123,7 @@ struct GearMesh {
   double teeth_a = 1.0, teeth_b = 1.0;
   double stiffness = 0.0, damping = 0.0;  ///< N m/rad, N m s/rad (referred to gear a)
   bool rigid = false;  ///< an ideal mesh: zero deflection rate, held by the mesh torque
+  bool sensors = false;  ///< the mesh phase G.phase, a state (docs/mechanisms.md, "Joint sensors"); off by default
   /// Backlash (docs/events.md): the total free play of the teeth [rad, referred to gear a]; the
   /// deflection q moves freely in [-b/2, b/2]. Compliant: a dead zone in the coupling's spring,
   /// K (q - clamp(q, -b/2, b/2)). Rigid: the flanks are two contacts at q = +-b/2 with impacts of
