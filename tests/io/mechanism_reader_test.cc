@@ -132,6 +132,59 @@ drives:
   for (const auto& row : rec.rows()) EXPECT_NEAR(row[rec.Index("angle")], amplitude * std::sin(W * row[0]), 1e-6 * amplitude) << "t = " << row[0];
 }
 
+// An ideal drive ('rigid: true', no K or R): the body's speed is the ramp exactly and the drive's
+// torque is J dw/dt minus a constant braking torque's -tau (it supplies both).
+TEST(MechanismReader, AnIdealDriveNeedsNoCouplingAndImposesItsSpeed) {
+  const LoadedModel lm = LoadModelString(R"y(model: ideal_drive
+bodies:
+  b: {mass: 1.0, inertia: [0.1, 0.1, 0.2]}
+drives:
+  spin:  {type: angular_velocity, body: b, axis: z, rigid: true, value: {ramp: {slope: 3}}}
+  brake: {type: torque, body: b, axis: z, value: -0.5}
+)y",
+                                         "m.yaml");
+  ASSERT_TRUE(lm.mechanism->drives()[0].rigid);
+  EXPECT_TRUE(Find(lm, "spin.source").constraint);
+  const RecordingObserver rec = testing::RunModel(lm, 2.0, 0.1);
+  ASSERT_EQ(rec.summary().status, RunStatus::kOk);
+  for (const auto& row : rec.rows()) {
+    EXPECT_NEAR(row[rec.Index("b.omega.z")], 3.0 * row[0], 1e-9) << "t = " << row[0];
+    if (row[0] == 0.0) continue;  // the ramp's corner: its rate at t = 0 is the one before it
+    EXPECT_NEAR(row[rec.Index("spin.torque")], 0.2 * 3.0 + 0.5, 1e-9) << "t = " << row[0];
+  }
+}
+
+// Joint sensors are off by default; 'sensors: true' on a joint or gear mesh, or the model's
+// 'sensors: all | [names]', turns them on; a misspelt name in the list is located.
+TEST(MechanismReader, SensorsAreOptInPerPartOrForTheModel) {
+  const std::string body = R"y(bodies:
+  a: {mass: 1.0, inertia: 0.1}
+  b: {mass: 1.0, inertia: 0.1, position: [0.1, 0, 0]}
+joints:
+  ha: {type: revolute, child: a, axis: z, rigid: true}
+  hb: {type: revolute, child: b, axis: z, rigid: true}
+)y";
+  const LoadedModel off = LoadModelString("model: s\n" + body, "m.yaml");
+  EXPECT_FALSE(off.mechanism->joints()[0].sensors);
+  EXPECT_LT(off.graph.FindAux("ha.angle"), 0);
+  const LoadedModel all = LoadModelString("model: s\nsensors: all\n" + body, "m.yaml");
+  EXPECT_GE(all.graph.FindAux("ha.angle"), 0);
+  EXPECT_GE(all.graph.FindAux("hb.angle"), 0);
+  const LoadedModel listed = LoadModelString("model: s\nsensors: [hb]\n" + body, "m.yaml");
+  EXPECT_LT(listed.graph.FindAux("ha.angle"), 0);
+  EXPECT_GE(listed.graph.FindAux("hb.angle"), 0);
+  std::string one = body;
+  one.replace(one.find("rigid: true}"), 12, "rigid: true, sensors: true}");
+  const LoadedModel per_joint = LoadModelString("model: s\n" + one, "m.yaml");
+  EXPECT_GE(per_joint.graph.FindAux("ha.angle"), 0);
+  EXPECT_LT(per_joint.graph.FindAux("hb.angle"), 0);
+  const std::vector<Diagnostic> d = LoadErrors("model: s\nsensors: [hx]\n" + body);
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].code, "mech.reference");
+  EXPECT_EQ(d[0].where.line, 2);
+  EXPECT_THAT(d[0].message, HasSubstr("'sensors'"));
+}
+
 TEST(MechanismReader, ADrivesFormulaIsCheckedWhereItIsWritten) {
   const std::string head = "model: bad\nparameters: {c: 0.1}\nbodies:\n  b: {mass: 1.0, inertia: 0.1}\ndrives:\n";
   // A syntax error at its character.

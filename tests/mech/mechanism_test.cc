@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <tuple>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -180,7 +181,7 @@ TEST(RigidBody, HorizontalGyroscopePrecessesAtMglOverIsS) {
 }
 
 /// A uniform bar of length 1 m hanging from a stiff revolute joint about y at its top end.
-Mechanism Pendulum(double theta0, double* inertia_pivot, double* mass) {
+Mechanism Pendulum(double theta0, double* inertia_pivot, double* mass, bool sensors = false) {
   const double len = 1.0, l = len / 2;
   const MassProperties bar = MassProperties::Box(2700, {0.02, 0.02, len});
   *inertia_pivot = bar.inertia(1, 1) + bar.mass * l * l;
@@ -195,6 +196,7 @@ Mechanism Pendulum(double theta0, double* inertia_pivot, double* mass) {
   m.AddBody(b);
   Joint j = MakeRevolute("hinge", kGround, "bar", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitY(), 1e9, 2e3, 1e7, 20);
   j.child_point = {0, 0, l};
+  j.sensors = sensors;
   m.AddJoint(j);
   return m;
 }
@@ -230,9 +232,116 @@ TEST(RigidBody, CompoundPendulumReactionAtTheBottomOfTheSwing) {
   EXPECT_NEAR(rec.At("bar.F.z", crossings[0]), expected, 1e-4 * expected);  // the only coupling
 }
 
+// Off by default (each is a state the integrator carries): the hinge's sensor, its junction on the
+// axis and its angle, only when asked for.
+TEST(JointSensors, AreOffUnlessAskedFor) {
+  double ip, mass;
+  const BondGraph off = Pendulum(0.5, &ip, &mass).Build("off");
+  EXPECT_LT(off.Find("hinge.axial"), 0);
+  EXPECT_LT(off.FindAux("hinge.angle"), 0);
+  const BondGraph on = Pendulum(0.5, &ip, &mass, true).Build("on");
+  EXPECT_GE(on.Find("hinge.axial"), 0);
+  EXPECT_GE(on.FindAux("hinge.angle"), 0);
+}
+
+TEST(JointSensors, RevoluteAngleAndRateFollowThePendulumsOrientationAndPosition) {
+  const double theta0 = 0.5;
+  double ip, mass;
+  Mechanism m = Pendulum(theta0, &ip, &mass, true);
+  const double t0 = 2 * pi * std::sqrt(ip / (mass * 9.81 * 0.5));
+  const RecordingObserver rec = Simulated(m, t0, 1e-3, 1e-12, 1e-14);
+  const int angle = rec.Index("hinge.angle"), rate = rec.Index("hinge.rate"), wy = rec.Index("bar.omega.y");
+  ASSERT_GE(angle, 0);
+  ASSERT_GE(rate, 0);
+  double max_orientation = 0.0, max_position = 0.0, max_rate = 0.0, min_angle = 0.0;
+  for (size_t k = 0; k < rec.rows().size(); ++k) {
+    const auto& row = rec.rows()[k];
+    const Eigen::Matrix3d r = OrientationAt(rec, k, "bar");
+    // About y: R = [[c, 0, s], [0, 1, 0], [-s, 0, c]]; the CoM hangs at R (0, 0, -l) = (-l s, 0, -l c).
+    const double from_orientation = std::atan2(r(0, 2), r(0, 0));
+    const double from_position = std::atan2(-row[rec.Index("bar.r.x")], -row[rec.Index("bar.r.z")]);
+    max_orientation = std::max(max_orientation, std::abs(row[angle] + theta0 - from_orientation));
+    max_position = std::max(max_position, std::abs(row[angle] + theta0 - from_position));
+    max_rate = std::max(max_rate, std::abs(row[rate] - row[wy]));
+    min_angle = std::min(min_angle, row[angle]);
+  }
+  EXPECT_LT(max_orientation, 1e-9);
+  EXPECT_LT(max_position, 1e-8);  // the compliant hinge deflects by ~1e-9 m on an arm of 0.5 m (2.6e-9 rad)
+  EXPECT_EQ(max_rate, 0.0);       // the same flow, projected on a fixed axis
+  EXPECT_NEAR(min_angle, -2 * theta0, 1e-6);  // a full swing to the other side
+}
+
+/// A cube of 0.1 m and 1 kg (a sphere's inertia: the same about every axis).
+Body Cube(const std::string& name) {
+  Body b;
+  b.name = name;
+  b.mass = MassProperties::Box(1000, {0.1, 0.1, 0.1});
+  return b;
+}
+
+TEST(JointSensors, PrismaticSlideAndSpeedAreTheDisplacementAndVelocityAlongTheAxis) {
+  Mechanism m;
+  Body b = Cube("slider");
+  b.position = {0.3, 0.0, 0.0};
+  m.AddBody(b);
+  // A slider along x in a carriage turned 90 degrees about z: the joint's axis y in the
+  // carriage's frame is the world's -x.
+  Body c;
+  c.name = "carriage";
+  c.mass = MassProperties::Box(1000, {0.2, 0.2, 0.05});
+  c.orientation = Eigen::AngleAxisd(pi / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  m.AddBody(c);
+  m.AddJoint(MakeFixed("mount", kGround, "carriage", Eigen::Vector3d::Zero(), 1e9, 1e3, 1e8, 1e2));
+  Joint rail = MakePrismatic("rail", "carriage", "slider", Eigen::Vector3d(0, -0.3, 0), Eigen::Vector3d::UnitY(), 1e9, 1e3, 1e8, 1e2);
+  rail.sensors = true;
+  m.AddJoint(rail);
+  Drive d;
+  d.name = "push";
+  d.kind = Drive::Kind::kForce;
+  d.body = "slider";
+  d.axis = Eigen::Vector3d::UnitX();
+  d.value = TimeFunction::Constant(2.0);
+  m.AddDrive(d);
+  const RecordingObserver rec = Simulated(m, 1.0, 1e-2);
+  const int slide = rec.Index("rail.slide"), speed = rec.Index("rail.speed");
+  ASSERT_GE(slide, 0);
+  ASSERT_GE(speed, 0);
+  double max_slide = 0.0, max_speed = 0.0;
+  for (const auto& row : rec.rows()) {
+    max_slide = std::max(max_slide, std::abs(row[slide] + (row[rec.Index("slider.r.x")] - 0.3)));
+    max_speed = std::max(max_speed, std::abs(row[speed] + row[rec.Index("slider.v.x")]));
+  }
+  EXPECT_LT(max_slide, 1e-9);
+  EXPECT_LT(max_speed, 1e-9);
+  const double accel = 2.0 / b.mass.mass;
+  EXPECT_NEAR(rec.Last("rail.slide"), -accel / 2, 1e-6 * accel);  // F t^2 / 2m at t = 1 s, along -x
+}
+
+// A ball on a spherical joint at its centre, spinning freely about (0.6, 0.8, 0) at 0.5 rad/s (a
+// sphere: the axis stays): after t the relative rotation is the rotation vector (0.3 t, 0.4 t, 0),
+// turned about x and y at once, an angle of 0.5 t (to 2.5 rad < pi).
+TEST(JointSensors, SphericalRotationIsTheRotationVectorOfTheRelativeOrientation) {
+  Mechanism m;
+  Body b = Cube("ball");
+  b.omega = {0.3, 0.4, 0.0};
+  b.orientation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  m.AddBody(b);
+  Joint joint = MakeSpherical("ball_joint", kGround, "ball", Eigen::Vector3d::Zero(), 1e6, 10);
+  joint.sensors = true;
+  m.AddJoint(joint);
+  const RecordingObserver rec = Simulated(m, 5.0, 1e-2);
+  for (const auto& row : rec.rows()) {
+    const double t = row[0];
+    EXPECT_NEAR(row[rec.Index("ball_joint.rotation.x")], 0.3 * t, 1e-8) << t;
+    EXPECT_NEAR(row[rec.Index("ball_joint.rotation.y")], 0.4 * t, 1e-8) << t;
+    EXPECT_NEAR(row[rec.Index("ball_joint.rotation.z")], 0.0, 1e-8) << t;
+    EXPECT_NEAR(row[rec.Index("ball_joint.rotation.angle")], 0.5 * t, 1e-8) << t;
+  }
+}
+
 /// Two spur gears (20 and 40 teeth) on revolute joints to `carrier`, gear a driven at 10 rad/s
 /// relative to the carrier, gear b loaded by a viscous drag to the carrier.
-Mechanism GearPair(bool spinning_carrier) {
+Mechanism GearPair(bool spinning_carrier, bool sensors = false) {
   Mechanism m;
   auto disc = [](const std::string& name, double d, const Eigen::Vector3d& at) {
     Body b;
@@ -259,8 +368,11 @@ Mechanism GearPair(bool spinning_carrier) {
   m.AddBody(disc("b", 0.2, {0.0, 0, 0.05}));
   const Eigen::Vector3d pa = spinning_carrier ? Eigen::Vector3d(0.15, 0, 0.05) : Eigen::Vector3d(0.15, 0, 0.05);
   const Eigen::Vector3d pb(0.0, 0, 0.05);
-  m.AddJoint(MakeRevolute("a_bearing", carrier, "a", pa, Eigen::Vector3d::UnitZ(), 1e7, 100, 1e4, 10));
-  m.AddJoint(MakeRevolute("b_bearing", carrier, "b", pb, Eigen::Vector3d::UnitZ(), 1e7, 100, 1e4, 10));
+  for (const auto& [name, body, at] : {std::tuple{"a_bearing", "a", pa}, std::tuple{"b_bearing", "b", pb}}) {
+    Joint bearing = MakeRevolute(name, carrier, body, at, Eigen::Vector3d::UnitZ(), 1e7, 100, 1e4, 10);
+    bearing.sensors = sensors;
+    m.AddJoint(bearing);
+  }
   GearMesh gm;
   gm.name = "mesh";
   gm.carrier = carrier;
@@ -270,6 +382,7 @@ Mechanism GearPair(bool spinning_carrier) {
   gm.teeth_b = 40;
   gm.stiffness = 1e4;
   gm.damping = 2;
+  gm.sensors = sensors;
   m.AddGear(gm);
   Drive drive;
   drive.name = "motor";
@@ -284,7 +397,14 @@ Mechanism GearPair(bool spinning_carrier) {
 }
 
 TEST(GearMeshTest, FixedCarrierSpeedRatioIsTheTeethRatio) {
-  const RecordingObserver rec = Simulated(GearPair(false), 3.0, 1e-3);
+  const RecordingObserver rec = Simulated(GearPair(false, true), 3.0, 1e-3);
+  // The mesh phase is a's rolling angle, its bearing's angle; b turns back by the teeth ratio up
+  // to the mesh deflection, the integral of d = s_a + (40/20) s_b: q = phase + 2 angle_b.
+  for (const auto& row : rec.rows()) {
+    EXPECT_EQ(row[rec.Index("mesh.phase")], row[rec.Index("a_bearing.angle")]) << row[0];
+    EXPECT_NEAR(row[rec.Index("mesh.phase")] + 40.0 / 20.0 * row[rec.Index("b_bearing.angle")], row[rec.Index("mesh.mesh.K.q")], 1e-9) << row[0];
+  }
+  EXPECT_GT(rec.Last("mesh.phase"), 25.0);  // about 10 rad/s for 3 s
   const double wa = rec.Last("a.omega.z"), wb = rec.Last("b.omega.z");
   EXPECT_NEAR(wa, 10.0, 1e-6 * 10);
   EXPECT_NEAR(wb / wa, -20.0 / 40.0, 1e-6);

@@ -26,7 +26,8 @@ bool IsFormulaText(const YAML::Node& n) { return n.IsScalar() && !n.Scalar().emp
 }  // namespace
 
 std::shared_ptr<const mech::Mechanism> MechanismReader::ReadMechanism(const YAML::Node& root) {
-  ReadRigid(root);
+  ReadPartList(root, rigid_);
+  ReadPartList(root, sensors_);
   mech::Mechanism m;
   if (root["gravity"]) m.SetGravity(Vec3(root["gravity"], "gravity"));
   if (!ReadBodies(root, m)) return nullptr;
@@ -38,45 +39,45 @@ std::shared_ptr<const mech::Mechanism> MechanismReader::ReadMechanism(const YAML
     for (const auto& kv : states) cx_.state_names.insert(kv.first.Scalar());
   if (const YAML::Node drives = root["drives"]) ReadDrives(drives, m);
   if (const YAML::Node points = root["points"]) ReadPoints(points, m);
-  CheckRigidNames(m);
+  CheckPartNames(m, rigid_);
+  CheckPartNames(m, sensors_);
   if (sink_.has_errors()) return nullptr;
   m.ExpandInto(graph_, sink_);
   return std::make_shared<mech::Mechanism>(std::move(m));
 }
 
-/// The model's 'rigid' key: 'all' (every joint and gear mesh) or a list of their names.
-void MechanismReader::ReadRigid(const YAML::Node& root) {
-  if (const YAML::Node r = root["rigid"]) {
+/// A model-wide 'rigid' or 'sensors' key: 'all' (every joint and gear mesh) or a list of their names.
+void MechanismReader::ReadPartList(const YAML::Node& root, PartList& list) {
+  if (const YAML::Node r = root[list.key]) {
     if (r.IsScalar() && (r.Scalar() == "all" || r.Scalar() == "true")) {
-      rigid_all_ = true;
+      list.all = true;
     } else if (r.IsSequence()) {
       for (const auto& n : r) {
-        rigid_names_.push_back(n.Scalar());
-        rigid_where_.push_back(Loc(n));
-        rigid_set_.insert(n.Scalar());
+        list.names.push_back(n.Scalar());
+        list.where.push_back(Loc(n));
+        list.set.insert(n.Scalar());
       }
     } else {
-      sink_.Error(Loc(r), "rigid", "'rigid' is 'all' or a list of joint and gear mesh names",
-                  "write e.g. 'rigid: all' or 'rigid: [G_bearing, mesh_GA]'");
+      sink_.Error(Loc(r), list.key, fmt::format("'{}' is 'all' or a list of joint and gear mesh names", list.key),
+                  fmt::format("write e.g. '{0}: all' or '{0}: [G_bearing, mesh_GA]'", list.key));
     }
   }
 }
 
-bool MechanismReader::RigidByModel(const std::string& name) const { return rigid_all_ || rigid_set_.count(name) > 0; }
-
-/// Every name in 'rigid: [...]' must be a joint or a gear mesh (a misspelt one would leave that
-/// part compliant without a word).
-void MechanismReader::CheckRigidNames(const mech::Mechanism& m) {
-  if (rigid_names_.empty()) return;
+/// Every name in 'rigid: [...]' or 'sensors: [...]' must be a joint or a gear mesh (a misspelt one
+/// would leave that part as it was without a word).
+void MechanismReader::CheckPartNames(const mech::Mechanism& m, const PartList& list) {
+  if (list.names.empty()) return;
   std::vector<std::string> parts;
   for (const auto& j : m.joints()) parts.push_back(j.name);
   for (const auto& g : m.gears()) parts.push_back(g.name);
   const std::unordered_set<std::string> known(parts.begin(), parts.end());
-  for (size_t k = 0; k < rigid_names_.size(); ++k)
-    if (!known.count(rigid_names_[k])) {
-      const std::string guess = DidYouMean(rigid_names_[k], parts);
-      sink_.Error(codes::kMechReference, rigid_where_[k], rigid_names_[k], "'rigid' names no joint or gear mesh of that name",
-                  guess.empty() ? "list the joints and gear meshes to make rigid" : fmt::format("did you mean '{}'?", guess));
+  for (size_t k = 0; k < list.names.size(); ++k)
+    if (!known.count(list.names[k])) {
+      const std::string guess = DidYouMean(list.names[k], parts);
+      sink_.Error(codes::kMechReference, list.where[k], list.names[k],
+                  fmt::format("'{}' names no joint or gear mesh of that name", list.key),
+                  guess.empty() ? fmt::format("list the joints and gear meshes for '{}'", list.key) : fmt::format("did you mean '{}'?", guess));
     }
 }
 
@@ -168,7 +169,7 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
                   guess.empty() ? "use coupling, revolute, fixed, spherical, prismatic or held" : fmt::format("did you mean '{}'?", guess));
       continue;
     }
-    CheckKeys(j, {"type", "parent", "child", "at", "child_at", "axis", "translation", "rotation", "rigid", "limits", "friction", "description"}, name);
+    CheckKeys(j, {"type", "parent", "child", "at", "child_at", "axis", "translation", "rotation", "rigid", "limits", "friction", "sensors", "description"}, name);
     // 'rigid: true' on the joint (or the model's 'rigid: all' / list) makes each of its
     // couplings an ideal constraint; the named kinds then need no coupling sections.
     rigid_joint_ = (j["rigid"] && Bool(j["rigid"], name)) || RigidByModel(name);
@@ -193,6 +194,7 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
     const bool needs_axis = type == "revolute" || type == "prismatic";
     if (needs_axis && !j["axis"]) sink_.Error(joint.where, name, fmt::format("a {} joint needs an 'axis' (in the parent's frame)", type));
     const Eigen::Vector3d axis = j["axis"] ? Axis(j["axis"], name) : Eigen::Vector3d::UnitZ();
+    if (needs_axis) joint.axis = axis;  // the joint sensor's axis (docs/mechanisms.md, "Joint sensors")
     const Eigen::MatrixXd all = Eigen::Matrix3d::Identity();
     const Eigen::MatrixXd perp = mech::Perpendicular(axis);
     using F = mech::Coupling::Frame;
@@ -214,6 +216,8 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
       }
     }
     rigid_joint_ = false;
+    // The joint sensor (docs/mechanisms.md, "Joint sensors"): off unless asked for, each is a state.
+    joint.sensors = (j["sensors"] && Bool(j["sensors"], name)) || sensors_.Has(name);
     if (j["limits"] || j["friction"]) ReadAxialSwitches(j, name, type, axis, joint);
     m.AddJoint(joint);
   }
@@ -272,10 +276,11 @@ void MechanismReader::ReadGears(const YAML::Node& gears, mech::Mechanism& m) {
     mech::GearMesh gm;
     gm.name = name;
     gm.where = Loc(kv.first);
-    CheckKeys(g, {"carrier", "a", "b", "K", "R", "stiffness", "damping", "rigid", "backlash", "restitution", "contact",
+    CheckKeys(g, {"carrier", "a", "b", "K", "R", "stiffness", "damping", "rigid", "backlash", "restitution", "contact", "sensors",
                   "pressure_angle_deg", "helix_angle_deg", "flank", "internal", "pitch_point", "description"},
               name);
     gm.rigid = (g["rigid"] && Bool(g["rigid"], name)) || RigidByModel(name);
+    gm.sensors = (g["sensors"] && Bool(g["sensors"], name)) || sensors_.Has(name);
     gm.carrier = g["carrier"] ? g["carrier"].Scalar() : std::string(mech::kGround);
     if (const YAML::Node c = g["contact"]) {
       const std::string v = c.Scalar();
@@ -385,7 +390,7 @@ void MechanismReader::ReadDrives(const YAML::Node& drives, mech::Mechanism& m) {
     drive.kind = kinds.at(type);
     const bool velocity = drive.kind == mech::Drive::Kind::kAngularVelocity || drive.kind == mech::Drive::Kind::kVelocity;
     std::vector<std::string> keys = {"type", "body", "axis", "value", "description"};
-    if (velocity) keys.insert(keys.end(), {"reference", "K", "R", "stiffness", "damping"});
+    if (velocity) keys.insert(keys.end(), {"reference", "K", "R", "stiffness", "damping", "rigid"});
     if (drive.kind == mech::Drive::Kind::kForce) keys.push_back("at");
     CheckKeys(d, keys, name);
     if (d["body"]) drive.body = d["body"].Scalar();
@@ -396,7 +401,8 @@ void MechanismReader::ReadDrives(const YAML::Node& drives, mech::Mechanism& m) {
     if (d["value"]) drive.value = read_value(d["value"], name, &drive.formula);
     else sink_.Error(drive.where, name, "a drive needs a 'value' (a number, a time function or a formula)");
     if (d["at"]) drive.point = Vec3(d["at"], name);
-    if (velocity) {
+    if (velocity && d["rigid"]) drive.rigid = Bool(d["rigid"], name);
+    if (velocity && !drive.rigid) {
       Eigen::VectorXd k, r;
       Gains(d, name, 1, &k, &r);
       drive.stiffness = k[0];

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Reading the mechanism sections of a model file (docs/mechanisms.md): 'rigid', 'gravity',
+/// Reading the mechanism sections of a model file (docs/mechanisms.md): 'rigid', 'sensors', 'gravity',
 /// 'bodies', 'joints', 'gears', 'drives' and 'points', into a mech::Mechanism that is expanded into
 /// the graph being built.
 
@@ -23,10 +23,21 @@ class MechanismReader : public MechanismValues {
   std::shared_ptr<const mech::Mechanism> ReadMechanism(const YAML::Node& root);
 
  private:
-  void ReadRigid(const YAML::Node& root);
+  /// A model-wide key that names joints and gear meshes: 'all' or a list of their names ('rigid', 'sensors').
+  struct PartList {
+    explicit PartList(std::string k) : key(std::move(k)) {}
+    std::string key;
+    bool all = false;
+    std::vector<std::string> names;
+    std::vector<SourceLocation> where;  ///< where each of names is written
+    std::unordered_set<std::string> set;  ///< names, to look up
+    /// Whether the key names the joint or gear mesh `name` (or says 'all').
+    bool Has(const std::string& name) const { return all || set.count(name) > 0; }
+  };
+  void ReadPartList(const YAML::Node& root, PartList& list);
   /// Whether the model's 'rigid' key names the joint or gear mesh `name` (or says 'all').
-  bool RigidByModel(const std::string& name) const;
-  void CheckRigidNames(const mech::Mechanism& m);
+  bool RigidByModel(const std::string& name) const { return rigid_.Has(name); }
+  void CheckPartNames(const mech::Mechanism& m, const PartList& list);
   /// False if 'bodies' is not a mapping (said).
   bool ReadBodies(const YAML::Node& root, mech::Mechanism& m);
   /// The body read as `name`, or nullptr (the ground, or no such body).
@@ -39,10 +50,8 @@ class MechanismReader : public MechanismValues {
   void ReadDrives(const YAML::Node& drives, mech::Mechanism& m);
   void ReadPoints(const YAML::Node& points, mech::Mechanism& m);
 
-  bool rigid_all_ = false;                       ///< the model's 'rigid: all'
-  std::vector<std::string> rigid_names_;         ///< the model's 'rigid: [names]'
-  std::vector<SourceLocation> rigid_where_;      ///< where each of rigid_names_ is written
-  std::unordered_set<std::string> rigid_set_;    ///< rigid_names_, to look up
+  PartList rigid_{"rigid"};      ///< the model's 'rigid: all | [names]'
+  PartList sensors_{"sensors"};  ///< the model's 'sensors: all | [names]' (docs/mechanisms.md, "Joint sensors")
   std::unordered_map<std::string, mech::Body> made_;  ///< the bodies read, by name
   /// The coupling section of a rigid joint that gives none.
   const YAML::Node rigid_section_ = YAML::Load("{rigid: true}");

@@ -33,7 +33,7 @@ namespace {
 
 const std::vector<std::string> kTopKeys = {"model", "description", "domain", "elements", "bonds", "states", "outputs",
                                            "simulation", "submodels", "gravity", "bodies", "joints", "gears", "drives", "points",
-                                           "constraints", "rigid", "algebraic_loops", "parameters", "signals"};
+                                           "constraints", "rigid", "sensors", "algebraic_loops", "parameters", "signals"};
 
 LoadedModel Load(LoadContext& cx, const YAML::Node& root, const std::vector<ParameterOverride>& overrides) {
   LoadedModel out{BondGraph("model"), {}, {}, cx.file, cx.text, {}, nullptr, {}};

@@ -177,7 +177,7 @@ class Expander {
       if (d.kind == Drive::Kind::kVelocity && !IsGround(d.reference))
         sink_.Error("mech.reference", d.where, d.name, "a velocity drive acts relative to the ground", "remove 'reference'");
       const bool velocity = d.kind == Drive::Kind::kAngularVelocity || d.kind == Drive::Kind::kVelocity;
-      if (velocity && !(d.stiffness > 0)) sink_.Error("param.range", d.where, d.name, "a velocity drive acts through a coupling: its stiffness must be > 0", "give K and R (the paper's drive: K = 1000, R = 5)");
+      if (velocity && !d.rigid && !(d.stiffness > 0)) sink_.Error("param.range", d.where, d.name, "a velocity drive acts through a coupling: its stiffness must be > 0", "give K and R (the paper's drive: K = 1000, R = 5)");
       if (velocity && !(d.damping >= 0)) sink_.Error("param.range", d.where, d.name, "drive damping must be >= 0");
       if (d.axis.norm() < 1e-12) sink_.Error("param.range", d.where, d.name, "drive axis must be a non-zero vector");
     }
@@ -436,7 +436,18 @@ class Expander {
         if (!j.parent_point.isZero()) AddLever(j.name + ".t_parent_arm", j.parent, j.parent_point, -1.0, sum);
       }
       AddFrameElement(j.name + ".t_frame", c.frame, j.parent, j.child, c.directions, j.where);
-      Bond(sum, j.name + ".t_frame", j.name + ".t_frame");
+      if (Slides(j) && j.sensors) {
+        // The relative velocity of the joint's points, a 1-junction the slide sensor also reads.
+        const std::string rel = j.name + ".t_rel";
+        Element r = Make(rel, ElementKind::kOne, 3, "translation", j.where);
+        r.components = kXyz;
+        g_.Add(r);
+        Bond(sum, rel, rel);
+        Bond(rel, j.name + ".t_frame", j.name + ".t_frame");
+        AddAxialSensor(j, rel, "translation");
+      } else {
+        Bond(sum, j.name + ".t_frame", j.name + ".t_frame");
+      }
       AddCompliance(j.name + ".t_frame", j.name + ".t", c.stiffness, c.damping, "translation", DirectionNames(c), j.where,
                     c.rigid);
       AddOutput(SumOutput(j.name + ".F", {{j.name + ".t_child.e", -1.0}}, "N", j.where));
@@ -451,7 +462,103 @@ class Expander {
                     c.rigid);
       AddOutput(SumOutput(j.name + ".M", {{j.name + ".r_in.e", -1.0}}, "N m", j.where));
     }
+    if (Turns(j)) AddAxialSensor(j, RelativeOmega(j.child, j.parent), "rotation");
+    if (j.sensors && (j.kind == "coupling" || j.kind == "spherical") && !HasIdealConstraints() && Spins(j.child) && (IsGround(j.parent) || Spins(j.parent)))
+      AddRotationSensor(j);
     if (j.stops || j.friction) AddAxialSwitches(j);
+  }
+
+  /// The relative rotation sensor of a joint without a single free axis (docs/mechanisms.md,
+  /// "Joint sensors"): the relative angular velocity in the parent's frame, R_p^T (w_c - w_p) (the
+  /// 1-junction `<joint>.rel_w`, no other bond), integrated into the orientation state
+  /// `<joint>.relative` = R_p^T R_c (R_p^T R_c)(0)^T, and its rotation vector as the signals
+  /// `<joint>.rotvec.angle` (in [0, pi]) and `<joint>.rotvec.x|y|z`, the outputs `<joint>.rotation.*`.
+  void AddRotationSensor(const Joint& j) {
+    const std::string rel = RelativeOmega(j.child, j.parent), w = j.name + ".rel_w", q = j.name + ".relative";
+    AddFrameElement(w + "_frame", Coupling::Frame::kParent, j.parent, j.child, Eigen::Matrix3d::Identity(), j.where);
+    Bond(rel, w + "_frame", w + ".in");
+    if (IsGround(j.parent)) info_[j.child].moment_terms.push_back({w + ".in.e", -1.0});
+    Element junction = Make(w, ElementKind::kOne, 3, "rotation", j.where);
+    junction.components = kXyz;
+    g_.Add(junction);
+    Bond(w + "_frame", w, w + ".out");
+    AuxState a;
+    a.name = q;
+    a.kind = AuxState::Kind::kOrientation;
+    a.of = w;
+    a.where = j.where;
+    g_.AddAux(a);
+    // v = 2 sin(theta) u from the skew part, 2 cos(theta) = trace - 1; the vector theta u.
+    const std::string vx = fmt::format("({0}.32 - {0}.23)", q), vy = fmt::format("({0}.13 - {0}.31)", q),
+                      vz = fmt::format("({0}.21 - {0}.12)", q);
+    const std::string norm = fmt::format("sqrt({0}*{0} + {1}*{1} + {2}*{2})", vx, vy, vz);
+    const std::string angle = j.name + ".rotvec.angle";
+    // The signals `<joint>.rotvec.*`, reported as the outputs `<joint>.rotation.*`.
+    auto signal = [&](const std::string& component, const std::string& text) {
+      Signal sg;
+      sg.name = j.name + ".rotvec." + component;
+      sg.value = LawOf(text, j.where);
+      sg.unit = "rad";
+      sg.where = j.where;
+      g_.AddSignal(sg);
+      OutputDecl o;
+      o.name = j.name + ".rotation." + component;
+      o.variable = sg.name;
+      o.unit = "rad";
+      o.where = j.where;
+      AddOutput(o);
+    };
+    signal("angle", fmt::format("atan2({0}, {1}.11 + {1}.22 + {1}.33 - 1)", norm, q));
+    const char* axes[] = {"x", "y", "z"};
+    const std::string v[] = {vx, vy, vz};
+    for (int k = 0; k < 3; ++k)  // theta v / |v|; 0 where v = 0 (no rotation)
+      signal(axes[k], fmt::format("{} * {} / ({} + 1e-300)", angle, v[k], norm));
+  }
+
+  /// A body with an angular velocity (not a point mass).
+  bool Spins(const std::string& body) const {
+    const auto it = body_by_name_.find(body);
+    return it != body_by_name_.end() && it->second->mass.has_rotation();
+  }
+  /// Whether a joint, mesh or drive is an ideal constraint: such models take no formulas yet, so
+  /// their joints get no rotation sensor (a signal).
+  bool HasIdealConstraints() const {
+    for (const Joint& j : m_.joints())
+      if ((j.translation && j.translation->rigid) || (j.rotation && j.rotation->rigid) || j.stops || j.friction) return true;
+    for (const GearMesh& gm : m_.gears())
+      if (gm.rigid) return true;
+    for (const Drive& d : m_.drives())
+      if (d.rigid) return true;
+    return false;
+  }
+
+  /// A joint with an axis of rotation that needs its rate: a revolute joint's sensor, end stops, friction.
+  static bool Turns(const Joint& j) { return ((j.kind == "revolute" && j.sensors) || j.stops || j.friction) && !j.axis.isZero(); }
+  /// A prismatic joint with its axis (and a translation coupling): it gets the slide and speed sensor.
+  static bool Slides(const Joint& j) { return j.kind == "prismatic" && !j.axis.isZero(); }
+
+  /// The joint sensor on the free axis (docs/mechanisms.md, "Joint sensors"): the relative rate
+  /// about (revolute) or along (prismatic) the axis in the parent's frame, the 1-junction
+  /// `<joint>.axial` fed from the relative flow `rel` (no other bond: it carries no effort), and
+  /// its integral from the assembled position, the state `<joint>.angle` or `<joint>.slide`;
+  /// outputs `<joint>.rate` or `<joint>.speed`. Without `sensors`, end stops get the junction and
+  /// the angle state (their gap), friction the junction only (its rate).
+  void AddAxialSensor(const Joint& j, const std::string& rel, const std::string& domain) {
+    const bool rotation = domain == "rotation";
+    const std::string axial = j.name + ".axial";
+    AddSpin(axial + "_proj", j.parent, j.axis, 1.0);
+    Bond(rel, axial + "_proj", axial + ".in");
+    if (rotation && IsGround(j.parent)) info_[j.child].moment_terms.push_back({axial + ".in.e", -1.0});
+    g_.Add(Make(axial, ElementKind::kOne, 1, domain, j.where));
+    Bond(axial + "_proj", axial, axial + ".out");
+    if (j.sensors || j.stops) AddAngle(j.name + (rotation ? ".angle" : ".slide"), axial, j.where, rotation ? "rad" : "m");
+    if (!j.sensors) return;
+    OutputDecl rate;
+    rate.name = j.name + (rotation ? ".rate" : ".speed");
+    rate.variable = axial + ".f";
+    rate.unit = rotation ? "rad/s" : "m/s";
+    rate.where = j.where;
+    AddOutput(rate);
   }
 
   /// A revolute joint's end stops and friction (docs/events.md): the rotation rate about its
@@ -459,14 +566,9 @@ class Expander {
   /// position), contacts at the stops (`<joint>.lower`, gap angle - lower; `<joint>.upper`, gap
   /// upper - angle), a friction on the rate (`<joint>.friction`, a capacity).
   void AddAxialSwitches(const Joint& j) {
-    const std::string rel = RelativeOmega(j.child, j.parent), axial = j.name + ".axial";
-    AddSpin(axial + "_proj", j.parent, j.axis, 1.0);
-    Bond(rel, axial + "_proj", axial + ".in");
-    if (IsGround(j.parent)) info_[j.child].moment_terms.push_back({axial + ".in.e", -1.0});
-    g_.Add(Make(axial, ElementKind::kOne, 1, "rotation", j.where));
-    Bond(axial + "_proj", axial, axial + ".out");
+    const std::string axial = j.name + ".axial";  // made by AddAxialSensor
     if (j.stops) {
-      const std::string angle = AddAngle(j.name + ".angle", axial, j.where);
+      const std::string angle = j.name + ".angle";
       for (const bool lower : {true, false}) {
         const std::string stop = j.name + (lower ? ".lower" : ".upper");
         Element c = MakeContact(stop, angle, lower ? 1.0 : -1.0, lower ? -j.stops->lower : j.stops->upper, j.stops->restitution,
@@ -641,6 +743,17 @@ class Expander {
     torque.variable = sum + ".e";
     torque.where = gm.where;
     AddOutput(torque);
+    if (!gm.sensors) return;
+    // The mesh phase (with `sensors`): gear a's rolling angle relative to the carrier, the integral
+    // of s_a (the 1-junction `<mesh>.rolling`, no other bond: it carries no torque), the state
+    // `<mesh>.phase`.
+    const std::string rolling = gm.name + ".rolling";
+    AddSpin(rolling + "_proj", gm.carrier, gm.axis_a, 1.0);
+    Bond(RelativeOmega(gm.body_a, gm.carrier), rolling + "_proj", rolling + ".in");
+    if (IsGround(gm.carrier)) info_[gm.body_a].moment_terms.push_back({rolling + ".in.e", -1.0});
+    g_.Add(Make(rolling, ElementKind::kOne, 1, "rotation", gm.where));
+    Bond(rolling + "_proj", rolling, rolling + ".out");
+    AddAngle(gm.name + ".phase", rolling, gm.where);
   }
 
   /// A formula made by the expansion (its numbers written exactly): parsed, located at `where`.
@@ -717,14 +830,24 @@ class Expander {
           auto& terms = angular ? info_[d.body].moment_terms : info_[d.body].force_terms;
           terms.push_back({d.name + ".in.e", -1.0});
         }
-        g_.AddJunction(diff, ElementKind::kZero, 1);
-        Bond(axis, diff, d.name + ".spin");
         Element src = Make(d.name + ".source", ElementKind::kSf, 1, angular ? "rotation" : "translation", d.where);
         src.source.components = {d.value};
         if (d.formula.given()) {
           src.source.components = {TimeFunction::Constant(0.0)};  // a placeholder: the formula is the value
           src.value = {d.formula};
         }
+        if (d.rigid) {
+          // An ideal drive: the source is an ideal constraint on the spin; its effort is the reaction.
+          src.constraint = true;
+          g_.Add(src);
+          Bond(axis, d.name + ".source", d.name + ".source");
+          OutputDecl o = SumOutput(d.name + (angular ? ".torque" : ".force"), {{d.name + ".source.e", -1.0}}, angular ? "N m" : "N", d.where);
+          o.components.clear();
+          AddOutput(o);
+          break;
+        }
+        g_.AddJunction(diff, ElementKind::kZero, 1);
+        Bond(axis, diff, d.name + ".spin");
         g_.Add(src);
         Bond(diff, d.name + ".source", d.name + ".source");
         AddCompliance(diff, d.name + ".coupling", Eigen::VectorXd::Constant(1, d.stiffness), Eigen::VectorXd::Constant(1, d.damping),
@@ -881,6 +1004,7 @@ Joint MakeRevolute(std::string name, std::string parent, std::string child, cons
   Joint j = Base(std::move(name), "revolute", std::move(parent), std::move(child), at);
   j.translation = Uniform(Eigen::Matrix3d::Identity(), k_t, r_t, Coupling::Frame::kWorld);
   j.rotation = Uniform(Perpendicular(axis), k_r, r_r, Coupling::Frame::kParent);
+  j.axis = axis;
   return j;
 }
 
@@ -904,6 +1028,7 @@ Joint MakePrismatic(std::string name, std::string parent, std::string child, con
   Joint j = Base(std::move(name), "prismatic", std::move(parent), std::move(child), at);
   j.translation = Uniform(Perpendicular(axis), k_t, r_t, Coupling::Frame::kParent);
   j.rotation = Uniform(Eigen::Matrix3d::Identity(), k_r, r_r, Coupling::Frame::kParent);
+  j.axis = axis;
   return j;
 }
 

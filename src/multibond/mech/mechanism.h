@@ -16,7 +16,11 @@
 ///   J.r.R (the couplings' C and R; a rigid coupling has J.t.rigid / J.r.rigid instead, an ideal
 ///   constraint whose effort is the reaction); G.torque, G.deflection (G.mesh.rigid when rigid);
 ///   meshes through the pitch point also G.F_t, G.F_r, G.F_a, G.F_n, G.b.F_r, G.b.F_a;
-///   D.torque (or D.force); points P.x,y,z.
+///   D.torque (or D.force); points P.x,y,z;
+///   joint sensors (with `sensors`): revolute J.axial (1-junction, the rate about the axis), state J.angle, output
+///   J.rate; prismatic J.t_rel (the points' relative velocity), J.axial, state J.slide, output J.speed;
+///   coupling and spherical J.rel_w, state J.relative, signals J.rotvec.*, outputs J.rotation.*;
+///   gear meshes (spin contact) G.rolling, state G.phase.
 
 #include <optional>
 #include <string>
@@ -69,7 +73,8 @@ struct Joint {
   Eigen::Vector3d parent_point = Eigen::Vector3d::Zero();  ///< parent frame from its CoM; ground: absolute
   Eigen::Vector3d child_point = Eigen::Vector3d::Zero();   ///< child frame, from its CoM
   std::optional<Coupling> translation, rotation;
-  /// Revolute joints: the free axis (parent frame), and the switching elements on the rotation
+  /// Revolute and prismatic joints: the free axis (parent frame), along which the joint sensor
+  /// measures (docs/mechanisms.md, "Joint sensors"). Revolute joints: the switching elements on the rotation
   /// about it (docs/events.md): end stops at relative angles `lower` < `upper` [rad, from the
   /// assembled position] with impacts of `restitution`, and a friction torque (Coulomb: sticks
   /// while the torque needed is within it), a number, a time function or a signal's name.
@@ -85,6 +90,9 @@ struct Joint {
     SourceLocation where;
   };
   std::optional<Friction> friction;
+  /// The joint sensor (docs/mechanisms.md, "Joint sensors"), off by default: each is a state the
+  /// integrator carries. End stops keep their angle state either way.
+  bool sensors = false;
   SourceLocation where;
 };
 
@@ -115,6 +123,7 @@ struct GearMesh {
   double teeth_a = 1.0, teeth_b = 1.0;
   double stiffness = 0.0, damping = 0.0;  ///< N m/rad, N m s/rad (referred to gear a)
   bool rigid = false;  ///< an ideal mesh: zero deflection rate, held by the mesh torque
+  bool sensors = false;  ///< the mesh phase G.phase, a state (docs/mechanisms.md, "Joint sensors"); off by default
   /// Backlash (docs/events.md): the total free play of the teeth [rad, referred to gear a]; the
   /// deflection q moves freely in [-b/2, b/2]. Compliant: a dead zone in the coupling's spring,
   /// K (q - clamp(q, -b/2, b/2)). Rigid: the flanks are two contacts at q = +-b/2 with impacts of
@@ -168,6 +177,10 @@ struct Drive {
   /// it is, a torque's or force's as axis[k] * formula per component k.
   Formula formula;
   double stiffness = 0.0, damping = 0.0;  ///< velocity drives' coupling
+  /// Velocity drives: an ideal drive, the source itself an ideal constraint (its flow imposed
+  /// exactly, its effort the drive's reaction) instead of the coupling; `value` must be continuous
+  /// and agree with the body's speed at t = 0.
+  bool rigid = false;
   Eigen::Vector3d point = Eigen::Vector3d::Zero();  ///< force drives: application point (body frame)
   SourceLocation where;
 };
