@@ -41,6 +41,17 @@ int Column(const std::vector<std::string>& header, const std::string& name) {
   return 0;
 }
 
+/// mpirun's arguments before the command. Under AddressSanitizer the ranks keep its checks but not
+/// the leak report: Open MPI keeps what MPI_Init allocates, partly in components it has unloaded,
+/// which no suppression can name (the rest of the suite's leak checks are untouched).
+std::vector<std::string> MpiRun(const std::string& mpirun, const char* ranks) {
+  std::vector<std::string> a = {mpirun, "--oversubscribe", "-n", ranks};
+#if defined(__SANITIZE_ADDRESS__)
+  a.insert(a.end(), {"-x", "ASAN_OPTIONS=detect_leaks=0"});
+#endif
+  return a;
+}
+
 TEST(SweepCli, MassSpringDamperOnThreadsAndRanksGivesOneTable) {
   TempDir dir;
   const auto threads = (dir.path() / "threads").string();
@@ -68,7 +79,9 @@ TEST(SweepCli, MassSpringDamperOnThreadsAndRanksGivesOneTable) {
   setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
   for (const char* ranks : {"1", "2", "4"}) {
     const auto out = (dir.path() / (std::string("ranks") + ranks)).string();
-    const auto m = RunProgram({mpirun, "--oversubscribe", "-n", ranks, MULTIBOND_CLI, "sweep", kStudy, "-o", out, "--jit", "off"}, 180);
+    std::vector<std::string> argv = MpiRun(mpirun, ranks);
+    argv.insert(argv.end(), {MULTIBOND_CLI, "sweep", kStudy, "-o", out, "--jit", "off"});
+    const auto m = RunProgram(argv, 180);
     ASSERT_EQ(m.code, 0) << ranks << " ranks: " << m.out;
     EXPECT_NE(m.out.find(std::string("on ") + ranks + " rank"), std::string::npos) << m.out;
     EXPECT_EQ(ReadFile(std::filesystem::path(out) / "sweep.csv"), table) << ranks << " ranks";
@@ -142,7 +155,7 @@ TEST(SweepCli, ResumeGoesOnFromTheJournal) {
   if (mpirun.empty()) GTEST_SKIP() << "no mpirun";
   setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
   setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
-  std::vector<std::string> ranks = {mpirun, "--oversubscribe", "-n", "2"};
+  std::vector<std::string> ranks = MpiRun(mpirun, "2");
   ranks.insert(ranks.end(), other.begin(), other.end());
   const auto m = RunProgram(ranks, 120);
   EXPECT_FALSE(m.timed_out);
