@@ -11,11 +11,17 @@
 
 #include <benchmark/benchmark.h>
 
-#include <cstdio>
+#include <stdlib.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
+#include "multibond/core/process.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
 #include "rhs_in_turn.h"
@@ -24,15 +30,20 @@ namespace mb = multibond;
 
 namespace {
 
-/// bench/make_chain.py's model text for n bodies.
+/// bench/make_chain.py's model text for n bodies: the script run with an argument vector (no
+/// shell), its output in a private temporary folder.
 std::string ChainText(int n, bool rigid) {
-  const std::string command =
-      "python3 " + std::string(MULTIBOND_SOURCE_DIR) + "/bench/make_chain.py " + std::to_string(n) + (rigid ? " --rigid" : "");
-  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
-  if (!pipe) throw std::runtime_error("cannot run " + command);
-  std::string text;
-  char buffer[65536];
-  for (size_t got; (got = fread(buffer, 1, sizeof buffer, pipe.get())) > 0;) text.append(buffer, got);
+  char dir_template[] = "/tmp/multibond-chain-XXXXXX";
+  const char* dir = mkdtemp(dir_template);
+  if (!dir) throw std::runtime_error("cannot make a temporary folder");
+  const std::string out = std::string(dir) + "/chain.yaml";
+  std::vector<std::string> argv = {"python3", std::string(MULTIBOND_SOURCE_DIR) + "/bench/make_chain.py", std::to_string(n)};
+  if (rigid) argv.push_back("--rigid");
+  const std::string why = mb::RunProcess(argv, "", out, /*merge_stdout=*/true);
+  std::ifstream in(out, std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::filesystem::remove_all(dir);
+  if (!why.empty()) throw std::runtime_error("bench/make_chain.py: " + why);
   return text;
 }
 
