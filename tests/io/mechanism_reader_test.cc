@@ -1,4 +1,4 @@
-// Drives whose value is a formula (io/mechanism_reader.cc, mech/mechanism.cc): the formula is
+// Drives whose value is a formula (io/mechanism_reader.cc, mech/expand_drive.cc): the formula is
 // carried by the drive and becomes the source's value (a torque's or force's component k is
 // axis[k] * formula); a formula of parameters only stays a constant time function; the formula
 // may name model variables, signals and bare state names; its mistakes are located.

@@ -1,0 +1,69 @@
+/// \file
+/// The spanning tree of a mechanism's bodies for joint coordinates.
+
+#include <map>
+#include <set>
+#include <tuple>
+
+#include "multibond/mech/mechanism.h"
+
+namespace multibond::mech {
+
+JointTree Mechanism::MakeJointTree() const {
+  std::map<std::string, const Body*> body;
+  for (const Body& b : bodies_) body[b.name] = &b;
+  auto orientation = [&](const std::string& name) -> Eigen::Matrix3d {
+    const auto it = body.find(name);
+    return it == body.end() ? Eigen::Matrix3d::Identity() : it->second->orientation;
+  };
+  auto omega = [&](const std::string& name) -> Eigen::Vector3d {
+    const auto it = body.find(name);
+    return it == body.end() ? Eigen::Vector3d::Zero() : it->second->omega;
+  };
+  auto count = [](const std::optional<Coupling>& c) { return c ? static_cast<int>(c->directions.rows()) : 0; };
+  std::set<std::string> in_tree = {kGround};
+  JointTree tree;
+  auto add = [&](const std::string& name, const std::string& parent, const Joint* j) {
+    TreeBody tb;
+    tb.name = name;
+    tb.parent = parent == kGround ? "" : parent;
+    Eigen::Vector3d axis_world = Eigen::Vector3d::Zero();
+    if (j) {
+      tb.joint = j->name;
+      tb.anchor = j->child == name ? j->child_point : j->parent_point;
+      if (count(j->rotation) == 2) {
+        const Eigen::Vector3d n = Eigen::Vector3d(j->rotation->directions.row(0)).cross(Eigen::Vector3d(j->rotation->directions.row(1)));
+        switch (j->rotation->frame) {
+          case Coupling::Frame::kParent: axis_world = orientation(j->parent) * n; break;
+          case Coupling::Frame::kChild: axis_world = orientation(j->child) * n; break;
+          case Coupling::Frame::kWorld: axis_world = n; break;
+        }
+      }
+    }
+    if (!(axis_world.norm() > 1e-12)) axis_world = omega(name) - omega(parent);  // no bearing: how it turns at the start
+    if (!(axis_world.norm() > 1e-12)) axis_world = orientation(parent).col(2);
+    tb.axis = (orientation(parent).transpose() * axis_world).normalized();
+    in_tree.insert(name);
+    tree.push_back(tb);
+  };
+  for (;;) {
+    const Joint* best = nullptr;
+    std::tuple<int, int, bool> best_key{-1, -1, false};
+    for (const Joint& j : joints_) {
+      if (in_tree.count(j.parent) == in_tree.count(j.child)) continue;
+      const std::string& outside = in_tree.count(j.parent) ? j.child : j.parent;
+      if (!body.count(outside)) continue;
+      const bool rigid = (j.rotation && j.rotation->rigid) || (j.translation && j.translation->rigid);
+      const std::tuple<int, int, bool> key{count(j.rotation), count(j.translation), rigid};
+      if (key > best_key) best = &j, best_key = key;
+    }
+    if (!best) break;
+    if (in_tree.count(best->parent)) add(best->child, best->parent, best);
+    else add(best->parent, best->child, best);
+  }
+  for (const Body& b : bodies_)
+    if (!in_tree.count(b.name)) add(b.name, kGround, nullptr);
+  return tree;
+}
+
+}  // namespace multibond::mech
