@@ -1,12 +1,8 @@
 // multibond view DIR: the results page of a folder (written when needed), opened in a browser.
 
 #include <fcntl.h>
-#include <spawn.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 
-#include <cerrno>
-#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -14,12 +10,11 @@
 #include <fmt/format.h>
 
 #include "cli.h"
+#include "multibond/core/process.h"
 #include "multibond/io/output_folder.h"
 #include "multibond/io/plot_web.h"
 #include "multibond/io/plots.h"
 #include "multibond/io/results_folder.h"
-
-extern char** environ;
 
 namespace multibond::cli {
 
@@ -45,19 +40,9 @@ bool NeedsPage(const ViewArgs& a) {
   return false;
 }
 
-/// Runs `xdg-open PATH` (an argument vector, no shell); false when it cannot be run or fails.
-bool OpenInBrowser(const std::string& path) {
-  std::vector<std::string> args = {"xdg-open", path};
-  std::vector<char*> argv;
-  for (std::string& s : args) argv.push_back(s.data());
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  if (posix_spawnp(&pid, "xdg-open", nullptr, nullptr, argv.data(), environ) != 0) return false;
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
-}
+/// Runs `xdg-open PATH` through core/process (an argument vector, no shell, its own process
+/// group, output discarded); false when it cannot be run or fails.
+bool OpenInBrowser(const std::string& path) { return RunProcess({"xdg-open", path}, "", "/dev/null").empty(); }
 
 int View(const ViewArgs& a, const std::vector<std::string>& argv) {
   const std::string page = std::filesystem::absolute(std::filesystem::path(a.dir) / "index.html").lexically_normal().string();
