@@ -1,12 +1,13 @@
 #pragma once
 /// \file
 /// multibond's public C++ API (docs/api.md): load a model, set its parameters, build it, simulate
-/// it in one run or step by step, read the results. Only std types cross it: Eigen, SUNDIALS,
+/// it in one run or step by step, read the results and events, linearise it and find its modes. Only std types cross it: Eigen, SUNDIALS,
 /// yaml-cpp and the rest stay inside libmultibond. Errors are exceptions: ModelError (bad model,
 /// with structured Diagnostics: file, line, column, element, code, message, hint), SolverError
 /// (a failed integration step), std::invalid_argument (bad options or names).
 
 #include <atomic>
+#include <complex>
 #include <cstddef>
 #include <memory>
 #include <optional>
@@ -51,6 +52,14 @@ struct SimulationOptions {
   const std::atomic<bool>* stop = nullptr;  ///< set from another thread to stop a run
 };
 
+/// An event of a run (docs/events.md), as events.csv lists it.
+struct Event {
+  double time = 0.0;
+  std::string kind;     ///< impact, stick, slip, lock, unlock, contact, separation, limit or time
+  std::string element;  ///< the switching element
+  std::string description;
+};
+
 /// The output of a run: columns by name ("time" first, then states, declared outputs, energy).
 class Results {
  public:
@@ -63,6 +72,7 @@ class Results {
     double wall_seconds = 0.0;
     double energy_residual = 0.0;  ///< work - stored - dissipated, relative (0 without energy account)
     std::vector<std::string> warnings;
+    std::vector<Event> events;  ///< in time order
   };
   Results(std::vector<std::string> names, std::vector<std::string> units, std::vector<std::vector<double>> columns, Summary summary);
 
@@ -128,6 +138,44 @@ class Simulation {
 /// model is read, so every value computed from a parameter follows.
 using ParameterValues = std::vector<std::pair<std::string, std::string>>;
 
+/// A dense matrix, row-major.
+struct Matrix {
+  int rows = 0, cols = 0;
+  std::vector<double> data;
+  double operator()(int r, int c) const { return data[static_cast<std::size_t>(r) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(c)]; }
+};
+
+/// A model linearised about an operating point (docs/linear-analysis.md): dz/dt = A z + B u,
+/// y = C z + D u, z the state's coordinates (three angles per orientation; the independent
+/// coordinates when ideal constraints hold), u every source component, y the declared outputs.
+struct LinearModel {
+  double at = 0.0;      ///< the operating point's time [s]
+  bool steady = false;  ///< a steady state found by Newton's method
+  std::vector<std::string> states, state_units, inputs, input_units, outputs, output_units;
+  Matrix A, B, C, D;
+  std::vector<std::string> notes;  ///< what to know about this linearisation
+};
+
+/// A mode of the linear model: a real eigenvalue of A, or a complex pair (docs/linear-analysis.md).
+struct Mode {
+  std::complex<double> eigenvalue;  ///< of a pair, the one with Im > 0
+  double frequency_hz = 0.0;         ///< |lambda| / 2 pi
+  double damped_frequency_hz = 0.0;  ///< |Im lambda| / 2 pi
+  double damping_ratio = 0.0;        ///< -Re lambda / |lambda| (0 for lambda = 0)
+  double time_constant_s = 0.0;      ///< -1 / Re lambda; +inf when Re lambda = 0
+  /// Storage element -> share of the mode's stored energy, largest first (sums to 1; empty when
+  /// the mode stores no energy).
+  std::vector<std::pair<std::string, double>> participation;
+  bool conjugate_pair = false;
+};
+
+/// Where to linearise: the initial state, or the state a run reaches at `at`; then, with
+/// `steady`, the steady state that Newton's method finds from there (the sources held).
+struct OperatingPoint {
+  std::optional<double> at;
+  bool steady = false;
+};
+
 /// A model: loaded from YAML (docs/model-format.md), parameters set, built, simulated.
 class Model {
  public:
@@ -176,6 +224,14 @@ class Model {
   Results Simulate(const SimulationOptions& options = {});
   /// A simulation at t_start, to advance step by step (inertial coordinates). Builds first if needed.
   Simulation Start(const SimulationOptions& options = {});
+
+  /// The linear model about `point` (the run to it takes `options`). Builds first if needed.
+  /// Throws std::invalid_argument for a model that cannot be linearised (a solved algebraic loop)
+  /// or an `at` outside the run, SolverError when the run to the point stops early,
+  /// std::runtime_error when no steady state is found.
+  LinearModel Linearize(const OperatingPoint& point = {}, const SimulationOptions& options = {});
+  /// The modes about `point`, by frequency (the eigenvalues of A; docs/linear-analysis.md).
+  std::vector<Mode> Modes(const OperatingPoint& point = {}, const SimulationOptions& options = {});
 
  private:
   struct Impl;

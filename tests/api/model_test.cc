@@ -1,5 +1,8 @@
 // The public Model: loading, diagnostics, parameters, building and one run, asserted on physics.
 
+#include <algorithm>
+#include <cmath>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -224,6 +227,28 @@ TEST(ApiModel, TheStepLimitBoundsARun) {
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("more than the limit"));
   }
+}
+
+// Dropped from 1 m with restitution 0.8: impacts at t1 = sqrt(2 h0 / g), then every 2 e^k v1 / g.
+TEST(ApiResults, TheEventsOfARunAreItsImpactsInTimeOrder) {
+  Model model = Model::FromFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/events/bouncing_ball.yaml");
+  SimulationOptions o;
+  o.t_end = 2.0;
+  const Results r = model.Simulate(o);
+  ASSERT_TRUE(r.ok()) << r.summary().message;
+  std::vector<double> impacts;
+  for (const Event& e : r.summary().events) {
+    EXPECT_EQ(e.element, "ground");
+    if (e.kind == "impact") impacts.push_back(e.time);
+  }
+  ASSERT_GE(impacts.size(), 3u);
+  const double g = 9.81, v1 = std::sqrt(2 * g * 1.0);
+  double t = std::sqrt(2 * 1.0 / g);
+  for (size_t k = 0; k < 3; ++k) {
+    EXPECT_NEAR(impacts[k], t, 1e-6) << "impact " << k;
+    t += 2 * std::pow(0.8, static_cast<double>(k + 1)) * v1 / g;
+  }
+  EXPECT_TRUE(std::is_sorted(impacts.begin(), impacts.end()));
 }
 
 }  // namespace

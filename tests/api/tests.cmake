@@ -3,3 +3,4 @@
 multibond_test(api/model_test.cc LIBS multibond::api LABELS api)
 multibond_test(api/simulation_test.cc LIBS multibond::api LABELS api)
 multibond_test(api/results_test.cc LIBS multibond::api LABELS api)
+multibond_test(api/linear_test.cc LIBS multibond::api LABELS api)

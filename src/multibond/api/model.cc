@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "multibond/api/lookup.h"
+#include "multibond/api/model_impl.h"
 #include "multibond/api/run_options.h"
 #include "multibond/api/simulation_impl.h"
 #include "multibond/compile/compiled_model.h"
@@ -14,27 +15,6 @@
 
 namespace multibond {
 
-struct Model::Impl {
-  LoadedModel lm;
-  InputLimits limits;
-  BuildOptions build;
-  std::shared_ptr<const CompiledModel> compiled;
-
-  Element& FindElement(std::string_view name) {
-    const int i = lm.graph.Find(std::string(name));
-    if (i < 0) {
-      std::vector<std::string> names;
-      for (const Element& e : lm.graph.elements()) names.push_back(e.name);
-      ThrowUnknownName("element", name, names);
-    }
-    compiled.reset();  // every change unbuilds
-    return lm.graph.element(i);
-  }
-  const CompiledModel& Built() const {
-    if (!compiled) throw std::logic_error("the model is not built: call Build() first");
-    return *compiled;
-  }
-};
 
 namespace {
 
@@ -174,9 +154,11 @@ class ColumnRecorder : public Observer {
   void OnSample(const std::vector<double>& row) override {
     for (size_t c = 0; c < row.size(); ++c) data[c].push_back(row[c]);
   }
+  void OnEvent(const EventRecord& e) override { events.push_back({e.time, e.kind, e.element, e.description}); }
   void OnFinish(const RunSummary&) override {}
   std::vector<std::string> names, units;
   std::vector<std::vector<double>> data;
+  std::vector<Event> events;
 };
 
 Results::Status PublicStatus(RunStatus s) {
@@ -196,7 +178,7 @@ Results Model::Simulate(const SimulationOptions& options) {
   ColumnRecorder recorder;
   const RunSummary s = multibond::Simulate(*impl_->compiled, run, recorder);
   Results::Summary summary{PublicStatus(s.status), s.message, s.t_reached, s.stats.steps, s.stats.rhs_evals, s.wall_seconds,
-                           s.energy_residual, s.warnings};
+                           s.energy_residual, s.warnings, std::move(recorder.events)};
   return Results(std::move(recorder.names), std::move(recorder.units), std::move(recorder.data), std::move(summary));
 }
 
