@@ -4,8 +4,10 @@
 // tooth loads that statics gives for the 10 N m on the side gear S2.
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <numbers>
+#include <random>
 #include <sstream>
 #include <string>
 
@@ -189,6 +191,34 @@ TEST_F(DifferentialPitchTest, PlanetBearingCarriesItsMeshesToothForces) {
     const double thrust = ft * kTan20 * std::sin(kPlanetCone), centripetal = kPlanetMass * kCarrierSpeed * kCarrierSpeed * 0.1;
     EXPECT_NEAR(Mean(*pitch_, P + "_bearing_axial"), -(thrust + centripetal), 2e-3 * (thrust + centripetal)) << P;
     EXPECT_NEAR(Mean(*pitch_, P + "_bearing_normal"), 0.0, 1e-3 * ft) << P;
+  }
+}
+
+// The contact's state-dependent moduli (formulas of B.r and B.R) give the interpreter's bits in
+// the generated code: every state derivative at the initial state and at states nearby.
+TEST(DifferentialPitchEngines, InterpreterAndGeneratedCodeGiveTheSameBits) {
+  const LoadedModel lm = LoadModelFile(ExamplePath("differential_pitch.yaml"));
+  CompileOptions co = lm.compile;
+  co.generate_code = false;
+  const auto interpreter = CompiledModel::Compile(lm.graph, co);
+  co.generate_code = true;
+  const auto generated = CompiledModel::Compile(lm.graph, co);
+  if (!generated->WaitForGeneratedCode()) GTEST_SKIP() << generated->rhs_engine();
+  ASSERT_TRUE(generated->generated_code_ready()) << generated->rhs_engine();
+  Workspace wi = interpreter->MakeWorkspace(), wg = generated->MakeWorkspace();
+  const Eigen::VectorXd x0 = interpreter->MakeInitialState();
+  const int n = static_cast<int>(x0.size());
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 4; ++trial) {
+    Eigen::VectorXd x = x0, di(n), dg(n);
+    if (trial > 0)
+      for (int i = 0; i < n; ++i) x[i] += std::ldexp(u(rng), -4 * (4 - trial)) * (1.0 + std::abs(x[i]));
+    interpreter->CalcDerivatives(1.5, x.data(), di.data(), wi);
+    generated->CalcDerivatives(1.5, x.data(), dg.data(), wg);
+    int differ = 0;
+    for (int i = 0; i < n; ++i) differ += std::memcmp(&di[i], &dg[i], sizeof(double)) != 0;
+    EXPECT_EQ(differ, 0) << "trial " << trial;
   }
 }
 
