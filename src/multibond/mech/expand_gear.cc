@@ -60,20 +60,116 @@ void Expander::AddPitchVelocities(const std::string& sum, const GearMesh& gm, co
   if (FindBody(gm.body_b)->mass.has_rotation()) AddContactLever(gm.name + ".b_arm" + tag, gm.body_b, gm.carrier, geo.rho_b, -1.0, sum);
 }
 
+namespace {
+
+/// Component `row` (0-2) of R v as a formula of the orientation state `body`.R, v constant.
+std::string Turned(const std::string& body, const Eigen::Vector3d& v, int row) {
+  std::string out;
+  for (int m = 0; m < 3; ++m)
+    if (v[m] != 0.0) out += fmt::format("{}{:.17g}*{}.R.{}{}", out.empty() ? "" : " + ", v[m], body, row + 1, m + 1);
+  return fmt::format("({})", out.empty() ? std::string("0") : out);
+}
+
+}  // namespace
+
+void Expander::AddPitchTransport(const std::string& sum, const GearMesh& gm, const MeshGeometry& geo) {
+  // D = (r_a - r_b) - R_c (c_a - c_b): how far the gears' actual centres are from their places in
+  // the carrier (c_a - c_b = rho_b - rho_a), in the inertial frame.
+  const Eigen::Vector3d nominal = geo.rho_b - geo.rho_a;
+  std::string d[3];
+  for (int k = 0; k < 3; ++k) {
+    const char axis = "xyz"[k];
+    d[k] = fmt::format("({}.r.{} - {}.r.{} - {})", gm.body_a, axis, gm.body_b, axis, Turned(gm.carrier, nominal, k));
+  }
+  // M w_c = D x w_c = -w_c x D: what the carrier's rotation adds to v_a - v_b at the pitch point
+  // beyond the nominal arms' share (M = [D x], a skew matrix of formulas of the states).
+  Modulus m;
+  m.kind = Modulus::Kind::kConstant;
+  m.constant = Eigen::MatrixXd::Zero(3, 3);
+  m.entries.resize(9);
+  for (int i = 0; i < 3; ++i) {
+    const int j = (i + 1) % 3, k = (i + 2) % 3;  // [D x]_ik = D_j, [D x]_ij = -D_k
+    m.entries[static_cast<size_t>(3 * i + k)] = LawOf(d[j], gm.where);
+    m.entries[static_cast<size_t>(3 * i + j)] = LawOf("-" + d[k], gm.where);
+  }
+  const std::string name = gm.name + ".transport";
+  Element mtf = Make(name, ElementKind::kMTF, 0, "", gm.where);
+  mtf.modulus = m;
+  g_.Add(mtf);
+  Bond(gm.carrier + ".omega", name, name + ".w");
+  Bond(name, sum, name + ".v");
+  info_[gm.carrier].moment_terms.push_back({name + ".w.e", -1.0});
+}
+
+void Expander::AddPitchTilt(const std::string& rate, const GearMesh& gm, const MeshGeometry& geo) {
+  const Eigen::Matrix3d& carrier = FindBody(gm.carrier)->orientation;  // a body: AddPitchGear checked
+  const struct {
+    const std::string& body;
+    Eigen::Vector3d rho, axis;
+    double sign;
+    const char* tag;
+  } sides[] = {{gm.body_a, geo.rho_a, gm.axis_a.normalized(), 1.0, "a"},
+               {gm.body_b, geo.rho_b, gm.rack_b ? Eigen::Vector3d::Zero() : Eigen::Vector3d(gm.axis_b.normalized()), -1.0, "b"}};
+  for (const auto& side : sides) {
+    const Body* gear = FindBody(side.body);
+    if (!gear->mass.has_rotation() || side.axis.isZero()) continue;
+    // The arm's moment per unit normal force, c = rho x n (carrier frame), off the gear's axis.
+    const Eigen::Vector3d c = side.rho.cross(geo.n);
+    const Eigen::Vector3d tilt = c - side.axis * side.axis.dot(c);
+    if (tilt.norm() <= 1e-12 * c.norm()) continue;  // spur and internal gears: the arm is about the axis
+    // The gear's spin about its own axis a' = R_g a_g relative to the carrier, s = a' . (w_g - w_c),
+    // times -(tilt_w . a'): what the arm fixed in the carrier takes for a tilting rate of a gear
+    // that spins about a tilted axis (tilt_w = R_c tilt).
+    const Eigen::Vector3d own = gear->orientation.transpose() * carrier * side.axis;  // a_g, in the gear's frame
+    const std::string spin = gm.name + "." + side.tag + "_spin", factor = gm.name + "." + side.tag + "_tilt";
+    Modulus axial;
+    axial.kind = Modulus::Kind::kRotation;
+    axial.rotation = side.body + ".R";
+    axial.transpose = true;
+    axial.left = own.transpose();
+    Element e = Make(spin, ElementKind::kMTF, 0, "", gm.where);
+    e.modulus = axial;
+    g_.Add(e);
+    std::string dot;
+    for (int k = 0; k < 3; ++k) dot += fmt::format("{}{}*{}", k ? " + " : "", Turned(gm.carrier, tilt, k), Turned(side.body, own, k));
+    Modulus m;
+    m.kind = Modulus::Kind::kConstant;
+    m.constant = Eigen::MatrixXd::Zero(1, 1);
+    m.entries = {LawOf(fmt::format("{:.17g}*({})", -side.sign, dot), gm.where)};
+    Element f = Make(factor, ElementKind::kMTF, 0, "", gm.where);
+    f.modulus = m;
+    g_.Add(f);
+    Bond(RelativeOmega(side.body, gm.carrier), spin, spin + ".w");
+    Bond(spin, factor, spin + ".s");
+    Bond(factor, rate, factor + ".v");
+  }
+}
+
 void Expander::AddPitchGear(const GearMesh& gm) {
   const MeshGeometry& geo = geometry_.at(gm.name);
   const std::string vp = gm.name + ".vp", line = gm.name + ".line";
   AddPitchVelocities(vp, gm, geo, "");
   AddFrameElement(line, Coupling::Frame::kParent, gm.carrier, gm.carrier, geo.n.transpose(), gm.where);
   Bond(vp, line, line);
+  // On a turning carrier the gears' actual centres and axes enter the contact's rate (docs/design.md,
+  // "Gear meshes through the contact"); ideal constraints take no formulas yet (HasIdealConstraints),
+  // so such a model keeps the arms fixed in the carrier.
+  std::string rate = line;
+  if (!IsGround(gm.carrier) && !HasIdealConstraints()) {
+    AddPitchTransport(vp, gm, geo);
+    rate = gm.name + ".rate";
+    g_.AddJunction(rate, ElementKind::kZero, 1);
+    Bond(line, rate, rate + ".line");
+    AddPitchTilt(rate, gm, geo);
+  }
   const double tangential = std::cos(gm.helix_angle) * std::cos(gm.pressure_angle);  // F_t per unit F_n
   const double arm = geo.r_a * tangential;  // torque on a per unit normal force
   const double k = gm.stiffness / (arm * arm), r = gm.damping / (arm * arm);
   const std::string mesh = gm.name + ".mesh";
   if (gm.backlash > 0.0 && gm.rigid) {
-    AddBacklashContacts(line, gm, arm, "translation");
+    AddBacklashContacts(rate, gm, arm, "translation");
   } else {
-    AddCompliance(line, mesh, Eigen::VectorXd::Constant(1, k), Eigen::VectorXd::Constant(1, r), "translation", {}, gm.where, gm.rigid);
+    AddCompliance(rate, mesh, Eigen::VectorXd::Constant(1, k), Eigen::VectorXd::Constant(1, r), "translation", {}, gm.where, gm.rigid);
     if (gm.backlash > 0.0) {
       Element& spring = g_.element(g_.Find(mesh + ".K"));
       const double h = gm.backlash / 2 * arm;

@@ -141,6 +141,17 @@ class Expander {
   /// effort is the force on b (on a its opposite).
   void AddPitchVelocities(const std::string& sum, const GearMesh& gm, const MeshGeometry& geo, const std::string& tag);
 
+  /// The carrier's share of the pitch-point velocity that the arms fixed in it miss: w_c x D with
+  /// D how far the gears' actual centres are from their places in the carrier (docs/design.md,
+  /// "Gear meshes through the contact"), an MTF from the carrier's angular velocity into `sum`.
+  void AddPitchTransport(const std::string& sum, const GearMesh& gm, const MeshGeometry& geo);
+
+  /// For each gear whose arm c = rho x n has a part off its axis (bevel and helical gears): its
+  /// spin about its own axis a' relative to the carrier times -(R_c c_off . a'), into the scalar
+  /// 0-junction `rate`: the rate the fixed arm reads from a gear spinning about a tilted axis,
+  /// taken out (docs/design.md, "Gear meshes through the contact").
+  void AddPitchTilt(const std::string& rate, const GearMesh& gm, const MeshGeometry& geo);
+
   /// A mesh through its pitch point (docs/mechanisms.md, "Tooth forces"): the coupling on
   /// n . (v_pitch,a - v_pitch,b), n the line of action, with the stiffness and damping referred
   /// to it (K / (r_a cos(helix) cos(pressure))^2); its effort is the normal force on b.
