@@ -11,6 +11,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "support/cli_runner.h"
+#include "support/temp_dir.h"
 #include "support/example_runner.h"
 
 #include "multibond/core/error.h"
@@ -197,6 +199,49 @@ TEST(AssemblyFourBar, TheFreeRunFromTheAssembledStateKeepsItsEnergyAndStartsUnde
   EXPECT_GT(rec.rows().front()[rec.Index("energy.kinetic")], 0.0);
 }
 
+TEST(AssemblySliderCrank, ThePistonSpeedGivenGivesTheCrankRate) {
+  // A prismatic joint's speed instead of the motor's: the crank turns at v / (dx/dtheta).
+  const double deg = 50.0, v = -0.8, theta = deg * pi / 180;
+  std::string text = Text(ExamplePath("mechanisms/slider_crank.yaml"));
+  text = Replaced(text, "rigid: true, value: omega", "K: 1000, R: 5, value: omega");  // a compliant motor gives no speed
+  text = Replaced(text, "crank_pivot: {degrees: theta0}", "crank_pivot: {degrees: theta0}\n    cylinder: {speed: -0.8}");
+  const LoadedModel lm = SliderCrank(deg, 10.0, text);
+  EXPECT_NEAR(BodyOf(lm, "piston").velocity.x(), v, 1e-12);
+  EXPECT_NEAR(BodyOf(lm, "crank").omega.z(), v / PistonDxDtheta(theta), 1e-10);
+  EXPECT_NEAR(BodyOf(lm, "piston").position.x(), PistonX(theta), 1e-10);
+}
+
+// --- gear meshes: the velocity level rolls ---------------------------------------------------------
+
+TEST(AssemblyGears, AGivenBearingRateTurnsTheMeshingGearAtTheTeethRatio) {
+  // A spin mesh (20 and 50 teeth, external: both axes z): rolling is 20 s_a + 50 s_b = 0.
+  const char* text = R"(
+model: gears
+bodies:
+  pinion: {shape: {disc: {diameter: 0.1, thickness: 0.02, axis: z}}, density: 7800}
+  wheel:  {shape: {disc: {diameter: 0.25, thickness: 0.02, axis: z}}, density: 7800, position: [0.175, 0, 0]}
+joints:
+  pinion_bearing: {type: revolute, child: pinion, axis: z, rigid: true}
+  wheel_bearing:  {type: revolute, child: wheel, axis: z, rigid: true}
+gears:
+  mesh: {a: {body: pinion, axis: z, teeth: 20}, b: {body: wheel, axis: z, teeth: 50}, K: 1.0e4, R: 1}
+assembly:
+  given:
+    pinion_bearing: {rate: 10}
+)";
+  const LoadedModel lm = LoadModelString(text, "gears.yaml");
+  EXPECT_NEAR(BodyOf(lm, "pinion").omega.z(), 10.0, 1e-12);
+  EXPECT_NEAR(BodyOf(lm, "wheel").omega.z(), -4.0, 1e-12);
+  EXPECT_NEAR(BodyOf(lm, "wheel").velocity.norm(), 0.0, 1e-12);
+  // Through the pitch point (examples/gears/spur_pair.yaml, 20 and 40 teeth): the pitch points'
+  // velocities along the line of action agree, with no slip (no mech.gear_slip).
+  const std::string spur = Replaced(Text(ExamplePath("gears/spur_pair.yaml")), "\nsimulation:",
+                                    "\nassembly:\n  given:\n    pinion_bearing: {rate: 10}\nsimulation:");
+  const LoadedModel sp = LoadModelString(spur, "spur_pair.yaml");
+  EXPECT_NEAR(BodyOf(sp, "wheel").omega.z(), -5.0, 1e-12);
+  EXPECT_EQ(Find(sp.warnings, "mech.gear_slip"), nullptr);
+}
+
 // --- left alone, refused ----------------------------------------------------------------------
 
 TEST(Assembly, AnAssembledMechanismIsLeftAsItIs) {
@@ -280,6 +325,23 @@ TEST(Assembly, UnknownNamesAndKeysGetDidYouMean) {
   const std::vector<Diagnostic> kinds = ErrorsOf(Replaced(text, "crank_pivot: {degrees: theta0}", "gas: {speed: 1}"));
   ASSERT_NE(Find(kinds, "mech.assembly"), nullptr);
   EXPECT_THAT(Find(kinds, "mech.assembly")->message, HasSubstr("no speed to give"));
+}
+
+TEST(AssemblyCli, CheckAndRunSayWhatMovedAndCheckRefusesWhatCannotClose) {
+  const testing::CliResult ok = testing::RunProgram({MULTIBOND_CLI, "check", ExamplePath("mechanisms/four_bar.yaml")});
+  EXPECT_EQ(ok.code, 0) << ok.out;
+  EXPECT_THAT(ok.out, HasSubstr("four_bar.yaml:28:1: warning: assembly: assembled in "));
+  EXPECT_THAT(ok.out, HasSubstr("\n  rocker: moved "));
+  EXPECT_THAT(ok.out, ::testing::Not(HasSubstr("apart at t = 0")));
+  const testing::TempDir dir;
+  const testing::CliResult run =
+      testing::RunProgram({MULTIBOND_CLI, "run", ExamplePath("mechanisms/slider_crank.yaml"), "-o", (dir.path() / "out").string(), "--t-end", "0.02"});
+  EXPECT_EQ(run.code, 0) << run.out;
+  EXPECT_THAT(run.out, HasSubstr("warning: assembly: assembled in "));
+  const testing::CliResult bad = testing::RunProgram({MULTIBOND_CLI, "check", MULTIBOND_SOURCE_DIR "/tests/models/bad/assembly_crank_too_long.yaml"});
+  EXPECT_EQ(bad.code, 1) << bad.out;
+  EXPECT_THAT(bad.out, HasSubstr("error: "));
+  EXPECT_THAT(bad.out, HasSubstr("no assembly satisfies the joints at the given coordinates"));
 }
 
 }  // namespace
