@@ -242,6 +242,24 @@ assembly:
   EXPECT_EQ(Find(sp.warnings, "mech.gear_slip"), nullptr);
 }
 
+TEST(AssemblyGears, APlanetarySetFromTheSunsRateFollowsWillis) {
+  // examples/gears/planetary.yaml (sun 20, planets 25, ring 70 teeth, fixed; planets at 0.09 m),
+  // meshes through the pitch point: omega_c = omega_s Zs / (Zs + Zr), the planets turn at
+  // omega_c - (Zs / Zp)(omega_s - omega_c) and their centres move at omega_c x 0.09 m.
+  const std::string text = Text(ExamplePath("gears/planetary.yaml")) + "assembly: {given: {sun_bearing: {rate: 10}}}\n";
+  const LoadedModel lm = LoadModelString(text, "planetary.yaml");
+  const double ws = 10.0, wc = ws * 20.0 / 90.0, wp = wc - 20.0 / 25.0 * (ws - wc);
+  EXPECT_NEAR(BodyOf(lm, "carrier").omega.z(), wc, 1e-12);
+  EXPECT_NEAR(BodyOf(lm, "ring").omega.norm(), 0.0, 1e-12);
+  for (const char* p : {"planet1", "planet2", "planet3"}) {
+    const mech::Body& b = BodyOf(lm, p);
+    EXPECT_NEAR(b.omega.z(), wp, 1e-12) << p;
+    EXPECT_NEAR((b.velocity - Eigen::Vector3d::UnitZ().cross(b.position) * wc).norm(), 0.0, 1e-12) << p;
+  }
+  EXPECT_NEAR(wp, -4.0, 1e-12);
+  EXPECT_EQ(Find(lm.warnings, "mech.gear_slip"), nullptr);
+}
+
 // --- left alone, refused ----------------------------------------------------------------------
 
 TEST(Assembly, AnAssembledMechanismIsLeftAsItIs) {
