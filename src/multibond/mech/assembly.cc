@@ -48,13 +48,17 @@ struct Rows {
   std::vector<double> joint, given;
   std::vector<Label>* joint_labels = nullptr;  ///< filled when not null (once: the rows do not depend on the pose)
   std::vector<Label>* given_labels = nullptr;
-  void Joint(double v, const Label& l) {
+  /// A row; `label()` makes its Label, called only when the labels are asked for (the difference
+  /// quotients evaluate the rows many times).
+  template <class F>
+  void Joint(double v, F&& label) {
     joint.push_back(v);
-    if (joint_labels) joint_labels->push_back(l);
+    if (joint_labels) joint_labels->push_back(label());
   }
-  void Given(double v, const Label& l) {
+  template <class F>
+  void Given(double v, F&& label) {
     given.push_back(v);
-    if (given_labels) given_labels->push_back(l);
+    if (given_labels) given_labels->push_back(label());
   }
 };
 
@@ -122,16 +126,16 @@ class Assembler {
         const Eigen::Vector3d g = Point(p, ci, j.child_point) - Point(p, pi, j.parent_point);
         const Eigen::VectorXd v = j.translation->directions * (Frame(p, j.translation->frame, pi, ci).transpose() * g);
         for (Eigen::Index k = 0; k < v.size(); ++k)
-          rows.Joint(v[k], {fmt::format("joint '{}' (translation{})", j.name, Component(*j.translation, k)), "m", j.where, j.name});
+          rows.Joint(v[k], [&] { return Label{fmt::format("joint '{}' (translation{})", j.name, Component(*j.translation, k)), "m", j.where, j.name}; });
       }
       if (j.rotation) {
         const Eigen::VectorXd v = j.rotation->directions * RelativeRotation(p, j.rotation->frame, pi, ci);
         for (Eigen::Index k = 0; k < v.size(); ++k)
-          rows.Joint(v[k], {fmt::format("joint '{}' (rotation{})", j.name, Component(*j.rotation, k)), "rad", j.where, j.name});
+          rows.Joint(v[k], [&] { return Label{fmt::format("joint '{}' (rotation{})", j.name, Component(*j.rotation, k)), "rad", j.where, j.name}; });
       }
     }
     for (const Given& g : spec_.given) {
-      const Label l{Describe(g), Unit(g), g.where, g.part};
+      const auto l = [&] { return Label{Describe(g), Unit(g), g.where, g.part}; };
       switch (g.kind) {
         case Given::Kind::kJointAngle: {
           const Joint& j = *joints_.at(g.part);
@@ -171,20 +175,22 @@ class Assembler {
         const Eigen::Vector3d dv = PointVelocity(p, u, ci, j.child_point) - PointVelocity(p, u, pi, j.parent_point);
         const Eigen::VectorXd v = j.translation->directions * (Frame(p, j.translation->frame, pi, ci).transpose() * dv);
         for (Eigen::Index k = 0; k < v.size(); ++k)
-          rows.Joint(v[k], {fmt::format("joint '{}' (translation{} rate)", j.name, Component(*j.translation, k)), "m/s", j.where, j.name});
+          rows.Joint(v[k], [&] { return Label{fmt::format("joint '{}' (translation{} rate)", j.name, Component(*j.translation, k)), "m/s", j.where, j.name}; });
       }
       if (j.rotation) {
         const Eigen::Vector3d dw = Omega(u, ci) - Omega(u, pi);
         const Eigen::VectorXd v = j.rotation->directions * (Frame(p, j.rotation->frame, pi, ci).transpose() * dw);
         for (Eigen::Index k = 0; k < v.size(); ++k)
-          rows.Joint(v[k], {fmt::format("joint '{}' (rotation{} rate)", j.name, Component(*j.rotation, k)), "rad/s", j.where, j.name});
+          rows.Joint(v[k], [&] { return Label{fmt::format("joint '{}' (rotation{} rate)", j.name, Component(*j.rotation, k)), "rad/s", j.where, j.name}; });
       }
     }
     for (const GearMesh& gm : m_.gears()) {
       const int c = Index(gm.carrier), a = Index(gm.body_a), b = Index(gm.body_b);
       if (c == kUnknownIndex || a < 0 || b < 0) continue;
       const Eigen::Matrix3d rc = Rotation(p, c);
-      const Label l{fmt::format("gear mesh '{}' (rolling)", gm.name), gm.contact == GearMesh::Contact::kPitch ? "m/s" : "rad/s", gm.where, gm.name};
+      const auto l = [&] {
+        return Label{fmt::format("gear mesh '{}' (rolling)", gm.name), gm.contact == GearMesh::Contact::kPitch ? "m/s" : "rad/s", gm.where, gm.name};
+      };
       if (gm.contact == GearMesh::Contact::kPitch) {
         // The coupling's own rate: the pitch points' relative velocity along the line of action.
         if (!geometry_.count(gm.name)) continue;
@@ -199,7 +205,7 @@ class Assembler {
       }
     }
     for (const Given& g : spec_.given) {
-      const Label l{Describe(g), Unit(g), g.where, g.part};
+      const auto l = [&] { return Label{Describe(g), Unit(g), g.where, g.part}; };
       switch (g.kind) {
         case Given::Kind::kJointRate: {
           const Joint& j = *joints_.at(g.part);
