@@ -260,6 +260,60 @@ TEST(AssemblyGears, APlanetarySetFromTheSunsRateFollowsWillis) {
   EXPECT_EQ(Find(lm.warnings, "mech.gear_slip"), nullptr);
 }
 
+TEST(Assembly, ARotationCouplingHoldsTheDrawnRelativeRotationInEachFrame) {
+  // A child welded by a rotation coupling of all three directions to a parent that a given turns:
+  // the child turns with it, R_c = (R_p R_p0^T) R_c0, whichever frame the coupling is written in;
+  // and with the coupling on two directions only, the relative turn left is about the third.
+  const Eigen::Matrix3d rp0 = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d rc0 = Eigen::AngleAxisd(-0.7, Eigen::Vector3d(2, -1, 0.5).normalized()).toRotationMatrix();
+  const Eigen::Matrix3d turn = Eigen::AngleAxisd(0.9, Eigen::Vector3d(-1, 1, 2).normalized()).toRotationMatrix();
+  for (const mech::Coupling::Frame frame : {mech::Coupling::Frame::kWorld, mech::Coupling::Frame::kParent, mech::Coupling::Frame::kChild}) {
+    for (const int directions : {3, 2}) {
+      mech::Mechanism m;
+      mech::Body p, c;
+      p.name = "P";
+      p.mass = mech::MassProperties::Given(1.0, Eigen::Matrix3d::Identity());
+      p.orientation = rp0;
+      c = p;
+      c.name = "C";
+      c.orientation = rc0;
+      c.position = Eigen::Vector3d(0.5, 0.2, -0.1);
+      m.AddBody(p);
+      m.AddBody(c);
+      mech::Joint j;
+      j.name = "weld";
+      j.parent = "P";
+      j.child = "C";
+      mech::Coupling rot;
+      rot.frame = frame;
+      rot.directions = Eigen::MatrixXd::Identity(3, 3).topRows(directions);
+      j.rotation = rot;
+      m.AddJoint(j);
+      mech::AssemblySpec spec;
+      mech::AssemblySpec::Given g;
+      g.kind = mech::AssemblySpec::Given::Kind::kBodyOrientation;
+      g.part = "P";
+      g.matrix = turn * rp0;
+      spec.given.push_back(g);
+      DiagnosticSink sink;
+      ASSERT_TRUE(mech::Assemble(m, spec, sink).ok) << static_cast<int>(frame) << " " << directions;
+      const Eigen::Matrix3d rp = m.bodies()[0].orientation, rc = m.bodies()[1].orientation;
+      EXPECT_LE((rp - turn * rp0).norm(), 1e-12);
+      // The relative rotation since the drawing, in the coupling's frame.
+      const Eigen::Matrix3d rel = frame == mech::Coupling::Frame::kWorld    ? Eigen::Matrix3d(rc * rc0.transpose() * rp0 * rp.transpose())
+                                  : frame == mech::Coupling::Frame::kParent ? Eigen::Matrix3d(rp.transpose() * rc * rc0.transpose() * rp0)
+                                                                            : Eigen::Matrix3d(rc0.transpose() * rp0 * rp.transpose() * rc);
+      const Eigen::AngleAxisd aa(rel);
+      const Eigen::Vector3d v = aa.angle() * aa.axis();
+      if (directions == 3) {
+        EXPECT_LE((rc - turn * rc0).norm(), 1e-12) << static_cast<int>(frame);
+      } else {
+        EXPECT_LE(v.head<2>().norm(), 1e-12) << static_cast<int>(frame);
+      }
+    }
+  }
+}
+
 // --- left alone, refused ----------------------------------------------------------------------
 
 TEST(Assembly, AnAssembledMechanismIsLeftAsItIs) {
