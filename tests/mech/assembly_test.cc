@@ -195,7 +195,15 @@ TEST(AssemblyFourBar, TheFreeRunFromTheAssembledStateKeepsItsEnergyAndStartsUnde
   EXPECT_LT(MaxEnergyResidual(rec), 1e-6);
   // The couplings start undeflected and with no deflection rate: at t = 0 they hold no energy.
   for (const char* j : {"A", "B", "C", "D"}) EXPECT_EQ(rec.rows().front()[rec.Index(std::string(j) + ".t.K.q.x")], 0.0) << j;
-  // The kinetic energy at t = 0 is the assembled one, the crank's J omega^2 / 2 and the others'.
+  // With velocities that close the loop, the joints only carry the links' inertia loads: they stay
+  // within 1e-7 m over the run (measured 1.6e-8 m; K = 1e8 N/m).
+  double deflection = 0.0;
+  for (const char* j : {"A", "B", "C", "D"})
+    for (const char* c : {"x", "y", "z"}) {
+      const int k = rec.Index(fmt::format("{}.t.K.q.{}", j, c));
+      for (const auto& row : rec.rows()) deflection = std::max(deflection, std::abs(row[k]));
+    }
+  EXPECT_LT(deflection, 1e-7);
   EXPECT_GT(rec.rows().front()[rec.Index("energy.kinetic")], 0.0);
 }
 
