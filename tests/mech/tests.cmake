@@ -2,3 +2,4 @@ multibond_test(mech/mechanism_test.cc LIBS multibond::sim multibond::mech LABELS
 multibond_test(mech/docs_mechanisms_test.cc LIBS multibond::io LABELS physics)
 multibond_test(mech/gear_contact_test.cc LIBS multibond::io LABELS physics)
 multibond_test(mech/differential_pitch_test.cc LIBS multibond::io LABELS physics)
+multibond_test(mech/assembly_test.cc LIBS multibond::io LABELS physics)

@@ -90,6 +90,9 @@ enum class Outcome {
   X(kMechGearGeometry, "mech.gear_geometry", kModelError,                                                                     \
     "a gear mesh through its pitch point whose axes, radii and teeth do not roll together (a wrong axis sign, radii not in the ratio of the teeth, axes that do not meet)") \
   X(kMechGearSlip, "mech.gear_slip", kWarning, "a gear mesh whose teeth slip at the pitch point at t = 0 (initial speeds that do not roll)") \
+  X(kMechAssembly, "mech.assembly", kModelError,                                                                             \
+    "no assembly: the joints cannot all be closed at the given coordinates, or the given coordinates or speeds contradict each other") \
+  X(kMechAssembled, "mech.assembled", kWarning, "what the assembly moved: per body the displacement, the turn and the change of velocity") \
   X(kOutputUnknownVariable, "output.unknown_variable", kModelError, "an output naming no variable (reported by run)")         \
   X(kOutputSize, "output.size", kModelError, "an output whose terms or point do not have the sizes it needs")                \
   X(kOutputDuplicate, "output.duplicate", kModelError, "two output columns of one name")                                     \

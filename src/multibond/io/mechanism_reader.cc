@@ -14,6 +14,7 @@
 #include "multibond/core/identifier.h"
 #include "multibond/io/diagnostic_codes.h"
 #include "multibond/io/did_you_mean.h"
+#include "multibond/mech/assembly.h"
 
 namespace multibond {
 
@@ -22,6 +23,99 @@ namespace {
 /// A drive's value that is text but no number: a formula (a number, YAML's .nan and .inf, and a
 /// mapping such as {step: 50} are time functions).
 bool IsFormulaText(const YAML::Node& n) { return n.IsScalar() && !n.Scalar().empty() && !ValueReader::IsPlainValue(n); }
+
+/// The 'assembly' section (docs/mechanisms.md, "Assembly"): `given` (joint angles, slides and
+/// their rates, bodies' positions, orientations and velocities, velocity drives' speeds, each
+/// held exactly) and `tolerance`.
+std::optional<mech::AssemblySpec> ReadAssembly(MechanismValues& v, DiagnosticSink& sink, const YAML::Node& root, const mech::Mechanism& m) {
+  const std::string element = "assembly";
+  const YAML::Node a = root[element];
+  mech::AssemblySpec spec;
+  spec.where = v.Loc(a);
+  for (const auto& kv : root)
+    if (kv.first.Scalar() == element) spec.where = v.Loc(kv.first);  // the key, where a report about the whole belongs
+  if (!a.IsMap()) {
+    sink.Error(codes::kYamlStructure, v.Loc(a), element, "'assembly' is a mapping: {given: {...}, tolerance: ...}",
+               "e.g. assembly: {given: {crank_pivot: {degrees: 30, rate: 10}}}");
+    return std::nullopt;
+  }
+  v.CheckKeys(a, {"given", "tolerance", "description"}, element);
+  if (const YAML::Node t = a["tolerance"]) {
+    spec.tolerance = v.Number(t, element, Env{});
+    if (!(spec.tolerance > 0.0 && spec.tolerance < 1.0))
+      sink.Error(codes::kParamRange, v.Loc(t), element, fmt::format("the assembly's tolerance must be in (0, 1) (got {:g})", spec.tolerance),
+                 "the largest violation of a joint accepted, in m or rad: 1e-10 by default");
+  }
+  const YAML::Node given = a["given"];
+  if (!given) return spec;
+  if (!given.IsMap()) {
+    sink.Error(codes::kYamlStructure, v.Loc(given), element, "'given' maps joints, bodies and drives to their coordinates",
+               "e.g. given: {crank_pivot: {degrees: 30, rate: 10}, piston: {velocity: [0, 0, 0]}}");
+    return std::nullopt;
+  }
+  std::map<std::string, const mech::Joint*> joints;
+  std::map<std::string, const mech::Body*> bodies;
+  std::map<std::string, const mech::Drive*> drives;
+  std::vector<std::string> names;
+  for (const auto& j : m.joints()) joints[j.name] = &j, names.push_back(j.name);
+  for (const auto& b : m.bodies()) bodies[b.name] = &b, names.push_back(b.name);
+  for (const auto& d : m.drives()) drives[d.name] = &d, names.push_back(d.name);
+  using Kind = mech::AssemblySpec::Given::Kind;
+  for (const auto& kv : given) {
+    const std::string name = kv.first.Scalar();
+    const YAML::Node g = kv.second;
+    auto add = [&](Kind kind, const char* key) -> mech::AssemblySpec::Given& {
+      mech::AssemblySpec::Given x;
+      x.kind = kind;
+      x.part = name;
+      x.where = v.Loc(g[key]);
+      spec.given.push_back(x);
+      return spec.given.back();
+    };
+    if (!g.IsMap()) {
+      sink.Error(codes::kYamlStructure, v.Loc(g), name, fmt::format("what is given of '{}' is a mapping", name),
+                 "e.g. crank_pivot: {degrees: 30, rate: 10}, or piston: {position: [0.4, 0, 0]}");
+      continue;
+    }
+    if (const auto j = joints.find(name); j != joints.end()) {
+      const std::string& kind = j->second->kind;
+      if (kind == "revolute") {
+        v.CheckKeys(g, {"angle", "degrees", "rate"}, name);
+        if (g["angle"] && g["degrees"]) sink.Error(v.Loc(g["degrees"]), name, "give the angle once: 'angle' (rad) or 'degrees'");
+        if (g["angle"]) add(Kind::kJointAngle, "angle").value = v.Number(g["angle"], name, Env{});
+        else if (g["degrees"]) add(Kind::kJointAngle, "degrees").value = v.Number(g["degrees"], name, Env{}) * std::numbers::pi / 180.0;
+        if (g["rate"]) add(Kind::kJointRate, "rate").value = v.Number(g["rate"], name, Env{});
+      } else if (kind == "prismatic") {
+        v.CheckKeys(g, {"slide", "speed"}, name);
+        if (g["slide"]) add(Kind::kJointSlide, "slide").value = v.Number(g["slide"], name, Env{});
+        if (g["speed"]) add(Kind::kJointSpeed, "speed").value = v.Number(g["speed"], name, Env{});
+      } else {
+        sink.Error(codes::kMechAssembly, v.Loc(kv.first), name,
+                   fmt::format("joint '{}' is a {} joint: only revolute and prismatic joints have a coordinate to give", name, kind),
+                   "give the bodies' positions, orientations or velocities instead");
+      }
+    } else if (bodies.count(name)) {
+      v.CheckKeys(g, {"position", "orientation", "velocity", "omega"}, name);
+      if (g["position"]) add(Kind::kBodyPosition, "position").vector = v.Vec3(g["position"], name);
+      if (g["orientation"]) add(Kind::kBodyOrientation, "orientation").matrix = v.Orientation(g["orientation"], name);
+      if (g["velocity"]) add(Kind::kBodyVelocity, "velocity").vector = v.Vec3(g["velocity"], name);
+      if (g["omega"]) add(Kind::kBodyOmega, "omega").vector = v.Vec3(g["omega"], name);
+    } else if (const auto d = drives.find(name); d != drives.end()) {
+      v.CheckKeys(g, {"speed"}, name);
+      const bool velocity = d->second->kind == mech::Drive::Kind::kAngularVelocity || d->second->kind == mech::Drive::Kind::kVelocity;
+      if (!velocity)
+        sink.Error(codes::kMechAssembly, v.Loc(kv.first), name, fmt::format("drive '{}' applies a torque or force: it has no speed to give", name),
+                   "give the speed of the joint or body it drives");
+      else if (g["speed"])
+        add(Kind::kDriveSpeed, "speed").value = v.Number(g["speed"], name, Env{});
+    } else {
+      const std::string guess = DidYouMean(name, names);
+      sink.Error(codes::kMechReference, v.Loc(kv.first), name, fmt::format("'{}' is no joint, body or drive of the mechanism", name),
+                 guess.empty() ? "name a revolute or prismatic joint, a body or a velocity drive" : fmt::format("did you mean '{}'?", guess));
+    }
+  }
+  return spec;
+}
 
 }  // namespace
 
@@ -42,6 +136,12 @@ std::shared_ptr<const mech::Mechanism> MechanismReader::ReadMechanism(const YAML
   CheckPartNames(m, rigid_);
   CheckPartNames(m, sensors_);
   if (sink_.has_errors()) return nullptr;
+  if (root["assembly"]) {
+    // Assembly (docs/mechanisms.md, "Assembly"): the bodies' state at t = 0 made consistent with
+    // the joints before the expansion takes it; on an error the bodies stay as written.
+    if (const std::optional<mech::AssemblySpec> spec = ReadAssembly(*this, sink_, root, m); spec && !sink_.has_errors())
+      mech::Assemble(m, *spec, sink_);
+  }
   m.ExpandInto(graph_, sink_);
   return std::make_shared<mech::Mechanism>(std::move(m));
 }

@@ -33,7 +33,7 @@ namespace {
 
 const std::vector<std::string> kTopKeys = {"model", "description", "domain", "elements", "bonds", "states", "outputs",
                                            "simulation", "submodels", "gravity", "bodies", "joints", "gears", "drives", "points",
-                                           "constraints", "rigid", "sensors", "algebraic_loops", "parameters", "signals"};
+                                           "constraints", "rigid", "sensors", "algebraic_loops", "parameters", "signals", "assembly"};
 
 LoadedModel Load(LoadContext& cx, const YAML::Node& root, const std::vector<ParameterOverride>& overrides) {
   LoadedModel out{BondGraph("model"), {}, {}, cx.file, cx.text, {}, nullptr, {}};
@@ -60,7 +60,7 @@ LoadedModel Load(LoadContext& cx, const YAML::Node& root, const std::vector<Para
     sink.Error({cx.file, 1, 1}, "", "the model has no 'elements' section (nor 'bodies')", "list the elements under 'elements:'");
   if (!root["bonds"] && !mechanism)
     sink.Error({cx.file, 1, 1}, "", "the model has no 'bonds' section", "list the bonds under 'bonds:', e.g. '- force -> mass'");
-  for (const char* key : {"joints", "gears", "drives", "points", "gravity"})
+  for (const char* key : {"joints", "gears", "drives", "points", "gravity", "assembly"})
     if (root[key] && !mechanism) sink.Error(values.Loc(root[key]), key, fmt::format("'{}' needs a 'bodies' section", key), "declare the bodies first");
   // Submodel instances, their depth and the elements and bonds they expand to are counted
   // before anything is expanded: an exponential nest is refused in microseconds.

@@ -227,6 +227,11 @@ class Mechanism {
   /// The contact geometry of a mesh (kPitch) from the bodies' positions at t = 0.
   MeshGeometry GeometryOf(const GearMesh& gm) const;
 
+  /// The bodies, to change their state at t = 0 (assembly, mech/assembly.h).
+  std::vector<Body>& bodies_mutable() { return bodies_; }
+  /// The joints, to put a joint's parent point onto its child's along the free directions (assembly).
+  std::vector<Joint>& joints_mutable() { return joints_; }
+
  private:
   std::vector<Body> bodies_;
   std::vector<Joint> joints_;
