@@ -153,6 +153,12 @@ TEST(Planar, GlidesInThePlaneAndTurnsAboutTheNormalFreelyAndHoldsTheRest) {
     EXPECT_NEAR(rec.Last("J.angle"), 1.5, 1e-9);
     EXPECT_NEAR(rec.Last("J.rate"), 1.5, 1e-9);
     EXPECT_NEAR(rec.Last("cube.r.x"), 0.5, 1e-9);
+    // The tilt about x: T / K_r in the coupling (rigid: none, the spin stays on z).
+    if (rigid) {
+      EXPECT_NEAR(rec.Last("cube.R.33"), 1.0, 1e-12);
+    } else {
+      EXPECT_NEAR(rec.Last("J.r.K.q.x"), kT / kKr, 1e-6 * kT / kKr);
+    }
     EXPECT_LT(testing::MaxEnergyResidual(rec), 1e-7);
   }
 }
@@ -248,6 +254,11 @@ TEST(Universal, TurnsFreelyAboutEitherYokeAndHoldsTheSpidersThirdAxis) {
     ExpectHeldLoad(CubeOnACross(rigid, Eigen::Vector3d::Zero()), {0, 0, -kG}, Eigen::Vector3d::UnitZ(), rigid, 0.5, &rec);
     const double turn = rec.Last("cube.R.21");  // R(z, phi) has R21 = sin(phi)
     EXPECT_NEAR(turn, rigid ? 0.0 : kT / kKr, 2e-3 * kT / kKr + 1e-9);
+    // The compliant coupling's deflection, the integral of n . (w_c - w_p), is -(R_p x) . (R_c y)
+    // = -R12 = sin(phi): a function of the orientations, so the spring is conservative.
+    if (!rigid) {
+      EXPECT_NEAR(rec.Last("J.r.K.q"), -rec.Last("cube.R.12"), 1e-12);
+    }
     EXPECT_LT(testing::MaxEnergyResidual(rec), 1e-7);
   }
 }

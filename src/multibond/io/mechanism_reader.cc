@@ -204,7 +204,7 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
     if (needs_axis) joint.axis = axis;  // the joint sensor's axis (docs/mechanisms.md, "Joint sensors")
     using F = mech::Coupling::Frame;
     if (type == "cylindrical" || type == "planar" || type == "screw" || type == "universal") {
-      ReadJointKind(j, name, type, axis_node, joint);
+      ReadJointKind(j, name, type, axis_node ? &axis : nullptr, joint);
       rigid_joint_ = false;
       joint.sensors = (j["sensors"] && Bool(j["sensors"], name)) || sensors_.Has(name);
       if (j["limits"] || j["friction"]) ReadAxialSwitches(j, name, type, axis, joint);
@@ -238,17 +238,17 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
   }
 }
 
-void MechanismReader::ReadJointKind(const YAML::Node& j, const std::string& name, const std::string& type, const YAML::Node& axis_node,
+void MechanismReader::ReadJointKind(const YAML::Node& j, const std::string& name, const std::string& type, const Eigen::Vector3d* given_axis,
                                     mech::Joint& joint) {
   const char* axis_key = type == "planar" ? "normal" : "axis";
   if (type == "planar" && j["normal"] && j["axis"])
     sink_.Error(codes::kMechJointAxis, Loc(j["axis"]), name, "a planar joint takes its normal once: 'normal' or 'axis'", "remove 'axis'");
-  if (!axis_node) {
+  if (!given_axis) {
     sink_.Error(codes::kMechJointAxis, joint.where, name, fmt::format("a {} joint needs '{}' (in the parent's frame)", type, axis_key),
-                type == "planar" ? "e.g. normal: z (the plane's normal; the plane is the joint's x-y)" : "e.g. axis: z");
+                type == "planar" ? "e.g. normal: z (the plane's normal, in the parent's frame)" : "e.g. axis: z");
     return;
   }
-  const Eigen::Vector3d axis = Axis(axis_node, name);
+  const Eigen::Vector3d axis = *given_axis;
   Eigen::Vector3d child_axis = Eigen::Vector3d::Zero();
   if (type == "universal") {
     if (!j["child_axis"]) {

@@ -129,7 +129,7 @@ class Expander {
   /// n . (w_c - w_p) with n = (R_p axis) x (R_c child_axis), built as a lever MTF on the child's
   /// orientation (w x R_c child_axis) followed by a projection on R_p axis: each modulus linear in
   /// one orientation, so the coupling may be an ideal constraint. Its deflection is
-  /// (R_p axis) . (R_c child_axis), the yokes' departure from perpendicular.
+  /// -(R_p axis) . (R_c child_axis), the yokes' departure from perpendicular.
   void AddUniversalRotation(const Joint& j);
   /// A universal joint's sensors: the yoke angles `<joint>.angle_a` (about `axis`, parent frame)
   /// and `<joint>.angle_b` (about `child_axis`, child frame) with their rates.
