@@ -86,6 +86,9 @@ enum class Outcome {
   X(kMechCoupling, "mech.coupling", kModelError, "a joint that couples nothing, or a coupling without 1 to 3 independent directions") \
   X(kMechDuplicate, "mech.duplicate", kModelError, "two bodies, joints, gear meshes, drives or points of one name")           \
   X(kMechName, "mech.name", kModelError, "a part of a mechanism named 'ground' (the inertial frame)")                         \
+  X(kMechJointType, "mech.joint_type", kModelError, "a joint type that does not exist")                                   \
+  X(kMechJointAxis, "mech.joint_axis", kModelError,                                                                           \
+    "a joint type without the axis it needs (axis, normal, child_axis), or a universal joint whose yoke axes are not perpendicular") \
   X(kMechInitialGap, "mech.initial_gap", kWarning, "a joint whose attachment points are apart at t = 0")                     \
   X(kMechGearGeometry, "mech.gear_geometry", kModelError,                                                                     \
     "a gear mesh through its pitch point whose axes, radii and teeth do not roll together (a wrong axis sign, radii not in the ratio of the teeth, axes that do not meet)") \

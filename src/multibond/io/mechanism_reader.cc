@@ -262,14 +262,20 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
       continue;
     }
     const std::string type = j["type"] ? j["type"].Scalar() : "coupling";
-    const std::vector<std::string> types = {"coupling", "revolute", "fixed", "weld", "spherical", "prismatic", "held"};
+    const std::vector<std::string> types = {"coupling",  "revolute",    "fixed",  "weld",  "spherical", "prismatic",
+                                            "held",      "cylindrical", "planar", "screw", "universal"};
     if (std::find(types.begin(), types.end(), type) == types.end()) {
       const std::string guess = DidYouMean(type, types);
-      sink_.Error(Loc(j["type"]), name, fmt::format("unknown joint type '{}'", type),
-                  guess.empty() ? "use coupling, revolute, fixed, spherical, prismatic or held" : fmt::format("did you mean '{}'?", guess));
+      sink_.Error(codes::kMechJointType, Loc(j["type"]), name, fmt::format("unknown joint type '{}'", type),
+                  guess.empty() ? "use coupling, revolute, fixed, spherical, prismatic, held, cylindrical, planar, screw or universal"
+                                : fmt::format("did you mean '{}'?", guess));
       continue;
     }
-    CheckKeys(j, {"type", "parent", "child", "at", "child_at", "axis", "translation", "rotation", "rigid", "limits", "friction", "sensors", "description"}, name);
+    std::vector<std::string> keys = {"type", "parent", "child", "at", "child_at", "axis", "translation", "rotation", "rigid", "limits", "friction", "sensors", "description"};
+    if (type == "planar") keys.push_back("normal");
+    if (type == "universal") keys.push_back("child_axis");
+    if (type == "screw") keys.insert(keys.end(), {"pitch", "lead", "helix"});
+    CheckKeys(j, keys, name);
     // 'rigid: true' on the joint (or the model's 'rigid: all' / list) makes each of its
     // couplings an ideal constraint; the named kinds then need no coupling sections.
     rigid_joint_ = (j["rigid"] && Bool(j["rigid"], name)) || RigidByModel(name);
@@ -293,11 +299,20 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
     }
     const bool needs_axis = type == "revolute" || type == "prismatic";
     if (needs_axis && !j["axis"]) sink_.Error(joint.where, name, fmt::format("a {} joint needs an 'axis' (in the parent's frame)", type));
-    const Eigen::Vector3d axis = j["axis"] ? Axis(j["axis"], name) : Eigen::Vector3d::UnitZ();
+    const YAML::Node axis_node = type == "planar" && j["normal"] ? j["normal"] : j["axis"];
+    const Eigen::Vector3d axis = axis_node ? Axis(axis_node, name) : Eigen::Vector3d::UnitZ();
     if (needs_axis) joint.axis = axis;  // the joint sensor's axis (docs/mechanisms.md, "Joint sensors")
+    using F = mech::Coupling::Frame;
+    if (type == "cylindrical" || type == "planar" || type == "screw" || type == "universal") {
+      ReadJointKind(j, name, type, axis_node ? &axis : nullptr, joint);
+      rigid_joint_ = false;
+      joint.sensors = (j["sensors"] && Bool(j["sensors"], name)) || sensors_.Has(name);
+      if (j["limits"] || j["friction"]) ReadAxialSwitches(j, name, type, axis, joint);
+      m.AddJoint(joint);
+      continue;
+    }
     const Eigen::MatrixXd all = Eigen::Matrix3d::Identity();
     const Eigen::MatrixXd perp = mech::Perpendicular(axis);
-    using F = mech::Coupling::Frame;
     if (type == "coupling") {
       joint.translation = ReadCoupling(j["translation"], name, "translation", nullptr, F::kWorld);
       joint.rotation = ReadCoupling(j["rotation"], name, "rotation", nullptr, F::kParent);
@@ -321,6 +336,75 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
     if (j["limits"] || j["friction"]) ReadAxialSwitches(j, name, type, axis, joint);
     m.AddJoint(joint);
   }
+}
+
+void MechanismReader::ReadJointKind(const YAML::Node& j, const std::string& name, const std::string& type, const Eigen::Vector3d* given_axis,
+                                    mech::Joint& joint) {
+  const char* axis_key = type == "planar" ? "normal" : "axis";
+  if (type == "planar" && j["normal"] && j["axis"])
+    sink_.Error(codes::kMechJointAxis, Loc(j["axis"]), name, "a planar joint takes its normal once: 'normal' or 'axis'", "remove 'axis'");
+  if (!given_axis) {
+    sink_.Error(codes::kMechJointAxis, joint.where, name, fmt::format("a {} joint needs '{}' (in the parent's frame)", type, axis_key),
+                type == "planar" ? "e.g. normal: z (the plane's normal, in the parent's frame)" : "e.g. axis: z");
+    return;
+  }
+  const Eigen::Vector3d axis = *given_axis;
+  Eigen::Vector3d child_axis = Eigen::Vector3d::Zero();
+  if (type == "universal") {
+    if (!j["child_axis"]) {
+      sink_.Error(codes::kMechJointAxis, joint.where, name, "a universal joint needs 'child_axis' (the child's yoke axis, in its frame)",
+                  "e.g. axis: y, child_axis: z: two axes perpendicular as the bodies start");
+      return;
+    }
+    child_axis = Axis(j["child_axis"], name);
+  }
+  double lead = 0.0;
+  if (type == "screw") {
+    if (j["pitch"] && j["lead"]) sink_.Error(codes::kMechJointAxis, Loc(j["lead"]), name, "give the screw's 'pitch' or its 'lead', not both", "remove one");
+    const YAML::Node l = j["pitch"] ? j["pitch"] : j["lead"];
+    if (!l) {
+      sink_.Error(codes::kMechJointAxis, joint.where, name, "a screw joint needs its 'pitch' (the advance per turn, m)",
+                  "e.g. pitch: 0.005; negative for a left-hand thread");
+      return;
+    }
+    lead = Number(l, name, Env{});
+  }
+  if (!rigid_joint_ && (!j["translation"] || !j["rotation"] || (type == "screw" && !j["helix"]))) {
+    sink_.Error(joint.where, name,
+                fmt::format("a {} joint needs 'translation: {{K: ..., R: ...}}' and 'rotation: {{K: ..., R: ...}}'{} (or 'rigid: true')", type,
+                            type == "screw" ? " and 'helix: {K: ..., R: ...}' (N/m along the axis)" : ""));
+    return;
+  }
+  // Each section's K and R, for every coupled direction; a rigid joint needs none.
+  auto section = [&](const char* key) { return j[key] ? j[key] : rigid_section_; };
+  const std::string parent = joint.parent, child = joint.child;
+  const Eigen::Vector3d at = joint.parent_point, child_at = joint.child_point;
+  const SourceLocation where = joint.where;
+  const Eigen::MatrixXd perp = mech::Perpendicular(axis);
+  const Eigen::MatrixXd along = axis.transpose();
+  using F = mech::Coupling::Frame;
+  const Eigen::MatrixXd all = Eigen::Matrix3d::Identity();
+  if (type == "cylindrical" || type == "screw") {
+    joint = mech::MakeCylindrical(name, parent, child, at, axis, 1, 0, 1, 0);
+    joint.translation = ReadCoupling(section("translation"), name, "translation", &perp, F::kParent);
+    joint.rotation = ReadCoupling(section("rotation"), name, "rotation", &perp, F::kParent);
+    if (type == "screw") {
+      joint.kind = "screw";
+      joint.lead = lead;
+      joint.helix = ReadCoupling(section("helix"), name, "helix", &along, F::kParent);
+    }
+  } else if (type == "planar") {
+    joint = mech::MakePlanar(name, parent, child, at, axis, 1, 0, 1, 0);
+    joint.translation = ReadCoupling(section("translation"), name, "translation", &along, F::kParent);
+    joint.rotation = ReadCoupling(section("rotation"), name, "rotation", &perp, F::kParent);
+  } else {  // universal
+    joint = mech::MakeUniversal(name, parent, child, at, axis, child_axis, 1, 0, 1, 0);
+    const Eigen::MatrixXd row = joint.rotation->directions;
+    joint.translation = ReadCoupling(section("translation"), name, "translation", &all, F::kWorld);
+    joint.rotation = ReadCoupling(section("rotation"), name, "rotation", &row, F::kParent);
+  }
+  joint.child_point = child_at;
+  joint.where = where;
 }
 
 void MechanismReader::ReadAxialSwitches(const YAML::Node& j, const std::string& name, const std::string& type,

@@ -43,6 +43,11 @@ class MechanismReader : public MechanismValues {
   /// The body read as `name`, or nullptr (the ground, or no such body).
   const mech::Body* BodyOrGround(const std::string& name) const;
   void ReadJoints(const YAML::Node& joints, mech::Mechanism& m);
+  /// The joint kinds cylindrical, planar, screw and universal (docs/mechanisms.md, "Joints"): their
+  /// axes (`axis`: the axis, or the planar joint's normal, as read; null if not given) and
+  /// couplings into `joint`.
+  void ReadJointKind(const YAML::Node& j, const std::string& name, const std::string& type, const Eigen::Vector3d* axis,
+                     mech::Joint& joint);
   /// A revolute joint's `limits: {lower, upper, restitution}` and `friction: TORQUE` (docs/events.md).
   void ReadAxialSwitches(const YAML::Node& j, const std::string& name, const std::string& type, const Eigen::Vector3d& axis,
                          mech::Joint& joint);

@@ -3,7 +3,9 @@
 
 #include "multibond/mech/expander.h"
 
+#include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include <fmt/format.h>
 
@@ -23,7 +25,7 @@ void Expander::AddJoint(const Joint& j) {
       if (!j.parent_point.isZero()) AddLever(j.name + ".t_parent_arm", j.parent, j.parent_point, -1.0, sum);
     }
     AddFrameElement(j.name + ".t_frame", c.frame, j.parent, j.child, c.directions, j.where);
-    if (Slides(j) && j.sensors) {
+    if ((Slides(j) && j.sensors) || SlidesAndTurns(j) || SlidesInPlane(j)) {
       // The relative velocity of the joint's points, a 1-junction the slide sensor also reads.
       const std::string rel = j.name + ".t_rel";
       Element r = Make(rel, ElementKind::kOne, 3, "translation", j.where);
@@ -31,7 +33,8 @@ void Expander::AddJoint(const Joint& j) {
       g_.Add(r);
       Bond(sum, rel, rel);
       Bond(rel, j.name + ".t_frame", j.name + ".t_frame");
-      AddAxialSensor(j, rel, "translation");
+      if (SlidesInPlane(j)) AddPlaneSensor(j, rel);
+      else AddAxialSensor(j, rel, "translation", Slides(j) ? std::string() : j.name + ".t_axial");
     } else {
       Bond(sum, j.name + ".t_frame", j.name + ".t_frame");
     }
@@ -39,7 +42,9 @@ void Expander::AddJoint(const Joint& j) {
                   c.rigid);
     AddOutput(SumOutput(j.name + ".F", {{j.name + ".t_child.e", -1.0}}, "N", j.where));
   }
-  if (j.rotation) {
+  if (j.rotation && j.kind == "universal") {
+    AddUniversalRotation(j);
+  } else if (j.rotation) {
     const Coupling& c = *j.rotation;
     const std::string rel = RelativeOmega(j.child, j.parent);
     AddFrameElement(j.name + ".r_frame", c.frame, j.parent, j.child, c.directions, j.where);
@@ -47,9 +52,13 @@ void Expander::AddJoint(const Joint& j) {
     if (IsGround(j.parent)) info_[j.child].moment_terms.push_back({j.name + ".r_in.e", -1.0});
     AddCompliance(j.name + ".r_frame", j.name + ".r", c.stiffness, c.damping, "rotation", DirectionNames(c), j.where,
                   c.rigid);
-    AddOutput(SumOutput(j.name + ".M", {{j.name + ".r_in.e", -1.0}}, "N m", j.where));
+    std::vector<std::pair<std::string, double>> moment = {{j.name + ".r_in.e", -1.0}};
+    if (j.helix) moment.push_back({j.name + ".axial.in.e", -1.0});  // the helix's torque on the child
+    AddOutput(SumOutput(j.name + ".M", std::move(moment), "N m", j.where));
   }
   if (Turns(j)) AddAxialSensor(j, RelativeOmega(j.child, j.parent), "rotation");
+  if (j.helix) AddHelix(j);
+  if (j.kind == "universal" && j.sensors) AddUniversalSensors(j);
   if (j.sensors && (j.kind == "coupling" || j.kind == "spherical") && !HasIdealConstraints() && Spins(j.child) && (IsGround(j.parent) || Spins(j.parent)))
     AddRotationSensor(j);
   if (j.stops || j.friction) AddAxialSwitches(j);
@@ -104,7 +113,9 @@ bool Expander::Spins(const std::string& body) const {
 
 bool Expander::HasIdealConstraints() const {
   for (const Joint& j : m_.joints())
-    if ((j.translation && j.translation->rigid) || (j.rotation && j.rotation->rigid) || j.stops || j.friction) return true;
+    if ((j.translation && j.translation->rigid) || (j.rotation && j.rotation->rigid) || (j.helix && j.helix->rigid) || j.stops ||
+        j.friction)
+      return true;
   for (const GearMesh& gm : m_.gears())
     if (gm.rigid) return true;
   for (const Drive& d : m_.drives())
@@ -112,9 +123,9 @@ bool Expander::HasIdealConstraints() const {
   return false;
 }
 
-void Expander::AddAxialSensor(const Joint& j, const std::string& rel, const std::string& domain) {
+void Expander::AddAxialSensor(const Joint& j, const std::string& rel, const std::string& domain, const std::string& junction) {
   const bool rotation = domain == "rotation";
-  const std::string axial = j.name + ".axial";
+  const std::string axial = junction.empty() ? j.name + ".axial" : junction;
   AddSpin(axial + "_proj", j.parent, j.axis, 1.0);
   Bond(rel, axial + "_proj", axial + ".in");
   if (rotation && IsGround(j.parent)) info_[j.child].moment_terms.push_back({axial + ".in.e", -1.0});
@@ -128,6 +139,135 @@ void Expander::AddAxialSensor(const Joint& j, const std::string& rel, const std:
   rate.unit = rotation ? "rad/s" : "m/s";
   rate.where = j.where;
   AddOutput(rate);
+}
+
+void Expander::AddPlaneSensor(const Joint& j, const std::string& rel) {
+  const std::string axial = j.name + ".t_axial";
+  AddFrameElement(axial + "_proj", Coupling::Frame::kParent, j.parent, j.child, Perpendicular(j.axis), j.where);
+  Bond(rel, axial + "_proj", axial + ".in");
+  Element junction = Make(axial, ElementKind::kOne, 2, "translation", j.where);
+  junction.components = {"u", "v"};
+  g_.Add(junction);
+  Bond(axial + "_proj", axial, axial + ".out");
+  AuxState a;
+  a.name = j.name + ".slide";
+  a.kind = AuxState::Kind::kIntegral;
+  a.of = axial;
+  a.unit = std::string("m");  // the literal trips GCC 12's false -Wrestrict (GCC bug 105651)
+  a.initial = Eigen::MatrixXd::Zero(2, 1);
+  a.components = {"u", "v"};
+  a.where = j.where;
+  g_.AddAux(a);
+  OutputDecl speed;
+  speed.name = j.name + ".speed";
+  speed.variable = axial + ".f";
+  speed.unit = std::string("m/s");
+  speed.where = j.where;
+  AddOutput(speed);
+}
+
+void Expander::AddUniversalRotation(const Joint& j) {
+  const Coupling& c = *j.rotation;
+  const std::string rel = RelativeOmega(j.child, j.parent);
+  // (R_p a1) . (w x R_c a2) = -n . w: the lever's scale -1 makes the flow n . w.
+  Modulus lever;
+  lever.kind = Modulus::Kind::kLever;
+  lever.rotation = j.child + ".R";
+  lever.lever = j.child_axis.normalized();
+  lever.scale = -1.0;
+  Element arm = Make(j.name + ".r_lever", ElementKind::kMTF, 0, "", j.where);
+  arm.modulus = lever;
+  g_.Add(arm);
+  Element cross = Make(j.name + ".r_cross", ElementKind::kOne, 3, "rotation", j.where);
+  cross.components = kXyz;
+  g_.Add(cross);
+  AddSpin(j.name + ".r_frame", j.parent, j.axis, 1.0);
+  Bond(rel, j.name + ".r_lever", j.name + ".r_in");
+  Bond(j.name + ".r_lever", j.name + ".r_cross", j.name + ".r_cross");
+  Bond(j.name + ".r_cross", j.name + ".r_frame", j.name + ".r_proj");
+  if (IsGround(j.parent)) info_[j.child].moment_terms.push_back({j.name + ".r_in.e", -1.0});
+  AddCompliance(j.name + ".r_frame", j.name + ".r", c.stiffness, c.damping, "rotation", {}, j.where, c.rigid);
+  AddOutput(SumOutput(j.name + ".M", {{j.name + ".r_in.e", -1.0}}, "N m", j.where));
+}
+
+void Expander::AddUniversalSensors(const Joint& j) {
+  const std::string rel = RelativeOmega(j.child, j.parent);
+  // theta_a' = a1 . R_p^T (w_c - w_p) and theta_b' = a2 . R_c^T (w_c - w_p): the relative rotation
+  // is Rot(a1, theta_a) Rot(a2, theta_b) and a1 stays perpendicular to R_c a2.
+  const std::pair<const char*, const std::string*> sides[] = {{"a", &j.parent}, {"b", &j.child}};
+  for (const auto& [side, body] : sides) {
+    const std::string axial = fmt::format("{}.axial_{}", j.name, side);
+    AddSpin(axial + "_proj", *body, *body == j.parent ? j.axis : j.child_axis, 1.0);
+    Bond(rel, axial + "_proj", axial + ".in");
+    if (IsGround(j.parent)) info_[j.child].moment_terms.push_back({axial + ".in.e", -1.0});
+    g_.Add(Make(axial, ElementKind::kOne, 1, "rotation", j.where));
+    Bond(axial + "_proj", axial, axial + ".out");
+    AddAngle(fmt::format("{}.angle_{}", j.name, side), axial, j.where);
+    OutputDecl rate;
+    rate.name = fmt::format("{}.rate_{}", j.name, side);
+    rate.variable = axial + ".f";
+    rate.unit = std::string("rad/s");
+    rate.where = j.where;
+    AddOutput(rate);
+  }
+}
+
+void Expander::AddHelix(const Joint& j) {
+  const Coupling& c = *j.helix;
+  const std::string sum = j.name + ".helix", lead = j.name + ".helix_lead";
+  g_.AddJunction(sum, ElementKind::kZero, 1);
+  Element tf = Make(lead, ElementKind::kTF, 0, "", j.where);
+  tf.param = Param::Scalar(-j.lead / (2.0 * std::numbers::pi));
+  g_.Add(tf);
+  Bond(j.name + ".t_axial", sum, sum + ".slide");
+  Bond(j.name + ".axial", lead, lead + ".in");
+  Bond(lead, sum, lead + ".out");
+  AddCompliance(sum, j.name + ".h", c.stiffness, c.damping, "translation", {}, j.where, c.rigid);
+  OutputDecl force;
+  force.name = j.name + ".helix_force";
+  force.variable = sum + ".e";
+  force.unit = std::string("N");
+  force.where = j.where;
+  AddOutput(force);
+}
+
+void Expander::CheckJointKind(const Joint& j) {
+  if (j.kind == "universal") {
+    if (j.axis.norm() < 1e-12 || j.child_axis.norm() < 1e-12) {
+      sink_.Error("mech.joint_axis", j.where, j.name, "a universal joint needs two non-zero yoke axes",
+                  "give 'axis' (on the parent, its frame) and 'child_axis' (on the child, its frame)");
+      return;
+    }
+    if (j.rotation && j.rotation->directions.rows() != 1)
+      sink_.Error("mech.coupling", j.where, j.name, "a universal joint's rotation coupling has one direction, the spider's third axis",
+                  "give one stiffness and damping (MakeUniversal)");
+    auto orientation = [&](const std::string& n) -> Eigen::Matrix3d {
+      const Body* b = IsGround(n) ? nullptr : FindBody(n);
+      return b ? b->orientation : Eigen::Matrix3d::Identity();
+    };
+    const Eigen::Vector3d a1 = orientation(j.parent) * j.axis.normalized(), a2 = orientation(j.child) * j.child_axis.normalized();
+    if (std::abs(a1.dot(a2)) > 1e-6)
+      sink_.Error("mech.joint_axis", j.where, j.name,
+                  fmt::format("the yoke axes of a universal joint are perpendicular, but 'axis' and 'child_axis' are {:.6g} degrees "
+                              "apart at t = 0",
+                              std::acos(std::clamp(a1.dot(a2), -1.0, 1.0)) * 180.0 / std::numbers::pi),
+                  "give 'child_axis' in the child's frame, perpendicular to the parent's 'axis' as the bodies start");
+  }
+  if ((j.kind == "screw" || j.helix) && (!j.translation || !j.rotation || j.axis.isZero()))
+    sink_.Error("mech.coupling", j.where, j.name, "a screw joint is a cylindrical joint with a helix: it needs its axis, translation and rotation",
+                "use MakeScrew, or type: screw with 'axis'");
+  if (j.kind == "screw" || j.helix) {
+    if (!(std::isfinite(j.lead) && j.lead != 0.0))
+      sink_.Error("param.range", j.where, j.name, fmt::format("a screw's lead must be a non-zero length per turn (got {:g})", j.lead),
+                  "give 'pitch' (or 'lead'), the advance per turn [m]; negative for a left-hand thread");
+    if (!j.helix) {
+      sink_.Error("mech.coupling", j.where, j.name, "a screw joint needs its helix coupling", "give 'helix: {K: ..., R: ...}' or 'rigid: true'");
+    } else if (!j.helix->rigid && (j.helix->stiffness.size() != 1 || !(j.helix->stiffness[0] > 0) || j.helix->damping.size() != 1 ||
+                                   !(j.helix->damping[0] >= 0))) {
+      sink_.Error("param.range", j.where, j.name, "the helix coupling needs a stiffness > 0 and a damping >= 0",
+                  "give 'helix: {K: ..., R: ...}' (N/m and N s/m along the axis), or 'rigid: true'");
+    }
+  }
 }
 
 }  // namespace multibond::mech::detail

@@ -105,10 +105,40 @@ class Expander {
   /// their joints get no rotation sensor (a signal).
   bool HasIdealConstraints() const;
 
-  /// A joint with an axis of rotation that needs its rate: a revolute joint's sensor, end stops, friction.
-  static bool Turns(const Joint& j) { return ((j.kind == "revolute" && j.sensors) || j.stops || j.friction) && !j.axis.isZero(); }
+  /// A joint with an axis of rotation that needs its rate: a revolute, cylindrical, planar or
+  /// screw joint's sensor, end stops, friction, a screw's helix.
+  static bool Turns(const Joint& j) {
+    const bool turning_kind = j.kind == "revolute" || j.kind == "cylindrical" || j.kind == "planar" || j.kind == "screw";
+    return ((turning_kind && j.sensors) || j.stops || j.friction || j.helix) && !j.axis.isZero();
+  }
   /// A prismatic joint with its axis (and a translation coupling): it gets the slide and speed sensor.
   static bool Slides(const Joint& j) { return j.kind == "prismatic" && !j.axis.isZero(); }
+  /// A cylindrical or screw joint: the slide along its axis (junction `<joint>.t_axial`, besides
+  /// the turn's `<joint>.axial`), for the sensor or the screw's helix.
+  static bool SlidesAndTurns(const Joint& j) {
+    return (j.kind == "cylindrical" || j.kind == "screw") && !j.axis.isZero() && (j.sensors || j.helix);
+  }
+  /// A planar joint with its sensor: the in-plane slide, 2 components (junction `<joint>.t_axial`).
+  static bool SlidesInPlane(const Joint& j) { return j.kind == "planar" && !j.axis.isZero() && j.sensors; }
+
+  /// The checks of the joint kinds with axes of their own (validate.cc calls it per joint): a
+  /// universal joint's axes non-zero and perpendicular at t = 0; a screw's lead and helix coupling.
+  void CheckJointKind(const Joint& j);
+
+  /// A universal joint's rotation coupling (docs/mechanisms.md, "Joints"): its flow is
+  /// n . (w_c - w_p) with n = (R_p axis) x (R_c child_axis), built as a lever MTF on the child's
+  /// orientation (w x R_c child_axis) followed by a projection on R_p axis: each modulus linear in
+  /// one orientation, so the coupling may be an ideal constraint. Its deflection is
+  /// -(R_p axis) . (R_c child_axis), the yokes' departure from perpendicular.
+  void AddUniversalRotation(const Joint& j);
+  /// A universal joint's sensors: the yoke angles `<joint>.angle_a` (about `axis`, parent frame)
+  /// and `<joint>.angle_b` (about `child_axis`, child frame) with their rates.
+  void AddUniversalSensors(const Joint& j);
+  /// A screw's helix: the coupling `<joint>.h` on s' - lead / (2 pi) theta' (a 0-junction
+  /// `<joint>.helix` fed by the axial junctions, the turn through the TF `<joint>.helix_lead`).
+  void AddHelix(const Joint& j);
+  /// A planar joint's in-plane slide sensor from the relative velocity `rel` of its points.
+  void AddPlaneSensor(const Joint& j, const std::string& rel);
 
   /// The joint sensor on the free axis (docs/mechanisms.md, "Joint sensors"): the relative rate
   /// about (revolute) or along (prismatic) the axis in the parent's frame, the 1-junction
@@ -116,7 +146,9 @@ class Expander {
   /// its integral from the assembled position, the state `<joint>.angle` or `<joint>.slide`;
   /// outputs `<joint>.rate` or `<joint>.speed`. Without `sensors`, end stops get the junction and
   /// the angle state (their gap), friction the junction only (its rate).
-  void AddAxialSensor(const Joint& j, const std::string& rel, const std::string& domain);
+  /// `junction` names the 1-junction (default `<joint>.axial`; a cylindrical or screw joint's
+  /// slide: `<joint>.t_axial`).
+  void AddAxialSensor(const Joint& j, const std::string& rel, const std::string& domain, const std::string& junction = {});
 
   /// A revolute joint's end stops and friction (docs/events.md): the rotation rate about its
   /// free axis (the 1-junction `<joint>.axial`), its angle (`<joint>.angle`, from the assembled

@@ -1,5 +1,6 @@
 /// \file
-/// The named joint kinds (revolute, fixed, spherical, prismatic) as sets of couplings.
+/// The named joint kinds (revolute, fixed, spherical, prismatic, cylindrical, planar, screw,
+/// universal) as sets of couplings.
 
 #include <cmath>
 
@@ -34,6 +35,9 @@ Coupling Uniform(const Eigen::MatrixXd& rows, double k, double r, Coupling::Fram
   c.frame = frame;
   return c;
 }
+
+/// A unit row perpendicular to `axis` (the universal joint's rotation coupling is one direction).
+Eigen::MatrixXd UniversalNormalRow(const Eigen::Vector3d& axis) { return Perpendicular(axis).row(0); }
 
 Joint Base(std::string name, std::string kind, std::string parent, std::string child, const Eigen::Vector3d& at) {
   Joint j;
@@ -78,6 +82,54 @@ Joint MakePrismatic(std::string name, std::string parent, std::string child, con
   j.rotation = Uniform(Eigen::Matrix3d::Identity(), k_r, r_r, Coupling::Frame::kParent);
   j.axis = axis;
   return j;
+}
+
+Joint MakeCylindrical(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at,
+                      const Eigen::Vector3d& axis, double k_t, double r_t, double k_r, double r_r) {
+  Joint j = Base(std::move(name), "cylindrical", std::move(parent), std::move(child), at);
+  j.translation = Uniform(Perpendicular(axis), k_t, r_t, Coupling::Frame::kParent);
+  j.rotation = Uniform(Perpendicular(axis), k_r, r_r, Coupling::Frame::kParent);
+  j.axis = axis;
+  return j;
+}
+
+Joint MakePlanar(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at,
+                 const Eigen::Vector3d& normal, double k_t, double r_t, double k_r, double r_r) {
+  Joint j = Base(std::move(name), "planar", std::move(parent), std::move(child), at);
+  j.translation = Uniform(normal.normalized().transpose(), k_t, r_t, Coupling::Frame::kParent);
+  j.rotation = Uniform(Perpendicular(normal), k_r, r_r, Coupling::Frame::kParent);
+  j.axis = normal;
+  return j;
+}
+
+Joint MakeScrew(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at, const Eigen::Vector3d& axis,
+                double lead, double k_t, double r_t, double k_r, double r_r, double k_h, double r_h) {
+  Joint j = MakeCylindrical(std::move(name), std::move(parent), std::move(child), at, axis, k_t, r_t, k_r, r_r);
+  j.kind = "screw";
+  j.lead = lead;
+  j.helix = Uniform(axis.normalized().transpose(), k_h, r_h, Coupling::Frame::kParent);
+  return j;
+}
+
+Joint MakeUniversal(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at,
+                    const Eigen::Vector3d& axis, const Eigen::Vector3d& child_axis, double k_t, double r_t, double k_r,
+                    double r_r) {
+  Joint j = Base(std::move(name), "universal", std::move(parent), std::move(child), at);
+  j.translation = Uniform(Eigen::Matrix3d::Identity(), k_t, r_t, Coupling::Frame::kWorld);
+  // One direction: the spider's third axis, which turns with both bodies; the expansion builds
+  // it from `axis` and `child_axis` (the row here stands for it in the checks).
+  j.rotation = Uniform(UniversalNormalRow(axis), k_r, r_r, Coupling::Frame::kParent);
+  j.axis = axis;
+  j.child_axis = child_axis;
+  return j;
+}
+
+void MakeRigid(Joint& j) {
+  for (std::optional<Coupling>* c : {&j.translation, &j.rotation, &j.helix})
+    if (*c) {
+      (*c)->rigid = true;
+      (*c)->damping.setZero();
+    }
 }
 
 }  // namespace multibond::mech

@@ -14,11 +14,16 @@
 ///   frame, moments about the CoM), B.orthonormality (|R^T R - I|);
 ///   J.F, J.M (force and moment of the joint on its child, inertial frame), J.t.K, J.t.R, J.r.K,
 ///   J.r.R (the couplings' C and R; a rigid coupling has J.t.rigid / J.r.rigid instead, an ideal
-///   constraint whose effort is the reaction); G.torque, G.deflection (G.mesh.rigid when rigid);
+///   constraint whose effort is the reaction); a screw's helix J.helix (0-junction), J.h.K, J.h.R
+///   (or J.h.rigid), output J.helix_force; a universal joint's rotation J.r_lever, J.r_cross, J.r_frame;
+///   G.torque, G.deflection (G.mesh.rigid when rigid);
 ///   meshes through the pitch point also G.F_t, G.F_r, G.F_a, G.F_n, G.b.F_r, G.b.F_a;
 ///   D.torque (or D.force); points P.x,y,z;
 ///   joint sensors (with `sensors`): revolute J.axial (1-junction, the rate about the axis), state J.angle, output
 ///   J.rate; prismatic J.t_rel (the points' relative velocity), J.axial, state J.slide, output J.speed;
+///   cylindrical and screw both (J.axial, J.angle, J.rate; J.t_axial, J.slide, J.speed), planar
+///   J.t_axial, state J.slide (components u, v), output J.speed, and J.axial, J.angle, J.rate;
+///   universal J.axial_a, J.axial_b, states J.angle_a, J.angle_b, outputs J.rate_a, J.rate_b;
 ///   coupling and spherical J.rel_w, state J.relative, signals J.rotvec.*, outputs J.rotation.*;
 ///   gear meshes (spin contact) G.rolling, state G.phase.
 
@@ -67,7 +72,7 @@ struct Coupling {
 /// w_child - w_parent expressed in the chosen frame. Free directions carry nothing.
 struct Joint {
   std::string name;
-  std::string kind = "coupling";  ///< for reports: coupling, revolute, fixed, spherical, prismatic, held
+  std::string kind = "coupling";  ///< coupling, revolute, fixed, spherical, prismatic, held, cylindrical, planar, screw, universal
   std::string parent = kGround;
   std::string child;
   Eigen::Vector3d parent_point = Eigen::Vector3d::Zero();  ///< parent frame from its CoM; ground: absolute
@@ -79,6 +84,14 @@ struct Joint {
   /// assembled position] with impacts of `restitution`, and a friction torque (Coulomb: sticks
   /// while the torque needed is within it), a number, a time function or a signal's name.
   Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  /// Universal joints: the child's yoke axis (child frame), perpendicular to the parent's `axis`
+  /// at t = 0. The rotation coupling (one direction) then acts about n = (R_p axis) x (R_c
+  /// child_axis), the spider's third axis, instead of its `directions` (docs/mechanisms.md, "Joints").
+  Eigen::Vector3d child_axis = Eigen::Vector3d::Zero();
+  /// Screw joints: the lead [m per turn] and the coupling (one direction, N/m) on the helix,
+  /// s' - lead / (2 pi) theta', s the slide along `axis` and theta the turn about it.
+  double lead = 0.0;
+  std::optional<Coupling> helix;
   struct Stops {
     double lower = 0.0, upper = 0.0, restitution = 0.0;
     SourceLocation where;
@@ -106,6 +119,24 @@ Joint MakeSpherical(std::string name, std::string parent, std::string child, con
                     double r_t);
 Joint MakePrismatic(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at,
                     const Eigen::Vector3d& axis, double k_t, double r_t, double k_r, double r_r);
+
+/// Cylindrical: translation and rotation perpendicular to `axis` coupled (slides along and turns
+/// about it). Planar: translation along `normal` and rotation about the two in-plane axes coupled
+/// (slides in the plane, turns about the normal). Screw: a cylindrical joint whose slide follows
+/// the turn, s = lead / (2 pi) theta, through a coupling of k_h, r_h on the helix. Universal
+/// (Cardan): translation coupled, rotation coupled about the spider's third axis only
+/// (`axis` on the parent, `child_axis` on the child, perpendicular at t = 0).
+Joint MakeCylindrical(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at,
+                      const Eigen::Vector3d& axis, double k_t, double r_t, double k_r, double r_r);
+Joint MakePlanar(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at,
+                 const Eigen::Vector3d& normal, double k_t, double r_t, double k_r, double r_r);
+Joint MakeScrew(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at, const Eigen::Vector3d& axis,
+                double lead, double k_t, double r_t, double k_r, double r_r, double k_h, double r_h);
+Joint MakeUniversal(std::string name, std::string parent, std::string child, const Eigen::Vector3d& at,
+                    const Eigen::Vector3d& axis, const Eigen::Vector3d& child_axis, double k_t, double r_t, double k_r,
+                    double r_r);
+/// Makes every coupling of a joint an ideal constraint (rigid), the named kinds' `rigid: true`.
+void MakeRigid(Joint& j);
 
 /// Two unit vectors orthogonal to `axis` and to each other (rows of a 2 x 3 matrix).
 Eigen::Matrix<double, 2, 3> Perpendicular(const Eigen::Vector3d& axis);

@@ -90,6 +90,7 @@ void Expander::Validate() {
     if (!j.translation && !j.rotation) sink_.Error("mech.coupling", j.where, j.name, "the joint couples nothing", "give it a translation or a rotation coupling");
     coupling(j.translation, j.where, j.name, "translational");
     coupling(j.rotation, j.where, j.name, "rotational");
+    CheckJointKind(j);
   }
   if (sink_.has_errors()) return;
   for (const Joint& j : m_.joints()) WarnIfDeflected(j);

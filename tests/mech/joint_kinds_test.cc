@@ -1,0 +1,417 @@
+// The joint kinds cylindrical, planar, screw and universal (mech/joint_kinds.cc,
+// mech/expand_joint.cc), compliant and rigid: their free directions keep a body's motion, their
+// coupled directions hold a load at the deflection F / K (rigid: none) with the load as the
+// reaction, the energy balances, and against closed forms: a nut falling on a vertical screw, a
+// Cardan joint's output speed. Their keys and errors in a model file (io/mechanism_reader.cc).
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "support/example_runner.h"
+
+#include "multibond/compile/compiled_model.h"
+#include "multibond/mech/mechanism.h"
+#include "multibond/sim/simulator.h"
+
+namespace multibond::mech {
+namespace {
+
+using std::numbers::pi;
+using ::testing::HasSubstr;
+
+RecordingObserver Simulated(const Mechanism& m, double t_end, double dt, double rtol = 1e-10, double atol = 1e-12) {
+  RecordingObserver rec = testing::RunGraph(m.Build("test"), {}, t_end, dt, IntegratorOptions{}.method, rtol, atol);
+  EXPECT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
+  return rec;
+}
+
+/// A cube of 0.1 m and 1 kg: the same moment of inertia (1/600 kg m^2) about every axis, so a
+/// spin keeps its axis (no gyroscopic torque).
+Body Cube(const std::string& name) {
+  Body b;
+  b.name = name;
+  b.mass = MassProperties::Box(1000, {0.1, 0.1, 0.1});
+  return b;
+}
+
+Drive Torque(const std::string& name, const std::string& body, const Eigen::Vector3d& axis, double value) {
+  Drive d;
+  d.name = name;
+  d.kind = Drive::Kind::kTorque;
+  d.body = body;
+  d.axis = axis;
+  d.value = TimeFunction::Constant(value);
+  return d;
+}
+
+// Couplings: K_t = 1e6 N/m and K_r = 1e3 N m/rad, each critically damped on the cube.
+constexpr double kKt = 1e6, kRt = 2e3, kKr = 1e3, kRr = 2.6, kG = 9.81, kT = 0.5;
+
+/// Runs `m` (a cube on joint J to the ground, loaded by gravity `g` and a torque kT about
+/// `torque_axis`, both across coupled directions) and checks the statics: the deflections are the
+/// load over K (none when rigid) and the reactions J.F, J.M the load.
+void ExpectHeldLoad(Mechanism m, const Eigen::Vector3d& g, const Eigen::Vector3d& torque_axis, bool rigid, double t_end,
+                    RecordingObserver* out) {
+  m.SetGravity(g);
+  m.AddDrive(Torque("load", "cube", torque_axis, kT));
+  *out = Simulated(m, t_end, 1e-3);
+  const RecordingObserver& rec = *out;
+  const double mass = 1.0;
+  const Eigen::Vector3d f{rec.Last("J.F.x"), rec.Last("J.F.y"), rec.Last("J.F.z")};
+  const Eigen::Vector3d moment{rec.Last("J.M.x"), rec.Last("J.M.y"), rec.Last("J.M.z")};
+  // The joint's force on the child balances its weight, its moment the torque (steady state).
+  EXPECT_LT((f + mass * g).norm(), 1e-6 * mass * kG) << f.transpose();
+  EXPECT_LT((moment + kT * torque_axis).norm(), 1e-6 * kT) << moment.transpose();
+  const Eigen::Vector3d r{rec.Last("cube.r.x"), rec.Last("cube.r.y"), rec.Last("cube.r.z")};
+  const Eigen::Vector3d r0{rec.rows().front()[rec.Index("cube.r.x")], rec.rows().front()[rec.Index("cube.r.y")],
+                           rec.rows().front()[rec.Index("cube.r.z")]};
+  // The deflection along the load: m g / K_t (rigid: held to the integration error).
+  const double along_g = (r - r0).dot(g.normalized());
+  if (rigid) EXPECT_NEAR(along_g, 0.0, 1e-9);
+  else EXPECT_NEAR(along_g, mass * g.norm() / kKt, 1e-6 * mass * g.norm() / kKt);
+}
+
+// --- cylindrical ---------------------------------------------------------------------------
+
+Mechanism CylinderOnZ(bool rigid) {
+  Mechanism m;
+  Body b = Cube("cube");
+  b.velocity = {0, 0, 0.5};  // slides along the axis
+  b.omega = {0, 0, 2.0};     // and turns about it
+  m.AddBody(b);
+  Joint j = MakeCylindrical("J", kGround, "cube", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), kKt, kRt, kKr, kRr);
+  j.sensors = true;
+  if (rigid) MakeRigid(j);
+  m.AddJoint(j);
+  return m;
+}
+
+TEST(Cylindrical, SlidesAlongAndTurnsAboutItsAxisFreelyAndHoldsTheRest) {
+  for (bool rigid : {false, true}) {
+    SCOPED_TRACE(rigid ? "rigid" : "compliant");
+    RecordingObserver rec;
+    // Weight along -x and a torque about y: both across the axis.
+    ExpectHeldLoad(CylinderOnZ(rigid), {-kG, 0, 0}, Eigen::Vector3d::UnitY(), rigid, 1.0, &rec);
+    // The free motion is kept: 0.5 m/s along z and 2 rad/s about z, and the sensors report it.
+    EXPECT_NEAR(rec.Last("cube.v.z"), 0.5, 1e-9);
+    EXPECT_NEAR(rec.Last("cube.omega.z"), 2.0, 1e-9);
+    EXPECT_NEAR(rec.Last("J.slide"), 0.5, 1e-9);
+    EXPECT_NEAR(rec.Last("J.speed"), 0.5, 1e-9);
+    EXPECT_NEAR(rec.Last("J.angle"), 2.0, 1e-9);
+    EXPECT_NEAR(rec.Last("J.rate"), 2.0, 1e-9);
+    EXPECT_NEAR(rec.Last("cube.r.z"), 0.5, 1e-9);
+    // The rotation across the axis: the coupling's deflection about y is T / K_r (rigid: it has
+    // none, and the spin stays on z). (The spinning cube carries its small tilt round with it, so
+    // the orientation shows it turning about z; the coupling's state is the integral of the
+    // relative angular velocity in the parent's frame.)
+    if (rigid) {
+      EXPECT_NEAR(rec.Last("cube.R.33"), 1.0, 1e-12);
+    } else {
+      EXPECT_NEAR(rec.Last("J.r.K.q.y"), kT / kKr, 1e-6 * kT / kKr);
+      EXPECT_NEAR(rec.Last("J.r.K.q.x"), 0.0, 1e-6 * kT / kKr);
+    }
+    EXPECT_LT(testing::MaxEnergyResidual(rec), 1e-7);
+  }
+}
+
+// --- planar --------------------------------------------------------------------------------
+
+Mechanism PuckOnTheFloor(bool rigid) {
+  Mechanism m;
+  Body b = Cube("cube");
+  b.position = {0.2, 0.1, 0.0};
+  b.velocity = {0.3, -0.2, 0.0};  // glides in the plane
+  b.omega = {0, 0, 1.5};          // and turns about the normal
+  m.AddBody(b);
+  Joint j = MakePlanar("J", kGround, "cube", b.position, Eigen::Vector3d::UnitZ(), kKt, kRt, kKr, kRr);
+  j.sensors = true;
+  if (rigid) MakeRigid(j);
+  m.AddJoint(j);
+  return m;
+}
+
+TEST(Planar, GlidesInThePlaneAndTurnsAboutTheNormalFreelyAndHoldsTheRest) {
+  for (bool rigid : {false, true}) {
+    SCOPED_TRACE(rigid ? "rigid" : "compliant");
+    RecordingObserver rec;
+    // Weight along -z (the normal) and a torque about x (in the plane).
+    ExpectHeldLoad(PuckOnTheFloor(rigid), {0, 0, -kG}, Eigen::Vector3d::UnitX(), rigid, 1.0, &rec);
+    EXPECT_NEAR(rec.Last("cube.v.x"), 0.3, 1e-9);
+    EXPECT_NEAR(rec.Last("cube.v.y"), -0.2, 1e-9);
+    EXPECT_NEAR(rec.Last("cube.omega.z"), 1.5, 1e-9);
+    // The slide along the plane's axes u = x, v = y (Perpendicular(z)), the turn about z.
+    EXPECT_NEAR(rec.Last("J.slide.u"), 0.3, 1e-9);
+    EXPECT_NEAR(rec.Last("J.slide.v"), -0.2, 1e-9);
+    EXPECT_NEAR(rec.Last("J.speed.u"), 0.3, 1e-9);
+    EXPECT_NEAR(rec.Last("J.speed.v"), -0.2, 1e-9);
+    EXPECT_NEAR(rec.Last("J.angle"), 1.5, 1e-9);
+    EXPECT_NEAR(rec.Last("J.rate"), 1.5, 1e-9);
+    EXPECT_NEAR(rec.Last("cube.r.x"), 0.5, 1e-9);
+    // The tilt about x: T / K_r in the coupling (rigid: none, the spin stays on z).
+    if (rigid) {
+      EXPECT_NEAR(rec.Last("cube.R.33"), 1.0, 1e-12);
+    } else {
+      EXPECT_NEAR(rec.Last("J.r.K.q.x"), kT / kKr, 1e-6 * kT / kKr);
+    }
+    EXPECT_LT(testing::MaxEnergyResidual(rec), 1e-7);
+  }
+}
+
+// --- screw ---------------------------------------------------------------------------------
+
+constexpr double kLead = 0.01, kKh = 1e7, kRh = 6e3;
+
+/// A nut (the cube, I about the axis 1/600 kg m^2) on a vertical screw of lead 10 mm, falling from
+/// rest under gravity: s = lead / (2 pi) theta, so (m + I (2 pi / lead)^2) s'' = -m g.
+Mechanism Nut(bool rigid) {
+  Mechanism m;
+  m.AddBody(Cube("cube"));
+  Joint j = MakeScrew("J", kGround, "cube", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), kLead, kKt, kRt, kKr, kRr, kKh, kRh);
+  j.sensors = true;
+  if (rigid) MakeRigid(j);
+  m.AddJoint(j);
+  m.SetGravity({0, 0, -kG});
+  return m;
+}
+
+TEST(Screw, ANutFallsWithTheEffectiveMassOfItsSpin) {
+  const double mass = 1.0, inertia = 1.0 / 600, k = 2 * pi / kLead;
+  const double a = mass * kG / (mass + inertia * k * k);  // the fall's acceleration, g / 659 here
+  for (bool rigid : {false, true}) {
+    SCOPED_TRACE(rigid ? "rigid" : "compliant");
+    const double t = 1.0;
+    const RecordingObserver rec = Simulated(Nut(rigid), t, 1e-3, 1e-11, 1e-13);
+    // Compliant: the helix spring carries m (g - a) at the deflection d = m (g - a) / K_h, 9.8e-7
+    // m; it starts undeflected and settles (about critically damped) in ~1 ms. The common motion
+    // m z + M y = -(m + M) a t^2 / 2 (M = I k^2, y = theta / k) holds from rest whatever the spring
+    // does, so the nut is below the ideal fall by d M / (m + M), the spin lags by d m / (m + M).
+    const double deflection = rigid ? 0.0 : mass * (kG - a) / kKh * (inertia * k * k) / (mass + inertia * k * k);
+    const double s = -0.5 * a * t * t;
+    std::printf("Screw (%s): slide %.12g, closed form %.12g (deflection %.3g): error %.3g m; speed error %.3g m/s\n",
+                rigid ? "rigid" : "compliant", rec.Last("J.slide"), s, deflection, rec.Last("J.slide") - (s - deflection),
+                rec.Last("J.speed") + a * t);
+    EXPECT_NEAR(rec.Last("J.slide"), s - deflection, 1e-11);
+    EXPECT_NEAR(rec.Last("cube.r.z"), s - deflection, 1e-11);
+    EXPECT_NEAR(rec.Last("J.speed"), -a * t, 1e-8);
+    EXPECT_NEAR(rec.Last("J.angle"), k * s, 1e-6);
+    EXPECT_NEAR(rec.Last("J.rate"), -k * a * t, 1e-6);
+    // The reactions: the helix holds m (g - a) of the weight, and turns the nut by I theta''.
+    EXPECT_NEAR(rec.Last("J.F.z"), mass * (kG - a), 1e-6);
+    EXPECT_NEAR(rec.Last("J.M.z"), -inertia * k * a, 1e-6);
+    EXPECT_NEAR(rec.Last("J.helix_force"), -mass * (kG - a), 1e-6);
+    // Energy: the potential released is the kinetic energy of the fall and the spin (the spring
+    // keeps m^2 (g - a)^2 / 2 K_h, 4e-6 J, and its damper takes about as much at the start).
+    const double released = mass * kG * (0.5 * a * t * t);
+    EXPECT_NEAR(rec.Last("energy.kinetic"), 0.5 * (mass + inertia * k * k) * a * a * t * t, 1e-6 * released);
+    // No work is done (gravity's is stored): kinetic + potential (gravity's and the springs') +
+    // dissipated stays 0.
+    EXPECT_NEAR(rec.Last("energy.kinetic") + rec.Last("energy.potential") + rec.Last("energy.dissipated"), 0.0, 1e-8 * released);
+  }
+}
+
+// --- universal -----------------------------------------------------------------------------
+
+/// A cube hanging on a universal joint from the ground at its centre: the ground's yoke about x,
+/// the cube's about its y.
+Mechanism CubeOnACross(bool rigid, const Eigen::Vector3d& omega) {
+  Mechanism m;
+  Body b = Cube("cube");
+  b.omega = omega;
+  m.AddBody(b);
+  Joint j = MakeUniversal("J", kGround, "cube", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), kKt,
+                          kRt, kKr, kRr);
+  j.sensors = true;
+  if (rigid) MakeRigid(j);
+  m.AddJoint(j);
+  return m;
+}
+
+TEST(Universal, TurnsFreelyAboutEitherYokeAndHoldsTheSpidersThirdAxis) {
+  for (bool rigid : {false, true}) {
+    SCOPED_TRACE(rigid ? "rigid" : "compliant");
+    {  // about the ground's yoke (x): angle_a = t, angle_b = 0
+      const RecordingObserver rec = Simulated(CubeOnACross(rigid, {1.0, 0, 0}), 2.0, 1e-2);
+      EXPECT_NEAR(rec.Last("cube.omega.x"), 1.0, 1e-9);
+      EXPECT_NEAR(rec.Last("J.angle_a"), 2.0, 1e-9);
+      EXPECT_NEAR(rec.Last("J.angle_b"), 0.0, 1e-9);
+      EXPECT_NEAR(rec.Last("J.rate_a"), 1.0, 1e-9);
+    }
+    {  // about the cube's yoke (y): angle_b = t
+      const RecordingObserver rec = Simulated(CubeOnACross(rigid, {0, 1.0, 0}), 2.0, 1e-2);
+      EXPECT_NEAR(rec.Last("cube.omega.y"), 1.0, 1e-9);
+      EXPECT_NEAR(rec.Last("J.angle_a"), 0.0, 1e-9);
+      EXPECT_NEAR(rec.Last("J.angle_b"), 2.0, 1e-9);
+      EXPECT_NEAR(rec.Last("J.rate_b"), 1.0, 1e-9);
+    }
+    // A torque about the spider's third axis (z) is held: weight along -z, the torque about z.
+    RecordingObserver rec;
+    ExpectHeldLoad(CubeOnACross(rigid, Eigen::Vector3d::Zero()), {0, 0, -kG}, Eigen::Vector3d::UnitZ(), rigid, 0.5, &rec);
+    const double turn = rec.Last("cube.R.21");  // R(z, phi) has R21 = sin(phi)
+    EXPECT_NEAR(turn, rigid ? 0.0 : kT / kKr, 2e-3 * kT / kKr + 1e-9);
+    // The compliant coupling's deflection, the integral of n . (w_c - w_p), is -(R_p x) . (R_c y)
+    // = -R12 = sin(phi): a function of the orientations, so the spring is conservative.
+    if (!rigid) {
+      EXPECT_NEAR(rec.Last("J.r.K.q"), -rec.Last("cube.R.12"), 1e-12);
+    }
+    EXPECT_LT(testing::MaxEnergyResidual(rec), 1e-7);
+  }
+}
+
+/// A Cardan joint between an input shaft along x, driven at w1, and an output shaft at the angle
+/// beta to it in the x-y plane, both on bearings to the ground: the input yoke about y (in the
+/// shafts' plane at t = 0), the output's about z. w2 = w1 cos(beta) / (1 - sin^2(beta) cos^2(w1 t)).
+Mechanism Cardan(double beta, double w1, bool rigid) {
+  Mechanism m;
+  Body in = Cube("in"), out = Cube("out");
+  in.omega = {w1, 0, 0};
+  const Eigen::Vector3d s2(std::cos(beta), std::sin(beta), 0);
+  out.omega = w1 / std::cos(beta) * s2;
+  m.AddBody(in);
+  m.AddBody(out);
+  const double k = rigid ? 1.0 : 1e3;  // stiffer couplings for the compliant Cardan: 1e9 N/m, 1e6 N m/rad
+  Joint bearing_in = MakeRevolute("bearing_in", kGround, "in", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), k * kKt, k * kRt,
+                                  k * kKr, std::sqrt(k) * kRr);
+  Joint bearing_out = MakeRevolute("bearing_out", kGround, "out", Eigen::Vector3d::Zero(), s2, k * kKt, k * kRt, k * kKr,
+                                   std::sqrt(k) * kRr);
+  bearing_out.translation.reset();  // the universal joint holds it to the input shaft
+  Joint cross = MakeUniversal("J", "in", "out", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitY(), Eigen::Vector3d::UnitZ(), k * kKt,
+                              k * kRt, k * kKr, std::sqrt(k) * kRr);
+  cross.sensors = true;
+  Drive motor;
+  motor.name = "motor";
+  motor.body = "in";
+  motor.axis = Eigen::Vector3d::UnitX();
+  motor.value = TimeFunction::Constant(w1);
+  motor.stiffness = k * kKr;
+  motor.damping = std::sqrt(k) * kRr;
+  if (rigid) {
+    MakeRigid(bearing_in);
+    MakeRigid(bearing_out);
+    MakeRigid(cross);
+    motor.rigid = true;
+  }
+  m.AddJoint(bearing_in);
+  m.AddJoint(bearing_out);
+  m.AddJoint(cross);
+  m.AddDrive(motor);
+  return m;
+}
+
+TEST(Universal, CardanOutputSpeedFollowsTheClosedForm) {
+  const double beta = 0.5, w1 = 2.0;
+  for (bool rigid : {true, false}) {
+    SCOPED_TRACE(rigid ? "rigid" : "compliant");
+    const RecordingObserver rec = Simulated(Cardan(beta, w1, rigid), 2 * pi / w1, 1e-3, 1e-11, 1e-13);
+    const Eigen::Vector3d s2(std::cos(beta), std::sin(beta), 0);
+    double max_error = 0.0, max_perpendicular = 0.0;
+    for (const auto& row : rec.rows()) {
+      const double t = row[0], c = std::cos(w1 * t), sb = std::sin(beta);
+      const double expected = w1 * std::cos(beta) / (1 - sb * sb * c * c);
+      const Eigen::Vector3d w2{row[rec.Index("out.omega.x")], row[rec.Index("out.omega.y")], row[rec.Index("out.omega.z")]};
+      max_error = std::max(max_error, std::abs(w2.dot(s2) - expected) / expected);
+      // The yokes stay perpendicular: (R_in y) . (R_out z).
+      const Eigen::Vector3d a1{row[rec.Index("in.R.12")], row[rec.Index("in.R.22")], row[rec.Index("in.R.32")]};
+      const Eigen::Vector3d a2{row[rec.Index("out.R.13")], row[rec.Index("out.R.23")], row[rec.Index("out.R.33")]};
+      max_perpendicular = std::max(max_perpendicular, std::abs(a1.dot(a2)));
+    }
+    std::printf("Cardan (%s): max relative error of w2 %.3g, max |a1.a2| %.3g\n", rigid ? "rigid" : "compliant", max_error,
+                max_perpendicular);
+    EXPECT_LT(max_error, rigid ? 1e-9 : 1e-6);
+    EXPECT_LT(max_perpendicular, rigid ? 1e-8 : 1e-7);
+    // The spider rocks on the input yoke: over a turn the output turns once too (angle_a returns).
+    EXPECT_NEAR(rec.Last("J.angle_a"), 0.0, rigid ? 1e-6 : 1e-3);
+    EXPECT_LT(testing::MaxEnergyResidual(rec), 1e-6);
+  }
+}
+
+// --- model files ---------------------------------------------------------------------------
+
+std::vector<Diagnostic> LoadErrors(const std::string& yaml) {
+  try {
+    (void)LoadModelString(yaml, "m.yaml");
+  } catch (const ModelError& e) {
+    return e.diagnostics();
+  }
+  ADD_FAILURE() << "expected a ModelError for:\n" << yaml;
+  return {};
+}
+
+const std::string kHead = "model: j\nbodies:\n  a: {mass: 1.0, inertia: 0.1}\n  b: {mass: 1.0, inertia: 0.1}\njoints:\n";
+
+TEST(JointKindsFile, EachTypeLoadsCompliantAndRigid) {
+  const std::vector<std::string> joints = {
+      "  J: {type: cylindrical, parent: a, child: b, axis: z, translation: {K: 1e6, R: 10}, rotation: {K: 1e3, R: 1}, sensors: true}\n",
+      "  J: {type: planar, parent: a, child: b, normal: z, translation: {K: 1e6, R: 10}, rotation: {K: 1e3, R: 1}, sensors: true}\n",
+      "  J: {type: screw, parent: a, child: b, axis: z, pitch: 0.005, translation: {K: 1e6, R: 10}, rotation: {K: 1e3, R: 1},\n"
+      "      helix: {K: 1e7, R: 10}, sensors: true}\n",
+      "  J: {type: universal, parent: a, child: b, axis: x, child_axis: y, translation: {K: 1e6, R: 10}, rotation: {K: 1e3, R: 1},\n"
+      "      sensors: true}\n",
+      "  J: {type: cylindrical, parent: a, child: b, axis: z, rigid: true}\n",
+      "  J: {type: planar, parent: a, child: b, axis: z, rigid: true, sensors: true}\n",
+      "  J: {type: screw, parent: a, child: b, axis: z, lead: -0.005, rigid: true}\n",
+      "  J: {type: universal, parent: a, child: b, axis: x, child_axis: y, rigid: true}\n"};
+  for (const std::string& j : joints) {
+    SCOPED_TRACE(j);
+    const LoadedModel lm = LoadModelString(kHead + j, "m.yaml");
+    const bool rigid = j.find("rigid: true") != std::string::npos;
+    EXPECT_EQ(lm.graph.Find("J.t.rigid") >= 0, rigid);
+    EXPECT_EQ(lm.graph.Find("J.t.K") >= 0, !rigid);
+    EXPECT_EQ(lm.graph.Find("J.r.rigid") >= 0, rigid);
+    if (j.find("screw") != std::string::npos) {
+      EXPECT_EQ(lm.graph.Find("J.h.rigid") >= 0, rigid);
+      const Element& tf = lm.graph.element(lm.graph.Find("J.helix_lead"));
+      EXPECT_NEAR(tf.param.scalar, (j.find("lead: -") != std::string::npos ? 0.005 : -0.005) / (2 * pi), 1e-15);
+    }
+    const bool sensors = j.find("sensors: true") != std::string::npos;
+    if (j.find("universal") != std::string::npos) {
+      EXPECT_EQ(lm.graph.FindAux("J.angle_a") >= 0, sensors);
+    } else if (sensors) {
+      EXPECT_GE(lm.graph.FindAux("J.slide"), 0);
+    }
+    (void)CompiledModel::Compile(lm.graph, lm.compile);  // compiles, rigid ones included
+  }
+}
+
+TEST(JointKindsFile, ABadTypeOrAMissingAxisIsLocatedWithAHint) {
+  std::vector<Diagnostic> d = LoadErrors(kHead + "  J: {type: cylindric, parent: a, child: b, axis: z, rigid: true}\n");
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].code, "mech.joint_type");
+  EXPECT_EQ(d[0].where.line, 6);
+  EXPECT_EQ(d[0].hint, "did you mean 'cylindrical'?");
+  d = LoadErrors(kHead + "  J: {type: screw, parent: a, child: b, pitch: 0.01, rigid: true}\n");
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].code, "mech.joint_axis");
+  EXPECT_EQ(d[0].where.line, 6);
+  EXPECT_THAT(d[0].message, HasSubstr("'axis'"));
+  d = LoadErrors(kHead + "  J: {type: planar, parent: a, child: b, rigid: true}\n");
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].code, "mech.joint_axis");
+  EXPECT_THAT(d[0].message, HasSubstr("'normal'"));
+  d = LoadErrors(kHead + "  J: {type: universal, parent: a, child: b, axis: x, rigid: true}\n");
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].code, "mech.joint_axis");
+  EXPECT_THAT(d[0].message, HasSubstr("'child_axis'"));
+  d = LoadErrors(kHead + "  J: {type: screw, parent: a, child: b, axis: z, rigid: true}\n");
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].code, "mech.joint_axis");
+  EXPECT_THAT(d[0].message, HasSubstr("'pitch'"));
+  // The yokes must be perpendicular as the bodies start: x and x are not.
+  d = LoadErrors(kHead + "  J: {type: universal, parent: a, child: b, axis: x, child_axis: x, rigid: true}\n");
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].code, "mech.joint_axis");
+  EXPECT_EQ(d[0].where.line, 6);
+  EXPECT_THAT(d[0].message, HasSubstr("perpendicular"));
+  // A key of another kind is unknown here.
+  d = LoadErrors(kHead + "  J: {type: cylindrical, parent: a, child: b, axis: z, pitch: 0.01, rigid: true}\n");
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_THAT(d[0].message, HasSubstr("pitch"));
+}
+
+}  // namespace
+}  // namespace multibond::mech
