@@ -30,21 +30,16 @@ Eigen::Map<Vec3> Out(double* p) { return Eigen::Map<Vec3>(p); }
 void RodriguesCoefficients(double f, double& c1, double& c2, double& c3) {
   const double f2 = f * f;
   if (f < 1e-3) {
-    c1 = 1.0 - f2 / 6.0 + f2 * f2 / 120.0;
-    c2 = 0.5 - f2 / 24.0 + f2 * f2 / 720.0;
-    c3 = 1.0 / 6.0 - f2 / 120.0 + f2 * f2 / 5040.0;
+    // Products with the reciprocals (constants): divisions cost most of a body's map here.
+    c1 = 1.0 + f2 * (-1.0 / 6.0 + f2 * (1.0 / 120.0));
+    c2 = 0.5 + f2 * (-1.0 / 24.0 + f2 * (1.0 / 720.0));
+    c3 = 1.0 / 6.0 + f2 * (-1.0 / 120.0 + f2 * (1.0 / 5040.0));
   } else {
     const double s = std::sin(f), c = std::cos(f);
     c1 = s / f;
     c2 = (1.0 - c) / f2;
     c3 = (f - s) / (f2 * f);
   }
-}
-
-/// Rotation about the unit vector n by theta.
-Mat3 AxisRotation(const Vec3& n, double theta) {
-  const Mat3 k = Hat(n);
-  return Mat3::Identity() + std::sin(theta) * k + (1.0 - std::cos(theta)) * (k * k);
 }
 
 /// The principal axis of `inertia` (body frame) nearest to the unit vector `a`, when it is
@@ -210,6 +205,8 @@ void JointCoordinateSystem::FromModel(const double* x, double* y) {
       }
       SetAxis(b, (q * b.nb).normalized());
       b.chart = q;
+      b.n_chart = Hat(b.n) * q;
+      b.n2_chart = Hat(b.n) * b.n_chart;
       yb[0] = yb[1] = yb[2] = 0.0;
       yb += 3;
       arm = b.Rw * b.anchor;
@@ -230,9 +227,11 @@ void JointCoordinateSystem::ToModel(const double* y, double* x) {
       const Vec3 psi = yb[0] * b.e1 + yb[1] * b.e2;
       double c1, c2, c3;
       RodriguesCoefficients(psi.norm(), c1, c2, c3);
-      const Mat3 k = Hat(psi), k2 = k * k;
+      const Mat3 k = Hat(psi), k2 = psi * psi.transpose() - psi.squaredNorm() * Mat3::Identity();  // [psi x]^2
       const Mat3 exp_psi = Mat3::Identity() + c1 * k + c2 * k2;
-      b.Rw = Rp * exp_psi * AxisRotation(b.n, yb[2]) * b.chart;
+      // Rot(n, theta) C = C + sin(theta) [n x] C + (1 - cos(theta)) [n x]^2 C.
+      const double st = std::sin(yb[2]), ct = std::cos(yb[2]);
+      b.Rw = Rp * (exp_psi * (b.chart + st * b.n_chart + (1.0 - ct) * b.n2_chart));
       // u = J_l(psi) psi' + Exp(psi) n theta', psi' = a' e1 + b' e2 (for CalcDerivatives).
       const Mat3 jl = Mat3::Identity() + c2 * k + c3 * k2;
       Mat3 m;

@@ -78,6 +78,7 @@ class JointCoordinateSystem : public OdeSystem {
     Eigen::Vector3d anchor = Eigen::Vector3d::Zero();
     Eigen::Vector3d n = Eigen::Vector3d::UnitZ(), e1 = Eigen::Vector3d::UnitX(), e2 = Eigen::Vector3d::UnitY();
     Eigen::Matrix3d chart = Eigen::Matrix3d::Identity();  ///< C
+    Eigen::Matrix3d n_chart = Eigen::Matrix3d::Zero(), n2_chart = Eigen::Matrix3d::Zero();  ///< [n x] C, [n x]^2 C
     /// The axis in the body's frame (C^T n), set by the first chart and kept by every other.
     Eigen::Vector3d nb = Eigen::Vector3d::UnitZ();
     bool axis_in_body = false;
