@@ -30,7 +30,7 @@ Eigen::Map<Vec3> Out(double* p) { return Eigen::Map<Vec3>(p); }
 void RodriguesCoefficients(double f, double& c1, double& c2, double& c3) {
   const double f2 = f * f;
   if (f < 1e-3) {
-    // Products with the reciprocals (constants): divisions cost most of a body's map here.
+    // Products with the constants' reciprocals: no divisions on the map's path.
     c1 = 1.0 + f2 * (-1.0 / 6.0 + f2 * (1.0 / 120.0));
     c2 = 0.5 + f2 * (-1.0 / 24.0 + f2 * (1.0 / 720.0));
     c3 = 1.0 / 6.0 + f2 * (-1.0 / 120.0 + f2 * (1.0 / 5040.0));
@@ -118,11 +118,10 @@ JointCoordinateSystem::JointCoordinateSystem(const CompiledModel& model, const J
     if (b.rotates()) {
       for (const char* s : {".tilt.1", ".tilt.2", ".angle"}) names_.push_back(nm + s);
     }
-    for (const char* part : {".offset", ".omega_rel", ".offset_rate"}) {
-      const bool mixed = std::string(part) == ".omega_rel";  // S u: components on the diagonal basis
-      if (!b.rotates() && mixed) continue;
-      for (const char* c : {".x", ".y", ".z"}) names_.push_back(nm + part + (mixed ? std::string(".") + std::to_string(c[1] - 'x' + 1) : c));
-    }
+    for (const char* c : {".x", ".y", ".z"}) names_.push_back(nm + ".offset" + c);
+    if (b.rotates())  // S u: its components on the basis S maps to, not on x, y, z
+      for (const char* c : {".1", ".2", ".3"}) names_.push_back(nm + ".omega_rel" + c);
+    for (const char* c : {".x", ".y", ".z"}) names_.push_back(nm + ".offset_rate" + c);
     n_ += b.rotates() ? 12 : 6;
     index[tb.name] = static_cast<int>(bodies_.size());
     bodies_.push_back(b);
@@ -184,6 +183,8 @@ void JointCoordinateSystem::SetAxis(Body& b, const Vec3& n) {
   to.col(2) = to.col(0).cross(to.col(1));
   from << b.n, b.e1, b.e2;
   b.mix = to * from.transpose();
+  b.n_chart = Hat(b.n) * b.chart;
+  b.n2_chart = Hat(b.n) * b.n_chart;
 }
 
 void JointCoordinateSystem::FromModel(const double* x, double* y) {
@@ -203,10 +204,8 @@ void JointCoordinateSystem::FromModel(const double* x, double* y) {
         b.nb = NearPrincipalAxis(b.inertia, q.transpose() * b.n);
         b.axis_in_body = true;
       }
-      SetAxis(b, (q * b.nb).normalized());
       b.chart = q;
-      b.n_chart = Hat(b.n) * q;
-      b.n2_chart = Hat(b.n) * b.n_chart;
+      SetAxis(b, (q * b.nb).normalized());
       yb[0] = yb[1] = yb[2] = 0.0;
       yb += 3;
       arm = b.Rw * b.anchor;

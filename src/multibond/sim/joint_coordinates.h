@@ -91,7 +91,7 @@ class JointCoordinateSystem : public OdeSystem {
     Eigen::Matrix3d rates_from_u = Eigen::Matrix3d::Identity();
     bool rotates() const { return R >= 0; }
   };
-  /// n, the basis e1, e2 that completes it, and S.
+  /// n, the basis e1, e2 that completes it, S, and [n x] C, [n x]^2 C (C already set).
   static void SetAxis(Body& b, const Eigen::Vector3d& n);
   /// Velocities (u, d') of y from the momenta in x, with the configuration already in bodies_.
   void VelocitiesFromModel(const double* x, double* y);
