@@ -30,9 +30,10 @@ Eigen::Map<Vec3> Out(double* p) { return Eigen::Map<Vec3>(p); }
 void RodriguesCoefficients(double f, double& c1, double& c2, double& c3) {
   const double f2 = f * f;
   if (f < 1e-3) {
-    c1 = 1.0 - f2 / 6.0 + f2 * f2 / 120.0;
-    c2 = 0.5 - f2 / 24.0 + f2 * f2 / 720.0;
-    c3 = 1.0 / 6.0 - f2 / 120.0 + f2 * f2 / 5040.0;
+    // Products with the constants' reciprocals: no divisions on the map's path.
+    c1 = 1.0 + f2 * (-1.0 / 6.0 + f2 * (1.0 / 120.0));
+    c2 = 0.5 + f2 * (-1.0 / 24.0 + f2 * (1.0 / 720.0));
+    c3 = 1.0 / 6.0 + f2 * (-1.0 / 120.0 + f2 * (1.0 / 5040.0));
   } else {
     const double s = std::sin(f), c = std::cos(f);
     c1 = s / f;
@@ -41,10 +42,28 @@ void RodriguesCoefficients(double f, double& c1, double& c2, double& c3) {
   }
 }
 
-/// Rotation about the unit vector n by theta.
-Mat3 AxisRotation(const Vec3& n, double theta) {
-  const Mat3 k = Hat(n);
-  return Mat3::Identity() + std::sin(theta) * k + (1.0 - std::cos(theta)) * (k * k);
+/// The principal axis of `inertia` (body frame) nearest to the unit vector `a`, when it is
+/// within kPrincipalSnap of it (for equal principal moments, the nearest direction of their
+/// plane); else `a`. A body that spins freely (no bearing: the tree's axis is its initial spin)
+/// keeps spinning about a principal axis, not about its initial angular velocity: a gyroscope
+/// started in steady precession spins about its symmetry axis while its angular velocity is off
+/// it by the precession. About that direction instead, the rotation off the axis would turn at
+/// the spin rate. A bearing's axis is a principal axis or far from every one, and stays.
+Vec3 NearPrincipalAxis(const Mat3& inertia, const Vec3& a) {
+  constexpr double kPrincipalSnap = 0.1;  // [rad]
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(inertia);
+  const Vec3 moments = eig.eigenvalues();
+  const Mat3 axes = eig.eigenvectors();
+  Vec3 best = a;
+  double best_norm = -1.0;
+  for (int i = 0; i < 3; ++i) {  // each group of equal moments: a's projection on their span
+    Vec3 projection = Vec3::Zero();
+    for (int j = 0; j < 3; ++j)
+      if (std::abs(moments[j] - moments[i]) <= 1e-9 * moments.cwiseAbs().maxCoeff()) projection += axes.col(j) * axes.col(j).dot(a);
+    if (projection.norm() > best_norm) best = projection, best_norm = projection.norm();
+  }
+  if (!(best_norm > std::cos(kPrincipalSnap))) return a;
+  return best / best_norm;
 }
 
 }  // namespace
@@ -92,24 +111,17 @@ JointCoordinateSystem::JointCoordinateSystem(const CompiledModel& model, const J
       b.anchor = tb.anchor;
       const double norm = tb.axis.norm();
       if (!(norm > 0.0)) throw std::invalid_argument(fmt::format("joint coordinates: body '{}' has a zero axis", tb.name));
-      b.n = tb.axis / norm;
-      // e1, e2: completing n to a right-handed orthonormal basis.
-      int smallest = 0;
-      b.n.cwiseAbs().minCoeff(&smallest);
-      Vec3 helper = Vec3::Zero();
-      helper[smallest] = 1.0;
-      b.e1 = b.n.cross(helper).normalized();
-      b.e2 = b.n.cross(b.e1);
+      SetAxis(b, tb.axis / norm);
     }
     b.y = n_;
     const std::string& nm = tb.name;
     if (b.rotates()) {
       for (const char* s : {".tilt.1", ".tilt.2", ".angle"}) names_.push_back(nm + s);
     }
-    for (const char* part : {".offset", ".omega_rel", ".offset_rate"}) {
-      if (!b.rotates() && std::string(part) == ".omega_rel") continue;
-      for (const char* c : {".x", ".y", ".z"}) names_.push_back(nm + part + c);
-    }
+    for (const char* c : {".x", ".y", ".z"}) names_.push_back(nm + ".offset" + c);
+    if (b.rotates())  // S u: its components on the basis S maps to, not on x, y, z
+      for (const char* c : {".1", ".2", ".3"}) names_.push_back(nm + ".omega_rel" + c);
+    for (const char* c : {".x", ".y", ".z"}) names_.push_back(nm + ".offset_rate" + c);
     n_ += b.rotates() ? 12 : 6;
     index[tb.name] = static_cast<int>(bodies_.size());
     bodies_.push_back(b);
@@ -155,6 +167,26 @@ JointCoordinateSystem::JointCoordinateSystem(const CompiledModel& model, const J
   }
 }
 
+void JointCoordinateSystem::SetAxis(Body& b, const Vec3& n) {
+  b.n = n;
+  // e1, e2: completing n to a right-handed orthonormal basis.
+  int smallest = 0;
+  b.n.cwiseAbs().minCoeff(&smallest);
+  Vec3 helper = Vec3::Zero();
+  helper[smallest] = 1.0;
+  b.e1 = b.n.cross(helper).normalized();
+  b.e2 = b.n.cross(b.e1);
+  // S: n to the diagonal (1, 1, 1)/sqrt(3), e1 and e2 to the two directions that complete it.
+  Mat3 to, from;
+  to.col(0) = Vec3::Ones().normalized();
+  to.col(1) = Vec3(1.0, -1.0, 0.0).normalized();
+  to.col(2) = to.col(0).cross(to.col(1));
+  from << b.n, b.e1, b.e2;
+  b.mix = to * from.transpose();
+  b.n_chart = Hat(b.n) * b.chart;
+  b.n2_chart = Hat(b.n) * b.n_chart;
+}
+
 void JointCoordinateSystem::FromModel(const double* x, double* y) {
   for (Body& b : bodies_) {  // the configuration, charted at x: psi = theta = 0
     const Body& pb = Parent(b);
@@ -163,7 +195,17 @@ void JointCoordinateSystem::FromModel(const double* x, double* y) {
     Vec3 arm = Vec3::Zero();
     if (b.rotates()) {
       b.Rw = Eigen::Map<const RowMajor3>(x + b.R);
-      b.chart = pb.Rw.transpose() * b.Rw;
+      const Mat3 q = pb.Rw.transpose() * b.Rw;
+      // The axis is the body's: fixed in its frame from the first chart on (n_b = C^T n), and
+      // in the parent's frame wherever the body has turned it to (n = Q n_b). A body in a
+      // bearing keeps it in both; a body with none (a top on a pivot, a tumbling body) turns
+      // about it wherever it has gone, and the new chart's angle theta is still its spin.
+      if (!b.axis_in_body) {
+        b.nb = NearPrincipalAxis(b.inertia, q.transpose() * b.n);
+        b.axis_in_body = true;
+      }
+      b.chart = q;
+      SetAxis(b, (q * b.nb).normalized());
       yb[0] = yb[1] = yb[2] = 0.0;
       yb += 3;
       arm = b.Rw * b.anchor;
@@ -184,9 +226,11 @@ void JointCoordinateSystem::ToModel(const double* y, double* x) {
       const Vec3 psi = yb[0] * b.e1 + yb[1] * b.e2;
       double c1, c2, c3;
       RodriguesCoefficients(psi.norm(), c1, c2, c3);
-      const Mat3 k = Hat(psi), k2 = k * k;
+      const Mat3 k = Hat(psi), k2 = psi * psi.transpose() - psi.squaredNorm() * Mat3::Identity();  // [psi x]^2
       const Mat3 exp_psi = Mat3::Identity() + c1 * k + c2 * k2;
-      b.Rw = Rp * exp_psi * AxisRotation(b.n, yb[2]) * b.chart;
+      // Rot(n, theta) C = C + sin(theta) [n x] C + (1 - cos(theta)) [n x]^2 C.
+      const double st = std::sin(yb[2]), ct = std::cos(yb[2]);
+      b.Rw = Rp * (exp_psi * (b.chart + st * b.n_chart + (1.0 - ct) * b.n2_chart));
       // u = J_l(psi) psi' + Exp(psi) n theta', psi' = a' e1 + b' e2 (for CalcDerivatives).
       const Mat3 jl = Mat3::Identity() + c2 * k + c3 * k2;
       Mat3 m;
@@ -195,7 +239,7 @@ void JointCoordinateSystem::ToModel(const double* y, double* x) {
       m.col(2) = exp_psi * b.n;
       b.rates_from_u = m.inverse();
       yb += 3;
-      b.ww = wp + Rp * Eigen::Map<const Vec3>(yb + 3);
+      b.ww = wp + Rp * (b.mix.transpose() * Eigen::Map<const Vec3>(yb + 3));
       arm = b.Rw * b.anchor;
       Eigen::Map<RowMajor3>(x + b.R) = b.Rw;
       Out(x + b.h) = b.Rw * (b.inertia * (b.Rw.transpose() * b.ww));
@@ -228,12 +272,12 @@ void JointCoordinateSystem::CalcDerivatives(double t, const double* y, double* y
     if (b.rotates()) {
       const Vec3 h = Eigen::Map<const Vec3>(x_.data() + b.h);
       b.wdot = b.Rw * (b.inertia_inv * (b.Rw.transpose() * (Eigen::Map<const Vec3>(xdot_.data() + b.h) - b.ww.cross(h))));
-      Out(yd) = b.rates_from_u * Eigen::Map<const Vec3>(yb + 6);
+      Out(yd) = b.rates_from_u * (b.mix.transpose() * Eigen::Map<const Vec3>(yb + 6));
       yb += 3;
       yd += 3;
       arm = b.Rw * b.anchor;
       // u = R_P^T (w - w_P):  u' = R_P^T (w' - w_P' - w_P x (w - w_P)).
-      Out(yd + 3) = Rp.transpose() * (b.wdot - wdp - wp.cross(b.ww - wp));
+      Out(yd + 3) = b.mix * (Rp.transpose() * (b.wdot - wdp - wp.cross(b.ww - wp)));
     } else {
       b.wdot = Vec3::Zero();
     }
@@ -262,7 +306,7 @@ void JointCoordinateSystem::VelocitiesFromModel(const double* x, double* y) {
       b.ww = b.Rw * (b.inertia_inv * (b.Rw.transpose() * Eigen::Map<const Vec3>(x + b.h)));
       arm = b.Rw * b.anchor;
       yb += 3;
-      Out(yb + 3) = Rp.transpose() * (b.ww - wp);
+      Out(yb + 3) = b.mix * (Rp.transpose() * (b.ww - wp));
     }
     const Vec3 rel = b.rw + arm - rp;
     const Vec3 rel_dot = b.vw + b.ww.cross(arm) - vp;
@@ -281,7 +325,7 @@ void JointCoordinateSystem::Project(double t, double* y) {
 bool JointCoordinateSystem::Rechart(const double* x, double* y) {
   bool needed = false;
   for (const Body& b : bodies_)
-    if (b.rotates() && std::hypot(y[b.y], y[b.y + 1]) > 0.5) needed = true;
+    if (b.rotates() && std::hypot(y[b.y], y[b.y + 1]) > kRechartTilt) needed = true;
   if (!needed) return false;
   FromModel(x, y);
   return true;

@@ -7,13 +7,18 @@
 /// constraints' efforts), and maps dx/dt back to dy/dt by the kinematics of the tree.
 ///
 /// Per body, relative to its tree parent P (JointTree): the relative orientation
-/// Q = R_P^T R = Exp(psi) Rot(n, theta) C (C its value at the start, n the tree joint's axis in
-/// P's frame, psi = a e1 + b e2 a small rotation off n), the anchor's position in P's frame
-/// d = R_P^T (r + R anchor - r_P), the relative angular velocity in P's frame u = R_P^T (w - w_P)
-/// and the anchor's relative velocity in P's frame d'. A body turning steadily in its bearing has
-/// theta growing linearly and every other state constant, where its inertial-frame states
-/// oscillate: the integrator's step is then no longer bounded by the rotation. docs/design.md,
-/// "Joint coordinates".
+/// Q = R_P^T R = Exp(psi) Rot(n, theta) C (C the relative orientation where the chart was made,
+/// n the body's axis in P's frame, psi = a e1 + b e2 a rotation off n), the anchor's position in
+/// P's frame d = R_P^T (r + R anchor - r_P), the relative angular velocity in P's frame
+/// u = R_P^T (w - w_P), stored as S u (S a fixed rotation that takes n to the diagonal
+/// (1, 1, 1)/sqrt(3): every stored component carries a third of the spin, so that the error test
+/// holds the rates off the axis to rtol times the spin, as the inertial momenta's components are,
+/// and not to atol), and the anchor's relative velocity in P's frame d'. The axis is fixed in the
+/// body (n_b = C^T n), so theta is the spin about it, whichever way a body without a bearing has
+/// turned it; a body with no bearing takes the principal axis of inertia next to its initial spin.
+/// A body turning steadily in its bearing has theta growing linearly and every other state
+/// constant, where its inertial-frame states oscillate: the integrator's step is then no longer
+/// bounded by the rotation. docs/design.md, "Joint coordinates".
 
 #include <string>
 #include <vector>
@@ -30,6 +35,9 @@ class ModelSystem;
 
 class JointCoordinateSystem : public OdeSystem {
  public:
+  /// The rotation off the axis |psi| [rad] past which Rechart charts anew. The chart is regular
+  /// up to pi (the axis turned over: the Jacobian's determinant is sin|psi| / |psi|).
+  static constexpr double kRechartTilt = 1.5;
   /// Throws std::invalid_argument if the tree does not fit the model (a body without the states
   /// <name>.r and <name>.p, a parent after its child, a body twice). `system` is the model as an
   /// OdeSystem, whose variables this one changes: its evaluations (with its workspace and stop
@@ -51,10 +59,11 @@ class JointCoordinateSystem : public OdeSystem {
   void FromModel(const double* x, double* y);
   /// The model's state at y. No allocation.
   void ToModel(const double* y, double* x);
-  /// When a body's rotation off its axis has grown past half a radian (a body with no bearing
-  /// about the chosen axis), charts again at x = ToModel(y) (just computed by the caller) and
-  /// returns true: the integrator must then restart from the new y. Integrators see no jump in
-  /// the motion, only in y.
+  /// When a body's rotation off its axis has grown past kRechartTilt (a body with no bearing
+  /// whose axis has turned: a top precessing), charts again at x = ToModel(y) (just computed by
+  /// the caller), about the body's own axis where it now points, and returns true: the
+  /// integrator must then restart from the new y. Integrators see no jump in the motion, only
+  /// in y.
   bool Rechart(const double* x, double* y);
 
   const std::vector<std::string>& state_names() const { return names_; }
@@ -63,12 +72,17 @@ class JointCoordinateSystem : public OdeSystem {
   struct Body {
     int parent = -1;  ///< index into bodies_, -1 for the ground
     int R = -1, r = -1, p = -1, h = -1;  ///< offsets in x (R, h: -1 for a point mass)
-    int y = 0;        ///< offset in y: [a, b, theta, d(3), u(3), d'(3)] or, point mass, [d(3), d'(3)]
+    int y = 0;        ///< offset in y: [a, b, theta, d(3), S u(3), d'(3)] or, point mass, [d(3), d'(3)]
     double mass = 0.0;
     Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero(), inertia_inv = Eigen::Matrix3d::Zero();
     Eigen::Vector3d anchor = Eigen::Vector3d::Zero();
     Eigen::Vector3d n = Eigen::Vector3d::UnitZ(), e1 = Eigen::Vector3d::UnitX(), e2 = Eigen::Vector3d::UnitY();
     Eigen::Matrix3d chart = Eigen::Matrix3d::Identity();  ///< C
+    Eigen::Matrix3d n_chart = Eigen::Matrix3d::Zero(), n2_chart = Eigen::Matrix3d::Zero();  ///< [n x] C, [n x]^2 C
+    /// The axis in the body's frame (C^T n), set by the first chart and kept by every other.
+    Eigen::Vector3d nb = Eigen::Vector3d::UnitZ();
+    bool axis_in_body = false;
+    Eigen::Matrix3d mix = Eigen::Matrix3d::Identity();  ///< S (SetAxis)
     // Kinematics at the current y (ToModel), inertial frame.
     Eigen::Matrix3d Rw = Eigen::Matrix3d::Identity();
     Eigen::Vector3d rw = Eigen::Vector3d::Zero(), vw = Eigen::Vector3d::Zero(), ww = Eigen::Vector3d::Zero();
@@ -77,6 +91,8 @@ class JointCoordinateSystem : public OdeSystem {
     Eigen::Matrix3d rates_from_u = Eigen::Matrix3d::Identity();
     bool rotates() const { return R >= 0; }
   };
+  /// n, the basis e1, e2 that completes it, S, and [n x] C, [n x]^2 C (C already set).
+  static void SetAxis(Body& b, const Eigen::Vector3d& n);
   /// Velocities (u, d') of y from the momenta in x, with the configuration already in bodies_.
   void VelocitiesFromModel(const double* x, double* y);
   /// The body's tree parent, or the ground (at rest at the origin).
