@@ -79,19 +79,29 @@ std::optional<mech::AssemblySpec> ReadAssembly(MechanismValues& v, DiagnosticSin
     }
     if (const auto j = joints.find(name); j != joints.end()) {
       const std::string& kind = j->second->kind;
-      if (kind == "revolute") {
-        v.CheckKeys(g, {"angle", "degrees", "rate"}, name);
+      // Revolute: the turn about the axis; prismatic: the slide along it; cylindrical and screw: both.
+      const bool turns = kind == "revolute" || kind == "cylindrical" || kind == "screw";
+      const bool slides = kind == "prismatic" || kind == "cylindrical" || kind == "screw";
+      if (turns || slides) {
+        std::vector<std::string> keys;
+        if (turns) keys.insert(keys.end(), {"angle", "degrees", "rate"});
+        if (slides) keys.insert(keys.end(), {"slide", "speed"});
+        v.CheckKeys(g, keys, name);
+      }
+      if (turns) {
         if (g["angle"] && g["degrees"]) sink.Error(v.Loc(g["degrees"]), name, "give the angle once: 'angle' (rad) or 'degrees'");
         if (g["angle"]) add(Kind::kJointAngle, "angle").value = v.Number(g["angle"], name, Env{});
         else if (g["degrees"]) add(Kind::kJointAngle, "degrees").value = v.Number(g["degrees"], name, Env{}) * std::numbers::pi / 180.0;
         if (g["rate"]) add(Kind::kJointRate, "rate").value = v.Number(g["rate"], name, Env{});
-      } else if (kind == "prismatic") {
-        v.CheckKeys(g, {"slide", "speed"}, name);
+      }
+      if (slides) {
         if (g["slide"]) add(Kind::kJointSlide, "slide").value = v.Number(g["slide"], name, Env{});
         if (g["speed"]) add(Kind::kJointSpeed, "speed").value = v.Number(g["speed"], name, Env{});
-      } else {
+      }
+      if (!turns && !slides) {
         sink.Error(codes::kMechAssembly, v.Loc(kv.first), name,
-                   fmt::format("joint '{}' is a {} joint: only revolute and prismatic joints have a coordinate to give", name, kind),
+                   fmt::format("joint '{}' is a {} joint: only revolute, prismatic, cylindrical and screw joints have a coordinate to give",
+                               name, kind),
                    "give the bodies' positions, orientations or velocities instead");
       }
     } else if (bodies.count(name)) {
@@ -111,7 +121,7 @@ std::optional<mech::AssemblySpec> ReadAssembly(MechanismValues& v, DiagnosticSin
     } else {
       const std::string guess = DidYouMean(name, names);
       sink.Error(codes::kMechReference, v.Loc(kv.first), name, fmt::format("'{}' is no joint, body or drive of the mechanism", name),
-                 guess.empty() ? "name a revolute or prismatic joint, a body or a velocity drive" : fmt::format("did you mean '{}'?", guess));
+                 guess.empty() ? "name a revolute, prismatic, cylindrical or screw joint, a body or a velocity drive" : fmt::format("did you mean '{}'?", guess));
     }
   }
   return spec;

@@ -128,10 +128,20 @@ class Assembler {
         for (Eigen::Index k = 0; k < v.size(); ++k)
           rows.Joint(v[k], [&] { return Label{fmt::format("joint '{}' (translation{})", j.name, Component(*j.translation, k)), "m", j.where, j.name}; });
       }
-      if (j.rotation) {
+      if (j.rotation && !j.child_axis.isZero()) {
+        // A universal joint: the yokes stay perpendicular, (R_p a1) . (R_c a2) = 0 (its coupling's deflection).
+        rows.Joint((Rotation(p, pi) * j.axis).dot(Rotation(p, ci) * j.child_axis),
+                   [&] { return Label{fmt::format("joint '{}' (the yokes' angle)", j.name), "rad", j.where, j.name}; });
+      } else if (j.rotation) {
         const Eigen::VectorXd v = j.rotation->directions * RelativeRotation(p, j.rotation->frame, pi, ci);
         for (Eigen::Index k = 0; k < v.size(); ++k)
           rows.Joint(v[k], [&] { return Label{fmt::format("joint '{}' (rotation{})", j.name, Component(*j.rotation, k)), "rad", j.where, j.name}; });
+      }
+      if (j.helix) {
+        // A screw: the slide since the bodies as written follows the turn, lead / (2 pi) per radian.
+        rows.Joint(Slide(p, j, pi, ci) - Slide(Pose{r0_, R0_}, j, pi, ci) -
+                       j.lead / (2 * std::numbers::pi) * j.axis.dot(RelativeRotation(p, Coupling::Frame::kParent, pi, ci)),
+                   [&] { return Label{fmt::format("joint '{}' (helix)", j.name), "m", j.where, j.name}; });
       }
     }
     for (const Given& g : spec_.given) {
@@ -145,9 +155,7 @@ class Assembler {
         }
         case Given::Kind::kJointSlide: {
           const Joint& j = *joints_.at(g.part);
-          const int pi = Index(j.parent), ci = Index(j.child);
-          const Eigen::Vector3d gap = Point(p, ci, j.child_point) - Point(p, pi, j.parent_point);
-          rows.Given(j.axis.dot(Rotation(p, pi).transpose() * gap) - g.value, l);
+          rows.Given(Slide(p, j, Index(j.parent), Index(j.child)) - g.value, l);
           break;
         }
         case Given::Kind::kBodyPosition: {
@@ -177,11 +185,20 @@ class Assembler {
         for (Eigen::Index k = 0; k < v.size(); ++k)
           rows.Joint(v[k], [&] { return Label{fmt::format("joint '{}' (translation{} rate)", j.name, Component(*j.translation, k)), "m/s", j.where, j.name}; });
       }
-      if (j.rotation) {
-        const Eigen::Vector3d dw = Omega(u, ci) - Omega(u, pi);
+      const Eigen::Vector3d dw = Omega(u, ci) - Omega(u, pi);
+      if (j.rotation && !j.child_axis.isZero()) {
+        const Eigen::Vector3d n = (Rotation(p, pi) * j.axis).cross(Rotation(p, ci) * j.child_axis);
+        rows.Joint(n.dot(dw), [&] { return Label{fmt::format("joint '{}' (the yokes' rate)", j.name), "rad/s", j.where, j.name}; });
+      } else if (j.rotation) {
         const Eigen::VectorXd v = j.rotation->directions * (Frame(p, j.rotation->frame, pi, ci).transpose() * dw);
         for (Eigen::Index k = 0; k < v.size(); ++k)
           rows.Joint(v[k], [&] { return Label{fmt::format("joint '{}' (rotation{} rate)", j.name, Component(*j.rotation, k)), "rad/s", j.where, j.name}; });
+      }
+      if (j.helix) {
+        const Eigen::Vector3d dv = PointVelocity(p, u, ci, j.child_point) - PointVelocity(p, u, pi, j.parent_point);
+        const Eigen::Matrix3d rp = Rotation(p, pi);
+        rows.Joint(j.axis.dot(rp.transpose() * dv) - j.lead / (2 * std::numbers::pi) * j.axis.dot(rp.transpose() * dw),
+                   [&] { return Label{fmt::format("joint '{}' (helix rate)", j.name), "m/s", j.where, j.name}; });
       }
     }
     for (const GearMesh& gm : m_.gears()) {
@@ -260,6 +277,10 @@ class Assembler {
     return b == kGroundIndex ? at : Eigen::Vector3d(p.r[b] + p.R[b] * at);
   }
   Eigen::Matrix3d Rotation(const Pose& p, int b) const { return b == kGroundIndex ? Eigen::Matrix3d::Identity() : p.R[b]; }
+  /// A joint's slide along its axis (parent frame): from the parent's point to the child's.
+  double Slide(const Pose& p, const Joint& j, int pi, int ci) const {
+    return j.axis.dot(Rotation(p, pi).transpose() * (Point(p, ci, j.child_point) - Point(p, pi, j.parent_point)));
+  }
   Eigen::Matrix3d Written(int b) const { return b == kGroundIndex ? Eigen::Matrix3d::Identity() : R0_[b]; }
   static Eigen::Vector3d Velocity(const Vec& u, int b) { return b == kGroundIndex ? Eigen::Vector3d::Zero() : Eigen::Vector3d(u.segment<3>(6 * b)); }
   static Eigen::Vector3d Omega(const Vec& u, int b) { return b == kGroundIndex ? Eigen::Vector3d::Zero() : Eigen::Vector3d(u.segment<3>(6 * b + 3)); }
