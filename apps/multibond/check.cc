@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <iostream>
+#include <iterator>
 #include <memory>
 
 #include <fmt/format.h>
@@ -162,14 +163,18 @@ int Suggest(const LoadedModel& lm, const CheckArgs& a) {
 }
 
 int Check(const CheckArgs& a) {
-  const LoadedModel lm = Load(a.model, a.load);
+  LoadedModel lm = Load(a.model, a.load);  // not const: its graph is moved into the compiler at the end
   const std::string& path = a.model;
   const BondGraph& g = lm.graph;
   DiagnosticSink sink;
-  const BondGraph view = CausalView(g);
-  const Structure s = AnalyzeStructure(view, lm.compile.default_domain, sink);
-  sink.ThrowIfErrors();
-  CausalAssignment c = AssignCausality(view, s);
+  Structure s;
+  CausalAssignment c;
+  {
+    const InCausalView view(lm.graph);  // the graph as the compiler sees it, for this block
+    s = AnalyzeStructure(view.graph(), lm.compile.default_domain, sink);
+    sink.ThrowIfErrors();
+    c = AssignCausality(view.graph(), s);
+  }
   if (lm.mechanism) ExplainInMechanismTerms(*lm.mechanism, c.diagnostics);
   std::cout << fmt::format("model '{}' ({}): {} elements, {} bonds\n\n", g.name(), path, g.num_elements(), g.num_bonds());
   if (!lm.parameters.empty()) {
@@ -180,11 +185,18 @@ int Check(const CheckArgs& a) {
     std::cout << '\n';
   }
   std::cout << "causality (the causal stroke is at the element that receives the effort):\n";
-  for (int b = 0; b < g.num_bonds(); ++b) {
-    const Bond& bond = g.bond(b);
-    const std::string arrow = c.stroke_at_head[b] ? fmt::format("{} -->| {}", g.element(bond.from).name, g.element(bond.to).name)
-                                                  : fmt::format("{} |--> {}", g.element(bond.from).name, g.element(bond.to).name);
-    std::cout << fmt::format("  {:<40} [{}]  {}\n", arrow, s.bond_dim[b], Stroke(g, c, b));
+  {
+    // One line per bond, written at once (a large model has a hundred thousand of them).
+    fmt::memory_buffer lines;
+    std::string arrow;
+    for (int b = 0; b < g.num_bonds(); ++b) {
+      const Bond& bond = g.bond(b);
+      arrow.clear();
+      if (c.stroke_at_head[b]) fmt::format_to(std::back_inserter(arrow), "{} -->| {}", g.element(bond.from).name, g.element(bond.to).name);
+      else fmt::format_to(std::back_inserter(arrow), "{} |--> {}", g.element(bond.from).name, g.element(bond.to).name);
+      fmt::format_to(std::back_inserter(lines), "  {:<40} [{}]  {}\n", arrow, s.bond_dim[b], Stroke(g, c, b));
+    }
+    std::cout.write(lines.data(), static_cast<std::streamsize>(lines.size()));
   }
   // With ideal constraints, derivative causality is accepted: the compiler solves the dependent
   // storage exactly. Any other causality problem is still an error.
@@ -222,7 +234,8 @@ int Check(const CheckArgs& a) {
     std::cout << "\n--suggest: nothing to repair (no storage element in derivative causality)" << (a.write ? "; nothing was written" : "") << '\n';
     PrintRigidParts(lm);
   }
-  const auto model = CompiledModel::Compile(lm.graph, lm.compile);  // also finds algebraic loops
+  // Also finds algebraic loops. The graph is not read after this: it is moved in, not copied.
+  const auto model = CompiledModel::Compile(std::move(lm.graph), lm.compile);
   (void)MakeColumns(*model, false);  // and checks the declared outputs
   std::cout << solved;
   const std::string causal = model->has_constraints()

@@ -222,6 +222,48 @@ bonds: [push -> v1, v1 -> m1, v1 -> link, link -> rel, lock -> rel, link -> v2, 
   EXPECT_EQ(r.repaired.element(r.repaired.Find("lock")).kind, ElementKind::kSf);  // the graph itself is unchanged
 }
 
+TEST(InCausalView, IsTheCausalViewInPlaceForItsScopeAndRestoresTheGraphAfter) {
+  // `check` analyses the graph in place rather than through a copy. The Sf 'lock' is a constraint.
+  LoadedModel lm = LoadModelString(R"(
+model: rigid_link
+domain: translation
+elements:
+  push: {type: Se, effort: 1.0}
+  v1:   {type: "1"}
+  m1:   {type: I, inertia: 1.0}
+  link: {type: "0"}
+  rel:  {type: "1"}
+  lock: {type: Sf, flow: 0.0, constraint: true}
+  v2:   {type: "1"}
+  m2:   {type: I, inertia: 2.0}
+bonds: [push -> v1, v1 -> m1, v1 -> link, link -> rel, lock -> rel, link -> v2, v2 -> m2]
+)");
+  const BondGraph copy = CausalView(lm.graph);
+  std::vector<ElementKind> before;
+  for (const Element& e : lm.graph.elements()) before.push_back(e.kind);
+  int turned = 0;
+  for (int i = 0; i < lm.graph.num_elements(); ++i) turned += before[i] != copy.element(i).kind;
+  ASSERT_EQ(turned, 1);  // 'lock'
+  EXPECT_EQ(lm.graph.element(lm.graph.Find("lock")).kind, ElementKind::kSf);
+  {
+    const InCausalView view(lm.graph);
+    EXPECT_EQ(&view.graph(), &lm.graph);
+    for (int i = 0; i < lm.graph.num_elements(); ++i) EXPECT_EQ(view.graph().element(i).kind, copy.element(i).kind) << i;
+    DiagnosticSink a, b;
+    const Structure sv = AnalyzeStructure(view.graph(), lm.compile.default_domain, a);
+    const Structure sc = AnalyzeStructure(copy, lm.compile.default_domain, b);
+    EXPECT_EQ(AssignCausality(view.graph(), sv).stroke_at_head, AssignCausality(copy, sc).stroke_at_head);
+  }
+  for (int i = 0; i < lm.graph.num_elements(); ++i) EXPECT_EQ(lm.graph.element(i).kind, before[i]) << i;
+  // Restored also when the scope is left by an exception (AnalyzeStructure's ThrowIfErrors).
+  try {
+    const InCausalView view(lm.graph);
+    throw ModelError(Diagnostic{});
+  } catch (const ModelError&) {
+  }
+  for (int i = 0; i < lm.graph.num_elements(); ++i) EXPECT_EQ(lm.graph.element(i).kind, before[i]) << i;
+}
+
 TEST(SuggestCouplings, ACompliancesDerivativeCausalityIsReportedNotRepaired) {
   const LoadedModel lm = LoadModelString(R"(
 model: two_capacitors

@@ -108,11 +108,22 @@ void ReducedInertia(const BondGraph& g, const Structure& s, const CausalAssignme
 
 }  // namespace
 
-BondGraph CausalView(const BondGraph& g) {
-  BondGraph view = g;
-  for (int i = 0; i < view.num_elements(); ++i)
-    if (view.element(i).kind == ElementKind::kSf && view.element(i).constraint) view.element(i).kind = ElementKind::kSe;
-  return view;
+BondGraph CausalView(BondGraph g) {
+  for (int i = 0; i < g.num_elements(); ++i)
+    if (g.element(i).kind == ElementKind::kSf && g.element(i).constraint) g.element(i).kind = ElementKind::kSe;
+  return g;
+}
+
+InCausalView::InCausalView(BondGraph& g) : g_(g) {
+  for (int i = 0; i < g.num_elements(); ++i)
+    if (g.element(i).kind == ElementKind::kSf && g.element(i).constraint) {
+      g.element(i).kind = ElementKind::kSe;
+      turned_.push_back(i);
+    }
+}
+
+InCausalView::~InCausalView() {
+  for (int i : turned_) g_.element(i).kind = ElementKind::kSf;
 }
 
 CouplingUnits CouplingUnitsOf(const std::string& domain) {

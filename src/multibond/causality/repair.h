@@ -97,8 +97,25 @@ struct RepairResult {
 /// The graph as the compiler assigns its causality: an Sf marked `constraint` (a rigid joint or
 /// mesh, an explicit ideal constraint) is an effort source of unknown effort, its reaction, which
 /// the compiled model solves for (compile/constraints.cc). Elements and bonds keep their indices,
-/// so the causality of the view applies to `g` as written.
-BondGraph CausalView(const BondGraph& g);
+/// so the causality of the view applies to `g` as written. Taken by value: a caller that no
+/// longer needs `g` moves it in, and the view costs no copy of the graph.
+BondGraph CausalView(BondGraph g);
+
+/// CausalView in place, for a scope: `g` is the view while this object lives (its constraint Sf
+/// are Se) and as it was after, without a copy of the graph (a copy of a large model's graph
+/// costs as much as its causality). The graph must not gain or lose elements meanwhile.
+class InCausalView {
+ public:
+  explicit InCausalView(BondGraph& g);
+  ~InCausalView();
+  InCausalView(const InCausalView&) = delete;
+  InCausalView& operator=(const InCausalView&) = delete;
+  const BondGraph& graph() const { return g_; }
+
+ private:
+  BondGraph& g_;
+  std::vector<int> turned_;  ///< the constraint Sf made Se, to be made Sf again
+};
 
 /// Proposes compliant couplings that remove all derivative causality of inertias in `g` (see the
 /// method above). Throws ModelError if the graph's structure is wrong (as CompiledModel does).

@@ -38,7 +38,7 @@ void CompiledModel::PrepareConstraintGraph() {
   std::vector<Pending> pending;
   // Rigid joints and other explicit constraints: the Sf becomes the multiplier's effort source
   // (the same view `check` analyses, causality/repair.h).
-  g = CausalView(g);
+  g = CausalView(std::move(g));
   for (int i = 0; i < g.num_elements(); ++i)
     if (g.element(i).constraint) pending.push_back({g.element(i).name, i, {i}, true, false});
   for (;;) {

@@ -176,13 +176,14 @@ void StateLayout::IndexNames(const Input& in) {
   const BondGraph& g = in.graph;
   std::unordered_map<std::string, int> unit_index;
   auto unit_of = [&](int cls) {
-    const auto [it, added] = unit_index.emplace(in.class_units[cls], static_cast<int>(units_.size()));
+    // try_emplace: a unit already indexed (nearly every call) makes no node to throw away.
+    const auto [it, added] = unit_index.try_emplace(in.class_units[cls], static_cast<int>(units_.size()));
     if (added) units_.push_back(in.class_units[cls]);
     return it->second;
   };
   // A name already taken is kept: what FindVariable looks up first is indexed first.
-  auto add_slot = [&](const std::string& name, int cls, int size, int components) {
-    const auto [it, added] = names_.try_emplace(name);  // one look-up, not two
+  auto add_slot = [&](std::string name, int cls, int size, int components) {
+    const auto [it, added] = names_.try_emplace(std::move(name));  // one look-up, not two; the name moved in
     if (added) it->second = Named{VariableRef::In::kSlot, in.class_offset[cls], size, unit_of(cls), components};
   };
   // Room for every name at once (up to four per element, two per named bond): no rehashing.

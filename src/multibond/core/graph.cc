@@ -1,5 +1,7 @@
 #include "multibond/core/graph.h"
 
+#include <algorithm>
+
 #include <fmt/format.h>
 
 namespace multibond {
@@ -73,8 +75,10 @@ std::string Modulus::ToString() const {
 }
 
 int BondGraph::Add(Element e) {
-  if (index_.count(e.name)) {
-    const Element& first = elements_[index_.at(e.name)];
+  const int id = static_cast<int>(elements_.size());
+  const auto [it, fresh] = index_.try_emplace(e.name, id);  // one look-up, not three
+  if (!fresh) {
+    const Element& first = elements_[it->second];
     Diagnostic d;
     d.where = e.where;
     d.element = e.name;
@@ -83,8 +87,6 @@ int BondGraph::Add(Element e) {
     d.hint = "give every element a unique name";
     throw ModelError(d);
   }
-  const int id = static_cast<int>(elements_.size());
-  index_[e.name] = id;
   elements_.push_back(std::move(e));
   return id;
 }
@@ -166,6 +168,12 @@ int BondGraph::Connect(const std::string& from, const std::string& to, int dim, 
   elements_[a].bonds.push_back(id);
   elements_[b].bonds.push_back(id);
   return id;
+}
+
+void BondGraph::Reserve(int elements, int bonds) {
+  elements_.reserve(static_cast<size_t>(std::max(elements, 0)));
+  index_.reserve(static_cast<size_t>(std::max(elements, 0)));
+  bonds_.reserve(static_cast<size_t>(std::max(bonds, 0)));
 }
 
 int BondGraph::AddAux(AuxState a) {

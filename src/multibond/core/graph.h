@@ -262,6 +262,10 @@ class BondGraph {
     bonds_.push_back(std::move(b));
     return static_cast<int>(bonds_.size()) - 1;
   }
+  /// Room for `elements` elements and `bonds` bonds in all, for a builder that knows how many it
+  /// will add (an expansion): the lists then do not grow step by step, each step moving every
+  /// element (a kilobyte each) to memory never touched before.
+  void Reserve(int elements, int bonds);
   int AddAux(AuxState a);
   void AddOutput(OutputDecl o) { outputs_.push_back(std::move(o)); }
   /// Adds a signal; throws ModelError on a duplicate name.

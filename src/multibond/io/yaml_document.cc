@@ -4,7 +4,8 @@
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
-#include <map>
+#include <string_view>
+#include <unordered_map>
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -80,10 +81,12 @@ YAML::Node YamlDocument::Parse() {
   }
   YAML::Node root;
   try {
-    // Bounded before yaml-cpp builds a tree: node count (aliases expanded), depth, self-aliases.
-    if (!CheckYamlBounds(text_, cx_.file, cx_.limits, sink_)) sink_.ThrowIfErrors();
+    // One parse: the tree is built from the events as they are bounded (node count, aliases
+    // expanded; depth; self-aliases), and no further than the first one out of bounds.
+    const std::optional<std::vector<YAML::Node>> loaded = LoadYamlBounded(text_, cx_.file, cx_.limits, sink_);
+    if (!loaded) sink_.ThrowIfErrors();
+    const std::vector<YAML::Node>& documents = *loaded;
     // A second document (after '---') would be ignored by YAML::Load: a model file holds one.
-    const std::vector<YAML::Node> documents = YAML::LoadAll(text_);
     if (documents.size() > 1) {
       const YAML::Mark m = documents[1].Mark();
       sink_.Error({cx_.file, m.line >= 0 ? m.line + 1 : 0, m.column >= 0 ? m.column + 1 : 0}, "",
@@ -194,33 +197,42 @@ bool YamlDocument::OpensFlow(size_t i) const {
 /// Element names (the keys of an 'elements' mapping) have their own check, with the same
 /// information (ReadScope: "duplicate element name").
 void YamlDocument::CheckDuplicateKeys(const YAML::Node& node, const std::string& path, bool element_names) {
+  // Only lists and mappings are walked into, and a place's path is formatted only for them (or
+  // for a diagnostic): a large model has hundreds of thousands of scalars.
+  auto collection = [](const YAML::Node& n) { return n.IsSequence() || n.IsMap(); };
   if (node.IsSequence()) {
-    for (size_t i = 0; i < node.size(); ++i) CheckDuplicateKeys(node[i], fmt::format("{}[{}]", path, i));
+    size_t i = 0;
+    for (const auto& item : node) {
+      if (collection(item)) CheckDuplicateKeys(item, fmt::format("{}[{}]", path, i), false);
+      ++i;
+    }
     return;
   }
   if (!node.IsMap()) return;
-  std::map<std::string, SourceLocation> seen;
+  // The keys so far, viewed in the tree's own strings, with where each stands.
+  std::unordered_map<std::string_view, YAML::Mark> seen;
+  seen.reserve(node.size());
   for (const auto& kv : node) {
     if (!kv.first.IsScalar()) continue;
-    const std::string key = kv.first.Scalar();
-    const std::string where = path.empty() ? key : path + "." + key;
+    const std::string& key = kv.first.Scalar();
+    auto where = [&] { return path.empty() ? key : path + "." + key; };
     if (key == "<<") {  // yaml-cpp reads a merge key as an ordinary key
       sink_.Error(Loc(kv.first), path, "YAML merge keys ('<<: *anchor') are not supported",
                   "write the keys out (an anchor and alias of a whole value, '&a' and '*a', do work)");
       continue;
     }
-    const auto [first, fresh] = seen.emplace(key, Loc(kv.first));
+    const auto [first, fresh] = seen.try_emplace(key, kv.first.Mark());
     if (!fresh && !element_names) {
       Diagnostic d;
       d.where = Loc(kv.first);
-      d.element = where;
+      d.element = where();
       d.message = fmt::format("duplicate key '{}': YAML allows a key once per mapping, and only the first value would be used", key);
-      d.details.push_back("first given at " + first->second.ToString());
+      d.details.push_back("first given at " + Loc(first->second).ToString());
       d.hint = "remove one of the two, or merge them";
       d.code = codes::kYamlDuplicateKey;
       sink_.Add(d);
     }
-    CheckDuplicateKeys(kv.second, where, key == "elements");
+    if (collection(kv.second)) CheckDuplicateKeys(kv.second, where(), key == "elements");
   }
 }
 
