@@ -219,5 +219,60 @@ outputs: [angle, kinetic]
   EXPECT_LT(lowest_angle, 0.05);  // it swings through the bottom
 }
 
+// A formula that reaches the dynamics of a rigid mechanism: the bar of the pendulum above, without
+// gravity, on a hardening torsion spring at its hinge, a torque drive of the hinge's angle
+// sensor, -(k a + k3 a^3) (k = 2, k3 = 50), set swinging through a = 0 at w0 = 2 rad/s (the CoM's
+// velocity w0 x r = (-1, 0, 0) m/s). About the pivot I = I_y + m 0.5^2 = 0.360036; conserved:
+// I w^2/2 + k a^2/2 + k3 a^4/4 = I w0^2/2, so the swing's amplitude solves
+// k a^2/2 + k3 a^4/4 = I w0^2/2; the small oscillation has w^2 = k / I.
+TEST(ConstraintFormulas, ANonlinearTorsionSpringOnARigidHinge) {
+  const char* text = R"yaml(
+model: torsion_pendulum
+bodies:
+  bar: {shape: {box: {size: [0.02, 0.02, 1.0]}}, density: 2700, position: [0, 0, -0.5],
+        velocity: [-1, 0, 0], omega: [0, 2, 0]}
+joints:
+  hinge: {type: revolute, parent: ground, child: bar, at: [0, 0, 0], child_at: [0, 0, 0.5], axis: y, rigid: true,
+          sensors: true}
+drives:
+  spring: {type: torque, body: bar, axis: y, value: "-(2*hinge.angle + 50*hinge.angle^3)"}
+)yaml";
+  const LoadedModel lm = LoadModelString(text, "<test>");
+  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+  ASSERT_TRUE(model->has_constraints());
+  RunOptions o;
+  o.t_end = 3.0;
+  o.dt = 0.005;
+  o.integrator.method = Method::kDormandPrince;
+  o.integrator.rtol = 1e-10;
+  o.integrator.atol = 1e-12;
+  RecordingObserver rec;
+  Simulate(*model, o, rec);
+  ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
+  const double inertia = 1.08 * (0.02 * 0.02 + 1.0) / 12 + 1.08 * 0.25, k = 2.0, k3 = 50.0, w0 = 2.0;
+  const double e0 = inertia * w0 * w0 / 2;
+  const double amplitude = std::sqrt((-k + std::sqrt(k * k + 4 * k3 * e0)) / k3);  // k3 a^4/4 + k a^2/2 = e0
+  const int angle = rec.Index("hinge.angle"), kinetic = rec.Index("energy.kinetic");
+  double drift = 0.0, largest = 0.0;
+  for (const auto& row : rec.rows()) {
+    const double a = row[angle];
+    drift = std::max(drift, std::abs(row[kinetic] + k * a * a / 2 + k3 * a * a * a * a / 4 - e0));
+    largest = std::max(largest, std::abs(a));
+  }
+  EXPECT_NEAR(rec.rows().front()[kinetic], e0, 1e-12 * e0);
+  EXPECT_LT(drift, 1e-8 * e0);
+  EXPECT_NEAR(largest, amplitude, 1e-3 * amplitude);  // the largest sample, within 5 ms of the turn
+  EXPECT_GT(largest, 0.99 * amplitude);
+  // The linearisation about the rest at a = 0 (the formula's slope k): +-i sqrt(k / I) and zeros.
+  std::string at_rest = text;
+  at_rest.replace(at_rest.find("velocity: [-1, 0, 0], omega: [0, 2, 0]"), 38, "velocity: [0, 0, 0], omega: [0, 0, 0]");
+  const LoadedModel rest = LoadModelString(at_rest, "<test>");
+  const auto still = CompiledModel::Compile(rest.graph, rest.compile);
+  const linear::LinearModel lin = linear::Linearize(*still, 0.0, still->MakeInitialState());
+  double fastest = 0.0;
+  for (const auto& l : lin.A.eigenvalues()) fastest = std::max(fastest, std::abs(l.imag()));
+  EXPECT_NEAR(fastest, std::sqrt(k / inertia), 1e-9 * std::sqrt(k / inertia));
+}
+
 }  // namespace
 }  // namespace multibond
