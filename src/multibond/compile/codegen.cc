@@ -413,7 +413,7 @@ std::string CompiledModel::GenerateTangentSource() const {
       case plan::Tangent::kLinear:  // constant linear maps of slots: the same map of their derivatives
         EmitInstr(in, o, levers_done, same);
         break;
-      case plan::Tangent::kNone:  // formulas: refused with constraints (CheckFormulaUse)
+      case plan::Tangent::kNone:  // formulas: refused in the tangent plan (ConstraintSolver::RefuseFormulas)
         MB_ASSERT(false, "a formula in the constraints' tangent pass");
         break;
     }

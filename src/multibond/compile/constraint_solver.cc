@@ -117,8 +117,8 @@ void ConstraintSolver::Build(const BuildInput& in) {
   // What no multiplier may reach: a constrained variable (its value would depend on the
   // multipliers themselves: index 1), and an orientation's rate (the moduli and rotated inertias
   // depend on the orientation: dg/dt would have a term in lambda that W = B^T H B leaves out).
-  // An integral's rate may be reached: no instruction reads an integral state in a model with
-  // constraints (formulas are refused there), so g does not depend on it; step 4 updates it.
+  // An integral's rate may be reached: only formulas read integral states, and none of them is
+  // in the tangent plan (RefuseFormulas), so g does not depend on it; step 4 updates it.
   std::vector<int> member_of(in.num_slots, -1);
   std::vector<int> orientation_of(in.num_slots, -1);
   for (int gi = 0; gi < static_cast<int>(groups_.size()); ++gi)
@@ -269,6 +269,7 @@ void ConstraintSolver::Build(const BuildInput& in) {
       for (int c : in.plan_reads[k]) feeds[c] = 1;
     }
   std::reverse(tangent_plan_.begin(), tangent_plan_.end());
+  RefuseFormulas(in);
   reaction_gathers_.clear();
   for (size_t gi = 0; gi < gathers.size(); ++gi) {
     const StateGather& gt = gathers[gi];
@@ -282,6 +283,75 @@ void ConstraintSolver::Build(const BuildInput& in) {
   }
   // B's sparsity and W's nonzeros (the pairs of columns that share momentum rows).
   factor_ = ConstraintFactor(std::move(b_offset), std::move(b_rows), std::move(compliance));
+}
+
+void ConstraintSolver::RefuseFormulas(const BuildInput& in) const {
+  // A formula (kExpr, kSolve) is evaluated by the plan, never differentiated or run linearly by
+  // the solver: one in the tangent plan (the constrained variables depend on it: dg/dt needs its
+  // time derivative, and g would not be affine in the states along B) or in a multiplier's
+  // closure (it reads a constraint's reaction: B and the reaction pass take that closure for
+  // linear in the multipliers) is refused; anywhere else (outputs, signals, the efforts of
+  // springs and dampers) it is part of the plan at lambda = 0 that step 1 runs.
+  const BondGraph& g = in.graph;
+  const std::vector<Instr>& plan = in.plan;
+  auto formula = [&](int k) { return plan[k].op == Op::kExpr || plan[k].op == Op::kSolve; };
+  auto refuse = [&](int k, const Group& cg, const std::string& reach) {
+    const Instr& f = plan[k];
+    const std::string& written = in.class_names[in.plan_writes[k]];
+    Diagnostic d;
+    d.code = "expr.unsupported";
+    std::string who = written;
+    if (f.element >= 0) {
+      d.where = g.element(f.element).where;
+      d.element = g.element(f.element).name;
+      who = fmt::format("the formula of {} for '{}'", d.element, written);
+    } else if (const int s = g.FindSignal(written); s >= 0) {
+      d.where = g.signals()[s].where;
+      d.element = written;
+      who = fmt::format("the formula of the signal '{}'", written);
+    }
+    const Element& e = g.element(cg.element);
+    const bool cut = IsStorage(e.kind);
+    d.message = fmt::format("formulas that reach an ideal constraint are not supported yet: {} {}", who, reach);
+    if (cut)
+      d.message += fmt::format(", and {} '{}' is in derivative causality (its bond is cut into an ideal constraint)",
+                               e.kind == ElementKind::kI ? "I" : "C", e.name);
+    d.hint = !cut ? "keep the formula off what the constraint holds and transmits, or make the coupling compliant "
+                    "('constraints: compliant', or joints without 'rigid'), or use constant parameters"
+             : e.kind == ElementKind::kI
+                 ? fmt::format("join I '{}' to what fixes its flow through a compliant coupling ('check --suggest' proposes one), "
+                               "or use constant parameters", e.name)
+                 : fmt::format("give C '{}' a displacement of its own: put a resistor or an inertia between it and what fixes its "
+                               "effort; or use constant parameters", e.name);
+    throw ModelError(d);
+  };
+  for (const Group& cg : groups_)
+    for (int k : cg.closure)
+      if (formula(k))
+        refuse(k, cg, fmt::format("reads the {} of the ideal constraint '{}' (its reaction, which is solved for)",
+                                  cg.imposes_flow ? "flow" : "effort", cg.name));
+  for (int k : tangent_plan_) {
+    if (!formula(k)) continue;
+    // The constraint whose variables depend on it (found on this error path only): the plan
+    // walked back from each constraint's members, as for the tangent plan.
+    const int num_classes = static_cast<int>(in.class_offset.size());
+    for (const Group& cg : groups_) {
+      std::vector<char> feeds(num_classes, 0);
+      std::string held;
+      for (const auto& m : cg.members)
+        for (int c = 0; c < num_classes; ++c)
+          if (m.slot >= in.class_offset[c] && m.slot < in.class_offset[c] + in.class_size[c] && !feeds[c]) {
+            feeds[c] = 1;
+            held += (held.empty() ? "'" : ", '") + in.class_names[c] + "'";
+          }
+      for (int j = static_cast<int>(plan.size()) - 1; j >= k; --j)
+        if (feeds[in.plan_writes[j]])
+          for (int c : in.plan_reads[j]) feeds[c] = 1;
+      if (feeds[in.plan_writes[k]])
+        refuse(k, cg, fmt::format("feeds the {} {} that the ideal constraint '{}' holds (the constraint solver differentiates "
+                                  "them in time)", cg.imposes_flow ? "efforts" : "flows", held, cg.name));
+    }
+  }
 }
 
 void ConstraintSolver::FindIndependent(const PlanView& view, const double* x, Workspace& ws) {

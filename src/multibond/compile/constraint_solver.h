@@ -120,7 +120,8 @@ class ConstraintSolver {
   /// (`constraint.unsupported`: a multiplier that reaches a constrained variable (index 1), an
   /// orientation's or integral's rate, or passes a resistor (its B would not be the adjoint of
   /// its constraint's dependence on the states); `param.shape`: compliances that do not match
-  /// the constraint's components).
+  /// the constraint's components; `expr.unsupported`: a formula that the constrained variables
+  /// depend on or that a multiplier reaches, RefuseFormulas).
   void Build(const BuildInput& in);
   /// The constraints independent at the initial state x (the rest are redundant there), and the
   /// factor's pattern. `ws` holds the plan's evaluation at x with lambda = 0.
@@ -198,6 +199,9 @@ class ConstraintSolver {
   /// d/dt along (xdot, d/dt sources) of the slots the constraints' flows depend on
   /// (tangent_plan_), into ws.con.dslots; the other entries are not written.
   void Tangent(const PlanView& view, double t, const double* x, const double* xdot, Workspace& ws) const;
+  /// Build's last check: a formula in the tangent plan or in a multiplier's closure throws
+  /// ModelError (`expr.unsupported`, located at the formula, naming the constraint it reaches).
+  void RefuseFormulas(const BuildInput& in) const;
   /// B (storage-rate response to each unit multiplier) and V = H B at x, into ws.con.b, v.
   void AssembleConstraintMatrix(const PlanView& view, double t, const double* x, Workspace& ws) const;
   /// B's columns at (t, x) and lambda from W lambda = ws.con.rhs: the sparse L D L^T on the

@@ -126,26 +126,9 @@ void CompiledModel::PrepareConstraintGraph() {
     }
     throw ModelError(causality_.diagnostics);
   }
-  // Formulas are not solved together with constraints yet (CheckFormulaUse refuses them, with a
-  // hint for rigid joints). A cut was not asked for by name: say which storage element made it,
-  // and how to do without.
-  for (const Pending& p : pending) {
-    if (p.target) continue;
-    for (int i = 0; i < g.num_elements(); ++i) {
-      if (!HasFormulas(g.element(i))) continue;
-      const Element& dep = g.element(p.element);
-      const bool inertia = dep.kind == ElementKind::kI;
-      throw ModelError(Diagnostic{
-          Diagnostic::Severity::kError, g.element(i).where, g.element(i).name,
-          fmt::format("formulas in a model with ideal constraints are not supported yet, and {} '{}' is in derivative "
-                      "causality (its bond is cut into an ideal constraint)", inertia ? "I" : "C", dep.name),
-          inertia ? fmt::format("join I '{}' to what fixes its flow through a compliant coupling ('check --suggest' proposes "
-                                "one), or use constant parameters", dep.name)
-                  : fmt::format("give C '{}' a displacement of its own: put a resistor or an inertia between it and what "
-                                "fixes its effort; or use constant parameters", dep.name),
-          {}, "expr.unsupported"});
-    }
-  }
+  // A formula that a constraint's variables depend on, or that reads its multiplier, is refused
+  // once the plan is known (ConstraintSolver::Build, RefuseFormulas: it names the formula, the
+  // constraint, and for a cut the storage element in derivative causality and how to do without).
   for (const Pending& p : pending) {
     std::vector<ConstraintSolver::Group::Member> members;
     for (int m : p.members) {

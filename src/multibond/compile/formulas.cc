@@ -547,12 +547,8 @@ void CompiledModel::CheckFormulaUse() const {
     d.hint = hint;
     throw ModelError(d);
   };
-  for (const Instr& in : plan_) {
-    if (in.op != Op::kExpr && in.op != Op::kSolve) continue;
-    if (!constraints_.empty())
-      refuse(in.element, "formulas in a model with ideal constraints are not supported yet",
-             "use compliant joints (constraints: compliant), or constant parameters");
-  }
+  // With ideal constraints, the formulas that the constraint solver would have to differentiate
+  // or run linearly are refused when it is built (ConstraintSolver::Build, RefuseFormulas).
   for (int at : tear_closure_)
     if (plan_[at].op == Op::kExpr || plan_[at].op == Op::kSolve)
       refuse(plan_[at].element, "an algebraic loop runs through a formula; only linear loops are solved",

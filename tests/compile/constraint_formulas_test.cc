@@ -1,0 +1,278 @@
+// Formulas in models with ideal constraints (compile/constraint_solver.cc, RefuseFormulas): a
+// formula that only feeds outputs, signals or the efforts of storage is evaluated by the plan at
+// zero multipliers like any other instruction and is accepted; one that the constrained variables
+// depend on (the solver would differentiate it in time) or that reads a constraint's reaction
+// (the solver runs that part linearly in the multipliers) is refused with `expr.unsupported`,
+// located at the formula and naming the constraint.
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "multibond/analysis/linearize.h"
+#include "multibond/io/model_loader.h"
+#include "support/example_runner.h"
+
+namespace multibond {
+namespace {
+
+using ::testing::HasSubstr;
+
+// A pinion J1 = 0.01 and a wheel J2 = 0.04 at half its speed (a rigid TF: J2 is cut by an ideal
+// constraint), the wheel on a hardening torsion spring k q + k3 q^3 (k = 2, k3 = 50) to the ground,
+// wound by q0 = 0.3 rad at rest. J_eq = J1 + J2/4 = 0.02 on the pinion; the spring sees the
+// wheel's angle, q' = w2 = w1/2. Conserved: E = J_eq w1^2/2 + k q^2/2 + k3 q^4/4; about q = 0
+// the small oscillation has w^2 = (k/4)/J_eq = 25. SIGNALS is replaced by each case's signals.
+const char* kRigidGearsOnANonlinearSpring = R"(
+model: rigid_gear_nonlinear_spring
+domain: rotation
+constraints: ideal
+elements:
+  torque: {type: Se, effort: 0.0}
+  j1:     {type: "1"}
+  J1:     {type: I, inertia: 0.01}
+  gear:   {type: TF, ratio: RATIO}
+  j2:     {type: "1"}
+  J2:     {type: I, inertia: 0.04}
+  spring: {type: C, effort: "2*q + 50*q^3", q0: 0.3}
+bonds:
+  - torque -> j1
+  - j1 -> J1
+  - j1 -> gear
+  - gear -> j2
+  - j2 -> J2
+  - j2 -> spring
+SIGNALS
+)";
+
+std::string Gears(const std::string& signals, const std::string& ratio = "0.5") {
+  std::string text = kRigidGearsOnANonlinearSpring;
+  text.replace(text.find("RATIO"), 5, ratio);
+  text.replace(text.find("SIGNALS"), 7, signals);
+  return text;
+}
+
+// Output-only signals: the kinetic energy from the pinion's speed and the phase angle
+// atan2(w1, q); the columns they read are outputs too.
+const char* kOutputSignals = R"yaml(signals:
+  kinetic: "j1.f * j1.f * 0.01"
+  phase:   "atan2(j1.f, spring.q)"
+outputs: [kinetic, phase, {name: w1, variable: j1.f}])yaml";
+
+RecordingObserver RunGears(const std::string& text, bool generate_code) {
+  LoadedModel lm = LoadModelString(text, "<test>");
+  CompileOptions co = lm.compile;
+  co.generate_code = generate_code;
+  const auto model = CompiledModel::Compile(lm.graph, co);
+  if (generate_code && !model->uses_generated_code()) throw std::runtime_error("no generated code: " + model->rhs_engine());
+  RunOptions o;
+  o.t_end = 2.0;
+  o.dt = 0.01;
+  o.integrator.method = Method::kDormandPrince;
+  o.integrator.rtol = 1e-10;
+  o.integrator.atol = 1e-12;
+  RecordingObserver rec;
+  Simulate(*model, o, rec);
+  return rec;
+}
+
+Diagnostic Refusal(const std::string& text) {
+  const LoadedModel lm = LoadModelString(text, "<test>");
+  try {
+    CompiledModel::Compile(lm.graph, lm.compile);
+  } catch (const ModelError& e) {
+    if (!e.diagnostics().empty()) return e.diagnostics().front();
+  }
+  ADD_FAILURE() << "accepted";
+  return {};
+}
+
+TEST(ConstraintFormulas, ANonlinearSpringAndOutputSignalsRunWithARigidGear) {
+  const RecordingObserver rec = RunGears(Gears(kOutputSignals), /*generate_code=*/false);
+  ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
+  const int w1 = rec.Index("w1"), q = rec.Index("spring.q"), kin = rec.Index("kinetic"), phase = rec.Index("phase");
+  const double jeq = 0.02, k = 2.0, k3 = 50.0, q0 = 0.3;
+  const double e0 = k * q0 * q0 / 2 + k3 * q0 * q0 * q0 * q0 / 4;
+  double largest_w1 = 0.0, drift = 0.0;
+  for (const auto& row : rec.rows()) {
+    // The signals are the formulas of the columns, to the bit.
+    EXPECT_EQ(row[kin], row[w1] * row[w1] * 0.01) << "t = " << row[0];
+    EXPECT_EQ(row[phase], std::atan2(row[w1], row[q])) << "t = " << row[0];
+    const double e = jeq * row[w1] * row[w1] / 2 + k * row[q] * row[q] / 2 + k3 * std::pow(row[q], 4) / 4;
+    drift = std::max(drift, std::abs(e - e0));
+    largest_w1 = std::max(largest_w1, std::abs(row[w1]));
+  }
+  EXPECT_LT(drift, 1e-8 * e0);  // conservative: the energy of the rigid pair on the hardening spring
+  // Through q = 0 all of it is kinetic: w1 = sqrt(2 E / J_eq) (the largest sample, within 0.01 s).
+  EXPECT_NEAR(largest_w1, std::sqrt(2 * e0 / jeq), 2e-3 * std::sqrt(2 * e0 / jeq));
+  EXPECT_GT(largest_w1, 0.99 * std::sqrt(2 * e0 / jeq));
+}
+
+TEST(ConstraintFormulas, TheInterpreterAndTheGeneratedCodeGiveTheSameBits) {
+  const RecordingObserver a = RunGears(Gears(kOutputSignals), /*generate_code=*/false);
+  const RecordingObserver b = RunGears(Gears(kOutputSignals), /*generate_code=*/true);
+  ASSERT_EQ(a.rows().size(), b.rows().size());
+  for (size_t i = 0; i < a.rows().size(); ++i) EXPECT_EQ(a.rows()[i], b.rows()[i]) << "row " << i;
+}
+
+TEST(ConstraintFormulas, TheLinearisationOfTheNonlinearSpringGivesItsSmallOscillation) {
+  LoadedModel lm = LoadModelString(Gears(kOutputSignals), "<test>");
+  const auto model = CompiledModel::Compile(std::move(lm.graph), lm.compile);
+  ASSERT_TRUE(model->has_constraints());
+  // About q = 0 (the formula's slope k there): w = sqrt((k/4) / J_eq) = 5 rad/s.
+  Eigen::VectorXd x = model->MakeInitialState();
+  x.setZero();
+  const linear::LinearModel lin = linear::Linearize(*model, 0.0, x);
+  ASSERT_EQ(lin.states.size(), 2u);
+  for (const auto& l : lin.A.eigenvalues()) {
+    EXPECT_NEAR(l.real(), 0.0, 1e-12);
+    EXPECT_NEAR(std::abs(l.imag()), 5.0, 1e-12);
+  }
+  // At q = 0.3 the stiffness is k + 3 k3 q^2 = 15.5: w^2 = (15.5/4) / 0.02.
+  x = model->MakeInitialState();
+  for (const auto& l : linear::Linearize(*model, 0.0, x).A.eigenvalues())
+    EXPECT_NEAR(std::abs(l.imag()), std::sqrt(15.5 / 4 / 0.02), 1e-12 * std::sqrt(15.5 / 4 / 0.02));
+}
+
+TEST(ConstraintFormulas, AFormulaOnTheConstrainedFlowsIsRefused) {
+  // The gear's ratio as a formula: the wheel's flow, which the cut holds equal to J2's, is made
+  // by it (and its effort side carries the cut's reaction to the pinion).
+  const Diagnostic d = Refusal(Gears(kOutputSignals, "\"0.5 + 0.1*sin(t)\""));
+  EXPECT_EQ(d.code, "expr.unsupported");
+  EXPECT_EQ(d.element, "gear");
+  EXPECT_THAT(d.message, HasSubstr("formulas that reach an ideal constraint are not supported yet: the formula of gear"));
+  EXPECT_THAT(d.message, HasSubstr("the ideal constraint 'J2.cut'"));
+  EXPECT_THAT(d.message, HasSubstr("I 'J2' is in derivative causality"));
+  EXPECT_THAT(d.hint, HasSubstr("join I 'J2' to what fixes its flow through a compliant coupling"));
+  EXPECT_GT(d.where.line, 0);
+}
+
+TEST(ConstraintFormulas, ASignalOfAReactionIsRefused) {
+  // The cut's reaction on the wheel is solved for at every evaluation: a formula of it is not
+  // run by the solver's linear pass.
+  const Diagnostic d = Refusal(Gears("signals:\n  load: \"abs(J2.cut.e)\"\noutputs: [load]"));
+  EXPECT_EQ(d.code, "expr.unsupported");
+  EXPECT_EQ(d.element, "load");
+  EXPECT_THAT(d.message, HasSubstr("the formula of the signal 'load' reads the effort of the ideal constraint 'J2.cut'"));
+  EXPECT_GT(d.where.line, 0);
+}
+
+TEST(ConstraintFormulas, AFormulaLawNextToACutCompliance) {
+  // Two springs on one 0-junction: k2 is cut (a flow multiplier holds its effort equal to the
+  // junction's), and the junction's effort is k1's formula law: the constraint depends on it.
+  const Diagnostic d = Refusal(R"(
+model: nonlinear_pair
+domain: translation
+constraints: ideal
+elements:
+  mass: {type: I, inertia: 1.0}
+  j:    {type: "1"}
+  z:    {type: "0"}
+  k1:   {type: C, effort: 10 * q + q^3}
+  k2:   {type: C, stiffness: 5.0}
+bonds: [j -> mass, j -> z, z -> k1, z -> k2]
+)");
+  EXPECT_EQ(d.code, "expr.unsupported");
+  EXPECT_EQ(d.element, "k1");
+  EXPECT_EQ(d.where.line, 9);
+  EXPECT_THAT(d.message, HasSubstr("the formula of k1 for 'z.e' feeds the efforts 'k2.e', 'z.e' that the ideal constraint"));
+  EXPECT_THAT(d.message, HasSubstr("that the ideal constraint 'k2.cut' holds (the constraint solver differentiates them in time)"));
+  EXPECT_THAT(d.message, HasSubstr("C 'k2' is in derivative causality"));
+  EXPECT_THAT(d.hint, HasSubstr("give C 'k2' a displacement of its own"));
+}
+
+// A bar of 1 m (CoM 0.5 m below the pivot) on a rigid hinge about y, released at rest from 30
+// degrees (tests/physics/gravity_potential_test.cc), with two output signals: its angle from the
+// position of its centre of mass, and its kinetic energy from its velocities (the hinge holds
+// the angular velocity to y). m = 2700 * 0.02 * 0.02 * 1 = 1.08 kg, I_y = m (0.02^2 + 1^2) / 12.
+TEST(ConstraintFormulas, OutputSignalsOfARigidPendulum) {
+  const char* text = R"yaml(
+model: pendulum
+gravity: [0, 0, -9.81]
+bodies:
+  bar: {shape: {box: {size: [0.02, 0.02, 1.0]}}, density: 2700,
+        position: [-0.25, 0, -0.4330127018922193], orientation: {axis: y, degrees: 30}}
+joints:
+  hinge: {type: revolute, parent: ground, child: bar, at: [0, 0, 0], child_at: [0, 0, 0.5], axis: y, rigid: true}
+signals:
+  angle:   "atan2(bar.r.x, -bar.r.z)"
+  kinetic: "0.54*(bar.v.f.x*bar.v.f.x + bar.v.f.y*bar.v.f.y + bar.v.f.z*bar.v.f.z) + 0.045018*bar.omega.f.y*bar.omega.f.y"
+outputs: [angle, kinetic]
+)yaml";
+  const RecordingObserver rec = testing::RunModelText(text, 2.0, 0.01, Method::kDormandPrince, 1e-10, 1e-12);
+  ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
+  const int angle = rec.Index("angle"), x = rec.Index("bar.r.x"), z = rec.Index("bar.r.z");
+  const int kinetic = rec.Index("kinetic"), energy = rec.Index("energy.kinetic");
+  const double m = 1.08, g = 9.81, drop = 0.5 * (1 - std::cos(std::numbers::pi / 6));
+  double lowest_angle = 1.0;
+  for (const auto& row : rec.rows()) {
+    EXPECT_EQ(row[angle], std::atan2(row[x], -row[z])) << "t = " << row[0];  // the formula of the columns, to the bit
+    // The formula's kinetic energy is the account's (from the momenta), to the hinge's tolerance.
+    EXPECT_NEAR(row[kinetic], row[energy], 1e-9 * m * g * drop) << "t = " << row[0];
+    lowest_angle = std::min(lowest_angle, std::abs(row[angle]));
+  }
+  EXPECT_NEAR(rec.rows().front()[angle], -std::numbers::pi / 6, 1e-15);  // released at -30 degrees about y
+  EXPECT_LT(lowest_angle, 0.05);  // it swings through the bottom
+}
+
+// A formula that reaches the dynamics of a rigid mechanism: the bar of the pendulum above, without
+// gravity, on a hardening torsion spring at its hinge, a torque drive of the hinge's angle
+// sensor, -(k a + k3 a^3) (k = 2, k3 = 50), set swinging through a = 0 at w0 = 2 rad/s (the CoM's
+// velocity w0 x r = (-1, 0, 0) m/s). About the pivot I = I_y + m 0.5^2 = 0.360036; conserved:
+// I w^2/2 + k a^2/2 + k3 a^4/4 = I w0^2/2, so the swing's amplitude solves
+// k a^2/2 + k3 a^4/4 = I w0^2/2; the small oscillation has w^2 = k / I.
+TEST(ConstraintFormulas, ANonlinearTorsionSpringOnARigidHinge) {
+  const char* text = R"yaml(
+model: torsion_pendulum
+bodies:
+  bar: {shape: {box: {size: [0.02, 0.02, 1.0]}}, density: 2700, position: [0, 0, -0.5],
+        velocity: [-1, 0, 0], omega: [0, 2, 0]}
+joints:
+  hinge: {type: revolute, parent: ground, child: bar, at: [0, 0, 0], child_at: [0, 0, 0.5], axis: y, rigid: true,
+          sensors: true}
+drives:
+  spring: {type: torque, body: bar, axis: y, value: "-(2*hinge.angle + 50*hinge.angle^3)"}
+)yaml";
+  const LoadedModel lm = LoadModelString(text, "<test>");
+  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+  ASSERT_TRUE(model->has_constraints());
+  RunOptions o;
+  o.t_end = 3.0;
+  o.dt = 0.005;
+  o.integrator.method = Method::kDormandPrince;
+  o.integrator.rtol = 1e-10;
+  o.integrator.atol = 1e-12;
+  RecordingObserver rec;
+  Simulate(*model, o, rec);
+  ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
+  const double inertia = 1.08 * (0.02 * 0.02 + 1.0) / 12 + 1.08 * 0.25, k = 2.0, k3 = 50.0, w0 = 2.0;
+  const double e0 = inertia * w0 * w0 / 2;
+  const double amplitude = std::sqrt((-k + std::sqrt(k * k + 4 * k3 * e0)) / k3);  // k3 a^4/4 + k a^2/2 = e0
+  const int angle = rec.Index("hinge.angle"), kinetic = rec.Index("energy.kinetic");
+  double drift = 0.0, largest = 0.0;
+  for (const auto& row : rec.rows()) {
+    const double a = row[angle];
+    drift = std::max(drift, std::abs(row[kinetic] + k * a * a / 2 + k3 * a * a * a * a / 4 - e0));
+    largest = std::max(largest, std::abs(a));
+  }
+  EXPECT_NEAR(rec.rows().front()[kinetic], e0, 1e-12 * e0);
+  EXPECT_LT(drift, 1e-8 * e0);
+  EXPECT_NEAR(largest, amplitude, 1e-3 * amplitude);  // the largest sample, within 5 ms of the turn
+  EXPECT_GT(largest, 0.99 * amplitude);
+  // The linearisation about the rest at a = 0 (the formula's slope k): +-i sqrt(k / I) and zeros.
+  std::string at_rest = text;
+  at_rest.replace(at_rest.find("velocity: [-1, 0, 0], omega: [0, 2, 0]"), 38, "velocity: [0, 0, 0], omega: [0, 0, 0]");
+  const LoadedModel rest = LoadModelString(at_rest, "<test>");
+  const auto still = CompiledModel::Compile(rest.graph, rest.compile);
+  const linear::LinearModel lin = linear::Linearize(*still, 0.0, still->MakeInitialState());
+  double fastest = 0.0;
+  for (const auto& l : lin.A.eigenvalues()) fastest = std::max(fastest, std::abs(l.imag()));
+  EXPECT_NEAR(fastest, std::sqrt(k / inertia), 1e-9 * std::sqrt(k / inertia));
+}
+
+}  // namespace
+}  // namespace multibond
