@@ -320,7 +320,11 @@ TEST(JointSensors, PrismaticSlideAndSpeedAreTheDisplacementAndVelocityAlongTheAx
 // A ball on a spherical joint at its centre, spinning freely about (0.6, 0.8, 0) at 0.5 rad/s (a
 // sphere: the axis stays): after t the relative rotation is the rotation vector (0.3 t, 0.4 t, 0),
 // turned about x and y at once, an angle of 0.5 t (to 2.5 rad < pi).
-TEST(JointSensors, SphericalRotationIsTheRotationVectorOfTheRelativeOrientation) {
+// The same with the joint an ideal constraint: the sensor's signals are formulas that only feed
+// outputs, which a model with ideal constraints takes.
+class SphericalSensor : public ::testing::TestWithParam<bool> {};
+
+TEST_P(SphericalSensor, RotationIsTheRotationVectorOfTheRelativeOrientation) {
   Mechanism m;
   Body b = Cube("ball");
   b.omega = {0.3, 0.4, 0.0};
@@ -328,8 +332,10 @@ TEST(JointSensors, SphericalRotationIsTheRotationVectorOfTheRelativeOrientation)
   m.AddBody(b);
   Joint joint = MakeSpherical("ball_joint", kGround, "ball", Eigen::Vector3d::Zero(), 1e6, 10);
   joint.sensors = true;
+  if (GetParam()) MakeRigid(joint);
   m.AddJoint(joint);
   const RecordingObserver rec = Simulated(m, 5.0, 1e-2);
+  ASSERT_EQ(m.joints()[0].translation->rigid, GetParam());
   for (const auto& row : rec.rows()) {
     const double t = row[0];
     EXPECT_NEAR(row[rec.Index("ball_joint.rotation.x")], 0.3 * t, 1e-8) << t;
@@ -338,6 +344,9 @@ TEST(JointSensors, SphericalRotationIsTheRotationVectorOfTheRelativeOrientation)
     EXPECT_NEAR(row[rec.Index("ball_joint.rotation.angle")], 0.5 * t, 1e-8) << t;
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(JointSensors, SphericalSensor, ::testing::Values(false, true),
+                         [](const ::testing::TestParamInfo<bool>& i) { return i.param ? std::string("Rigid") : std::string("Compliant"); });
 
 /// Two spur gears (20 and 40 teeth) on revolute joints to `carrier`, gear a driven at 10 rad/s
 /// relative to the carrier, gear b loaded by a viscous drag to the carrier.

@@ -369,7 +369,8 @@ class CompiledModel {
   /// its `energy:` formula or its law's closed-form integral as a program of x, else its law as
   /// a program of x[0] (EnergyAccount integrates it); nullopt if its parameter gives its energy.
   std::optional<EnergyAccount::FormulaEnergy> StoredEnergyFormula(int element, int state) const;
-  /// Refuses what formulas do not support yet: ideal constraints, solved algebraic loops through them.
+  /// Refuses what formulas do not support yet: solved algebraic loops through them (the formulas that
+  /// ideal constraints cannot take are refused by ConstraintSolver::RefuseFormulas).
   void CheckFormulaUse() const;
 
   // The plan's data and its operation table (operations.h).

@@ -152,7 +152,7 @@ void Expander::AddPitchGear(const GearMesh& gm) {
   AddFrameElement(line, Coupling::Frame::kParent, gm.carrier, gm.carrier, geo.n.transpose(), gm.where);
   Bond(vp, line, line);
   // On a turning carrier the gears' actual centres and axes enter the contact's rate (docs/design.md,
-  // "Gear meshes through the contact"); ideal constraints take no formulas yet (HasIdealConstraints),
+  // "Gear meshes through the contact"); ideal constraints take no formulas that reach them yet (HasIdealConstraints),
   // so such a model keeps the arms fixed in the carrier.
   std::string rate = line;
   if (!IsGround(gm.carrier) && !HasIdealConstraints()) {

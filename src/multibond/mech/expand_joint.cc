@@ -59,7 +59,7 @@ void Expander::AddJoint(const Joint& j) {
   if (Turns(j)) AddAxialSensor(j, RelativeOmega(j.child, j.parent), "rotation");
   if (j.helix) AddHelix(j);
   if (j.kind == "universal" && j.sensors) AddUniversalSensors(j);
-  if (j.sensors && (j.kind == "coupling" || j.kind == "spherical") && !HasIdealConstraints() && Spins(j.child) && (IsGround(j.parent) || Spins(j.parent)))
+  if (j.sensors && (j.kind == "coupling" || j.kind == "spherical") && Spins(j.child) && (IsGround(j.parent) || Spins(j.parent)))
     AddRotationSensor(j);
   if (j.stops || j.friction) AddAxialSwitches(j);
 }

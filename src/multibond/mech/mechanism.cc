@@ -37,6 +37,11 @@ std::string Mechanism::DescribePart(const std::string& element) const {
 }
 
 void Mechanism::ExpandInto(BondGraph& g, DiagnosticSink& sink) const {
+  // Room for what the parts usually add (a body 5 elements, a revolute joint 13: a chain of
+  // bodies on joints 18 per body), so that the lists do not grow step by step.
+  const auto n = [](const auto& parts, int per) { return static_cast<int>(parts.size()) * per; };
+  g.Reserve(g.num_elements() + n(bodies_, 6) + n(joints_, 14) + n(gears_, 20) + n(drives_, 6) + n(points_, 2),
+            g.num_bonds() + n(bodies_, 7) + n(joints_, 16) + n(gears_, 22) + n(drives_, 6) + n(points_, 2));
   detail::Expander e(*this, g, sink);
   e.gravity_ = gravity_;
   e.Run();
