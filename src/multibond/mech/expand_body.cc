@@ -102,11 +102,7 @@ void Expander::AddPointOutput(const Point& p) {
 
 void Expander::AddBodyOutputs(const Body& b) {
   const BodyInfo& info = info_.at(b.name);
-  OutputDecl v;
-  v.name = b.name + ".v";
-  v.variable = b.name + ".v.f";
-  v.where = b.where;
-  AddOutput(v);
+  AddVariableOutput(b.name + ".v", b.name + ".v.f", "", b.where);
   // A body with no coupling still gets F (and M) columns, identically zero.
   auto terms_or_zero = [&](std::vector<std::pair<std::string, double>> t, const std::string& junction) {
     if (t.empty()) t.push_back({junction + ".f", 0.0});
@@ -114,11 +110,7 @@ void Expander::AddBodyOutputs(const Body& b) {
   };
   AddOutput(SumOutput(b.name + ".F", terms_or_zero(info.force_terms, b.name + ".v"), "N", b.where));
   if (b.mass.has_rotation()) {
-    OutputDecl w;
-    w.name = b.name + ".omega";
-    w.variable = b.name + ".omega.f";
-    w.where = b.where;
-    AddOutput(w);
+    AddVariableOutput(b.name + ".omega", b.name + ".omega.f", "", b.where);
     AddOutput(SumOutput(b.name + ".M", terms_or_zero(info.moment_terms, b.name + ".omega"), "N m", b.where));
     OutputDecl orth;
     orth.kind = OutputDecl::Kind::kOrthonormality;

@@ -81,11 +81,7 @@ void Expander::AddDrive(const Drive& d) {
         AddLever(d.name + ".arm", d.body, d.point, -1.0, at);
         info_[d.body].moment_terms.pop_back();  // an applied force is no coupling
       }
-      OutputDecl o;
-      o.name = d.name + (torque ? ".torque" : ".force");
-      o.variable = d.name + ".source.e";
-      o.where = d.where;
-      AddOutput(o);
+      AddVariableOutput(d.name + (torque ? ".torque" : ".force"), d.name + ".source.e", "", d.where);
       break;
     }
   }

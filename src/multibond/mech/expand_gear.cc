@@ -225,11 +225,7 @@ void Expander::AddGear(const GearMesh& gm) {
                                 gm.where);
     }
   }
-  OutputDecl torque;
-  torque.name = gm.name + ".torque";
-  torque.variable = sum + ".e";
-  torque.where = gm.where;
-  AddOutput(torque);
+  AddVariableOutput(gm.name + ".torque", sum + ".e", "", gm.where);
   if (!gm.sensors) return;
   // The mesh phase (with `sensors`): gear a's rolling angle relative to the carrier, the integral
   // of s_a (the 1-junction `<mesh>.rolling`, no other bond: it carries no torque), the state

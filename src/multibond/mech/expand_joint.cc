@@ -92,12 +92,7 @@ void Expander::AddRotationSensor(const Joint& j) {
     sg.unit = "rad";
     sg.where = j.where;
     g_.AddSignal(sg);
-    OutputDecl o;
-    o.name = j.name + ".rotation." + component;
-    o.variable = sg.name;
-    o.unit = "rad";
-    o.where = j.where;
-    AddOutput(o);
+    AddVariableOutput(j.name + ".rotation." + component, sg.name, "rad", j.where);
   };
   signal("angle", fmt::format("atan2({0}, {1}.11 + {1}.22 + {1}.33 - 1)", norm, q));
   const char* axes[] = {"x", "y", "z"};
@@ -133,12 +128,7 @@ void Expander::AddAxialSensor(const Joint& j, const std::string& rel, const std:
   Bond(axial + "_proj", axial, axial + ".out");
   if (j.sensors || j.stops) AddAngle(j.name + (rotation ? ".angle" : ".slide"), axial, j.where, rotation ? "rad" : "m");
   if (!j.sensors) return;
-  OutputDecl rate;
-  rate.name = j.name + (rotation ? ".rate" : ".speed");
-  rate.variable = axial + ".f";
-  rate.unit = rotation ? "rad/s" : "m/s";
-  rate.where = j.where;
-  AddOutput(rate);
+  AddVariableOutput(j.name + (rotation ? ".rate" : ".speed"), axial + ".f", rotation ? "rad/s" : "m/s", j.where);
 }
 
 void Expander::AddPlaneSensor(const Joint& j, const std::string& rel) {
@@ -158,12 +148,7 @@ void Expander::AddPlaneSensor(const Joint& j, const std::string& rel) {
   a.components = {"u", "v"};
   a.where = j.where;
   g_.AddAux(a);
-  OutputDecl speed;
-  speed.name = j.name + ".speed";
-  speed.variable = axial + ".f";
-  speed.unit = std::string("m/s");
-  speed.where = j.where;
-  AddOutput(speed);
+  AddVariableOutput(j.name + ".speed", axial + ".f", "m/s", j.where);
 }
 
 void Expander::AddUniversalRotation(const Joint& j) {
@@ -203,12 +188,7 @@ void Expander::AddUniversalSensors(const Joint& j) {
     g_.Add(Make(axial, ElementKind::kOne, 1, "rotation", j.where));
     Bond(axial + "_proj", axial, axial + ".out");
     AddAngle(fmt::format("{}.angle_{}", j.name, side), axial, j.where);
-    OutputDecl rate;
-    rate.name = fmt::format("{}.rate_{}", j.name, side);
-    rate.variable = axial + ".f";
-    rate.unit = std::string("rad/s");
-    rate.where = j.where;
-    AddOutput(rate);
+    AddVariableOutput(fmt::format("{}.rate_{}", j.name, side), axial + ".f", "rad/s", j.where);
   }
 }
 
@@ -223,12 +203,7 @@ void Expander::AddHelix(const Joint& j) {
   Bond(j.name + ".axial", lead, lead + ".in");
   Bond(lead, sum, lead + ".out");
   AddCompliance(sum, j.name + ".h", c.stiffness, c.damping, "translation", {}, j.where, c.rigid);
-  OutputDecl force;
-  force.name = j.name + ".helix_force";
-  force.variable = sum + ".e";
-  force.unit = std::string("N");
-  force.where = j.where;
-  AddOutput(force);
+  AddVariableOutput(j.name + ".helix_force", sum + ".e", "N", j.where);
 }
 
 void Expander::CheckJointKind(const Joint& j) {

@@ -86,6 +86,15 @@ class Expander {
   std::vector<std::string> DirectionNames(const Coupling& c);
 
   void AddOutput(OutputDecl o) { g_.AddOutput(std::move(o)); }
+  /// An output that reads one variable; `unit` "" takes the variable's own.
+  void AddVariableOutput(const std::string& name, const std::string& variable, const std::string& unit, const SourceLocation& where) {
+    OutputDecl o;
+    o.name = name;
+    o.variable = variable;
+    o.unit = unit;
+    o.where = where;
+    AddOutput(std::move(o));
+  }
 
   OutputDecl SumOutput(const std::string& name, std::vector<std::pair<std::string, double>> terms, const std::string& unit,
                        const SourceLocation& where);
