@@ -1,6 +1,7 @@
 /// \file
 /// The spanning tree of a mechanism's bodies for joint coordinates.
 
+#include <cmath>
 #include <map>
 #include <set>
 #include <tuple>
@@ -38,6 +39,15 @@ JointTree Mechanism::MakeJointTree() const {
           case Coupling::Frame::kChild: axis_world = orientation(j->child) * n; break;
           case Coupling::Frame::kWorld: axis_world = n; break;
         }
+      } else if (j->kind == "universal") {
+        // Two free turns, about the yokes (the relative rotation is Rot(a1, theta_a) Rot(a2,
+        // theta_b)): the body's axis is the yoke it starts turning about, the other's angle is
+        // the rotation off it; at rest, the parent's yoke. Not the initial spin's direction: off
+        // both yokes it is no direction the joint lets the body keep turning about.
+        const Eigen::Vector3d a1 = (orientation(j->parent) * j->axis).normalized();
+        const Eigen::Vector3d a2 = (orientation(j->child) * j->child_axis).normalized();
+        const Eigen::Vector3d spin = omega(name) - omega(parent);
+        axis_world = std::abs(spin.dot(a2)) > std::abs(spin.dot(a1)) ? a2 : a1;
       }
     }
     if (!(axis_world.norm() > 1e-12)) axis_world = omega(name) - omega(parent);  // no bearing: how it turns at the start
