@@ -26,6 +26,10 @@ struct TreeBody {
   /// The expected axis of the body's rotation relative to its parent, in the parent's frame at
   /// t = 0 (unit): the angle about it is one state, the small rotation off it two others.
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  /// The axis is a joint's free turn (a bearing: the joint couples the rotation about the two
+  /// directions across it; or a universal joint's yoke), which the body keeps whatever its
+  /// inertia: it is not moved to a nearby principal axis, as a free body's initial spin is.
+  bool bearing = false;
   /// Which joint made the edge (for reports), "" when none does (the body hangs from the ground).
   std::string joint;
 };

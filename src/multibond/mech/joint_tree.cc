@@ -50,7 +50,8 @@ JointTree Mechanism::MakeJointTree() const {
         axis_world = std::abs(spin.dot(a2)) > std::abs(spin.dot(a1)) ? a2 : a1;
       }
     }
-    if (!(axis_world.norm() > 1e-12)) axis_world = omega(name) - omega(parent);  // no bearing: how it turns at the start
+    tb.bearing = axis_world.norm() > 1e-12;
+    if (!tb.bearing) axis_world = omega(name) - omega(parent);  // no bearing: how it turns at the start
     if (!(axis_world.norm() > 1e-12)) axis_world = orientation(parent).col(2);
     tb.axis = (orientation(parent).transpose() * axis_world).normalized();
     in_tree.insert(name);

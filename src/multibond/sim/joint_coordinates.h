@@ -82,6 +82,7 @@ class JointCoordinateSystem : public OdeSystem {
     /// The axis in the body's frame (C^T n), set by the first chart and kept by every other.
     Eigen::Vector3d nb = Eigen::Vector3d::UnitZ();
     bool axis_in_body = false;
+    bool bearing = false;  ///< TreeBody::bearing: the axis is kept, not moved to a principal axis
     Eigen::Matrix3d mix = Eigen::Matrix3d::Identity();  ///< S (SetAxis)
     // Kinematics at the current y (ToModel), inertial frame.
     Eigen::Matrix3d Rw = Eigen::Matrix3d::Identity();
@@ -106,6 +107,7 @@ class JointCoordinateSystem : public OdeSystem {
   std::vector<std::string> names_;
   int n_ = 0;
   Eigen::VectorXd x_, xdot_;
+  Eigen::VectorXd y_before_;  ///< Project: y as it came
   JacobianPattern pattern_;
 };
 
