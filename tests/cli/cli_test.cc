@@ -906,27 +906,25 @@ TEST_F(CliTest, ACommandNeverWritesOntoItsOwnInput) {
 }
 
 TEST_F(CliTest, ImpossibleRequestsAreRefusedUpFrontWithTheEstimate) {
-  Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --solver rk4 --step 1e-12");
-  EXPECT_EQ(r.code, 64) << r.out;
-  EXPECT_THAT(r.out, HasSubstr("is 5e+12 steps, more than the limit of 1e+08"));
-  EXPECT_THAT(r.out, HasSubstr("--limit steps=N"));
-  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --max-step 1e-11");
-  EXPECT_EQ(r.code, 64) << r.out;
-  EXPECT_THAT(r.out, HasSubstr("largest step (--max-step) of 1e-11 s is 5e+11 steps"));
-  // The limit is the user's: lowered, an ordinary request goes over it.
-  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --solver rk4 --step 1e-3 --limit steps=100");
-  EXPECT_EQ(r.code, 64) << r.out;
-  EXPECT_THAT(r.out, HasSubstr("is 5e+03 steps, more than the limit of 100"));
-  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --limit step=100");
-  EXPECT_EQ(r.code, 64) << r.out;
-  EXPECT_THAT(r.out, HasSubstr("unknown limit 'step' (did you mean 'steps'?)"));
-  // Denormal and unresolvable times.
-  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --dt 1e-310");
-  EXPECT_EQ(r.code, 64) << r.out;
-  EXPECT_THAT(r.out, HasSubstr("beyond the range of normal double-precision numbers"));
-  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --t-end 1e9 --dt 10 --solver rk4 --step 1e-8");
-  EXPECT_EQ(r.code, 64) << r.out;
-  EXPECT_THAT(r.out, HasSubstr("fixed step (--step) of 1e-08 s is below what time near 1e+09 s can resolve"));
+  // Each request (the options of a run of the mass-spring-damper) with what its refusal says.
+  const struct {
+    const char* options;
+    std::vector<const char*> says;
+  } requests[] = {
+      {" --solver rk4 --step 1e-12", {"is 5e+12 steps, more than the limit of 1e+08", "--limit steps=N"}},
+      {" --max-step 1e-11", {"largest step (--max-step) of 1e-11 s is 5e+11 steps"}},
+      // The limit is the user's: lowered, an ordinary request goes over it.
+      {" --solver rk4 --step 1e-3 --limit steps=100", {"is 5e+03 steps, more than the limit of 100"}},
+      {" --limit step=100", {"unknown limit 'step' (did you mean 'steps'?)"}},
+      // Denormal and unresolvable times.
+      {" --dt 1e-310", {"beyond the range of normal double-precision numbers"}},
+      {" --t-end 1e9 --dt 10 --solver rk4 --step 1e-8", {"fixed step (--step) of 1e-08 s is below what time near 1e+09 s can resolve"}},
+  };
+  for (const auto& request : requests) {
+    const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + request.options);
+    EXPECT_EQ(r.code, 64) << r.out;
+    for (const char* said : request.says) EXPECT_THAT(r.out, HasSubstr(said)) << request.options;
+  }
   EXPECT_FALSE(fs::exists(dir_));
 }
 
