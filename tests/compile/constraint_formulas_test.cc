@@ -20,6 +20,7 @@
 #include "support/example_runner.h"
 #include "support/nonlinear_pair.h"
 #include "support/rigid_gear_pair.h"
+#include "support/rigid_pendulum.h"
 #include "support/text_edit.h"
 
 namespace multibond {
@@ -141,19 +142,11 @@ TEST(ConstraintFormulas, AFormulaLawNextToACutCompliance) {
 }
 
 // A bar of 1 m (CoM 0.5 m below the pivot) on a rigid hinge about y, released at rest from 30
-// degrees (tests/physics/gravity_potential_test.cc), with two output signals: its angle from the
+// degrees (testing::kRigidPendulum), with two output signals: its angle from the
 // position of its centre of mass, and its kinetic energy from its velocities (the hinge holds
 // the angular velocity to y). m = 2700 * 0.02 * 0.02 * 1 = 1.08 kg, I_y = m (0.02^2 + 1^2) / 12.
 TEST(ConstraintFormulas, OutputSignalsOfARigidPendulum) {
-  const char* text = R"yaml(
-model: pendulum
-gravity: [0, 0, -9.81]
-bodies:
-  bar: {shape: {box: {size: [0.02, 0.02, 1.0]}}, density: 2700,
-        position: [-0.25, 0, -0.4330127018922193], orientation: {axis: y, degrees: 30}}
-joints:
-  hinge: {type: revolute, parent: ground, child: bar, at: [0, 0, 0], child_at: [0, 0, 0.5], axis: y, rigid: true}
-signals:
+  const std::string text = std::string(testing::kRigidPendulum) + R"yaml(signals:
   angle:   "atan2(bar.r.x, -bar.r.z)"
   kinetic: "0.54*(bar.v.f.x*bar.v.f.x + bar.v.f.y*bar.v.f.y + bar.v.f.z*bar.v.f.z) + 0.045018*bar.omega.f.y*bar.omega.f.y"
 outputs: [angle, kinetic]
