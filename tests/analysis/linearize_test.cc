@@ -15,6 +15,7 @@
 #include "multibond/compile/compiled_model.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
+#include "support/rigid_gear_pair.h"
 
 namespace multibond::linear {
 namespace {
@@ -177,27 +178,8 @@ TEST(Linearize, RigidGearOnASpringInIndependentCoordinates) {
   // A pinion J1 = 0.01 and a wheel J2 = 0.04 at half its speed (a rigid TF: J2 is cut by an ideal
   // constraint), the wheel on a torsion spring k = 2 to the ground: J_eq = J1 + J2/4 = 0.02 on
   // the pinion, the spring's stiffness there k/4: w^2 = (k/4)/J_eq = 25, w = 5 rad/s.
-  const std::string yaml = R"(
-model: rigid_gear_spring
-domain: rotation
-elements:
-  torque: {type: Se, effort: 0.0}
-  j1:     {type: "1"}
-  J1:     {type: I, inertia: 0.01}
-  gear:   {type: TF, ratio: 0.5}
-  j2:     {type: "1"}
-  J2:     {type: I, inertia: 0.04}
-  spring: {type: C, stiffness: 2.0}
-bonds:
-  - torque -> j1
-  - j1 -> J1
-  - j1 -> gear
-  - gear -> j2
-  - j2 -> J2
-  - j2 -> spring
-outputs:
-  - {name: w1, variable: j1.f}
-)";
+  const std::string yaml = testing::RigidGearPair("rigid_gear_spring", "", "0.0", "0.5", "{type: C, stiffness: 2.0}",
+                                                  "outputs:\n  - {name: w1, variable: j1.f}\n");
   LoadedModel loaded = LoadModelString(yaml);
   loaded.compile.ideal_constraints = true;
   const auto model = CompiledModel::Compile(std::move(loaded.graph), loaded.compile);

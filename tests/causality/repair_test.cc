@@ -197,10 +197,9 @@ TEST(SuggestCouplings, AnIntegrallyCausalModelNeedsNothing) {
   EXPECT_THROW(RepairModelText(lm.text, lm.file, r, {}), std::runtime_error);
 }
 
-TEST(SuggestCouplings, AnExplicitIdealConstraintIsNotDerivativeCausality) {
-  // The compiler solves an Sf marked `constraint` for its reaction (an effort source of unknown
-  // effort): the two masses it locks together are both independent, nothing to repair.
-  const LoadedModel lm = LoadModelString(R"(
+// Two masses locked together by an Sf marked `constraint` (an ideal constraint the compiler solves
+// for its reaction, an effort source of unknown effort), the first pushed.
+const char* kRigidLink = R"(
 model: rigid_link
 domain: translation
 elements:
@@ -213,7 +212,12 @@ elements:
   v2:   {type: "1"}
   m2:   {type: I, inertia: 2.0}
 bonds: [push -> v1, v1 -> m1, v1 -> link, link -> rel, lock -> rel, link -> v2, v2 -> m2]
-)");
+)";
+
+TEST(SuggestCouplings, AnExplicitIdealConstraintIsNotDerivativeCausality) {
+  // The compiler solves an Sf marked `constraint` for its reaction (an effort source of unknown
+  // effort): the two masses it locks together are both independent, nothing to repair.
+  const LoadedModel lm = LoadModelString(kRigidLink);
   EXPECT_EQ(CausalView(lm.graph).element(lm.graph.Find("lock")).kind, ElementKind::kSe);
   const RepairResult r = Suggest(lm);
   EXPECT_TRUE(r.couplings.empty());
@@ -224,20 +228,7 @@ bonds: [push -> v1, v1 -> m1, v1 -> link, link -> rel, lock -> rel, link -> v2, 
 
 TEST(InCausalView, IsTheCausalViewInPlaceForItsScopeAndRestoresTheGraphAfter) {
   // `check` analyses the graph in place rather than through a copy. The Sf 'lock' is a constraint.
-  LoadedModel lm = LoadModelString(R"(
-model: rigid_link
-domain: translation
-elements:
-  push: {type: Se, effort: 1.0}
-  v1:   {type: "1"}
-  m1:   {type: I, inertia: 1.0}
-  link: {type: "0"}
-  rel:  {type: "1"}
-  lock: {type: Sf, flow: 0.0, constraint: true}
-  v2:   {type: "1"}
-  m2:   {type: I, inertia: 2.0}
-bonds: [push -> v1, v1 -> m1, v1 -> link, link -> rel, lock -> rel, link -> v2, v2 -> m2]
-)");
+  LoadedModel lm = LoadModelString(kRigidLink);
   const BondGraph copy = CausalView(lm.graph);
   std::vector<ElementKind> before;
   for (const Element& e : lm.graph.elements()) before.push_back(e.kind);

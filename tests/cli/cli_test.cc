@@ -19,7 +19,9 @@
 #include <nlohmann/json.hpp>
 
 #include "support/alive.h"
+#include "support/nonlinear_pair.h"
 #include "support/temp_dir.h"
+#include "support/text_edit.h"
 
 namespace {
 
@@ -27,6 +29,7 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::Not;
 using multibond::testing::ListNames;
+using multibond::testing::ReadFile;
 
 struct Result {
   int code;
@@ -54,13 +57,6 @@ std::string WritingMoreRowsThan(int rows) {
 }
 
 std::string Example(const std::string& name) { return std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + name; }
-
-std::string Read(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 class CliTest : public ::testing::Test {
  protected:
@@ -124,13 +120,13 @@ TEST_F(CliTest, AlgebraicLoopsOptionSolvesTheLoop) {
 TEST_F(CliTest, RunWritesResultsWithUnitsAndRunRecord) {
   const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --t-end 1 --dt 0.01");
   ASSERT_EQ(r.code, 0) << r.out;
-  const std::string csv = Read(dir_ / "results.csv");
+  const std::string csv = ReadFile(dir_ / "results.csv");
   const std::string header = csv.substr(0, csv.find('\n'));
   EXPECT_THAT(header, HasSubstr("time [s],mass.p [N s],spring.q [m]"));
   EXPECT_THAT(header, HasSubstr("energy.residual [-]"));
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 102);  // header + 101 samples
   EXPECT_EQ(ListNames(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
-  const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  const auto run = nlohmann::json::parse(ReadFile(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "ok");
   EXPECT_EQ(run["options"]["t_end"], 1.0);
   EXPECT_EQ(run["options"]["solver"], "bdf");  // the file's choice
@@ -148,7 +144,7 @@ TEST_F(CliTest, RunRecordsTheWallTimeOfEachPhase) {
   const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --t-end 1 --dt 0.01");
   const double outside = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSERT_EQ(r.code, 0) << r.out;
-  const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  const auto run = nlohmann::json::parse(ReadFile(dir_ / "run.json"));
   ASSERT_TRUE(run.contains("phase_seconds"));
   const nlohmann::json& phases = run["phase_seconds"];
   double sum = 0.0;
@@ -168,7 +164,7 @@ TEST_F(CliTest, RunIsDeterministic) {
   const fs::path a = dir_ / "a", b = dir_ / "b";
   ASSERT_EQ(Cli("run " + Example("dc_motor.yaml") + " -o " + a.string() + " --t-end 0.5").code, 0);
   ASSERT_EQ(Cli("run " + Example("dc_motor.yaml") + " -o " + b.string() + " --t-end 0.5").code, 0);
-  EXPECT_EQ(Read(a / "results.csv"), Read(b / "results.csv"));
+  EXPECT_EQ(ReadFile(a / "results.csv"), ReadFile(b / "results.csv"));
 }
 
 TEST_F(CliTest, ModelErrorExitsOneAndCreatesNothing) {
@@ -189,13 +185,13 @@ TEST_F(CliTest, AnEnergyBalanceThatDoesNotCloseIsAWarning) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_THAT(r.out, HasSubstr("warning: the energy balance does not close: at t = 5 s"));
   EXPECT_THAT(r.out, HasSubstr("take a smaller fixed step"));
-  auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  auto run = nlohmann::json::parse(ReadFile(dir_ / "run.json"));
   ASSERT_EQ(run["warnings"].size(), 1u);
   EXPECT_GT(std::abs(run["energy"]["residual"].get<double>()), 1e-3);
   r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --solver rk4 --step 0.01 --dt 0.1");
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_THAT(r.out, Not(HasSubstr("warning")));
-  run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  run = nlohmann::json::parse(ReadFile(dir_ / "run.json"));
   EXPECT_TRUE(run["warnings"].empty());
 }
 
@@ -264,7 +260,7 @@ TEST_F(CliTest, RefusedOptionsCreateNothingAndSayWhatIsExpected) {
 // A model file's fixed step belongs to its solver: --solver bdf on the command line leaves it.
 TEST_F(CliTest, TheFilesFixedStepDoesNotFollowAnotherSolver) {
   fs::create_directories(dir_);
-  std::string text = Read(Example("mass_spring_damper.yaml"));
+  std::string text = ReadFile(Example("mass_spring_damper.yaml"));
   const std::string settings = "simulation: {t_end: 5, dt: 0.001, solver: bdf, rtol: 1.0e-10, atol: 1.0e-12}";
   ASSERT_NE(text.find(settings), std::string::npos);
   text.replace(text.find(settings), settings.size(), "simulation: {solver: rk4, step: 1.0e-3, t_end: 0.05}");
@@ -280,7 +276,7 @@ TEST_F(CliTest, TheFilesFixedStepDoesNotFollowAnotherSolver) {
 TEST_F(CliTest, OutputGridEndsExactlyAtTheEndTime) {
   const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --t-end 1 --dt 0.3");
   ASSERT_EQ(r.code, 0) << r.out;
-  std::istringstream csv(Read(dir_ / "results.csv"));
+  std::istringstream csv(ReadFile(dir_ / "results.csv"));
   std::string line;
   std::vector<double> times;
   std::getline(csv, line);  // header
@@ -300,10 +296,10 @@ TEST_F(CliTest, CoordinatesOptionChangesTheVariablesNotTheResults) {
   const Result inertial = Cli("run " + model + " -o " + dir_.string() + "_inertial --coordinates inertial" + common);
   ASSERT_EQ(joint.code, 0) << joint.out;
   ASSERT_EQ(inertial.code, 0) << inertial.out;
-  EXPECT_EQ(nlohmann::json::parse(Read(fs::path(dir_.string() + "_joint") / "run.json"))["options"]["coordinates"], "joint");
-  EXPECT_EQ(nlohmann::json::parse(Read(fs::path(dir_.string() + "_inertial") / "run.json"))["options"]["coordinates"], "inertial");
-  const std::string a = Read(fs::path(dir_.string() + "_joint") / "results.csv");
-  const std::string b = Read(fs::path(dir_.string() + "_inertial") / "results.csv");
+  EXPECT_EQ(nlohmann::json::parse(ReadFile(fs::path(dir_.string() + "_joint") / "run.json"))["options"]["coordinates"], "joint");
+  EXPECT_EQ(nlohmann::json::parse(ReadFile(fs::path(dir_.string() + "_inertial") / "run.json"))["options"]["coordinates"], "inertial");
+  const std::string a = ReadFile(fs::path(dir_.string() + "_joint") / "results.csv");
+  const std::string b = ReadFile(fs::path(dir_.string() + "_inertial") / "results.csv");
   auto header = [](const std::string& csv) {
     const size_t at = csv.find("time [s]");
     return at == std::string::npos ? std::string() : csv.substr(at, csv.find('\n', at) - at);
@@ -324,7 +320,7 @@ TEST_F(CliTest, CoordinatesOptionChangesTheVariablesNotTheResults) {
 TEST_F(CliTest, JacobianOptionIsRecordedAndCheckedAgainstTheModel) {
   const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --t-end 0.1 --jacobian sparse");
   ASSERT_EQ(r.code, 0) << r.out;
-  const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  const auto run = nlohmann::json::parse(ReadFile(dir_ / "run.json"));
   EXPECT_EQ(run["options"]["jacobian"], "sparse");
   EXPECT_EQ(run["solver_stats"]["jacobian"], "sparse");
   EXPECT_GE(run["solver_stats"]["evals_per_jacobian"].get<long>(), 1);
@@ -334,7 +330,7 @@ TEST_F(CliTest, JacobianOptionIsRecordedAndCheckedAgainstTheModel) {
   const Result ideal = Cli("run " + Example("rigid_gear_pair.yaml") + " -o " + dir_.string() +
                            "_ideal --constraints ideal --solver bdf --jacobian sparse --t-end 0.1");
   EXPECT_EQ(ideal.code, 0) << ideal.out;
-  EXPECT_EQ(nlohmann::json::parse(Read(fs::path(dir_.string() + "_ideal") / "run.json"))["solver_stats"]["jacobian"], "sparse");
+  EXPECT_EQ(nlohmann::json::parse(ReadFile(fs::path(dir_.string() + "_ideal") / "run.json"))["solver_stats"]["jacobian"], "sparse");
   fs::remove_all(dir_.string() + "_ideal");
   // With an explicit solver it changes nothing, and the run says so.
   const Result rk = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() +
@@ -353,11 +349,11 @@ TEST_F(CliTest, DivergingRunExitsTwoKeepsResultsAndMarksThemFailed) {
   EXPECT_THAT(r.out, HasSubstr("at t = "));
   EXPECT_THAT(r.out, HasSubstr("the states that failed first: "));
   EXPECT_THAT(r.out, HasSubstr("hint: try a smaller fixed step (--step, now 0.5 s)"));  // not --rtol, which rk4 ignores
-  const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  const auto run = nlohmann::json::parse(ReadFile(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "failed");
   EXPECT_LT(run["t_reached"].get<double>(), 500.0);
   EXPECT_GT(run["t_reached"].get<double>(), 0.0);
-  const std::string csv = Read(dir_ / "results.csv");
+  const std::string csv = ReadFile(dir_ / "results.csv");
   EXPECT_GT(std::count(csv.begin(), csv.end(), '\n'), 2);  // the samples up to the failure are kept
 }
 
@@ -378,7 +374,7 @@ bonds: [f -> v, v -> m, v -> c]
     EXPECT_EQ(r.code, 2) << r.out;
     EXPECT_THAT(r.out, HasSubstr("at t = 0 s: the derivatives of the initial state are not finite (infinite or NaN): c.q, f.work"));
     EXPECT_THAT(r.out, HasSubstr("hint: check the parameters and initial values"));
-    EXPECT_EQ(nlohmann::json::parse(Read(dir_ / solver / "run.json"))["status"], "failed");
+    EXPECT_EQ(nlohmann::json::parse(ReadFile(dir_ / solver / "run.json"))["status"], "failed");
   }
 }
 
@@ -388,7 +384,7 @@ bonds: [f -> v, v -> m, v -> c]
 TEST_F(CliTest, AnInterruptIsHonouredWithinAnOutputInterval) {
   EXPECT_EQ(RunAndInterrupt(Example("mass_spring_damper.yaml") + " --t-end 100 --dt 50 --max-step 1e-5", WritingMoreRowsThan(-1), 600, 0.3),
             130);
-  const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  const auto run = nlohmann::json::parse(ReadFile(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "interrupted");
   EXPECT_EQ(run["t_reached"].get<double>(), 0.0);
 }
@@ -441,11 +437,11 @@ TEST_F(CliTest, EquationsTextAndLatex) {
 TEST_F(CliTest, GraphWritesDotAndSvg) {
   const Result r = Cli("graph " + Example("compliant_gear_pair.yaml") + " -o " + (dir_ / "g.svg").string());
   EXPECT_EQ(r.code, 0) << r.out;
-  EXPECT_THAT(Read(dir_ / "g.dot"), HasSubstr("digraph"));
-  EXPECT_THAT(Read(dir_ / "g.svg"), HasSubstr("<svg"));
+  EXPECT_THAT(ReadFile(dir_ / "g.dot"), HasSubstr("digraph"));
+  EXPECT_THAT(ReadFile(dir_ / "g.svg"), HasSubstr("<svg"));
   // The extension in any case; anything else is a usage error that writes nothing.
   EXPECT_EQ(Cli("graph " + Example("compliant_gear_pair.yaml") + " -o " + (dir_ / "h.SVG").string()).code, 0);
-  EXPECT_THAT(Read(dir_ / "h.SVG"), HasSubstr("<svg"));  // the name asked for, not h.svg
+  EXPECT_THAT(ReadFile(dir_ / "h.SVG"), HasSubstr("<svg"));  // the name asked for, not h.svg
   EXPECT_FALSE(fs::exists(dir_ / "h.svg"));
   for (const std::string bad : {"p.pdf", "notes.txt", ".dot"}) {
     const Result b = Cli("graph " + Example("compliant_gear_pair.yaml") + " -o " + (dir_ / bad).string());
@@ -470,12 +466,12 @@ TEST_F(CliTest, InterruptStopsCleanlyAndKeepsWhatWasComputed) {
   // A long run of the differential, interrupted with SIGINT once it has written some rows (polled,
   // not a fixed delay: under the sanitizers on a loaded machine 1.5 s gave only 6 rows).
   EXPECT_EQ(RunAndInterrupt(Example("differential.yaml") + " --t-end 1000", WritingMoreRowsThan(20), 1200, 0.0), 130);
-  const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  const auto run = nlohmann::json::parse(ReadFile(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "interrupted");
   EXPECT_GT(run["t_reached"].get<double>(), 0.0);
   EXPECT_LT(run["t_reached"].get<double>(), 1000.0);
   EXPECT_EQ(ListNames(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
-  const std::string csv = Read(dir_ / "results.csv");
+  const std::string csv = ReadFile(dir_ / "results.csv");
   EXPECT_GT(std::count(csv.begin(), csv.end(), '\n'), 10);
 }
 
@@ -539,7 +535,7 @@ TEST_F(CliTest, CheckSuggestWriteGivesAModelThatChecksAndRuns) {
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_THAT(r.out, HasSubstr("wrote " + fixed.string()));
   EXPECT_EQ(ListNames(dir_), std::vector<std::string>{"fixed.yaml"});
-  const std::string text = Read(fixed);
+  const std::string text = ReadFile(fixed);
   EXPECT_THAT(text, HasSubstr("# Two inertias joined by a rigid gear (TF)"));  // the user's comments are kept
   EXPECT_THAT(text, HasSubstr("  - j2 -> J2_coupling\n  - J2_coupling -> J2\n"));
   r = Cli("check " + fixed.string());
@@ -548,7 +544,7 @@ TEST_F(CliTest, CheckSuggestWriteGivesAModelThatChecksAndRuns) {
   EXPECT_THAT(r.out, HasSubstr("J2_K.q [rad]"));
   r = Cli("run " + fixed.string() + " -o " + (dir_ / "out").string() + " --t-end 0.2");
   EXPECT_EQ(r.code, 0) << r.out;
-  EXPECT_THAT(Read(dir_ / "out" / "results.csv"), HasSubstr("J2_K.q [rad]"));
+  EXPECT_THAT(ReadFile(dir_ / "out" / "results.csv"), HasSubstr("J2_K.q [rad]"));
 }
 
 TEST_F(CliTest, CheckSuggestWriteGivesTwoCouplingsForTwoDependentInertias) {
@@ -600,7 +596,7 @@ TEST_F(CliTest, ConstraintsOptionIsCheckedAndAcceptedByCheckRunAndCompare) {
   EXPECT_EQ(Cli("check " + Example("mass_spring_damper.yaml") + " --constraints compliant").code, 0);
   EXPECT_EQ(Cli("check " + Example("mass_spring_damper.yaml") + " --constraints bogus").code, 64);
   EXPECT_EQ(Cli("run " + Example("mass_spring_damper.yaml") + " -q --t-end 0.1 --constraints compliant -o " + dir_.string()).code, 0);
-  EXPECT_EQ(nlohmann::json::parse(Read(dir_ / "run.json"))["options"]["ideal_constraints"], false);
+  EXPECT_EQ(nlohmann::json::parse(ReadFile(dir_ / "run.json"))["options"]["ideal_constraints"], false);
   EXPECT_EQ(Cli("compare " + Example("mass_spring_damper.yaml") + " " + Example("mass_spring_damper.yaml") +
                 " --t-end 0.1 --constraints compliant").code,
             0);
@@ -614,10 +610,10 @@ TEST_F(CliTest, OptionConflictsExit64AndAnEmptyPlotSaysSo) {
   fs::create_directories(dir_);
   const fs::path copy = dir_ / "gears.yaml";
   fs::copy_file(Example("rigid_gear_pair.yaml"), copy);
-  const std::string before = Read(copy);
+  const std::string before = ReadFile(copy);
   const Result onto_model = Cli("check " + copy.string() + " --constraints ideal --write " + copy.string());
   EXPECT_EQ(onto_model.code, 64) << onto_model.out;
-  EXPECT_EQ(Read(copy), before);
+  EXPECT_EQ(ReadFile(copy), before);
   const Result jit = Cli("run " + Example("algebraic_loop.yaml") + " -o " + (dir_ / "loop").string() +
                          " --algebraic-loops solve --jit on --t-end 0.01");
   EXPECT_EQ(jit.code, 64) << jit.out;
@@ -654,7 +650,7 @@ class CompareTest : public CliTest {
   /// The mass-spring-damper with k = 150 N/m and its spring force output renamed.
   std::string Stiffer() {
     fs::create_directories(dir_);
-    std::string text = Read(Example("mass_spring_damper.yaml"));
+    std::string text = ReadFile(Example("mass_spring_damper.yaml"));
     text.replace(text.find("stiffness: 100.0"), 16, "stiffness: 150.0");
     text.replace(text.find("name: spring_force"), 18, "name: force_in_spring");
     const fs::path p = dir_ / "stiffer.yaml";
@@ -679,7 +675,7 @@ TEST_F(CompareTest, ReportsEachColumnsLargestDifferenceAndWritesCsv) {
   EXPECT_THAT(r.out, HasSubstr("only in B (1): force_in_spring"));
   EXPECT_THAT(r.out, HasSubstr("largest relative difference: 0.743 in "));
   EXPECT_EQ(ListNames(dir_), (std::vector<std::string>{"report.csv", "stiffer.yaml"}));
-  const std::vector<std::string> lines = Lines(Read(csv));
+  const std::vector<std::string> lines = Lines(ReadFile(csv));
   ASSERT_EQ(lines.size(), 4u + 12u);
   EXPECT_THAT(lines[0], HasSubstr("# multibond compare; A: " + Example("mass_spring_damper.yaml") + " (solver bdf, rtol 1e-10"));
   EXPECT_THAT(lines[0], HasSubstr("B: " + b));
@@ -706,7 +702,7 @@ TEST_F(CompareTest, SortByNameAndTop) {
   const Result r = Cli("compare " + Example("mass_spring_damper.yaml") + " " + Stiffer() + " --t-end 0.5 --sort name --top 3 -o " + csv);
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_THAT(r.out, HasSubstr("by name, top 3 shown"));
-  const std::vector<std::string> lines = Lines(Read(csv));
+  const std::vector<std::string> lines = Lines(ReadFile(csv));
   ASSERT_EQ(lines.size(), 4u + 3u);
   EXPECT_THAT(lines[0], HasSubstr("sort name, top 3"));
   EXPECT_THAT(lines[4], ::testing::StartsWith("damper.dissipated,"));
@@ -777,20 +773,9 @@ TEST_F(CliTest, CheckWithIdealConstraintsAcceptsDerivativeCausality) {
 // first that it is solved exactly.
 TEST_F(CliTest, CheckSaysDerivativeCausalityIsSolvedOnlyWhenItIs) {
   fs::create_directories(dir_);
-  const std::string pair = R"(model: spring_pair
-domain: translation
-constraints: ideal
-elements:
-  mass: {type: I, inertia: 1.0}
-  j:    {type: "1"}
-  z:    {type: "0"}
-  k1:   {type: C, SPRING}
-  k2:   {type: C, stiffness: 5.0}
-bonds: [j -> mass, j -> z, z -> k1, z -> k2]
-)";
   for (const bool formula : {false, true}) {
-    std::string text = pair;
-    text.replace(text.find("SPRING"), 6, formula ? "effort: 10 * q + q^3" : "stiffness: 10.0");
+    const std::string text = formula ? std::string(multibond::testing::kNonlinearPair)
+                                     : multibond::testing::Replaced(multibond::testing::kNonlinearPair, "effort: 10 * q + q^3", "stiffness: 10.0");
     const fs::path model = dir_ / (formula ? "nonlinear.yaml" : "linear.yaml");
     std::ofstream(model) << text;
     const Result r = Cli("check " + model.string());
@@ -817,8 +802,8 @@ namespace {
 TEST_F(CliTest, RunJsonRecordsTheSizeAndHashOfItsResults) {
   const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " -q --t-end 0.1");
   ASSERT_EQ(r.code, 0) << r.out;
-  const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
-  const std::string csv = Read(dir_ / "results.csv");
+  const auto run = nlohmann::json::parse(ReadFile(dir_ / "run.json"));
+  const std::string csv = ReadFile(dir_ / "results.csv");
   EXPECT_EQ(run["results"]["file"], "results.csv");
   EXPECT_EQ(run["results"]["bytes"].get<size_t>(), csv.size());
   const Result sum = Shell("sha256sum " + (dir_ / "results.csv").string());
@@ -838,11 +823,11 @@ TEST_F(CliTest, ASecondRunIntoABusyFolderIsRefusedNamingTheFirst) {
   EXPECT_THAT(out, HasSubstr("differential.yaml -o " + dir_.string()));
   EXPECT_THAT(out, HasSubstr("second exit 74"));
   EXPECT_THAT(out, HasSubstr("first exit 0"));
-  const std::string csv = Read(dir_ / "results.csv");
+  const std::string csv = ReadFile(dir_ / "results.csv");
   EXPECT_THAT(csv.substr(0, csv.find('\n')), HasSubstr("G.p.x"));
   EXPECT_THAT(csv, Not(HasSubstr("mass.p")));
   EXPECT_EQ(csv.find('\0'), std::string::npos);
-  EXPECT_EQ(nlohmann::json::parse(Read(dir_ / "run.json"))["results"]["bytes"].get<size_t>(), csv.size());
+  EXPECT_EQ(nlohmann::json::parse(ReadFile(dir_ / "run.json"))["results"]["bytes"].get<size_t>(), csv.size());
 }
 
 TEST_F(CliTest, AKilledRunLeavesNothingAndTheNextOneCleansUpAfterOlderVersions) {
@@ -894,54 +879,52 @@ TEST_F(CliTest, APlantedLinkAtAnOutputNameIsReplacedNotFollowed) {
   fs::create_symlink(victim, dir_ / "results.csv.partial");  // the fixed temporary name of earlier versions
   const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " -q --t-end 0.1");
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_EQ(Read(victim), "precious");
+  EXPECT_EQ(ReadFile(victim), "precious");
   EXPECT_FALSE(fs::is_symlink(dir_ / "results.csv"));
-  EXPECT_THAT(Read(dir_ / "results.csv"), HasSubstr("time [s]"));
+  EXPECT_THAT(ReadFile(dir_ / "results.csv"), HasSubstr("time [s]"));
 }
 
 TEST_F(CliTest, ACommandNeverWritesOntoItsOwnInput) {
   fs::create_directories(dir_);
   const fs::path b = dir_ / "b.yaml";
   fs::copy_file(Example("mass_spring_damper.yaml"), b);
-  const std::string before = Read(b);
+  const std::string before = ReadFile(b);
   Result r = Cli("compare " + Example("mass_spring_damper.yaml") + " " + b.string() + " --t-end 0.1 -o " + b.string());
   EXPECT_EQ(r.code, 64) << r.out;
   EXPECT_THAT(r.out, HasSubstr("an input of this command"));
-  EXPECT_EQ(Read(b), before);
+  EXPECT_EQ(ReadFile(b), before);
   // A model called results.csv run into its own folder.
   fs::copy_file(b, dir_ / "results.csv");
   r = Cli("run " + (dir_ / "results.csv").string() + " -o " + dir_.string() + " -q");
   EXPECT_EQ(r.code, 64) << r.out;
-  EXPECT_EQ(Read(dir_ / "results.csv"), before);
+  EXPECT_EQ(ReadFile(dir_ / "results.csv"), before);
   // A drawing over the model.
   fs::copy_file(b, dir_ / "m.dot");
   r = Cli("graph " + (dir_ / "m.dot").string() + " -o " + (dir_ / "m.dot").string());
   EXPECT_EQ(r.code, 64) << r.out;
-  EXPECT_EQ(Read(dir_ / "m.dot"), before);
+  EXPECT_EQ(ReadFile(dir_ / "m.dot"), before);
 }
 
 TEST_F(CliTest, ImpossibleRequestsAreRefusedUpFrontWithTheEstimate) {
-  Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --solver rk4 --step 1e-12");
-  EXPECT_EQ(r.code, 64) << r.out;
-  EXPECT_THAT(r.out, HasSubstr("is 5e+12 steps, more than the limit of 1e+08"));
-  EXPECT_THAT(r.out, HasSubstr("--limit steps=N"));
-  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --max-step 1e-11");
-  EXPECT_EQ(r.code, 64) << r.out;
-  EXPECT_THAT(r.out, HasSubstr("largest step (--max-step) of 1e-11 s is 5e+11 steps"));
-  // The limit is the user's: lowered, an ordinary request goes over it.
-  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --solver rk4 --step 1e-3 --limit steps=100");
-  EXPECT_EQ(r.code, 64) << r.out;
-  EXPECT_THAT(r.out, HasSubstr("is 5e+03 steps, more than the limit of 100"));
-  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --limit step=100");
-  EXPECT_EQ(r.code, 64) << r.out;
-  EXPECT_THAT(r.out, HasSubstr("unknown limit 'step' (did you mean 'steps'?)"));
-  // Denormal and unresolvable times.
-  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --dt 1e-310");
-  EXPECT_EQ(r.code, 64) << r.out;
-  EXPECT_THAT(r.out, HasSubstr("beyond the range of normal double-precision numbers"));
-  r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + " --t-end 1e9 --dt 10 --solver rk4 --step 1e-8");
-  EXPECT_EQ(r.code, 64) << r.out;
-  EXPECT_THAT(r.out, HasSubstr("fixed step (--step) of 1e-08 s is below what time near 1e+09 s can resolve"));
+  // Each request (the options of a run of the mass-spring-damper) with what its refusal says.
+  const struct {
+    const char* options;
+    std::vector<const char*> says;
+  } requests[] = {
+      {" --solver rk4 --step 1e-12", {"is 5e+12 steps, more than the limit of 1e+08", "--limit steps=N"}},
+      {" --max-step 1e-11", {"largest step (--max-step) of 1e-11 s is 5e+11 steps"}},
+      // The limit is the user's: lowered, an ordinary request goes over it.
+      {" --solver rk4 --step 1e-3 --limit steps=100", {"is 5e+03 steps, more than the limit of 100"}},
+      {" --limit step=100", {"unknown limit 'step' (did you mean 'steps'?)"}},
+      // Denormal and unresolvable times.
+      {" --dt 1e-310", {"beyond the range of normal double-precision numbers"}},
+      {" --t-end 1e9 --dt 10 --solver rk4 --step 1e-8", {"fixed step (--step) of 1e-08 s is below what time near 1e+09 s can resolve"}},
+  };
+  for (const auto& request : requests) {
+    const Result r = Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + request.options);
+    EXPECT_EQ(r.code, 64) << r.out;
+    for (const char* said : request.says) EXPECT_THAT(r.out, HasSubstr(said)) << request.options;
+  }
   EXPECT_FALSE(fs::exists(dir_));
 }
 
@@ -954,7 +937,7 @@ TEST_F(CliTest, SigtermDuringARunKeepsTheRowsAndExits143) {
   const size_t n = fread(buf, 1, sizeof buf - 1, p);
   pclose(p);
   EXPECT_EQ(std::atoi(std::string(buf, n).c_str()), 143);
-  const auto run = nlohmann::json::parse(Read(dir_ / "run.json"));
+  const auto run = nlohmann::json::parse(ReadFile(dir_ / "run.json"));
   EXPECT_EQ(run["status"], "interrupted");
   EXPECT_EQ(ListNames(dir_), (std::vector<std::string>{".multibond.lock", "results.csv", "run.json"}));
 }
@@ -976,7 +959,7 @@ TEST_F(CliTest, SigtermWhileTheGeneratedCodeCompilesEndsTheCompilerAndExits143) 
                          pidfile.string() + " ] && break; sleep 0.05; done; kill -TERM $pid; wait $pid; echo \"exit $?\"");
   EXPECT_THAT(r.out, HasSubstr("exit 143")) << r.out;
   EXPECT_THAT(r.out, HasSubstr("interrupted by SIGTERM while compiling the generated code"));
-  const pid_t sleeper = std::atoi(Read(pidfile).c_str());
+  const pid_t sleeper = std::atoi(ReadFile(pidfile).c_str());
   ASSERT_GT(sleeper, 0);
   for (int i = 0; i < 100 && multibond::testing::Alive(sleeper); ++i) usleep(20000);
   EXPECT_FALSE(multibond::testing::Alive(sleeper)) << "the compiler's child " << sleeper << " still runs";
@@ -1010,7 +993,7 @@ class CliSetTest : public CliTest {
   }
   /// The last value of the column `name` of `folder`/results.csv.
   static double LastValue(const fs::path& folder, const std::string& name) {
-    std::istringstream csv(Read(folder / "results.csv"));
+    std::istringstream csv(ReadFile(folder / "results.csv"));
     std::string header, line, last;
     std::getline(csv, header);
     while (std::getline(csv, line))
@@ -1037,7 +1020,7 @@ TEST_F(CliSetTest, SetChangesTheResultAndRunJsonRecordsTheParameters) {
   const Result r = Cli("run " + model.string() + " -q -o " + b.string() + " --set m=4 --set F=m/2");
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NEAR(LastValue(b, "v"), 2.0 / 4.0, 1e-9);  // F = m/2 = 2, m = 4
-  const auto run = nlohmann::json::parse(Read(b / "run.json"));
+  const auto run = nlohmann::json::parse(ReadFile(b / "run.json"));
   const auto& p = run["parameters"];
   ASSERT_EQ(p.size(), 3u);
   EXPECT_EQ(p["m"]["value"], 4.0);

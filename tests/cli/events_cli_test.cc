@@ -19,12 +19,14 @@
 #include <nlohmann/json.hpp>
 
 #include "support/cli_runner.h"
+#include "support/temp_dir.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::Not;
+using multibond::testing::ReadFile;
 
 struct Result {
   int code;
@@ -42,13 +44,6 @@ Result Cli(const std::string& args, const fs::path& err_file) {
 
 std::string Example(const std::string& name) { return std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + name; }
 
-std::string Read(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 struct EventRow {
   double time;
   std::string kind, element;
@@ -56,7 +51,7 @@ struct EventRow {
 
 /// events.csv: the header line and the rows (time, kind, element; the description is not read).
 std::pair<std::string, std::vector<EventRow>> ReadEvents(const fs::path& p) {
-  std::istringstream in(Read(p));
+  std::istringstream in(ReadFile(p));
   std::string header, line;
   std::getline(in, header);
   std::vector<EventRow> rows;
@@ -103,10 +98,10 @@ class EventsCliTest : public ::testing::Test {
   Result RunModel(const std::string& model, const std::string& args, const std::string& out = "out") const {
     return Run("run " + model + " -o " + (dir_ / out).string() + " --jit off " + args);
   }
-  nlohmann::json RunJson(const std::string& out = "out") const { return nlohmann::json::parse(Read(dir_ / out / "run.json")); }
+  nlohmann::json RunJson(const std::string& out = "out") const { return nlohmann::json::parse(ReadFile(dir_ / out / "run.json")); }
   /// A copy of the bouncing ball whose simulation section is `simulation`.
   fs::path BallWithSimulation(const std::string& simulation) const {
-    std::string text = Read(Example("events/bouncing_ball.yaml"));
+    std::string text = ReadFile(Example("events/bouncing_ball.yaml"));
     const std::string settings = "simulation: {t_end: 10, dt: 1.0e-3, rtol: 1.0e-10, atol: 1.0e-12}";
     const size_t at = text.find(settings);
     EXPECT_NE(at, std::string::npos);
@@ -211,7 +206,7 @@ TEST_F(EventsCliTest, AnEventStormStopsTheRunKeepingItsResults) {
   EXPECT_GT(rows.back().time, 780.0);
   EXPECT_LT(rows.back().time, 820.0);
   EXPECT_TRUE(fs::exists(dir_ / "storm" / "results.csv"));
-  EXPECT_GT(Read(dir_ / "storm" / "results.csv").size(), 1000u);
+  EXPECT_GT(ReadFile(dir_ / "storm" / "results.csv").size(), 1000u);
 
   const Result ok = RunModel(Example("events/stick_slip.yaml"), args + " --max-events-per-second 3", "ok");
   EXPECT_EQ(ok.code, 0) << ok.out;
@@ -284,7 +279,7 @@ TEST_F(EventsCliTest, BadEventSettingsAreRefused) {
   }
   // At the line and column of the value (the file's last line but one).
   const fs::path model = BallWithSimulation("simulation:\n  t_end: 10\n  event_rest_time: -0.5\n");
-  const std::string text = Read(model);
+  const std::string text = ReadFile(model);
   const long line = std::count(text.begin(), text.end(), '\n') - 1;
   const Result r = Run("check " + model.string());
   EXPECT_EQ(r.code, 1);

@@ -9,13 +9,19 @@
 #include <cmath>
 #include <numbers>
 #include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "multibond/analysis/linearize.h"
 #include "multibond/io/model_loader.h"
+#include "support/compile_errors.h"
 #include "support/example_runner.h"
+#include "support/nonlinear_pair.h"
+#include "support/rigid_gear_pair.h"
+#include "support/rigid_pendulum.h"
+#include "support/text_edit.h"
 
 namespace multibond {
 namespace {
@@ -26,34 +32,10 @@ using ::testing::HasSubstr;
 // constraint), the wheel on a hardening torsion spring k q + k3 q^3 (k = 2, k3 = 50) to the ground,
 // wound by q0 = 0.3 rad at rest. J_eq = J1 + J2/4 = 0.02 on the pinion; the spring sees the
 // wheel's angle, q' = w2 = w1/2. Conserved: E = J_eq w1^2/2 + k q^2/2 + k3 q^4/4; about q = 0
-// the small oscillation has w^2 = (k/4)/J_eq = 25. SIGNALS is replaced by each case's signals.
-const char* kRigidGearsOnANonlinearSpring = R"(
-model: rigid_gear_nonlinear_spring
-domain: rotation
-constraints: ideal
-elements:
-  torque: {type: Se, effort: 0.0}
-  j1:     {type: "1"}
-  J1:     {type: I, inertia: 0.01}
-  gear:   {type: TF, ratio: RATIO}
-  j2:     {type: "1"}
-  J2:     {type: I, inertia: 0.04}
-  spring: {type: C, effort: "2*q + 50*q^3", q0: 0.3}
-bonds:
-  - torque -> j1
-  - j1 -> J1
-  - j1 -> gear
-  - gear -> j2
-  - j2 -> J2
-  - j2 -> spring
-SIGNALS
-)";
-
+// the small oscillation has w^2 = (k/4)/J_eq = 25. `signals` are each case's signals.
 std::string Gears(const std::string& signals, const std::string& ratio = "0.5") {
-  std::string text = kRigidGearsOnANonlinearSpring;
-  text.replace(text.find("RATIO"), 5, ratio);
-  text.replace(text.find("SIGNALS"), 7, signals);
-  return text;
+  return testing::RigidGearPair("rigid_gear_nonlinear_spring", "constraints: ideal\n", "0.0", ratio,
+                                "{type: C, effort: \"2*q + 50*q^3\", q0: 0.3}", signals + "\n");
 }
 
 // Output-only signals: the kinetic energy from the pinion's speed and the phase angle
@@ -64,30 +46,15 @@ const char* kOutputSignals = R"yaml(signals:
 outputs: [kinetic, phase, {name: w1, variable: j1.f}])yaml";
 
 RecordingObserver RunGears(const std::string& text, bool generate_code) {
-  LoadedModel lm = LoadModelString(text, "<test>");
-  CompileOptions co = lm.compile;
-  co.generate_code = generate_code;
-  const auto model = CompiledModel::Compile(lm.graph, co);
-  if (generate_code && !model->uses_generated_code()) throw std::runtime_error("no generated code: " + model->rhs_engine());
-  RunOptions o;
-  o.t_end = 2.0;
-  o.dt = 0.01;
-  o.integrator.method = Method::kDormandPrince;
-  o.integrator.rtol = 1e-10;
-  o.integrator.atol = 1e-12;
-  RecordingObserver rec;
-  Simulate(*model, o, rec);
-  return rec;
+  const auto model = testing::CompileWith(LoadModelString(text, "<test>"), generate_code);
+  return testing::RunCompiled(*model, 2.0, 0.01, Method::kDormandPrince, 1e-10, 1e-12);
 }
 
+/// The first of the compiler's diagnostics for `text` (a test failure if it has none).
 Diagnostic Refusal(const std::string& text) {
-  const LoadedModel lm = LoadModelString(text, "<test>");
-  try {
-    CompiledModel::Compile(lm.graph, lm.compile);
-  } catch (const ModelError& e) {
-    if (!e.diagnostics().empty()) return e.diagnostics().front();
-  }
-  ADD_FAILURE() << "accepted";
+  const std::vector<Diagnostic> ds = testing::CompileErrors(text);
+  if (!ds.empty()) return ds.front();
+  ADD_FAILURE() << "no diagnostic";
   return {};
 }
 
@@ -164,18 +131,7 @@ TEST(ConstraintFormulas, ASignalOfAReactionIsRefused) {
 TEST(ConstraintFormulas, AFormulaLawNextToACutCompliance) {
   // Two springs on one 0-junction: k2 is cut (a flow multiplier holds its effort equal to the
   // junction's), and the junction's effort is k1's formula law: the constraint depends on it.
-  const Diagnostic d = Refusal(R"(
-model: nonlinear_pair
-domain: translation
-constraints: ideal
-elements:
-  mass: {type: I, inertia: 1.0}
-  j:    {type: "1"}
-  z:    {type: "0"}
-  k1:   {type: C, effort: 10 * q + q^3}
-  k2:   {type: C, stiffness: 5.0}
-bonds: [j -> mass, j -> z, z -> k1, z -> k2]
-)");
+  const Diagnostic d = Refusal(testing::kNonlinearPair);
   EXPECT_EQ(d.code, "expr.unsupported");
   EXPECT_EQ(d.element, "k1");
   EXPECT_EQ(d.where.line, 9);
@@ -186,19 +142,11 @@ bonds: [j -> mass, j -> z, z -> k1, z -> k2]
 }
 
 // A bar of 1 m (CoM 0.5 m below the pivot) on a rigid hinge about y, released at rest from 30
-// degrees (tests/physics/gravity_potential_test.cc), with two output signals: its angle from the
+// degrees (testing::kRigidPendulum), with two output signals: its angle from the
 // position of its centre of mass, and its kinetic energy from its velocities (the hinge holds
 // the angular velocity to y). m = 2700 * 0.02 * 0.02 * 1 = 1.08 kg, I_y = m (0.02^2 + 1^2) / 12.
 TEST(ConstraintFormulas, OutputSignalsOfARigidPendulum) {
-  const char* text = R"yaml(
-model: pendulum
-gravity: [0, 0, -9.81]
-bodies:
-  bar: {shape: {box: {size: [0.02, 0.02, 1.0]}}, density: 2700,
-        position: [-0.25, 0, -0.4330127018922193], orientation: {axis: y, degrees: 30}}
-joints:
-  hinge: {type: revolute, parent: ground, child: bar, at: [0, 0, 0], child_at: [0, 0, 0.5], axis: y, rigid: true}
-signals:
+  const std::string text = std::string(testing::kRigidPendulum) + R"yaml(signals:
   angle:   "atan2(bar.r.x, -bar.r.z)"
   kinetic: "0.54*(bar.v.f.x*bar.v.f.x + bar.v.f.y*bar.v.f.y + bar.v.f.z*bar.v.f.z) + 0.045018*bar.omega.f.y*bar.omega.f.y"
 outputs: [angle, kinetic]
@@ -240,14 +188,7 @@ drives:
   const LoadedModel lm = LoadModelString(text, "<test>");
   const auto model = CompiledModel::Compile(lm.graph, lm.compile);
   ASSERT_TRUE(model->has_constraints());
-  RunOptions o;
-  o.t_end = 3.0;
-  o.dt = 0.005;
-  o.integrator.method = Method::kDormandPrince;
-  o.integrator.rtol = 1e-10;
-  o.integrator.atol = 1e-12;
-  RecordingObserver rec;
-  Simulate(*model, o, rec);
+  const RecordingObserver rec = testing::RunCompiled(*model, 3.0, 0.005, Method::kDormandPrince, 1e-10, 1e-12);
   ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
   const double inertia = 1.08 * (0.02 * 0.02 + 1.0) / 12 + 1.08 * 0.25, k = 2.0, k3 = 50.0, w0 = 2.0;
   const double e0 = inertia * w0 * w0 / 2;
@@ -264,9 +205,8 @@ drives:
   EXPECT_NEAR(largest, amplitude, 1e-3 * amplitude);  // the largest sample, within 5 ms of the turn
   EXPECT_GT(largest, 0.99 * amplitude);
   // The linearisation about the rest at a = 0 (the formula's slope k): +-i sqrt(k / I) and zeros.
-  std::string at_rest = text;
-  at_rest.replace(at_rest.find("velocity: [-1, 0, 0], omega: [0, 2, 0]"), 38, "velocity: [0, 0, 0], omega: [0, 0, 0]");
-  const LoadedModel rest = LoadModelString(at_rest, "<test>");
+  const LoadedModel rest =
+      LoadModelString(testing::Replaced(text, "velocity: [-1, 0, 0], omega: [0, 2, 0]", "velocity: [0, 0, 0], omega: [0, 0, 0]"), "<test>");
   const auto still = CompiledModel::Compile(rest.graph, rest.compile);
   const linear::LinearModel lin = linear::Linearize(*still, 0.0, still->MakeInitialState());
   double fastest = 0.0;

@@ -296,62 +296,27 @@ TEST(ConstraintFactor, BeamOnThreeSupportsTakesMenabreasSplit) {
 
 // --- ConstraintSolver ----------------------------------------------------------------------
 
-/// Two masses m1, m2 on a line, a force F on the first, the second joined to it by an ideal
-/// constraint whose flow is v2 - v1 (the power lambda (v2 - v1) it delivers: -lambda on the
-/// first, +lambda on the second), prescribed as `rate` t. The plan is written by hand as the
-/// model's passes would make it (one slot per class):
-///   slot 0 F; 1 lambda; 2 v1 = p1/m1; 3 v2 = p2/m2; 4 dp1/dt = F - lambda; 5 dp2/dt = lambda;
-///   6 the constraint's flow v2 - v1.
-struct TwoMasses {
-  double m1 = 2.0, m2 = 3.0, force = 12.0, rate = 0.0;
+/// What the hand-written plans below share: the tables a plan's view holds, the solver built on
+/// them, a workspace of `num_slots` slots, and the model's step 1 (the plan at lambda = 0 and the
+/// gathers).
+struct HandPlan {
+  explicit HandPlan(int slots) : num_slots(slots) {}
+  int num_slots;
   BondGraph graph;
   std::vector<plan::Instr> plan;
-  std::vector<std::vector<int>> reads = {{}, {}, {}, {}, {0, 1}, {1}, {2, 3}};
-  std::vector<int> writes = {0, 1, 2, 3, 4, 5, 6};
   std::vector<StateBlock> blocks;
   std::vector<StateGather> gathers;
-  std::vector<int> class_offset = {0, 1, 2, 3, 4, 5, 6}, class_size = std::vector<int>(7, 1);
-  std::vector<std::string> class_names = {"F.e", "joint.e", "m1.f", "m2.f", "m1.e", "m2.e", "joint.f"};
-  std::vector<int> flow_class = {6};    // bond 0: the joint's
-  std::vector<int> effort_class = {1};  // (its effort is the multiplier's)
   std::vector<double> coef;
-  std::vector<int> sum_terms = {0, 1, 1, 3, 2};
-  std::vector<double> sum_signs = {1.0, -1.0, 1.0, 1.0, -1.0};
+  std::vector<int> sum_terms;
+  std::vector<double> sum_signs;
   std::vector<TimeFunction> sources;
   std::vector<plan::ModulusEval> moduli;
   ConstraintSolver solver;
 
-  explicit TwoMasses(double prescribed_rate) : rate(prescribed_rate) {
-    coef = {1.0 / m1, 1.0 / m2};
-    sources = {TimeFunction::Constant(force)};
-    graph.AddSe("F", SourceValue{{TimeFunction::Constant(force)}});
-    graph.AddI("m1", Param::Scalar(m1));
-    graph.AddI("m2", Param::Scalar(m2));
-    const int joint = graph.AddSf("joint", SourceValue{{TimeFunction::Ramp(rate)}});
-    graph.element(joint).constraint = true;
-    auto instr = [](plan::Op op, int dst, int coef, int element) {
-      plan::Instr in{op};
-      in.dst = dst, in.coef = coef, in.element = element;
-      return in;
-    };
-    plan.push_back(instr(plan::Op::kSource, 0, 0, 0));
-    plan.push_back(instr(plan::Op::kMultiplier, 1, 0, joint));
-    plan.push_back(instr(plan::Op::kStateScale, 2, 0, 1));
-    plan.back().src = 0;
-    plan.push_back(instr(plan::Op::kStateScale, 3, 1, 2));
-    plan.back().src = 1;
-    plan.push_back(instr(plan::Op::kSum1, 4, 0, -1));
-    plan.back().count = 2;
-    plan.push_back(instr(plan::Op::kSum1, 5, 2, -1));
-    plan.back().count = 1;
-    plan.push_back(instr(plan::Op::kSum1, 6, 3, -1));
-    plan.back().count = 2;
-    blocks = {{StateBlock::Kind::kMomentum, 1, 0, 1}, {StateBlock::Kind::kMomentum, 2, 1, 1}};
-    gathers = {{StateBlock::Kind::kMomentum, 0, 1, 4, -1, -1, 1.0}, {StateBlock::Kind::kMomentum, 1, 1, 5, -1, -1, 1.0}};
-    // As the compiled model declares, numbers and builds it (bond 0, pointing away from the Sf).
-    solver.Add("joint.rigid", joint, {{0, 1.0, 0}});
-    solver.AssignMultipliers({1});
-    solver.Build({graph, plan, reads, writes, blocks, gathers, class_offset, class_size, class_names, flow_class, effort_class, 7});
+  static plan::Instr Instr(plan::Op op, int dst, int coef, int element) {
+    plan::Instr in{op};
+    in.dst = dst, in.coef = coef, in.element = element;
+    return in;
   }
   static void Gather(const StateGather& gt, const double*, const double* w, double* xdot) {
     xdot[gt.state] = gt.sign * w[gt.effort];
@@ -361,17 +326,62 @@ struct TwoMasses {
   }
   Workspace MakeWorkspace() const {
     Workspace ws;
-    ws.slots.assign(7, 0.0);
-    solver.SizeScratch(ws, 7, 0, 2);
+    ws.slots.assign(num_slots, 0.0);
+    solver.SizeScratch(ws, num_slots, 0, 2);
     return ws;
   }
-  /// The model's step 1: the plan at lambda = 0 and the gathers.
   void EvalPlan(double t, const double* x, double* xdot, Workspace& ws) const {
     std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
     const ConstraintSolver::PlanView view = View();
     for (const plan::Instr& in : plan)
       plan::Exec(in, plan::ExecArgs{t, x, ws.slots.data(), ws.slots.data(), nullptr, ws.lambda.data(), view.tables});
     for (const StateGather& gt : gathers) Gather(gt, x, ws.slots.data(), xdot);
+  }
+};
+
+/// Two masses m1, m2 on a line, a force F on the first, the second joined to it by an ideal
+/// constraint whose flow is v2 - v1 (the power lambda (v2 - v1) it delivers: -lambda on the
+/// first, +lambda on the second), prescribed as `rate` t. The plan is written by hand as the
+/// model's passes would make it (one slot per class):
+///   slot 0 F; 1 lambda; 2 v1 = p1/m1; 3 v2 = p2/m2; 4 dp1/dt = F - lambda; 5 dp2/dt = lambda;
+///   6 the constraint's flow v2 - v1.
+struct TwoMasses : HandPlan {
+  double m1 = 2.0, m2 = 3.0, force = 12.0, rate = 0.0;
+  std::vector<std::vector<int>> reads = {{}, {}, {}, {}, {0, 1}, {1}, {2, 3}};
+  std::vector<int> writes = {0, 1, 2, 3, 4, 5, 6};
+  std::vector<int> class_offset = {0, 1, 2, 3, 4, 5, 6}, class_size = std::vector<int>(7, 1);
+  std::vector<std::string> class_names = {"F.e", "joint.e", "m1.f", "m2.f", "m1.e", "m2.e", "joint.f"};
+  std::vector<int> flow_class = {6};    // bond 0: the joint's
+  std::vector<int> effort_class = {1};  // (its effort is the multiplier's)
+
+  explicit TwoMasses(double prescribed_rate) : HandPlan(7), rate(prescribed_rate) {
+    coef = {1.0 / m1, 1.0 / m2};
+    sum_terms = {0, 1, 1, 3, 2};
+    sum_signs = {1.0, -1.0, 1.0, 1.0, -1.0};
+    sources = {TimeFunction::Constant(force)};
+    graph.AddSe("F", SourceValue{{TimeFunction::Constant(force)}});
+    graph.AddI("m1", Param::Scalar(m1));
+    graph.AddI("m2", Param::Scalar(m2));
+    const int joint = graph.AddSf("joint", SourceValue{{TimeFunction::Ramp(rate)}});
+    graph.element(joint).constraint = true;
+    plan.push_back(Instr(plan::Op::kSource, 0, 0, 0));
+    plan.push_back(Instr(plan::Op::kMultiplier, 1, 0, joint));
+    plan.push_back(Instr(plan::Op::kStateScale, 2, 0, 1));
+    plan.back().src = 0;
+    plan.push_back(Instr(plan::Op::kStateScale, 3, 1, 2));
+    plan.back().src = 1;
+    plan.push_back(Instr(plan::Op::kSum1, 4, 0, -1));
+    plan.back().count = 2;
+    plan.push_back(Instr(plan::Op::kSum1, 5, 2, -1));
+    plan.back().count = 1;
+    plan.push_back(Instr(plan::Op::kSum1, 6, 3, -1));
+    plan.back().count = 2;
+    blocks = {{StateBlock::Kind::kMomentum, 1, 0, 1}, {StateBlock::Kind::kMomentum, 2, 1, 1}};
+    gathers = {{StateBlock::Kind::kMomentum, 0, 1, 4, -1, -1, 1.0}, {StateBlock::Kind::kMomentum, 1, 1, 5, -1, -1, 1.0}};
+    // As the compiled model declares, numbers and builds it (bond 0, pointing away from the Sf).
+    solver.Add("joint.rigid", joint, {{0, 1.0, 0}});
+    solver.AssignMultipliers({1});
+    solver.Build({graph, plan, reads, writes, blocks, gathers, class_offset, class_size, class_names, flow_class, effort_class, num_slots});
   }
 };
 
@@ -451,26 +461,18 @@ TEST(ConstraintSolver, ProjectionPutsTheMomentaOnTheJointAndKeepsTheirSum) {
 ///   5 dq1/dt = F - mu (z's flow balance).
 /// `k2_into`: k2's bond points into k2 (sigma = 1), else away from it (sigma = -1: its kernel
 /// gives -k2 q2, and V = H B = +k2 B must undo that sign).
-struct SpringPair {
+struct SpringPair : HandPlan {
   double k1 = 30.0, k2 = 70.0, flow = 4.0;
-  BondGraph graph;
-  std::vector<plan::Instr> plan;
   std::vector<std::vector<int>> reads = {{}, {}, {}, {}, {}, {0, 2}};
   std::vector<int> writes = {0, 1, 2, 3, 4, 5};
-  std::vector<StateBlock> blocks;
-  std::vector<StateGather> gathers;
   std::vector<int> class_offset = {0, 1, 2, 3, 4, 5}, class_size = std::vector<int>(6, 1);
   std::vector<std::string> class_names = {"F.f", "k2.cut.f", "k2.cut.rest.f", "z.e", "k2.e", "k1.f"};
   std::vector<int> flow_class = {0, 5, 1, 2};    // bonds F -> z, z -> k1, k2's, z -> k2.cut.rest
   std::vector<int> effort_class = {3, 3, 4, 3};
-  std::vector<double> coef;
-  std::vector<int> sum_terms = {0, 2};
-  std::vector<double> sum_signs = {1.0, -1.0};
-  std::vector<TimeFunction> sources;
-  std::vector<plan::ModulusEval> moduli;
-  ConstraintSolver solver;
 
-  explicit SpringPair(bool k2_into) {
+  explicit SpringPair(bool k2_into) : HandPlan(6) {
+    sum_terms = {0, 2};
+    sum_signs = {1.0, -1.0};
     const double sigma = k2_into ? 1.0 : -1.0;
     coef = {k1, sigma * k2};
     sources = {TimeFunction::Constant(flow)};
@@ -486,45 +488,21 @@ struct SpringPair {
     if (k2_into) graph.Connect("k2.cut", "k2");
     else graph.Connect("k2", "k2.cut");
     graph.Connect("z", "k2.cut.rest");
-    auto instr = [](plan::Op op, int dst, int coef, int element) {
-      plan::Instr in{op};
-      in.dst = dst, in.coef = coef, in.element = element;
-      return in;
-    };
-    plan.push_back(instr(plan::Op::kSource, 0, 0, 0));
-    plan.push_back(instr(plan::Op::kMultiplier, 1, 0, cut));
-    plan.push_back(instr(plan::Op::kMultiplier, 2, 0, rest));
-    plan.push_back(instr(plan::Op::kStateScale, 3, 0, 2));
+    plan.push_back(Instr(plan::Op::kSource, 0, 0, 0));
+    plan.push_back(Instr(plan::Op::kMultiplier, 1, 0, cut));
+    plan.push_back(Instr(plan::Op::kMultiplier, 2, 0, rest));
+    plan.push_back(Instr(plan::Op::kStateScale, 3, 0, 2));
     plan.back().src = 0;
-    plan.push_back(instr(plan::Op::kStateScale, 4, 1, spring));
+    plan.push_back(Instr(plan::Op::kStateScale, 4, 1, spring));
     plan.back().src = 1;
-    plan.push_back(instr(plan::Op::kSum1, 5, 0, 1));
+    plan.push_back(Instr(plan::Op::kSum1, 5, 0, 1));
     plan.back().count = 2;
     blocks = {{StateBlock::Kind::kDisplacement, 2, 0, 1}, {StateBlock::Kind::kDisplacement, spring, 1, 1}};
     gathers = {{StateBlock::Kind::kDisplacement, 0, 1, 5, -1, -1, 1.0}, {StateBlock::Kind::kDisplacement, 1, 1, 1, -1, -1, 1.0}};
     // Members as the graph pass declares them: the bond at each source, +1 when it leaves it.
     solver.Add("k2.cut", spring, {{2, k2_into ? 1.0 : -1.0, -1}, {3, -1.0, -1}}, /*imposes_flow=*/true);
     solver.AssignMultipliers({1, 1, 1, 1});
-    solver.Build({graph, plan, reads, writes, blocks, gathers, class_offset, class_size, class_names, flow_class, effort_class, 6});
-  }
-  static void Gather(const StateGather& gt, const double*, const double* w, double* xdot) {
-    xdot[gt.state] = gt.sign * w[gt.effort];
-  }
-  ConstraintSolver::PlanView View() const {
-    return {plan, {coef.data(), sum_terms.data(), sum_signs.data(), sources.data()}, moduli, gathers, &Gather, nullptr, 2};
-  }
-  Workspace MakeWorkspace() const {
-    Workspace ws;
-    ws.slots.assign(6, 0.0);
-    solver.SizeScratch(ws, 6, 0, 2);
-    return ws;
-  }
-  void EvalPlan(double t, const double* x, double* xdot, Workspace& ws) const {
-    std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
-    const ConstraintSolver::PlanView view = View();
-    for (const plan::Instr& in : plan)
-      plan::Exec(in, plan::ExecArgs{t, x, ws.slots.data(), ws.slots.data(), nullptr, ws.lambda.data(), view.tables});
-    for (const StateGather& gt : gathers) Gather(gt, x, ws.slots.data(), xdot);
+    solver.Build({graph, plan, reads, writes, blocks, gathers, class_offset, class_size, class_names, flow_class, effort_class, num_slots});
   }
   /// Compile-time set-up at x = 0, then a fresh workspace with the factor's arrays.
   Workspace Ready() {

@@ -5,8 +5,12 @@
 
 #include <unistd.h>
 
+#include <cstdint>
+#include <cstring>
 #include <string>
 #include <vector>
+
+#include <fmt/format.h>
 
 #include "support/cli_runner.h"
 
@@ -33,6 +37,22 @@ inline CliResult RunPython(const std::string& script, const std::vector<std::str
   std::vector<std::string> argv = {MULTIBOND_SYSTEM_PYTHON, "-c", script};
   argv.insert(argv.end(), args.begin(), args.end());
   return RunProgram(argv, 120);
+}
+
+/// The 64 bits of `x` in hex, as the scripts print the values they read (so that NaN, infinities,
+/// -0 and subnormals compare to the last bit).
+inline std::string Bits(double x) {
+  std::uint64_t u;
+  std::memcpy(&u, &x, sizeof u);
+  return fmt::format("{:016x}", u);
+}
+
+/// The Bits of every value of a column.
+template <class Values>
+std::vector<std::string> BitsOf(const Values& values) {
+  std::vector<std::string> bits;
+  for (const double x : values) bits.push_back(Bits(x));
+  return bits;
 }
 
 /// Runs `code` in Octave (no GUI, no startup files).

@@ -25,13 +25,8 @@ namespace {
 
 using ::testing::ElementsAre;
 using ::testing::ElementsAreArray;
+using testing::BitsOf;
 using testing::TempDir;
-
-std::string Bits(double x) {
-  std::uint64_t u;
-  std::memcpy(&u, &x, sizeof u);
-  return fmt::format("{:016x}", u);
-}
 
 ColumnStore Store() {
   ColumnStore s(3);
@@ -90,9 +85,7 @@ TEST(H5Writer, H5pyReadsEveryValueToTheLastBitWithUnitsAndTheRunRecord) {
     for (size_t c = 0; c < names.size(); ++c) {
       SCOPED_TRACE(names[c]);
       const nlohmann::json& d = j["sets"][names[c]];
-      std::vector<std::string> bits;
-      for (double x : s.values(c)) bits.push_back(Bits(x));
-      EXPECT_THAT(d["bits"].get<std::vector<std::string>>(), ElementsAreArray(bits));
+      EXPECT_THAT(d["bits"].get<std::vector<std::string>>(), ElementsAreArray(BitsOf(s.values(c))));
       EXPECT_EQ(d["dtype"], "<f8");
       EXPECT_EQ(d["shape"], std::vector<int>{3});
       EXPECT_EQ(d["chunks"], std::vector<int>{3});

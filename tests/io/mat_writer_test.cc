@@ -26,13 +26,9 @@ namespace {
 
 using ::testing::ElementsAre;
 using ::testing::ElementsAreArray;
+using testing::Bits;
+using testing::BitsOf;
 using testing::TempDir;
-
-std::string Bits(double x) {
-  std::uint64_t u;
-  std::memcpy(&u, &x, sizeof u);
-  return fmt::format("{:016x}", u);
-}
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
@@ -125,9 +121,7 @@ TEST(MatWriter, ScipyReadsEveryValueToTheLastBitWithNamesUnitsAndRecord) {
       EXPECT_EQ(j["columns"][names[c]], s.columns()[c].name);  // the hostile and unicode ones too
       EXPECT_EQ(j["units"][names[c]], s.columns()[c].unit);
       EXPECT_EQ(j["shapes"][names[c]], (std::vector<int>{3, 1}));  // a column vector
-      std::vector<std::string> bits;
-      for (double x : s.values(c)) bits.push_back(Bits(x));
-      EXPECT_THAT(j["bits"][names[c]].get<std::vector<std::string>>(), ElementsAreArray(bits)) << names[c];
+      EXPECT_THAT(j["bits"][names[c]].get<std::vector<std::string>>(), ElementsAreArray(BitsOf(s.values(c)))) << names[c];
     }
     EXPECT_EQ(j["status"], "failed");
     EXPECT_EQ(j["message"], "at t = 0.2 s: ω");

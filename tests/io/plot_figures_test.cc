@@ -119,6 +119,51 @@ TEST(PlotFiguresTest, BoundedLikeAModelFile) {
   EXPECT_THAT(Errors("figures: []\n---\nfigures: []\n"), HasSubstr("2 YAML documents"));
 }
 
+// Every diagnostic of the parse, to the letter (location, message, hint, code), for each way the
+// YAML pass can refuse a list, and for the first of two problems: the list is read in one pass
+// that bounds its events as it builds the tree, and says what the separate check said.
+TEST(PlotFiguresTest, TheYamlPassSaysWhatItSaid) {
+  InputLimits shallow;
+  shallow.depth = 3;
+  InputLimits few;
+  few.yaml_nodes = 20;
+  const struct {
+    const char* text;
+    InputLimits limits;
+    const char* errors;
+  } cases[] = {
+      {"figures: [\n", {},
+       "list.yaml:2:1: error: YAML syntax error: end of sequence flow not found\n"
+       "  hint: check indentation, colons and brackets near this place [yaml.syntax]\n"},
+      {"figures: [[[[1]]]]\n", shallow,
+       "list.yaml:1:12: error: limit 'depth' exceeded: YAML lists and mappings nested more than 3 deep\n"
+       "  hint: if the input is meant to be this large, raise the limit with --limit depth=N (now 3) [limit.depth]\n"},
+      {"a: &x [*x]\nfigures: []\n", {},
+       "list.yaml:1:8: error: the alias '*x' stands for the node anchored '&x' (at list.yaml:1:4), which contains this alias: the node would contain itself without end\n"
+       "  hint: an alias may only refer to a node that is complete before it [yaml.self_alias]\n"},
+      {"a: &a [x, x, x, x, x, x, x, x, x, x]\nb: [*a, *a, *a]\nfigures: [\n", few,
+       "list.yaml:2:5: error: limit 'yaml-nodes' exceeded: the file holds more than 20 YAML nodes (each alias counted as the nodes it stands for)\n"
+       "  hint: if the input is meant to be this large, raise the limit with --limit yaml-nodes=N (now 20) [limit.yaml-nodes]\n"},
+      {"figures: [\na: [[[[1]]]]\n", shallow,
+       "list.yaml:2:4: error: limit 'depth' exceeded: YAML lists and mappings nested more than 3 deep\n"
+       "  hint: if the input is meant to be this large, raise the limit with --limit depth=N (now 3) [limit.depth]\n"},
+      {"figures: []\n---\nfigures: [\n", {},
+       "list.yaml:4:1: error: YAML syntax error: end of sequence flow not found\n"
+       "  hint: check indentation, colons and brackets near this place [yaml.syntax]\n"},
+      {"figures: []\n---\nfigures: []\n", {},
+       "list.yaml: error: the file holds 2 YAML documents; a figure list is one\n"
+       "  hint: remove the '---' line [plot.list]\n"},
+      {"", {},
+       "list.yaml: error: a figure list must be a YAML mapping with 'figures' or 'sections'\n"
+       "  hint: see docs/plots.md, or examples/differential/figures.yaml [plot.list]\n"},
+      // An aliased figure is the same node: its name is given twice.
+      {"figures:\n  - &f {name: a, panels: [{curves: [{column: q}]}]}\n  - *f\n", {},
+       "list.yaml:2:15: error: a: a second figure named 'a'\n"
+       "  hint: give each figure its own name [plot.name]\n"},
+  };
+  for (const auto& c : cases) EXPECT_EQ(Errors(c.text, c.limits), c.errors) << c.text;
+}
+
 TEST(PlotFiguresTest, ReadsAFile) {
   EXPECT_THROW(ReadFigureList("/nonexistent/list.yaml"), ModelError);
   EXPECT_THROW(ReadFigureList("/"), ModelError);

@@ -3,9 +3,7 @@
 // (Freudenstein); an assembled mechanism left alone; impossible and contradictory assemblies refused.
 
 #include <cmath>
-#include <fstream>
 #include <numbers>
-#include <sstream>
 
 #include <fmt/format.h>
 #include <gmock/gmock.h>
@@ -14,6 +12,8 @@
 #include "support/cli_runner.h"
 #include "support/temp_dir.h"
 #include "support/example_runner.h"
+#include "support/load_errors.h"
+#include "support/text_edit.h"
 
 #include "multibond/core/error.h"
 #include "multibond/io/model_loader.h"
@@ -25,22 +25,10 @@ namespace {
 using std::numbers::pi;
 using ::testing::HasSubstr;
 using testing::ExamplePath;
+using testing::ExampleText;
+using testing::Replaced;
 using testing::MaxEnergyResidual;
 using testing::RunModel;
-
-std::string Text(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string Replaced(std::string text, const std::string& from, const std::string& to) {
-  const auto at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  if (at != std::string::npos) text.replace(at, from.size(), to);
-  return text;
-}
 
 const mech::Body& BodyOf(const LoadedModel& lm, const std::string& name) {
   for (const mech::Body& b : lm.mechanism->bodies())
@@ -58,15 +46,9 @@ const Diagnostic* Find(const std::vector<Diagnostic>& ds, const std::string& cod
   return nullptr;
 }
 
-/// The diagnostics of the model error loading `text` throws (empty if it loads).
-std::vector<Diagnostic> ErrorsOf(const std::string& text) {
-  try {
-    LoadModelString(text, "model.yaml");
-  } catch (const ModelError& e) {
-    return e.diagnostics();
-  }
-  return {};
-}
+/// The diagnostics of the model error loading `text` (read as "model.yaml") throws; a test
+/// failure if it loads.
+std::vector<Diagnostic> ErrorsOf(const std::string& text) { return testing::LoadErrors(text, "model.yaml"); }
 
 // --- slider-crank: r = 0.1 m, l = 0.3 m ---------------------------------------------------------
 
@@ -78,7 +60,7 @@ double PistonDxDtheta(double theta) {
   return -kR * s * (1.0 + kR * c / std::sqrt(kL * kL - kR * kR * s * s));
 }
 
-LoadedModel SliderCrank(double theta0_deg, double omega, const std::string& text = Text(ExamplePath("mechanisms/slider_crank.yaml"))) {
+LoadedModel SliderCrank(double theta0_deg, double omega, const std::string& text = ExampleText("mechanisms/slider_crank.yaml")) {
   const std::vector<ParameterOverride> sets = {{"theta0", fmt::format("{:.17g}", theta0_deg)}, {"omega", fmt::format("{:.17g}", omega)}};
   return LoadModelString(text, "slider_crank.yaml", {}, sets);
 }
@@ -164,7 +146,7 @@ double FreudensteinRate(double theta, double phi) {
 }
 
 std::string FourBarAt(double deg, double rate) {
-  return Replaced(Text(ExamplePath("mechanisms/four_bar.yaml")), "A: {degrees: 60, rate: 5}", fmt::format("A: {{degrees: {}, rate: {}}}", deg, rate));
+  return Replaced(ExampleText("mechanisms/four_bar.yaml"), "A: {degrees: 60, rate: 5}", fmt::format("A: {{degrees: {}, rate: {}}}", deg, rate));
 }
 
 TEST(AssemblyFourBar, OutputAngleAndRateFromFreudenstein) {
@@ -184,7 +166,7 @@ TEST(AssemblyFourBar, OutputAngleAndRateFromFreudenstein) {
 }
 
 TEST(AssemblyFourBar, TheFreeRunFromTheAssembledStateKeepsItsEnergyAndStartsUndeflected) {
-  const std::string text = Text(ExamplePath("mechanisms/four_bar.yaml"));
+  const std::string text = ExampleText("mechanisms/four_bar.yaml");
   // As drawn, without the assembly, the loop does not close: the joints start apart.
   const std::string drawn = Replaced(text, "assembly:\n  given:\n    A: {degrees: 60, rate: 5}\n", "");
   EXPECT_NE(Find(LoadModelString(drawn, "four_bar.yaml").warnings, "mech.initial_gap"), nullptr);
@@ -210,7 +192,7 @@ TEST(AssemblyFourBar, TheFreeRunFromTheAssembledStateKeepsItsEnergyAndStartsUnde
 TEST(AssemblySliderCrank, ThePistonSpeedGivenGivesTheCrankRate) {
   // A prismatic joint's speed instead of the motor's: the crank turns at v / (dx/dtheta).
   const double deg = 50.0, v = -0.8, theta = deg * pi / 180;
-  std::string text = Text(ExamplePath("mechanisms/slider_crank.yaml"));
+  std::string text = ExampleText("mechanisms/slider_crank.yaml");
   text = Replaced(text, "rigid: true, value: omega", "K: 1000, R: 5, value: omega");  // a compliant motor gives no speed
   text = Replaced(text, "crank_pivot: {degrees: theta0}", "crank_pivot: {degrees: theta0}\n    cylinder: {speed: -0.8}");
   const LoadedModel lm = SliderCrank(deg, 10.0, text);
@@ -243,7 +225,7 @@ assembly:
   EXPECT_NEAR(BodyOf(lm, "wheel").velocity.norm(), 0.0, 1e-12);
   // Through the pitch point (examples/gears/spur_pair.yaml, 20 and 40 teeth): the pitch points'
   // velocities along the line of action agree, with no slip (no mech.gear_slip).
-  const std::string spur = Replaced(Text(ExamplePath("gears/spur_pair.yaml")), "\nsimulation:",
+  const std::string spur = Replaced(ExampleText("gears/spur_pair.yaml"), "\nsimulation:",
                                     "\nassembly:\n  given:\n    pinion_bearing: {rate: 10}\nsimulation:");
   const LoadedModel sp = LoadModelString(spur, "spur_pair.yaml");
   EXPECT_NEAR(BodyOf(sp, "wheel").omega.z(), -5.0, 1e-12);
@@ -254,7 +236,7 @@ TEST(AssemblyGears, APlanetarySetFromTheSunsRateFollowsWillis) {
   // examples/gears/planetary.yaml (sun 20, planets 25, ring 70 teeth, fixed; planets at 0.09 m),
   // meshes through the pitch point: omega_c = omega_s Zs / (Zs + Zr), the planets turn at
   // omega_c - (Zs / Zp)(omega_s - omega_c) and their centres move at omega_c x 0.09 m.
-  const std::string text = Text(ExamplePath("gears/planetary.yaml")) + "assembly: {given: {sun_bearing: {rate: 10}}}\n";
+  const std::string text = ExampleText("gears/planetary.yaml") + "assembly: {given: {sun_bearing: {rate: 10}}}\n";
   const LoadedModel lm = LoadModelString(text, "planetary.yaml");
   const double ws = 10.0, wc = ws * 20.0 / 90.0, wp = wc - 20.0 / 25.0 * (ws - wc);
   EXPECT_NEAR(BodyOf(lm, "carrier").omega.z(), wc, 1e-12);
@@ -350,7 +332,7 @@ TEST(Assembly, AnAssembledMechanismIsLeftAsItIs) {
 
 TEST(Assembly, ACrankLongerThanTheRodAllowsIsRefused) {
   // l = 0.08 m < r = 0.1 m: at 90 degrees the rod cannot reach the cylinder's axis.
-  std::string text = Text(ExamplePath("mechanisms/slider_crank.yaml"));
+  std::string text = ExampleText("mechanisms/slider_crank.yaml");
   text = Replaced(text, "child: rod, at: [0.05, 0, 0], child_at: [-0.15, 0, 0]", "child: rod, at: [0.05, 0, 0], child_at: [-0.04, 0, 0]");
   text = Replaced(text, "child: piston, at: [0.15, 0, 0]", "child: piston, at: [0.04, 0, 0]");
   text = Replaced(text, "theta0: {value: 30", "theta0: {value: 90");
@@ -369,7 +351,7 @@ TEST(Assembly, ACrankLongerThanTheRodAllowsIsRefused) {
 }
 
 TEST(Assembly, ContradictoryGivensAreRefused) {
-  const std::string text = Text(ExamplePath("mechanisms/slider_crank.yaml"));
+  const std::string text = ExampleText("mechanisms/slider_crank.yaml");
   // The crank's orientation and its joint's angle, two different turns.
   const std::vector<Diagnostic> ds =
       ErrorsOf(Replaced(text, "crank_pivot: {degrees: theta0}", "crank_pivot: {degrees: theta0}\n    crank: {orientation: {axis: z, degrees: 45}}"));
@@ -388,7 +370,7 @@ TEST(Assembly, ContradictoryGivensAreRefused) {
 }
 
 TEST(Assembly, UnknownNamesAndKeysGetDidYouMean) {
-  const std::string text = Text(ExamplePath("mechanisms/slider_crank.yaml"));
+  const std::string text = ExampleText("mechanisms/slider_crank.yaml");
   const std::vector<Diagnostic> ds = ErrorsOf(Replaced(text, "crank_pivot: {degrees: theta0}", "crank_pivt: {degrees: theta0}"));
   const Diagnostic* d = Find(ds, "mech.reference");
   ASSERT_NE(d, nullptr);

@@ -5,15 +5,14 @@
 
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <numbers>
 #include <random>
-#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
 
 #include "support/example_runner.h"
+#include "support/text_edit.h"
 
 #include "multibond/io/model_loader.h"
 
@@ -22,6 +21,8 @@ namespace {
 
 using std::numbers::pi;
 using testing::ExamplePath;
+using testing::ExampleText;
+using testing::ReplacedAll;
 
 const double kLoad = 10.0;                         // N m on S2 from t = 1 s
 const double kSunRadius = 0.1, kCrownRadius = 0.2;  // pitch radii [m]
@@ -31,37 +32,17 @@ const double kPlanetMass = 2700 * pi * 0.05 * 0.05 * 0.01;
 const double kCarrierSpeed = 12.5;
 const double kTurn = 2 * pi / kCarrierSpeed;  // one turn of the carrier [s]
 
-std::string Text(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string ReplacedAll(std::string text, const std::string& from, const std::string& to) {
-  int n = 0;
-  for (auto at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size()), ++n) text.replace(at, from.size(), to);
-  EXPECT_GT(n, 0) << from;
-  return text;
-}
-
+/// Runs a loaded model with its file's simulation settings (all of which it must give).
 RecordingObserver RunLoaded(const LoadedModel& lm) {
   const auto model = CompiledModel::Compile(lm.graph, lm.compile);
-  RunOptions o;
-  o.t_end = *lm.simulation.t_end;
-  o.dt = *lm.simulation.dt;
-  o.integrator.method = ParseMethod(*lm.simulation.solver);
-  o.integrator.rtol = *lm.simulation.rtol;
-  o.integrator.atol = *lm.simulation.atol;
-  RecordingObserver rec;
-  Simulate(*model, o, rec);
-  return rec;
+  return testing::RunCompiled(*model, *lm.simulation.t_end, *lm.simulation.dt, ParseMethod(*lm.simulation.solver), *lm.simulation.rtol,
+                              *lm.simulation.atol);
 }
 
 class DifferentialPitchTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    const std::string text = Text(ExamplePath("differential_pitch.yaml"));
+    const std::string text = ExampleText("differential_pitch.yaml");
     pitch_ = new RecordingObserver(RunLoaded(LoadModelString(text, "differential_pitch.yaml")));
     // The same model with the paper's torque-only meshes.
     std::string spin = ReplacedAll(text, "contact: pitch, pressure_angle_deg: 20, ", "contact: spin, ");

@@ -2,13 +2,12 @@
 // kinematics (Willis) and the energy balance: the bearings carry the tooth forces.
 
 #include <cmath>
-#include <fstream>
 #include <numbers>
-#include <sstream>
 
 #include <gtest/gtest.h>
 
 #include "support/example_runner.h"
+#include "support/text_edit.h"
 
 #include "multibond/core/error.h"
 #include "multibond/io/model_loader.h"
@@ -17,25 +16,12 @@ namespace multibond {
 namespace {
 
 using std::numbers::pi;
-using testing::ExamplePath;
+using testing::ExampleText;
+using testing::Replaced;
 using testing::RunExample;
 using testing::RunModel;
 
 const double kTan20 = std::tan(20 * pi / 180);
-
-std::string Text(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string Replaced(std::string text, const std::string& from, const std::string& to) {
-  const auto at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  if (at != std::string::npos) text.replace(at, from.size(), to);
-  return text;
-}
 
 Eigen::Vector3d Last3(const RecordingObserver& rec, const std::string& name) {
   return {rec.Last(name + ".x"), rec.Last(name + ".y"), rec.Last(name + ".z")};
@@ -72,7 +58,7 @@ TEST(GearContactTest, SpurPairBearingsCarryTheToothForce) {
 // The paper's torque between the spins (contact: spin) is kept: the same pair's bearings then carry
 // no tooth force at all, the wrong answer the pitch-point mesh corrects.
 TEST(GearContactTest, SpinContactKeepsTheTorqueOnlyModel) {
-  std::string text = Replaced(Text(ExamplePath("gears/spur_pair.yaml")), "contact: pitch", "contact: spin");
+  std::string text = Replaced(ExampleText("gears/spur_pair.yaml"), "contact: pitch", "contact: spin");
   text = Replaced(text, "pressure_angle_deg: 20, ", "");
   const LoadedModel lm = LoadModelString(text);
   const RecordingObserver rec = RunModel(lm, 2.0, 0.01, Method::kBdf, 1e-8, 1e-10);
@@ -86,7 +72,7 @@ TEST(GearContactTest, SpinContactKeepsTheTorqueOnlyModel) {
 // statics: its reaction is the normal force.
 TEST(GearContactTest, RigidPitchMeshCarriesTheSameLoads) {
   const std::string text =
-      Replaced(Text(ExamplePath("gears/spur_pair.yaml")), "pressure_angle_deg: 20, K: 2.0e4, R: 20}", "pressure_angle_deg: 20, rigid: true}");
+      Replaced(ExampleText("gears/spur_pair.yaml"), "pressure_angle_deg: 20, K: 2.0e4, R: 20}", "pressure_angle_deg: 20, rigid: true}");
   const LoadedModel lm = LoadModelString(text);
   const RecordingObserver rec = RunModel(lm, 2.0, 0.01, Method::kBdf, 1e-8, 1e-10);
   ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
@@ -214,7 +200,7 @@ TEST(GearContactTest, RackMovesAtPitchRadiusTimesSpeed) {
 // A wrong axis sign cannot pass silently: the wheel's axis -z does not roll with the pinion's z.
 TEST(GearContactTest, WrongAxisIsALocatedErrorThatNamesTheRightOne) {
   const std::string text =
-      Replaced(Text(ExamplePath("gears/spur_pair.yaml")), "b: {body: wheel, axis: z", "b: {body: wheel, axis: -z");
+      Replaced(ExampleText("gears/spur_pair.yaml"), "b: {body: wheel, axis: z", "b: {body: wheel, axis: -z");
   try {
     LoadModelString(text, "spur.yaml");
     FAIL() << "a wrong axis was accepted";
@@ -228,7 +214,7 @@ TEST(GearContactTest, WrongAxisIsALocatedErrorThatNamesTheRightOne) {
     EXPECT_NE(d.hint.find("[0, 0, 1]"), std::string::npos) << d.hint;
   }
   // Pitch radii out of the teeth ratio (a pitch point that the teeth do not put there).
-  const std::string radii = Replaced(Text(ExamplePath("gears/helical_gearbox.yaml")), "pitch_point: [0.16, 0.04, 0]",
+  const std::string radii = Replaced(ExampleText("gears/helical_gearbox.yaml"), "pitch_point: [0.16, 0.04, 0]",
                                      "pitch_point: [0.16, 0.05, 0]");
   try {
     LoadModelString(radii, "gearbox.yaml");
@@ -240,14 +226,14 @@ TEST(GearContactTest, WrongAxisIsALocatedErrorThatNamesTheRightOne) {
 
 // Initial speeds that do not roll are a warning with the slip speed.
 TEST(GearContactTest, SlipAtTheStartIsWarned) {
-  const std::string text = Replaced(Text(ExamplePath("gears/spur_pair.yaml")), "position: [0.15, 0, 0]}",
+  const std::string text = Replaced(ExampleText("gears/spur_pair.yaml"), "position: [0.15, 0, 0]}",
                                     "position: [0.15, 0, 0], omega: [0, 0, 3]}");
   const LoadedModel lm = LoadModelString(text);
   ASSERT_EQ(lm.warnings.size(), 1u);
   EXPECT_EQ(lm.warnings[0].code, "mech.gear_slip");
   EXPECT_NE(lm.warnings[0].message.find("-0.3"), std::string::npos) << lm.warnings[0].message;  // 0 - 0.1 m x 3 rad/s
   // Rolling speeds (the wheel at -w_pinion / 2) are quiet.
-  const std::string rolling = Replaced(Replaced(Text(ExamplePath("gears/spur_pair.yaml")), "position: [0.15, 0, 0]}",
+  const std::string rolling = Replaced(Replaced(ExampleText("gears/spur_pair.yaml"), "position: [0.15, 0, 0]}",
                                                 "position: [0.15, 0, 0], omega: [0, 0, -3]}"),
                                        "position: [0, 0, 0]}", "position: [0, 0, 0], omega: [0, 0, 6]}");
   EXPECT_TRUE(LoadModelString(rolling).warnings.empty());

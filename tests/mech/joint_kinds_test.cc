@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <numbers>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gmock/gmock.h>
@@ -15,6 +16,7 @@
 
 #include "support/example_runner.h"
 #include "support/joint_kind_models.h"
+#include "support/load_errors.h"
 
 #include "multibond/compile/compiled_model.h"
 #include "multibond/mech/mechanism.h"
@@ -31,6 +33,11 @@ RecordingObserver Simulated(const Mechanism& m, double t_end, double dt, double 
   RecordingObserver rec = testing::RunGraph(m.Build("test"), {}, t_end, dt, IntegratorOptions{}.method, rtol, atol);
   EXPECT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
   return rec;
+}
+
+/// Each named column's last value is the value given, to `tol`.
+void ExpectLast(const RecordingObserver& rec, const std::vector<std::pair<std::string, double>>& expected, double tol) {
+  for (const auto& [column, value] : expected) EXPECT_NEAR(rec.Last(column), value, tol) << column;
 }
 
 /// Runs `m` (a cube on joint J to the ground, loaded by gravity `g` and a torque kT about
@@ -66,13 +73,9 @@ TEST(Cylindrical, SlidesAlongAndTurnsAboutItsAxisFreelyAndHoldsTheRest) {
     // Weight along -x and a torque about y: both across the axis.
     ExpectHeldLoad(CylinderOnZ(rigid), {-kG, 0, 0}, Eigen::Vector3d::UnitY(), rigid, 1.0, &rec);
     // The free motion is kept: 0.5 m/s along z and 2 rad/s about z, and the sensors report it.
-    EXPECT_NEAR(rec.Last("cube.v.z"), 0.5, 1e-9);
-    EXPECT_NEAR(rec.Last("cube.omega.z"), 2.0, 1e-9);
-    EXPECT_NEAR(rec.Last("J.slide"), 0.5, 1e-9);
-    EXPECT_NEAR(rec.Last("J.speed"), 0.5, 1e-9);
-    EXPECT_NEAR(rec.Last("J.angle"), 2.0, 1e-9);
-    EXPECT_NEAR(rec.Last("J.rate"), 2.0, 1e-9);
-    EXPECT_NEAR(rec.Last("cube.r.z"), 0.5, 1e-9);
+    ExpectLast(rec,
+               {{"cube.v.z", 0.5}, {"cube.omega.z", 2.0}, {"J.slide", 0.5}, {"J.speed", 0.5}, {"J.angle", 2.0}, {"J.rate", 2.0}, {"cube.r.z", 0.5}},
+               1e-9);
     // The rotation across the axis: the coupling's deflection about y is T / K_r (rigid: it has
     // none, and the spin stays on z). (The spinning cube carries its small tilt round with it, so
     // the orientation shows it turning about z; the coupling's state is the integral of the
@@ -95,17 +98,11 @@ TEST(Planar, GlidesInThePlaneAndTurnsAboutTheNormalFreelyAndHoldsTheRest) {
     RecordingObserver rec;
     // Weight along -z (the normal) and a torque about x (in the plane).
     ExpectHeldLoad(PuckOnTheFloor(rigid), {0, 0, -kG}, Eigen::Vector3d::UnitX(), rigid, 1.0, &rec);
-    EXPECT_NEAR(rec.Last("cube.v.x"), 0.3, 1e-9);
-    EXPECT_NEAR(rec.Last("cube.v.y"), -0.2, 1e-9);
-    EXPECT_NEAR(rec.Last("cube.omega.z"), 1.5, 1e-9);
+    ExpectLast(rec, {{"cube.v.x", 0.3}, {"cube.v.y", -0.2}, {"cube.omega.z", 1.5}}, 1e-9);
     // The slide along the plane's axes u = x, v = y (Perpendicular(z)), the turn about z.
-    EXPECT_NEAR(rec.Last("J.slide.u"), 0.3, 1e-9);
-    EXPECT_NEAR(rec.Last("J.slide.v"), -0.2, 1e-9);
-    EXPECT_NEAR(rec.Last("J.speed.u"), 0.3, 1e-9);
-    EXPECT_NEAR(rec.Last("J.speed.v"), -0.2, 1e-9);
-    EXPECT_NEAR(rec.Last("J.angle"), 1.5, 1e-9);
-    EXPECT_NEAR(rec.Last("J.rate"), 1.5, 1e-9);
-    EXPECT_NEAR(rec.Last("cube.r.x"), 0.5, 1e-9);
+    ExpectLast(rec,
+               {{"J.slide.u", 0.3}, {"J.slide.v", -0.2}, {"J.speed.u", 0.3}, {"J.speed.v", -0.2}, {"J.angle", 1.5}, {"J.rate", 1.5}, {"cube.r.x", 0.5}},
+               1e-9);
     // The tilt about x: T / K_r in the coupling (rigid: none, the spin stays on z).
     if (rigid) {
       EXPECT_NEAR(rec.Last("cube.R.33"), 1.0, 1e-12);
@@ -158,20 +155,11 @@ TEST(Screw, ANutFallsWithTheEffectiveMassOfItsSpin) {
 TEST(Universal, TurnsFreelyAboutEitherYokeAndHoldsTheSpidersThirdAxis) {
   for (bool rigid : {false, true}) {
     SCOPED_TRACE(rigid ? "rigid" : "compliant");
-    {  // about the ground's yoke (x): angle_a = t, angle_b = 0
-      const RecordingObserver rec = Simulated(CubeOnACross(rigid, {1.0, 0, 0}), 2.0, 1e-2);
-      EXPECT_NEAR(rec.Last("cube.omega.x"), 1.0, 1e-9);
-      EXPECT_NEAR(rec.Last("J.angle_a"), 2.0, 1e-9);
-      EXPECT_NEAR(rec.Last("J.angle_b"), 0.0, 1e-9);
-      EXPECT_NEAR(rec.Last("J.rate_a"), 1.0, 1e-9);
-    }
-    {  // about the cube's yoke (y): angle_b = t
-      const RecordingObserver rec = Simulated(CubeOnACross(rigid, {0, 1.0, 0}), 2.0, 1e-2);
-      EXPECT_NEAR(rec.Last("cube.omega.y"), 1.0, 1e-9);
-      EXPECT_NEAR(rec.Last("J.angle_a"), 0.0, 1e-9);
-      EXPECT_NEAR(rec.Last("J.angle_b"), 2.0, 1e-9);
-      EXPECT_NEAR(rec.Last("J.rate_b"), 1.0, 1e-9);
-    }
+    // About the ground's yoke (x): angle_a = t, angle_b = 0; about the cube's yoke (y): angle_b = t.
+    ExpectLast(Simulated(CubeOnACross(rigid, {1.0, 0, 0}), 2.0, 1e-2),
+               {{"cube.omega.x", 1.0}, {"J.angle_a", 2.0}, {"J.angle_b", 0.0}, {"J.rate_a", 1.0}}, 1e-9);
+    ExpectLast(Simulated(CubeOnACross(rigid, {0, 1.0, 0}), 2.0, 1e-2),
+               {{"cube.omega.y", 1.0}, {"J.angle_a", 0.0}, {"J.angle_b", 2.0}, {"J.rate_b", 1.0}}, 1e-9);
     // A torque about the spider's third axis (z) is held: weight along -z, the torque about z.
     RecordingObserver rec;
     ExpectHeldLoad(CubeOnACross(rigid, Eigen::Vector3d::Zero()), {0, 0, -kG}, Eigen::Vector3d::UnitZ(), rigid, 0.5, &rec);
@@ -215,15 +203,7 @@ TEST(Universal, CardanOutputSpeedFollowsTheClosedForm) {
 
 // --- model files ---------------------------------------------------------------------------
 
-std::vector<Diagnostic> LoadErrors(const std::string& yaml) {
-  try {
-    (void)LoadModelString(yaml, "m.yaml");
-  } catch (const ModelError& e) {
-    return e.diagnostics();
-  }
-  ADD_FAILURE() << "expected a ModelError for:\n" << yaml;
-  return {};
-}
+using testing::LoadErrors;
 
 const std::string kHead = "model: j\nbodies:\n  a: {mass: 1.0, inertia: 0.1}\n  b: {mass: 1.0, inertia: 0.1}\njoints:\n";
 
@@ -262,38 +242,42 @@ TEST(JointKindsFile, EachTypeLoadsCompliantAndRigid) {
 }
 
 TEST(JointKindsFile, ABadTypeOrAMissingAxisIsLocatedWithAHint) {
-  std::vector<Diagnostic> d = LoadErrors(kHead + "  J: {type: cylindric, parent: a, child: b, axis: z, rigid: true}\n");
-  ASSERT_EQ(d.size(), 1u);
-  EXPECT_EQ(d[0].code, "mech.joint_type");
-  EXPECT_EQ(d[0].where.line, 6);
-  EXPECT_EQ(d[0].hint, "did you mean 'cylindrical'?");
-  d = LoadErrors(kHead + "  J: {type: screw, parent: a, child: b, pitch: 0.01, rigid: true}\n");
-  ASSERT_EQ(d.size(), 1u);
-  EXPECT_EQ(d[0].code, "mech.joint_axis");
-  EXPECT_EQ(d[0].where.line, 6);
-  EXPECT_THAT(d[0].message, HasSubstr("'axis'"));
-  d = LoadErrors(kHead + "  J: {type: planar, parent: a, child: b, rigid: true}\n");
-  ASSERT_EQ(d.size(), 1u);
-  EXPECT_EQ(d[0].code, "mech.joint_axis");
-  EXPECT_THAT(d[0].message, HasSubstr("'normal'"));
-  d = LoadErrors(kHead + "  J: {type: universal, parent: a, child: b, axis: x, rigid: true}\n");
-  ASSERT_EQ(d.size(), 1u);
-  EXPECT_EQ(d[0].code, "mech.joint_axis");
-  EXPECT_THAT(d[0].message, HasSubstr("'child_axis'"));
-  d = LoadErrors(kHead + "  J: {type: screw, parent: a, child: b, axis: z, rigid: true}\n");
-  ASSERT_EQ(d.size(), 1u);
-  EXPECT_EQ(d[0].code, "mech.joint_axis");
-  EXPECT_THAT(d[0].message, HasSubstr("'pitch'"));
-  // The yokes must be perpendicular as the bodies start: x and x are not.
-  d = LoadErrors(kHead + "  J: {type: universal, parent: a, child: b, axis: x, child_axis: x, rigid: true}\n");
-  ASSERT_EQ(d.size(), 1u);
-  EXPECT_EQ(d[0].code, "mech.joint_axis");
-  EXPECT_EQ(d[0].where.line, 6);
-  EXPECT_THAT(d[0].message, HasSubstr("perpendicular"));
-  // A key of another kind is unknown here.
-  d = LoadErrors(kHead + "  J: {type: cylindrical, parent: a, child: b, axis: z, pitch: 0.01, rigid: true}\n");
-  ASSERT_EQ(d.size(), 1u);
-  EXPECT_THAT(d[0].message, HasSubstr("pitch"));
+  // Each joint (the model's line 6) with the one diagnostic it gets: its code, a part of its
+  // message, its hint, and whether its line is checked ("": not checked).
+  const struct {
+    const char* joint;
+    const char* code;
+    const char* message;
+    const char* hint;
+    bool located;
+  } cases[] = {
+      {"{type: cylindric, parent: a, child: b, axis: z, rigid: true}", "mech.joint_type", "", "did you mean 'cylindrical'?", true},
+      {"{type: screw, parent: a, child: b, pitch: 0.01, rigid: true}", "mech.joint_axis", "'axis'", "", true},
+      {"{type: planar, parent: a, child: b, rigid: true}", "mech.joint_axis", "'normal'", "", false},
+      {"{type: universal, parent: a, child: b, axis: x, rigid: true}", "mech.joint_axis", "'child_axis'", "", false},
+      {"{type: screw, parent: a, child: b, axis: z, rigid: true}", "mech.joint_axis", "'pitch'", "", false},
+      // The yokes must be perpendicular as the bodies start: x and x are not.
+      {"{type: universal, parent: a, child: b, axis: x, child_axis: x, rigid: true}", "mech.joint_axis", "perpendicular", "", true},
+      // A key of another kind is unknown here.
+      {"{type: cylindrical, parent: a, child: b, axis: z, pitch: 0.01, rigid: true}", "", "pitch", "", false},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.joint);
+    const std::vector<Diagnostic> d = LoadErrors(kHead + "  J: " + c.joint + "\n");
+    ASSERT_EQ(d.size(), 1u);
+    if (*c.code) {
+      EXPECT_EQ(d[0].code, c.code);
+    }
+    if (c.located) {
+      EXPECT_EQ(d[0].where.line, 6);
+    }
+    if (*c.message) {
+      EXPECT_THAT(d[0].message, HasSubstr(c.message));
+    }
+    if (*c.hint) {
+      EXPECT_EQ(d[0].hint, c.hint);
+    }
+  }
 }
 
 }  // namespace

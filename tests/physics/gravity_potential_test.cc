@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "support/example_runner.h"
+#include "support/rigid_pendulum.h"
 
 #include "multibond/io/model_loader.h"
 
@@ -15,19 +16,10 @@ namespace multibond {
 namespace {
 
 // A bar of 1 m (CoM 0.5 m below the pivot) on an ideal hinge about y, released at rest from
-// 30 degrees, no damping: the energy goes between kinetic and potential and nothing is worked.
-constexpr const char* kPendulum = R"(
-model: pendulum
-gravity: [0, 0, -9.81]
-bodies:
-  bar: {shape: {box: {size: [0.02, 0.02, 1.0]}}, density: 2700,
-        position: [-0.25, 0, -0.4330127018922193], orientation: {axis: y, degrees: 30}}
-joints:
-  hinge: {type: revolute, parent: ground, child: bar, at: [0, 0, 0], child_at: [0, 0, 0.5], axis: y, rigid: true}
-)";
-
+// 30 degrees, no damping (testing::kRigidPendulum): the energy goes between kinetic and potential
+// and nothing is worked.
 TEST(GravityPotential, PendulumStoresMghAndBalancesWithoutWork) {
-  const LoadedModel lm = LoadModelString(kPendulum);
+  const LoadedModel lm = LoadModelString(testing::kRigidPendulum);
   const RecordingObserver rec = testing::RunModel(lm, 2.0, 0.001, Method::kBdf, 1e-10, 1e-12);
   ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
   const double m = 2700 * 0.02 * 0.02 * 1.0, g = 9.81, z0 = -0.4330127018922193;

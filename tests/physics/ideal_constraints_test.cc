@@ -5,6 +5,8 @@
 #include <array>
 #include <cmath>
 #include <numbers>
+#include <string>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -12,7 +14,12 @@
 
 #include "multibond/compile/equations.h"
 #include "multibond/io/model_loader.h"
+#include "support/compile_errors.h"
 #include "support/example_runner.h"
+#include "support/load_errors.h"
+#include "support/nonlinear_pair.h"
+#include "support/rigid_gear_pair.h"
+#include "support/text_edit.h"
 
 namespace multibond {
 namespace {
@@ -26,28 +33,11 @@ RecordingObserver RunText(const std::string& text, double t_end) {
 // The rigid gear pair of examples/rigid_gear_pair.yaml, accepted with 'constraints: ideal': a
 // torque T on J1, the wheel J2 at half its speed. J_eq = J1 + n^2 J2, w1 = T t / J_eq, and the
 // gear's reaction on the wheel side is J2 n dw1/dt.
-const char* kRigidGears = R"(
-model: ideal_gear_pair
-domain: rotation
-constraints: ideal
-elements:
-  torque: {type: Se, effort: 1.0}
-  j1:     {type: "1"}
-  J1:     {type: I, inertia: 0.01}
-  gear:   {type: TF, ratio: 0.5}
-  j2:     {type: "1"}
-  J2:     {type: I, inertia: 0.04}
-bonds:
-  - torque -> j1
-  - j1 -> J1
-  - j1 -> gear
-  - gear -> j2
-  - j2 -> J2
-outputs:
-  - {name: w1, variable: J1.f}
-  - {name: w2, variable: J2.f}
-  - {name: reaction, variable: J2.cut.e}
-)";
+const std::string kRigidGears = testing::RigidGearPair("ideal_gear_pair", "constraints: ideal\n", "1.0", "0.5", "",
+                                                       "outputs:\n"
+                                                       "  - {name: w1, variable: J1.f}\n"
+                                                       "  - {name: w2, variable: J2.f}\n"
+                                                       "  - {name: reaction, variable: J2.cut.e}\n");
 
 TEST(IdealConstraints, RigidGearPairFollowsTheEquivalentInertia) {
   const RecordingObserver rec = RunText(kRigidGears, 2.0);
@@ -70,20 +60,14 @@ TEST(IdealConstraints, EquationsShowTheMultiplier) {
   EXPECT_THAT(text, ::testing::HasSubstr("ideal constraints"));
 }
 
+/// `text` with 'constraints: ideal' replaced by 'constraints: compliant'.
+std::string Compliant(const std::string& text) { return testing::Replaced(text, "constraints: ideal", "constraints: compliant"); }
+
 TEST(IdealConstraints, WithoutTheOptionDerivativeCausalityIsAnErrorThatNamesTheOption) {
-  std::string text = kRigidGears;
-  text.replace(text.find("constraints: ideal"), 18, "constraints: compliant");
-  const LoadedModel lm = LoadModelString(text, "<test>");
-  try {
-    CompiledModel::Compile(lm.graph, lm.compile);
-    FAIL() << "derivative causality accepted without 'constraints: ideal'";
-  } catch (const ModelError& e) {
-    ASSERT_FALSE(e.diagnostics().empty());
-    EXPECT_EQ(e.diagnostics().front().code, "causality.derivative");
-    std::string all;
-    for (const auto& d : e.diagnostics().front().details) all += d;
-    EXPECT_THAT(all, ::testing::HasSubstr("--constraints ideal"));
-  }
+  const std::vector<Diagnostic> ds = testing::CompileErrors(Compliant(kRigidGears));
+  ASSERT_FALSE(ds.empty());
+  EXPECT_EQ(ds.front().code, "causality.derivative");
+  EXPECT_THAT(testing::DetailsOf(ds.front()), ::testing::HasSubstr("--constraints ideal"));
 }
 
 // A prescribed motion as an ideal constraint: an Sf marked 'constraint' imposes v(t) = sin(2 pi t)
@@ -135,11 +119,7 @@ elements:
 bonds: [motion -> lever, lever -> jm, jm -> mass, jm -> spring]
 )";
     const LoadedModel lm = LoadModelString(text, "<test>");
-    CompileOptions gen = lm.compile, interp = lm.compile;
-    gen.generate_code = true;
-    interp.generate_code = false;
-    const auto generated = CompiledModel::Compile(lm.graph, gen), interpreted = CompiledModel::Compile(lm.graph, interp);
-    ASSERT_TRUE(generated->uses_generated_code()) << generated->rhs_engine();
+    const auto generated = testing::CompileWith(lm, true), interpreted = testing::CompileWith(lm, false);
     ASSERT_EQ(generated->num_multipliers(), 1) << (cut ? "cut" : "explicit constraint");
     Workspace wg = generated->MakeWorkspace(), wi = interpreted->MakeWorkspace();
     const int n = generated->num_states();
@@ -460,13 +440,9 @@ drives:
 
 TEST(IdealConstraints, ComplianceNeedsAConstraintAndAPositiveValue) {
   for (const char* bad : {"{type: Sf, flow: 0, compliance: 1e-4}", "{type: Sf, flow: 0, constraint: true, compliance: -1}"}) {
-    try {
-      LoadModelString(BeamOnThreeSupports(bad, {0, 1, 2}), "<test>");
-      FAIL() << bad << " accepted";
-    } catch (const ModelError& e) {
-      ASSERT_FALSE(e.diagnostics().empty());
-      EXPECT_THAT(e.diagnostics().front().message, ::testing::HasSubstr("compliance")) << bad;
-    }
+    const std::vector<Diagnostic> ds = testing::LoadErrors(BeamOnThreeSupports(bad, {0, 1, 2}));
+    ASSERT_FALSE(ds.empty()) << bad;
+    EXPECT_THAT(ds.front().message, ::testing::HasSubstr("compliance")) << bad;
   }
 }
 
@@ -501,12 +477,6 @@ TEST(IdealConstraints, CompliancesOnSomeConstraintsOnlyAreReportedAsUnused) {
 
 namespace multibond {
 namespace {
-
-using testing::MaxEnergyResidual;
-
-RecordingObserver RunCut(const std::string& text, double t_end) {
-  return testing::RunModelText(text, t_end, t_end / 100, Method::kDormandPrince, 1e-10, 1e-12);
-}
 
 // A mass on two springs that share one force (one 0-junction: mechanically in series; in
 // parallel they would share the displacement, on a 1-junction, and need no cut). The second
@@ -544,7 +514,7 @@ TEST(IdealConstraints, TwoSpringsOnOneForceActAsOneOfSeriesStiffness) {
     const LoadedModel lm = LoadModelString(SeriesSprings(into), "<test>");
     const auto model = CompiledModel::Compile(lm.graph, lm.compile);
     ASSERT_EQ(model->constraint_names(), std::vector<std::string>{"k2.cut"});
-    const RecordingObserver rec = RunCut(SeriesSprings(into), 3.0);
+    const RecordingObserver rec = RunText(SeriesSprings(into), 3.0);
     ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
     const double m = 2.0, k1 = 30.0, k2 = 70.0, k = k1 * k2 / (k1 + k2), w = std::sqrt(k / m), v0 = 1.5;
     const double sign = into ? -1.0 : 1.0;  // q against the deflection when the bond leaves the C
@@ -571,11 +541,7 @@ TEST(IdealConstraints, TwoSpringsOnOneForceActAsOneOfSeriesStiffness) {
 TEST(IdealConstraints, GeneratedCodeSolvesACutComplianceAsTheInterpreterDoes) {
   for (const bool into : {false, true}) {
     const LoadedModel lm = LoadModelString(SeriesSprings(into), "<test>");
-    CompileOptions gen = lm.compile, interp = lm.compile;
-    gen.generate_code = true;
-    interp.generate_code = false;
-    const auto generated = CompiledModel::Compile(lm.graph, gen), interpreted = CompiledModel::Compile(lm.graph, interp);
-    ASSERT_TRUE(generated->uses_generated_code()) << generated->rhs_engine();
+    const auto generated = testing::CompileWith(lm, true), interpreted = testing::CompileWith(lm, false);
     Workspace wg = generated->MakeWorkspace(), wi = interpreted->MakeWorkspace();
     const int n = generated->num_states();
     Eigen::VectorXd x(n), dg(n), di(n);
@@ -609,7 +575,7 @@ elements:
 bonds: [V -> j, j -> R, j -> z, z -> C1, z -> C2]
 outputs: [{name: i, variable: j.f}, {name: q1, variable: C1.q}, {name: q2, variable: C2.q}, {name: u, variable: z.e}]
 )";
-  const RecordingObserver rec = RunCut(text, 3.0);
+  const RecordingObserver rec = RunText(text, 3.0);
   ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
   const double v = 2.0, r = 0.5, c1 = 1.0, c2 = 2.0, tau = r * (c1 + c2);
   for (double t : {0.15, 0.6, 1.5, 3.0}) {
@@ -637,7 +603,7 @@ elements:
 bonds: [V -> z, z -> C, z -> R]
 outputs: [{name: q, variable: C.q}, {name: i, variable: V.f}]
 )";
-  const RecordingObserver rec = RunCut(text, 1.0);
+  const RecordingObserver rec = RunText(text, 1.0);
   ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
   const double w = 2 * std::numbers::pi;
   for (double t : {0.1, 0.37, 0.5, 0.84, 1.0}) {
@@ -672,7 +638,7 @@ outputs: [{{name: u, variable: z.e}}, {{name: w, variable: J.f}}]
   const LoadedModel lm = LoadModelString(text, "<test>");
   const auto model = CompiledModel::Compile(lm.graph, lm.compile);
   EXPECT_EQ(model->constraint_names(), (std::vector<std::string>{"C2.cut", "J.cut"}));
-  const RecordingObserver rec = RunCut(text, 4.0);
+  const RecordingObserver rec = RunText(text, 4.0);
   ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
   const double tau = res * (c1 + c2 + jr / (r * r));
   for (double t : {0.0, 0.4, 1.0, 2.4, 4.0}) {  // sample times (dt = 0.04)
@@ -687,63 +653,32 @@ outputs: [{{name: u, variable: z.e}}, {{name: w, variable: J.f}}]
 // without, and without 'constraints: ideal' the derivative causality is reported without
 // sending the reader to the option that refuses the model too.
 TEST(IdealConstraints, ACutNextToAFormulaIsRefusedWithoutContradiction) {
-  const std::string text = R"(
-model: nonlinear_pair
-domain: translation
-constraints: ideal
-elements:
-  mass: {type: I, inertia: 1.0}
-  j:    {type: "1"}
-  z:    {type: "0"}
-  k1:   {type: C, effort: 10 * q + q^3}
-  k2:   {type: C, stiffness: 5.0}
-bonds: [j -> mass, j -> z, z -> k1, z -> k2]
-)";
-  try {
-    const LoadedModel lm = LoadModelString(text, "<test>");
-    CompiledModel::Compile(lm.graph, lm.compile);
-    FAIL() << "a formula next to a cut accepted";
-  } catch (const ModelError& e) {
-    ASSERT_EQ(e.diagnostics().size(), 1u);
-    const Diagnostic& d = e.diagnostics().front();
+  {
+    const std::vector<Diagnostic> ds = testing::CompileErrors(testing::kNonlinearPair);
+    ASSERT_EQ(ds.size(), 1u);
+    const Diagnostic& d = ds.front();
     EXPECT_EQ(d.code, "expr.unsupported");
     EXPECT_EQ(d.element, "k1");
     EXPECT_THAT(d.message, ::testing::HasSubstr("C 'k2' is in derivative causality"));
     EXPECT_THAT(d.hint, ::testing::HasSubstr("put a resistor or an inertia between it and what fixes its effort"));
   }
-  std::string compliant = text;
-  compliant.replace(compliant.find("constraints: ideal"), 18, "constraints: compliant");
-  try {
-    const LoadedModel lm = LoadModelString(compliant, "<test>");
-    CompiledModel::Compile(lm.graph, lm.compile);
-    FAIL() << "derivative causality accepted without 'constraints: ideal'";
-  } catch (const ModelError& e) {
-    ASSERT_FALSE(e.diagnostics().empty());
-    const Diagnostic& d = e.diagnostics().front();
-    EXPECT_EQ(d.code, "causality.derivative");
-    std::string details;
-    for (const auto& line : d.details) details += line + "\n";
-    EXPECT_THAT(details, ::testing::HasSubstr("--constraints ideal does not take this model either: formulas"));
-    EXPECT_THAT(details, ::testing::Not(::testing::HasSubstr("handled exactly")));
-  }
+  const std::vector<Diagnostic> ds = testing::CompileErrors(Compliant(testing::kNonlinearPair));
+  ASSERT_FALSE(ds.empty());
+  const Diagnostic& d = ds.front();
+  EXPECT_EQ(d.code, "causality.derivative");
+  const std::string details = testing::DetailsOf(d);
+  EXPECT_THAT(details, ::testing::HasSubstr("--constraints ideal does not take this model either: formulas"));
+  EXPECT_THAT(details, ::testing::Not(::testing::HasSubstr("handled exactly")));
 }
 
 // And where the option does work for a C, the error says so (and what the option does).
 TEST(IdealConstraints, DerivativeCausalityOfACapacitorNamesTheOption) {
-  std::string text = SeriesSprings(false);
-  text.replace(text.find("constraints: ideal"), 18, "constraints: compliant");
-  try {
-    const LoadedModel lm = LoadModelString(text, "<test>");
-    CompiledModel::Compile(lm.graph, lm.compile);
-    FAIL() << "derivative causality accepted without 'constraints: ideal'";
-  } catch (const ModelError& e) {
-    ASSERT_EQ(e.diagnostics().size(), 1u);
-    EXPECT_EQ(e.diagnostics().front().element, "k2");
-    std::string details;
-    for (const auto& line : e.diagnostics().front().details) details += line + "\n";
-    EXPECT_THAT(details, ::testing::HasSubstr("--constraints ideal"));
-    EXPECT_THAT(details, ::testing::HasSubstr("handled exactly by a constraint flow"));
-  }
+  const std::vector<Diagnostic> ds = testing::CompileErrors(Compliant(SeriesSprings(false)));
+  ASSERT_EQ(ds.size(), 1u);
+  EXPECT_EQ(ds.front().element, "k2");
+  const std::string details = testing::DetailsOf(ds.front());
+  EXPECT_THAT(details, ::testing::HasSubstr("--constraints ideal"));
+  EXPECT_THAT(details, ::testing::HasSubstr("handled exactly by a constraint flow"));
 }
 
 }  // namespace

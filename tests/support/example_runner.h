@@ -1,15 +1,48 @@
 #pragma once
 // Test helpers: load a shipped example, compile it and run it into memory.
 
+#include <memory>
 #include <stdexcept>
 #include <string>
 
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
+#include "support/temp_dir.h"
 
 namespace multibond::testing {
 
 inline std::string ExamplePath(const std::string& name) { return std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + name; }
+
+/// The text of examples/<name>.
+inline std::string ExampleText(const std::string& name) { return ReadFile(ExamplePath(name)); }
+
+/// Compiles a loaded model with its own options, as generated code when `generate_code` (a test
+/// that asks for generated code must not pass on the interpreter's fallback: throws if it is not
+/// built) or else interpreted.
+inline std::shared_ptr<const CompiledModel> CompileWith(const LoadedModel& lm, bool generate_code) {
+  CompileOptions co = lm.compile;
+  co.generate_code = generate_code;
+  auto model = CompiledModel::Compile(lm.graph, co);
+  if (generate_code && !model->uses_generated_code())
+    throw std::runtime_error("generated code was asked for and not built: " + model->rhs_engine());
+  return model;
+}
+
+/// Simulates a compiled model into memory over [0, t_end], samples every dt.
+inline RecordingObserver RunCompiled(const CompiledModel& model, double t_end, double dt,
+                                     Method method = IntegratorOptions{}.method, double rtol = 1e-10, double atol = 1e-12,
+                                     bool project = true) {
+  RunOptions o;
+  o.t_end = t_end;
+  o.dt = dt;
+  o.integrator.method = method;
+  o.integrator.rtol = rtol;
+  o.integrator.atol = atol;
+  o.integrator.project = project;
+  RecordingObserver rec;
+  Simulate(model, o, rec);
+  return rec;
+}
 
 /// Loads examples/<name>, compiles it and simulates it with the file's simulation settings,
 /// overridden by `t_end` and `dt` when they are > 0, and by `coordinates` ("joint" or
@@ -18,12 +51,7 @@ inline RecordingObserver RunExample(const std::string& name, double t_end = 0.0,
                                     Method method = Method::kBdf, bool generate_code = false,
                                     const std::string& coordinates = "") {
   const LoadedModel lm = LoadModelFile(ExamplePath(name));
-  CompileOptions co = lm.compile;
-  co.generate_code = generate_code;
-  const auto model = CompiledModel::Compile(lm.graph, co);
-  // A test that asks for generated code must not pass on the interpreter's fallback.
-  if (generate_code && !model->uses_generated_code())
-    throw std::runtime_error("generated code was asked for and not built: " + model->rhs_engine());
+  const auto model = CompileWith(lm, generate_code);
   RunOptions o;
   o.t_end = t_end > 0 ? t_end : lm.simulation.t_end.value_or(1.0);
   o.dt = dt > 0 ? dt : lm.simulation.dt.value_or(1e-3);
@@ -41,17 +69,7 @@ inline RecordingObserver RunExample(const std::string& name, double t_end = 0.0,
 inline RecordingObserver RunGraph(BondGraph g, const CompileOptions& co, double t_end, double dt,
                                   Method method = IntegratorOptions{}.method, double rtol = 1e-10, double atol = 1e-12,
                                   bool project = true) {
-  const auto model = CompiledModel::Compile(std::move(g), co);
-  RunOptions o;
-  o.t_end = t_end;
-  o.dt = dt;
-  o.integrator.method = method;
-  o.integrator.rtol = rtol;
-  o.integrator.atol = atol;
-  o.integrator.project = project;
-  RecordingObserver rec;
-  Simulate(*model, o, rec);
-  return rec;
+  return RunCompiled(*CompiledModel::Compile(std::move(g), co), t_end, dt, method, rtol, atol, project);
 }
 
 /// The same for a loaded model.

@@ -31,6 +31,13 @@ inline Drive Torque(const std::string& name, const std::string& body, const Eige
   return d;
 }
 
+/// Adds `j` to `m` with its sensors on, made rigid when `rigid`.
+inline void AddSensedJoint(Mechanism& m, Joint j, bool rigid) {
+  j.sensors = true;
+  if (rigid) MakeRigid(j);
+  m.AddJoint(j);
+}
+
 // Couplings: K_t = 1e6 N/m and K_r = 1e3 N m/rad, each critically damped on the cube.
 constexpr double kKt = 1e6, kRt = 2e3, kKr = 1e3, kRr = 2.6, kG = 9.81, kT = 0.5;
 
@@ -42,10 +49,7 @@ inline Mechanism CylinderOnZ(bool rigid, double spin = 2.0) {
   b.velocity = {0, 0, 0.5};  // slides along the axis
   b.omega = {0, 0, spin};    // and turns about it
   m.AddBody(b);
-  Joint j = MakeCylindrical("J", kGround, "cube", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), kKt, kRt, kKr, kRr);
-  j.sensors = true;
-  if (rigid) MakeRigid(j);
-  m.AddJoint(j);
+  AddSensedJoint(m, MakeCylindrical("J", kGround, "cube", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), kKt, kRt, kKr, kRr), rigid);
   return m;
 }
 
@@ -57,10 +61,7 @@ inline Mechanism PuckOnTheFloor(bool rigid) {
   b.velocity = {0.3, -0.2, 0.0};  // glides in the plane
   b.omega = {0, 0, 1.5};          // and turns about the normal
   m.AddBody(b);
-  Joint j = MakePlanar("J", kGround, "cube", b.position, Eigen::Vector3d::UnitZ(), kKt, kRt, kKr, kRr);
-  j.sensors = true;
-  if (rigid) MakeRigid(j);
-  m.AddJoint(j);
+  AddSensedJoint(m, MakePlanar("J", kGround, "cube", b.position, Eigen::Vector3d::UnitZ(), kKt, kRt, kKr, kRr), rigid);
   return m;
 }
 
@@ -71,10 +72,7 @@ constexpr double kLead = 0.01, kKh = 1e7, kRh = 6e3;
 inline Mechanism Nut(bool rigid) {
   Mechanism m;
   m.AddBody(Cube("cube"));
-  Joint j = MakeScrew("J", kGround, "cube", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), kLead, kKt, kRt, kKr, kRr, kKh, kRh);
-  j.sensors = true;
-  if (rigid) MakeRigid(j);
-  m.AddJoint(j);
+  AddSensedJoint(m, MakeScrew("J", kGround, "cube", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), kLead, kKt, kRt, kKr, kRr, kKh, kRh), rigid);
   m.SetGravity({0, 0, -kG});
   return m;
 }
@@ -86,11 +84,9 @@ inline Mechanism CubeOnACross(bool rigid, const Eigen::Vector3d& omega) {
   Body b = Cube("cube");
   b.omega = omega;
   m.AddBody(b);
-  Joint j = MakeUniversal("J", kGround, "cube", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), kKt,
-                          kRt, kKr, kRr);
-  j.sensors = true;
-  if (rigid) MakeRigid(j);
-  m.AddJoint(j);
+  AddSensedJoint(
+      m, MakeUniversal("J", kGround, "cube", Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), kKt, kRt, kKr, kRr),
+      rigid);
   return m;
 }
 

@@ -10,10 +10,10 @@
 
 namespace multibond::testing {
 
-/// The loader's diagnostics for `yaml` (read as "m.yaml"); a test failure if it loads.
-inline std::vector<Diagnostic> LoadErrors(const std::string& yaml) {
+/// The loader's diagnostics for `yaml` (read as `file`); a test failure if it loads.
+inline std::vector<Diagnostic> LoadErrors(const std::string& yaml, const std::string& file = "m.yaml") {
   try {
-    (void)LoadModelString(yaml, "m.yaml");
+    (void)LoadModelString(yaml, file);
   } catch (const ModelError& e) {
     return e.diagnostics();
   }

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <string>
@@ -340,8 +341,11 @@ FigureList ParseFigureList(const std::string& text, const std::string& file, con
   }
   YAML::Node root;
   try {
-    if (!CheckYamlBounds(text, file, limits, sink)) sink.ThrowIfErrors();
-    const std::vector<YAML::Node> documents = YAML::LoadAll(text);
+    // One parse: the tree is built from the events as they are bounded (node count, aliases
+    // expanded; depth; self-aliases), and no further than the first one out of bounds.
+    const std::optional<std::vector<YAML::Node>> loaded = LoadYamlBounded(text, file, limits, sink);
+    if (!loaded) sink.ThrowIfErrors();
+    const std::vector<YAML::Node>& documents = *loaded;
     if (documents.size() > 1) {
       sink.Error(codes::kPlotList, {file, 0, 0}, "", fmt::format("the file holds {} YAML documents; a figure list is one", documents.size()),
                  "remove the '---' line");
