@@ -1,18 +1,27 @@
 // Joint against inertial coordinates on rotating machinery: whole runs of a fast spinning top
 // (examples/spinning_top.yaml, 0-10 s), a gyroscope in gimbals (examples/gyroscope.yaml,
-// 0-10 s) and the compliant differential (examples/differential.yaml, 0-5 s), each compiled to
-// generated code as the CLI does (--jit auto), at the file's tolerances, without file output.
-// Reports wall time, steps, right-hand sides, re-charts and the energy residual.
+// 0-10 s), MultiBondLib's GyroscopicEffect (examples/mechanisms/gyroscopic.yaml, 0-10 s), the
+// compliant differential (examples/differential.yaml, 0-5 s) and the ideal one
+// (examples/differential_ideal.yaml, 0-5 s), each compiled to generated code as the CLI does
+// (--jit auto), at the file's tolerances and output interval, without file output. Reports
+// wall time, steps, right-hand sides, re-charts and the energy residual.
 // Run: build/release/bench/multibond_bench --benchmark_filter=JointCoordinates
 //
-// Measured (release build, CPU time of one run, the 2-core VM shared: wall time 2-3 times it;
-// the table in docs/design.md, "Joint coordinates"):
+// Measured (release build, CPU time, median of 3; docs/design.md, "Joint coordinates"):
 //
 //                                          inertial                    joint
-//   spinning top, bdf, 10 s                106,804 steps, 166 ms       1,627 steps, 3.8 ms
-//   gyroscope in gimbals, bdf, 10 s        32,358 steps, 172 ms        3,240 steps, 19 ms
-//   compliant differential, srk3, 5 s      73,451 steps, 118 ms        77,208 steps, 426 ms
-//   compliant differential, bdf, 5 s       28,214 steps, 458 ms        24,986 steps, 643 ms
+//   spinning top, bdf, 10 s                106,804 steps, 160 ms       1,411 steps, 3.3 ms
+//   gyroscope in gimbals, bdf, 10 s        32,358 steps, 165 ms        3,197 steps, 18 ms
+//   MultiBondLib's gyroscopic, bdf, 10 s   58,155 steps, 87 ms         1,639 steps, 4.9 ms
+//   ideal differential, 5 s                dopri5: 3,218 steps, 112 ms bdf: 255 steps, 49 ms
+//                                          bdf: 4,174 steps, 151 ms    dopri5: 864 steps, 78 ms
+//   compliant differential, srk3, 5 s      73,451 steps, 118 ms        77,209 steps, 416 ms
+//   compliant differential, bdf, 5 s       28,214 steps, 444 ms        25,421 steps, 647 ms
+//
+// The compliant differential's steps are its couplings' (srk3 at the stability limit of the
+// -7.5e4 /s modes, BDF resolving the 194 rad/s ones), in either coordinates; there the map costs
+// (about 0.9 us per evaluation against the generated right-hand side's 0.24 us) and nothing is
+// gained.
 
 #include <string>
 
@@ -25,10 +34,11 @@ namespace mb = multibond;
 
 namespace {
 
-const char* const kModels[] = {"spinning_top.yaml", "gyroscope.yaml", "differential.yaml"};
+const char* const kModels[] = {"spinning_top.yaml", "gyroscope.yaml", "differential.yaml", "differential_ideal.yaml",
+                               "mechanisms/gyroscopic.yaml"};
 
 /// range(0): the model (kModels); range(1): 1 = joint coordinates, 0 = inertial; range(2): the
-/// solver, 0 = the file's, 1 = bdf.
+/// solver, 0 = the file's, 1 = bdf, 2 = dopri5.
 void BM_JointCoordinatesRun(benchmark::State& state) {
   const std::string file = std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + kModels[state.range(0)];
   const mb::LoadedModel lm = mb::LoadModelFile(file);
@@ -39,7 +49,9 @@ void BM_JointCoordinatesRun(benchmark::State& state) {
   mb::RunOptions o;
   o.t_end = lm.simulation.t_end.value_or(1.0);
   o.dt = lm.simulation.dt.value_or(1e-3);
-  o.integrator.method = state.range(2) == 1 ? mb::Method::kBdf : mb::ParseMethod(lm.simulation.solver.value_or("bdf"));
+  o.integrator.method = state.range(2) == 1   ? mb::Method::kBdf
+                        : state.range(2) == 2 ? mb::Method::kDormandPrince
+                                              : mb::ParseMethod(lm.simulation.solver.value_or("bdf"));
   o.integrator.rtol = lm.simulation.rtol.value_or(1e-8);
   o.integrator.atol = lm.simulation.atol.value_or(1e-10);
   if (state.range(1) == 1) o.joint_coordinates = lm.mechanism->MakeJointTree();
@@ -61,6 +73,9 @@ BENCHMARK(BM_JointCoordinatesRun)
     ->Args({1, 0, 0})->Args({1, 1, 0})  // the gyroscope, bdf (the file's)
     ->Args({2, 0, 0})->Args({2, 1, 0})  // the differential, srk3 (the file's)
     ->Args({2, 0, 1})->Args({2, 1, 1})  // the differential, bdf
+    ->Args({3, 0, 2})->Args({3, 1, 0})  // the ideal differential: dopri5 inertial (its best), bdf joint (the file's)
+    ->Args({3, 0, 1})->Args({3, 1, 2})  // the ideal differential, the other way round
+    ->Args({4, 0, 0})->Args({4, 1, 0})  // MultiBondLib's gyroscopic example, bdf (the file's)
     ->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3)->ReportAggregatesOnly(false);
 
 }  // namespace
