@@ -10,24 +10,26 @@
 // Measured (release build, CPU time, median of 3; docs/design.md, "Joint coordinates"):
 //
 //                                          inertial                    joint
-//   spinning top, bdf, 10 s                106,804 steps, 160 ms       1,411 steps, 3.3 ms
-//   gyroscope in gimbals, bdf, 10 s        32,358 steps, 165 ms        3,197 steps, 18 ms
-//   MultiBondLib's gyroscopic, bdf, 10 s   58,155 steps, 87 ms         1,639 steps, 4.9 ms
-//   ideal differential, 5 s                dopri5: 3,218 steps, 112 ms bdf: 255 steps, 49 ms
-//                                          bdf: 4,174 steps, 151 ms    dopri5: 864 steps, 78 ms
-//   compliant differential, srk3, 5 s      73,451 steps, 118 ms        77,209 steps, 416 ms
-//   compliant differential, bdf, 5 s       28,214 steps, 444 ms        25,421 steps, 647 ms
+//   spinning top, bdf, 10 s                106,804 steps, 156 ms       1,482 steps, 3.3 ms
+//   gyroscope in gimbals, bdf, 10 s        32,358 steps, 162 ms        3,240 steps, 17 ms
+//   MultiBondLib's gyroscopic, bdf, 10 s   58,155 steps, 87 ms         1,616 steps, 4.6 ms
+//   ideal differential, 5 s                dopri5: 3,218 steps, 109 ms bdf: 256 steps, 47 ms
+//                                          bdf: 4,174 steps, 148 ms    dopri5: 864 steps, 74 ms
+//   compliant differential, srk3, 5 s      73,451 steps, 115 ms        77,209 steps, 317 ms
+//   compliant differential, bdf, 5 s       28,214 steps, 450 ms        25,488 steps, 604 ms
 //
 // The compliant differential's steps are its couplings' (srk3 at the stability limit of the
 // -7.5e4 /s modes, BDF resolving the 194 rad/s ones), in either coordinates; there the map costs
-// (about 0.9 us per evaluation against the generated right-hand side's 0.24 us) and nothing is
-// gained.
+// (BM_DifferentialJointRhs: 0.69 us per evaluation in all, the map 0.57 us of it, against the
+// generated right-hand side's 0.125 us) and nothing is gained.
 
+#include <cmath>
 #include <string>
 
 #include <benchmark/benchmark.h>
 
 #include "multibond/io/model_loader.h"
+#include "multibond/sim/joint_coordinates.h"
 #include "multibond/sim/simulator.h"
 
 namespace mb = multibond;
@@ -77,5 +79,39 @@ BENCHMARK(BM_JointCoordinatesRun)
     ->Args({3, 0, 1})->Args({3, 1, 2})  // the ideal differential, the other way round
     ->Args({4, 0, 0})->Args({4, 1, 0})  // MultiBondLib's gyroscopic example, bdf (the file's)
     ->Unit(benchmark::kMillisecond)->Iterations(1)->Repetitions(3)->ReportAggregatesOnly(false);
+
+/// One right-hand side of the compliant differential in joint coordinates, at a state off the
+/// start (every coordinate nudged, the planets turned): range(0) = 0 the whole evaluation (the
+/// map to the model's state, its generated right-hand side, the map back), 1 the map to the
+/// model's state alone (ToModel), 2 the model's right-hand side alone at that state.
+void BM_DifferentialJointRhs(benchmark::State& state) {
+  const mb::LoadedModel lm = mb::LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml");
+  mb::CompileOptions co = lm.compile;
+  co.generate_code = true;
+  const auto model = mb::CompiledModel::Compile(lm.graph, co);
+  if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
+  mb::ModelSystem system(*model);
+  mb::JointCoordinateSystem jc(*model, lm.mechanism->MakeJointTree(), &system);
+  Eigen::VectorXd x = model->MakeInitialState(), xdot(x.size());
+  Eigen::VectorXd y(jc.num_states()), ydot(jc.num_states());
+  jc.FromModel(x.data(), y.data());
+  for (int i = 0; i < y.size(); ++i) y[i] += 1e-4 * std::sin(1.0 + i);
+  jc.ToModel(y.data(), x.data());
+  double t = 0.0;
+  for (auto _ : state) {
+    switch (state.range(0)) {
+      case 0: jc.CalcDerivatives(t, y.data(), ydot.data()); break;
+      case 1: jc.ToModel(y.data(), x.data()); break;
+      default: system.CalcDerivatives(t, x.data(), xdot.data()); break;
+    }
+    benchmark::DoNotOptimize(ydot.data());
+    benchmark::DoNotOptimize(x.data());
+    benchmark::DoNotOptimize(xdot.data());
+    t += 1e-9;
+  }
+  static const char* const kWhat[] = {"joint coordinates, whole", "the map to the model's state", "the model's right-hand side"};
+  state.SetLabel(kWhat[state.range(0)]);
+}
+BENCHMARK(BM_DifferentialJointRhs)->Arg(0)->Arg(1)->Arg(2);
 
 }  // namespace

@@ -27,16 +27,47 @@ Mat3 Hat(const Vec3& v) {
 /// A 3-vector stored in a state array (a function: `Map<Vec3>(p) = v;` declares a variable p).
 Eigen::Map<Vec3> Out(double* p) { return Eigen::Map<Vec3>(p); }
 
-/// sin(f)/f, (1 - cos f)/f^2 and (f - sin f)/f^3 for f = |v|, by their series near 0.
-void RodriguesCoefficients(double f, double& c1, double& c2, double& c3) {
-  const double f2 = f * f;
-  if (f < 1e-3) {
+/// Where S takes n, e1 and e2 (its columns): the diagonal (1, 1, 1)/sqrt(3) and the two
+/// directions that complete it.
+Mat3 MixTarget() {
+  Mat3 to;
+  to.col(0) = Vec3::Ones().normalized();
+  to.col(1) = Vec3(1.0, -1.0, 0.0).normalized();
+  to.col(2) = to.col(0).cross(to.col(1));
+  return to;
+}
+
+/// (e1.u, e2.u, n.u) from the stored S u, whatever the axis: the rows of S^T reordered.
+Mat3 AxisComponents() {
+  const Mat3 to = MixTarget();
+  Mat3 rows;
+  rows << to.col(1).transpose(), to.col(2).transpose(), to.col(0).transpose();
+  return rows;
+}
+
+}  // namespace
+
+/// I v and I^-1 v in the body's frame: three products where the inertia is diagonal (a disc, a
+/// box on its principal axes; the same numbers as the full product, whose other terms are 0 v).
+Vec3 JointCoordinateSystem::Inertia(const Body& b, const Vec3& v) {
+  return b.diagonal ? Vec3(b.inertia.diagonal().cwiseProduct(v)) : Vec3(b.inertia * v);
+}
+Vec3 JointCoordinateSystem::InverseInertia(const Body& b, const Vec3& v) {
+  return b.diagonal ? Vec3(b.inertia_inv.diagonal().cwiseProduct(v)) : Vec3(b.inertia_inv * v);
+}
+
+namespace {
+
+/// sin(f)/f, (1 - cos f)/f^2 and (f - sin f)/f^3 for f = |v|, from f2 = |v|^2, by their series
+/// near 0 (where a bearing's tilt always is: no square root on that path).
+void RodriguesCoefficients(double f2, double& c1, double& c2, double& c3) {
+  if (f2 < 1e-6) {
     // Products with the constants' reciprocals: no divisions on the map's path.
     c1 = 1.0 + f2 * (-1.0 / 6.0 + f2 * (1.0 / 120.0));
     c2 = 0.5 + f2 * (-1.0 / 24.0 + f2 * (1.0 / 720.0));
     c3 = 1.0 / 6.0 + f2 * (-1.0 / 120.0 + f2 * (1.0 / 5040.0));
   } else {
-    const double s = std::sin(f), c = std::cos(f);
+    const double f = std::sqrt(f2), s = std::sin(f), c = std::cos(f);
     c1 = s / f;
     c2 = (1.0 - c) / f2;
     c3 = (f - s) / (f2 * f);
@@ -72,7 +103,7 @@ Vec3 NearPrincipalAxis(const Mat3& inertia, const Vec3& a) {
 }  // namespace
 
 JointCoordinateSystem::JointCoordinateSystem(const CompiledModel& model, const JointTree& tree, ModelSystem* system)
-    : model_(model), system_(system) {
+    : model_(model), system_(system), axis_components_(AxisComponents()) {
   const int nx = model.num_states();
   std::vector<bool> covered(nx, false);
   std::map<std::string, int> index;
@@ -111,7 +142,9 @@ JointCoordinateSystem::JointCoordinateSystem(const CompiledModel& model, const J
       if (inertia < 0) throw std::invalid_argument(fmt::format("joint coordinates: body '{}' has no element '{}.inertia'", tb.name, tb.name));
       b.inertia = g.element(inertia).param.AsMatrix(3, 3);
       b.inertia_inv = b.inertia.inverse();
+      b.diagonal = b.inertia.isDiagonal(0.0);
       b.anchor = tb.anchor;
+      b.anchored = !b.anchor.isZero(0.0);
       b.bearing = tb.bearing;
       const double norm = tb.axis.norm();
       if (!(norm > 0.0)) throw std::invalid_argument(fmt::format("joint coordinates: body '{}' has a zero axis", tb.name));
@@ -182,12 +215,9 @@ void JointCoordinateSystem::SetAxis(Body& b, const Vec3& n) {
   b.e1 = b.n.cross(helper).normalized();
   b.e2 = b.n.cross(b.e1);
   // S: n to the diagonal (1, 1, 1)/sqrt(3), e1 and e2 to the two directions that complete it.
-  Mat3 to, from;
-  to.col(0) = Vec3::Ones().normalized();
-  to.col(1) = Vec3(1.0, -1.0, 0.0).normalized();
-  to.col(2) = to.col(0).cross(to.col(1));
+  Mat3 from;
   from << b.n, b.e1, b.e2;
-  b.mix = to * from.transpose();
+  b.mix = MixTarget() * from.transpose();
   b.n_chart = Hat(b.n) * b.chart;
   b.n2_chart = Hat(b.n) * b.n_chart;
 }
@@ -226,36 +256,42 @@ void JointCoordinateSystem::ToModel(const double* y, double* x) {
     const Mat3& Rp = pb.Rw;
     const Vec3 &rp = pb.rw, &vp = pb.vw, &wp = pb.ww;
     const double* yb = y + b.y;
-    Vec3 arm = Vec3::Zero();
     if (b.rotates()) {
       const Vec3 psi = yb[0] * b.e1 + yb[1] * b.e2;
+      const double f2 = psi.squaredNorm();
       double c1, c2, c3;
-      RodriguesCoefficients(psi.norm(), c1, c2, c3);
-      const Mat3 k = Hat(psi), k2 = psi * psi.transpose() - psi.squaredNorm() * Mat3::Identity();  // [psi x]^2
+      RodriguesCoefficients(f2, c1, c2, c3);
+      const Mat3 k = Hat(psi), k2 = psi * psi.transpose() - f2 * Mat3::Identity();  // [psi x]^2
       const Mat3 exp_psi = Mat3::Identity() + c1 * k + c2 * k2;
       // Rot(n, theta) C = C + sin(theta) [n x] C + (1 - cos(theta)) [n x]^2 C.
       const double st = std::sin(yb[2]), ct = std::cos(yb[2]);
       b.Rw = Rp * (exp_psi * (b.chart + st * b.n_chart + (1.0 - ct) * b.n2_chart));
-      // u = J_l(psi) psi' + Exp(psi) n theta', psi' = a' e1 + b' e2 (for CalcDerivatives).
-      const Mat3 jl = Mat3::Identity() + c2 * k + c3 * k2;
+      // u = J_l(psi) psi' + Exp(psi) n theta', psi' = a' e1 + b' e2 (for CalcDerivatives). On the
+      // basis (e1, e2, n), where psi = (a, b, 0), the columns J_l e1, J_l e2, Exp(psi) n are
+      // (1 - c3 b^2, c3 a b, -c2 b), (c3 a b, 1 - c3 a^2, c2 a), (c1 b, -c1 a, 1 - c2 (a^2 + b^2)).
+      const double a = yb[0], bt = yb[1], ab = a * bt;
       Mat3 m;
-      m.col(0) = jl * b.e1;
-      m.col(1) = jl * b.e2;
-      m.col(2) = exp_psi * b.n;
-      b.rates_from_u = m.inverse();
+      m << 1.0 - c3 * bt * bt, c3 * ab, c1 * bt,  //
+          c3 * ab, 1.0 - c3 * a * a, -c1 * a,     //
+          -c2 * bt, c2 * a, 1.0 - c2 * (a * a + bt * bt);
+      b.rates_from_u = m.inverse();  // of (e1.u, e2.u, n.u)
       yb += 3;
       b.ww = wp + Rp * (b.mix.transpose() * Eigen::Map<const Vec3>(yb + 3));
-      arm = b.Rw * b.anchor;
       Eigen::Map<RowMajor3>(x + b.R) = b.Rw;
-      Out(x + b.h) = b.Rw * (b.inertia * (b.Rw.transpose() * b.ww));
+      Out(x + b.h) = b.Rw * Inertia(b, b.Rw.transpose() * b.ww);
     } else {
       b.Rw = Mat3::Identity();
       b.ww = Vec3::Zero();
     }
     const Vec3 rel = Rp * Eigen::Map<const Vec3>(yb);
     const Vec3 rate = Rp * Eigen::Map<const Vec3>(yb + (b.rotates() ? 6 : 3));
-    b.rw = rp + rel - arm;
-    b.vw = vp + wp.cross(rel) + rate - b.ww.cross(arm);
+    b.rw = rp + rel;
+    b.vw = vp + wp.cross(rel) + rate;
+    if (b.anchored) {  // (most joints sit at the child's centre of mass: no arm)
+      const Vec3 arm = b.Rw * b.anchor;
+      b.rw -= arm;
+      b.vw -= b.ww.cross(arm);
+    }
     Out(x + b.r) = b.rw;
     Out(x + b.p) = b.mass * b.vw;
   }
@@ -273,24 +309,30 @@ void JointCoordinateSystem::CalcDerivatives(double t, const double* y, double* y
     const double* yb = y + b.y;
     double* yd = ydot + b.y;
     b.vdot = Eigen::Map<const Vec3>(xdot_.data() + b.p) / b.mass;
-    Vec3 arm = Vec3::Zero();
     if (b.rotates()) {
       const Vec3 h = Eigen::Map<const Vec3>(x_.data() + b.h);
-      b.wdot = b.Rw * (b.inertia_inv * (b.Rw.transpose() * (Eigen::Map<const Vec3>(xdot_.data() + b.h) - b.ww.cross(h))));
-      Out(yd) = b.rates_from_u * (b.mix.transpose() * Eigen::Map<const Vec3>(yb + 6));
+      b.wdot = b.Rw * InverseInertia(b, b.Rw.transpose() * (Eigen::Map<const Vec3>(xdot_.data() + b.h) - b.ww.cross(h)));
+      Out(yd) = b.rates_from_u * (axis_components_ * Eigen::Map<const Vec3>(yb + 6));
       yb += 3;
       yd += 3;
-      arm = b.Rw * b.anchor;
       // u = R_P^T (w - w_P):  u' = R_P^T (w' - w_P' - w_P x (w - w_P)).
       Out(yd + 3) = b.mix * (Rp.transpose() * (b.wdot - wdp - wp.cross(b.ww - wp)));
     } else {
       b.wdot = Vec3::Zero();
     }
     // d = R_P^T rel, rel = r + R anchor - r_P;  d' = R_P^T s, s = rel' - w_P x rel.
-    const Vec3 rel = b.rw + arm - rp;
-    const Vec3 rel_dot = b.vw + b.ww.cross(arm) - vp;
+    Vec3 rel, rel_dot, rel_ddot;
+    if (b.anchored) {
+      const Vec3 arm = b.Rw * b.anchor;
+      rel = b.rw + arm - rp;
+      rel_dot = b.vw + b.ww.cross(arm) - vp;
+      rel_ddot = b.vdot + b.wdot.cross(arm) + b.ww.cross(b.ww.cross(arm)) - vdp;
+    } else {
+      rel = b.rw - rp;
+      rel_dot = b.vw - vp;
+      rel_ddot = b.vdot - vdp;
+    }
     const Vec3 s = rel_dot - wp.cross(rel);
-    const Vec3 rel_ddot = b.vdot + b.wdot.cross(arm) + b.ww.cross(b.ww.cross(arm)) - vdp;
     const Vec3 s_dot = rel_ddot - wdp.cross(rel) - wp.cross(rel_dot);
     const int rate = b.rotates() ? 6 : 3;
     Out(yd) = Eigen::Map<const Vec3>(yb + rate);
@@ -308,7 +350,7 @@ void JointCoordinateSystem::VelocitiesFromModel(const double* x, double* y) {
     Vec3 arm = Vec3::Zero();
     b.vw = Eigen::Map<const Vec3>(x + b.p) / b.mass;
     if (b.rotates()) {
-      b.ww = b.Rw * (b.inertia_inv * (b.Rw.transpose() * Eigen::Map<const Vec3>(x + b.h)));
+      b.ww = b.Rw * InverseInertia(b, b.Rw.transpose() * Eigen::Map<const Vec3>(x + b.h));
       arm = b.Rw * b.anchor;
       yb += 3;
       Out(yb + 3) = b.mix * (Rp.transpose() * (b.ww - wp));

@@ -76,6 +76,8 @@ class JointCoordinateSystem : public OdeSystem {
     double mass = 0.0;
     Eigen::Matrix3d inertia = Eigen::Matrix3d::Zero(), inertia_inv = Eigen::Matrix3d::Zero();
     Eigen::Vector3d anchor = Eigen::Vector3d::Zero();
+    bool anchored = false;  ///< anchor != 0 (else the arm's terms are skipped)
+    bool diagonal = false;  ///< the inertia is diagonal in the body's frame
     Eigen::Vector3d n = Eigen::Vector3d::UnitZ(), e1 = Eigen::Vector3d::UnitX(), e2 = Eigen::Vector3d::UnitY();
     Eigen::Matrix3d chart = Eigen::Matrix3d::Identity();  ///< C
     Eigen::Matrix3d n_chart = Eigen::Matrix3d::Zero(), n2_chart = Eigen::Matrix3d::Zero();  ///< [n x] C, [n x]^2 C
@@ -88,12 +90,15 @@ class JointCoordinateSystem : public OdeSystem {
     Eigen::Matrix3d Rw = Eigen::Matrix3d::Identity();
     Eigen::Vector3d rw = Eigen::Vector3d::Zero(), vw = Eigen::Vector3d::Zero(), ww = Eigen::Vector3d::Zero();
     Eigen::Vector3d vdot = Eigen::Vector3d::Zero(), wdot = Eigen::Vector3d::Zero();
-    /// [J_l(psi) e1, J_l(psi) e2, Exp(psi) n]^-1 at the current y: (a', b', theta') from u.
+    /// [J_l(psi) e1, J_l(psi) e2, Exp(psi) n]^-1 on the basis (e1, e2, n) at the current y:
+    /// (a', b', theta') from (e1.u, e2.u, n.u).
     Eigen::Matrix3d rates_from_u = Eigen::Matrix3d::Identity();
     bool rotates() const { return R >= 0; }
   };
   /// n, the basis e1, e2 that completes it, S, and [n x] C, [n x]^2 C (C already set).
   static void SetAxis(Body& b, const Eigen::Vector3d& n);
+  static Eigen::Vector3d Inertia(const Body& b, const Eigen::Vector3d& v);
+  static Eigen::Vector3d InverseInertia(const Body& b, const Eigen::Vector3d& v);
   /// Velocities (u, d') of y from the momenta in x, with the configuration already in bodies_.
   void VelocitiesFromModel(const double* x, double* y);
   /// The body's tree parent, or the ground (at rest at the origin).
@@ -103,6 +108,8 @@ class JointCoordinateSystem : public OdeSystem {
   ModelSystem* system_;
   std::vector<Body> bodies_;
   Body ground_;  ///< identity orientation, at rest at the origin
+  /// (e1.u, e2.u, n.u) from S u: the same for every body (S takes every axis to one place).
+  Eigen::Matrix3d axis_components_;
   std::vector<std::pair<int, int>> others_;  ///< (offset in x, offset in y) of the other states
   std::vector<std::string> names_;
   int n_ = 0;
