@@ -59,18 +59,7 @@ Nutation Lagrange() {
 /// The example as its file says (10 s, its output interval and tolerances) but for the solver
 /// and the coordinates.
 RecordingObserver RunExample(Method method, bool joint, double rtol = 0.0, double atol = 0.0) {
-  const LoadedModel lm = LoadModelFile(testing::ExamplePath("mechanisms/gyroscopic.yaml"));
-  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
-  RunOptions o;
-  o.t_end = *lm.simulation.t_end;
-  o.dt = *lm.simulation.dt;
-  o.integrator.method = method;
-  o.integrator.rtol = rtol > 0 ? rtol : *lm.simulation.rtol;
-  o.integrator.atol = atol > 0 ? atol : *lm.simulation.atol;
-  if (joint) o.joint_coordinates = lm.mechanism->MakeJointTree();
-  RecordingObserver rec;
-  Simulate(*model, o, rec);
-  return rec;
+  return testing::RunExampleWith("mechanisms/gyroscopic.yaml", method, joint, rtol, atol);
 }
 
 double At(const RecordingObserver& rec, size_t k, const std::string& column) { return rec.rows()[k][rec.Index(column)]; }

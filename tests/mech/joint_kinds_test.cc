@@ -48,20 +48,7 @@ void ExpectHeldLoad(Mechanism m, const Eigen::Vector3d& g, const Eigen::Vector3d
   m.SetGravity(g);
   m.AddDrive(Torque("load", "cube", torque_axis, kT));
   *out = Simulated(m, t_end, 1e-3);
-  const RecordingObserver& rec = *out;
-  const double mass = 1.0;
-  const Eigen::Vector3d f{rec.Last("J.F.x"), rec.Last("J.F.y"), rec.Last("J.F.z")};
-  const Eigen::Vector3d moment{rec.Last("J.M.x"), rec.Last("J.M.y"), rec.Last("J.M.z")};
-  // The joint's force on the child balances its weight, its moment the torque (steady state).
-  EXPECT_LT((f + mass * g).norm(), 1e-6 * mass * kG) << f.transpose();
-  EXPECT_LT((moment + kT * torque_axis).norm(), 1e-6 * kT) << moment.transpose();
-  const Eigen::Vector3d r{rec.Last("cube.r.x"), rec.Last("cube.r.y"), rec.Last("cube.r.z")};
-  const Eigen::Vector3d r0{rec.rows().front()[rec.Index("cube.r.x")], rec.rows().front()[rec.Index("cube.r.y")],
-                           rec.rows().front()[rec.Index("cube.r.z")]};
-  // The deflection along the load: m g / K_t (rigid: held to the integration error).
-  const double along_g = (r - r0).dot(g.normalized());
-  if (rigid) EXPECT_NEAR(along_g, 0.0, 1e-9);
-  else EXPECT_NEAR(along_g, mass * g.norm() / kKt, 1e-6 * mass * g.norm() / kKt);
+  ExpectHeldStatics(*out, g, torque_axis, rigid);
 }
 
 // --- cylindrical ---------------------------------------------------------------------------
@@ -116,37 +103,10 @@ TEST(Planar, GlidesInThePlaneAndTurnsAboutTheNormalFreelyAndHoldsTheRest) {
 // --- screw ---------------------------------------------------------------------------------
 
 TEST(Screw, ANutFallsWithTheEffectiveMassOfItsSpin) {
-  const double mass = 1.0, inertia = 1.0 / 600, k = 2 * pi / kLead;
-  const double a = mass * kG / (mass + inertia * k * k);  // the fall's acceleration, g / 659 here
   for (bool rigid : {false, true}) {
     SCOPED_TRACE(rigid ? "rigid" : "compliant");
     const double t = 1.0;
-    const RecordingObserver rec = Simulated(Nut(rigid), t, 1e-3, 1e-11, 1e-13);
-    // Compliant: the helix spring carries m (g - a) at the deflection d = m (g - a) / K_h, 9.8e-7
-    // m; it starts undeflected and settles (about critically damped) in ~1 ms. The common motion
-    // m z + M y = -(m + M) a t^2 / 2 (M = I k^2, y = theta / k) holds from rest whatever the spring
-    // does, so the nut is below the ideal fall by d M / (m + M), the spin lags by d m / (m + M).
-    const double deflection = rigid ? 0.0 : mass * (kG - a) / kKh * (inertia * k * k) / (mass + inertia * k * k);
-    const double s = -0.5 * a * t * t;
-    std::printf("Screw (%s): slide %.12g, closed form %.12g (deflection %.3g): error %.3g m; speed error %.3g m/s\n",
-                rigid ? "rigid" : "compliant", rec.Last("J.slide"), s, deflection, rec.Last("J.slide") - (s - deflection),
-                rec.Last("J.speed") + a * t);
-    EXPECT_NEAR(rec.Last("J.slide"), s - deflection, 1e-11);
-    EXPECT_NEAR(rec.Last("cube.r.z"), s - deflection, 1e-11);
-    EXPECT_NEAR(rec.Last("J.speed"), -a * t, 1e-8);
-    EXPECT_NEAR(rec.Last("J.angle"), k * s, 1e-6);
-    EXPECT_NEAR(rec.Last("J.rate"), -k * a * t, 1e-6);
-    // The reactions: the helix holds m (g - a) of the weight, and turns the nut by I theta''.
-    EXPECT_NEAR(rec.Last("J.F.z"), mass * (kG - a), 1e-6);
-    EXPECT_NEAR(rec.Last("J.M.z"), -inertia * k * a, 1e-6);
-    EXPECT_NEAR(rec.Last("J.helix_force"), -mass * (kG - a), 1e-6);
-    // Energy: the potential released is the kinetic energy of the fall and the spin (the spring
-    // keeps m^2 (g - a)^2 / 2 K_h, 4e-6 J, and its damper takes about as much at the start).
-    const double released = mass * kG * (0.5 * a * t * t);
-    EXPECT_NEAR(rec.Last("energy.kinetic"), 0.5 * (mass + inertia * k * k) * a * a * t * t, 1e-6 * released);
-    // No work is done (gravity's is stored): kinetic + potential (gravity's and the springs') +
-    // dissipated stays 0.
-    EXPECT_NEAR(rec.Last("energy.kinetic") + rec.Last("energy.potential") + rec.Last("energy.dissipated"), 0.0, 1e-8 * released);
+    ExpectTheNutsFall(Simulated(Nut(rigid), t, 1e-3, 1e-11, 1e-13), rigid, t);
   }
 }
 
@@ -179,24 +139,7 @@ TEST(Universal, CardanOutputSpeedFollowsTheClosedForm) {
   for (bool rigid : {true, false}) {
     SCOPED_TRACE(rigid ? "rigid" : "compliant");
     const RecordingObserver rec = Simulated(Cardan(beta, w1, rigid), 2 * pi / w1, 1e-3, 1e-11, 1e-13);
-    const Eigen::Vector3d s2(std::cos(beta), std::sin(beta), 0);
-    double max_error = 0.0, max_perpendicular = 0.0;
-    for (const auto& row : rec.rows()) {
-      const double t = row[0], c = std::cos(w1 * t), sb = std::sin(beta);
-      const double expected = w1 * std::cos(beta) / (1 - sb * sb * c * c);
-      const Eigen::Vector3d w2{row[rec.Index("out.omega.x")], row[rec.Index("out.omega.y")], row[rec.Index("out.omega.z")]};
-      max_error = std::max(max_error, std::abs(w2.dot(s2) - expected) / expected);
-      // The yokes stay perpendicular: (R_in y) . (R_out z).
-      const Eigen::Vector3d a1{row[rec.Index("in.R.12")], row[rec.Index("in.R.22")], row[rec.Index("in.R.32")]};
-      const Eigen::Vector3d a2{row[rec.Index("out.R.13")], row[rec.Index("out.R.23")], row[rec.Index("out.R.33")]};
-      max_perpendicular = std::max(max_perpendicular, std::abs(a1.dot(a2)));
-    }
-    std::printf("Cardan (%s): max relative error of w2 %.3g, max |a1.a2| %.3g\n", rigid ? "rigid" : "compliant", max_error,
-                max_perpendicular);
-    EXPECT_LT(max_error, rigid ? 1e-9 : 1e-6);
-    EXPECT_LT(max_perpendicular, rigid ? 1e-8 : 1e-7);
-    // The spider rocks on the input yoke: over a turn the output turns once too (angle_a returns).
-    EXPECT_NEAR(rec.Last("J.angle_a"), 0.0, rigid ? 1e-6 : 1e-3);
+    ExpectCardanSpeeds(rec, beta, w1, rigid);
     EXPECT_LT(testing::MaxEnergyResidual(rec), 1e-6);
   }
 }

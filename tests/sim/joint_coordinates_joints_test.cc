@@ -82,23 +82,6 @@ void ExpectAgreementAndBalance(const Runs& r, double agreement, bool energy = tr
   EXPECT_LT(r.joint.Last("cube.orthonormality"), 1e-12);
 }
 
-/// The statics of tests/mech/joint_kinds_test.cc's ExpectHeldLoad on a run of the cube on J,
-/// loaded by gravity `g` and kT about `torque_axis`: the reactions carry the load, the
-/// deflection along g is m g / K_t (rigid: none). Returns the largest error over its closed form.
-double ExpectHeldLoad(const RecordingObserver& rec, const Eigen::Vector3d& g, const Eigen::Vector3d& torque_axis, bool rigid) {
-  const double mass = 1.0;
-  const Eigen::Vector3d f{rec.Last("J.F.x"), rec.Last("J.F.y"), rec.Last("J.F.z")};
-  const Eigen::Vector3d moment{rec.Last("J.M.x"), rec.Last("J.M.y"), rec.Last("J.M.z")};
-  EXPECT_LT((f + mass * g).norm(), 1e-6 * mass * kG) << f.transpose();
-  EXPECT_LT((moment + kT * torque_axis).norm(), 1e-6 * kT) << moment.transpose();
-  const Eigen::Vector3d r{rec.Last("cube.r.x"), rec.Last("cube.r.y"), rec.Last("cube.r.z")};
-  const Eigen::Vector3d r0{rec.rows().front()[rec.Index("cube.r.x")], rec.rows().front()[rec.Index("cube.r.y")],
-                           rec.rows().front()[rec.Index("cube.r.z")]};
-  const double along_g = (r - r0).dot(g.normalized()), expected = rigid ? 0.0 : mass * g.norm() / kKt;
-  if (rigid) EXPECT_NEAR(along_g, 0.0, 1e-9);
-  else EXPECT_NEAR(along_g, expected, 1e-6 * expected);
-  return std::max({(f + mass * g).norm(), (moment + kT * torque_axis).norm(), std::abs(along_g - expected)});
-}
 
 Mechanism Loaded(Mechanism m, const Eigen::Vector3d& g, const Eigen::Vector3d& torque_axis) {
   m.SetGravity(g);
@@ -154,7 +137,7 @@ TEST(JointCoordinatesJoints, CylindricalSlidesAndTurnsFreelyAndHoldsTheRest) {
     SCOPED_TRACE(rigid ? "rigid" : "compliant");
     const Runs r = RunBoth(Loaded(CylinderOnZ(rigid), {-kG, 0, 0}, Eigen::Vector3d::UnitY()), 1.0, 1e-3);
     const RecordingObserver& rec = r.joint;
-    double error = ExpectHeldLoad(rec, {-kG, 0, 0}, Eigen::Vector3d::UnitY(), rigid);
+    double error = ExpectHeldStatics(rec, {-kG, 0, 0}, Eigen::Vector3d::UnitY(), rigid);
     for (const auto& [column, expected] : {std::pair<const char*, double>{"cube.v.z", 0.5}, {"cube.omega.z", 2.0}, {"J.slide", 0.5},
                                            {"J.speed", 0.5}, {"J.angle", 2.0}, {"J.rate", 2.0}, {"cube.r.z", 0.5}}) {
       EXPECT_NEAR(rec.Last(column), expected, 1e-9) << column;
@@ -203,7 +186,7 @@ TEST(JointCoordinatesJoints, ASpinningCylindricalShaftHeldTiltedCarriesItsTiltRo
   for (bool rigid : {false, true}) {
     SCOPED_TRACE(rigid ? "rigid" : "compliant");
     const Runs r = RunBoth(Loaded(CylinderOnZ(rigid, spin), {-kG, 0, 0}, Eigen::Vector3d::UnitY()), 1.0, 1e-2, 1e-8, 1e-10);
-    const double error = ExpectHeldLoad(r.joint, {-kG, 0, 0}, Eigen::Vector3d::UnitY(), rigid);
+    const double error = ExpectHeldStatics(r.joint, {-kG, 0, 0}, Eigen::Vector3d::UnitY(), rigid);
     EXPECT_NEAR(r.joint.Last("J.angle"), spin, 1e-6 * spin);
     Report("Cylindrical, spinning, tilted", rigid, r, error);
     EXPECT_LT(r.agreement, 1e-5) << r.worst_column;
@@ -252,7 +235,7 @@ TEST(JointCoordinatesJoints, PlanarGlidesAndTurnsAboutTheNormalAndHoldsTheRest) 
     SCOPED_TRACE(rigid ? "rigid" : "compliant");
     const Runs r = RunBoth(Loaded(PuckOnTheFloor(rigid), {0, 0, -kG}, Eigen::Vector3d::UnitX()), 1.0, 1e-3);
     const RecordingObserver& rec = r.joint;
-    double error = ExpectHeldLoad(rec, {0, 0, -kG}, Eigen::Vector3d::UnitX(), rigid);
+    double error = ExpectHeldStatics(rec, {0, 0, -kG}, Eigen::Vector3d::UnitX(), rigid);
     for (const auto& [column, expected] :
          {std::pair<const char*, double>{"cube.v.x", 0.3}, {"cube.v.y", -0.2}, {"cube.omega.z", 1.5}, {"J.slide.u", 0.3},
           {"J.slide.v", -0.2}, {"J.speed.u", 0.3}, {"J.speed.v", -0.2}, {"J.angle", 1.5}, {"J.rate", 1.5}, {"cube.r.x", 0.5}}) {
@@ -272,34 +255,14 @@ TEST(JointCoordinatesJoints, PlanarGlidesAndTurnsAboutTheNormalAndHoldsTheRest) 
 // --- screw ---------------------------------------------------------------------------------
 
 TEST(JointCoordinatesJoints, ANutFallsWithTheEffectiveMassOfItsSpin) {
-  const double mass = 1.0, inertia = 1.0 / 600, k = 2 * pi / kLead;
-  const double a = mass * kG / (mass + inertia * k * k);
   for (bool rigid : {false, true}) {
     SCOPED_TRACE(rigid ? "rigid" : "compliant");
     const double t = 1.0;
     const Runs r = RunBoth(Nut(rigid), t, 1e-3, 1e-11, 1e-13);
-    const RecordingObserver& rec = r.joint;
-    // The nut below the ideal fall by the helix spring's share (joint_kinds_test.cc, "Screw").
-    const double deflection = rigid ? 0.0 : mass * (kG - a) / kKh * (inertia * k * k) / (mass + inertia * k * k);
-    const double s = -0.5 * a * t * t;
-    EXPECT_NEAR(rec.Last("J.slide"), s - deflection, 1e-11);
-    EXPECT_NEAR(rec.Last("cube.r.z"), s - deflection, 1e-11);
-    EXPECT_NEAR(rec.Last("J.speed"), -a * t, 1e-8);
-    EXPECT_NEAR(rec.Last("J.angle"), k * s, 1e-6);
-    EXPECT_NEAR(rec.Last("J.rate"), -k * a * t, 1e-6);
-    EXPECT_NEAR(rec.Last("J.F.z"), mass * (kG - a), 1e-6);
-    EXPECT_NEAR(rec.Last("J.M.z"), -inertia * k * a, 1e-6);
-    EXPECT_NEAR(rec.Last("J.helix_force"), -mass * (kG - a), 1e-6);
-    const double released = mass * kG * (0.5 * a * t * t);
-    EXPECT_NEAR(rec.Last("energy.kinetic"), 0.5 * (mass + inertia * k * k) * a * a * t * t, 1e-6 * released);
-    EXPECT_NEAR(rec.Last("energy.kinetic") + rec.Last("energy.potential") + rec.Last("energy.dissipated"), 0.0, 1e-8 * released);
-    const double error = std::max({std::abs(rec.Last("J.slide") - (s - deflection)), std::abs(rec.Last("J.speed") + a * t),
-                                   std::abs(rec.Last("J.angle") - k * s) / k});
-    Report("Screw", rigid, r, error);
-    std::printf("Screw (%s): energy residual (kinetic + potential + dissipated) / released %.3g\n", rigid ? "rigid" : "compliant",
-                (rec.Last("energy.kinetic") + rec.Last("energy.potential") + rec.Last("energy.dissipated")) / released);
-    // No work is done (gravity's is stored): the balance is the sum above, not the residual
-    // relative to the work that MaxEnergyResidual takes.
+    // The closed form as in joint_kinds_test.cc, "Screw", in joint coordinates.
+    Report("Screw", rigid, r, ExpectTheNutsFall(r.joint, rigid, t));
+    // No work is done (gravity's is stored): the balance is the sum checked there, not the
+    // residual relative to the work that MaxEnergyResidual takes.
     ExpectAgreementAndBalance(r, 1e-6, false);
   }
 }
@@ -325,7 +288,7 @@ TEST(JointCoordinatesJoints, UniversalTurnsFreelyAboutEitherYokeAndHoldsTheThird
       EXPECT_EQ(r.joint.summary().recharts, 0);  // 2 rad about the tree's axis: no re-chart
     }
     const Runs r = RunBoth(Loaded(CubeOnACross(rigid, Eigen::Vector3d::Zero()), {0, 0, -kG}, Eigen::Vector3d::UnitZ()), 0.5, 1e-3);
-    const double error = ExpectHeldLoad(r.joint, {0, 0, -kG}, Eigen::Vector3d::UnitZ(), rigid);
+    const double error = ExpectHeldStatics(r.joint, {0, 0, -kG}, Eigen::Vector3d::UnitZ(), rigid);
     EXPECT_NEAR(r.joint.Last("cube.R.21"), rigid ? 0.0 : kT / kKr, 2e-3 * kT / kKr + 1e-9);
     if (!rigid) {
       EXPECT_NEAR(r.joint.Last("J.r.K.q"), -r.joint.Last("cube.R.12"), 1e-12);
@@ -365,25 +328,10 @@ TEST(JointCoordinatesJoints, CardanOutputSpeedFollowsTheClosedForm) {
   for (bool rigid : {true, false}) {
     SCOPED_TRACE(rigid ? "rigid" : "compliant");
     const Runs r = RunBoth(Cardan(beta, w1, rigid), 2 * pi / w1, 1e-3, 1e-11, 1e-13);
-    const RecordingObserver& rec = r.joint;
-    const Eigen::Vector3d s2(std::cos(beta), std::sin(beta), 0);
-    double max_error = 0.0, max_perpendicular = 0.0;
-    for (const auto& row : rec.rows()) {
-      const double t = row[0], c = std::cos(w1 * t), sb = std::sin(beta);
-      const double expected = w1 * std::cos(beta) / (1 - sb * sb * c * c);
-      const Eigen::Vector3d w2{row[rec.Index("out.omega.x")], row[rec.Index("out.omega.y")], row[rec.Index("out.omega.z")]};
-      max_error = std::max(max_error, std::abs(w2.dot(s2) - expected) / expected);
-      const Eigen::Vector3d a1{row[rec.Index("in.R.12")], row[rec.Index("in.R.22")], row[rec.Index("in.R.32")]};
-      const Eigen::Vector3d a2{row[rec.Index("out.R.13")], row[rec.Index("out.R.23")], row[rec.Index("out.R.33")]};
-      max_perpendicular = std::max(max_perpendicular, std::abs(a1.dot(a2)));
-    }
-    EXPECT_LT(max_error, rigid ? 1e-9 : 1e-6);
-    EXPECT_LT(max_perpendicular, rigid ? 1e-8 : 1e-7);
-    EXPECT_NEAR(rec.Last("J.angle_a"), 0.0, rigid ? 1e-6 : 1e-3);
-    Report("Cardan", rigid, r, max_error);
+    Report("Cardan", rigid, r, ExpectCardanSpeeds(r.joint, beta, w1, rigid));
     EXPECT_LT(r.agreement, 1e-6) << r.worst_column;
-    EXPECT_LT(testing::MaxEnergyResidual(rec), 1e-6);
-    for (const char* b : {"in", "out"}) EXPECT_LT(rec.Last(std::string(b) + ".orthonormality"), 1e-12) << b;
+    EXPECT_LT(testing::MaxEnergyResidual(r.joint), 1e-6);
+    for (const char* b : {"in", "out"}) EXPECT_LT(r.joint.Last(std::string(b) + ".orthonormality"), 1e-12) << b;
   }
 }
 

@@ -145,23 +145,6 @@ TEST(JointCoordinates, RunAgreesWithInertialCoordinates) {
     EXPECT_LT(joint.Last(std::string(b) + ".orthonormality"), 1e-12) << b;
 }
 
-/// Runs examples/<name> as its file says but for the solver and the coordinates.
-RecordingObserver RunWith(const std::string& name, Method method, bool joint, double rtol = 0.0, double atol = 0.0) {
-  const LoadedModel lm = LoadModelFile(testing::ExamplePath(name));
-  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
-  RunOptions o;
-  o.t_end = *lm.simulation.t_end;
-  o.dt = *lm.simulation.dt;
-  o.integrator.method = method;
-  o.integrator.rtol = rtol > 0 ? rtol : *lm.simulation.rtol;
-  o.integrator.atol = atol > 0 ? atol : *lm.simulation.atol;
-  if (method == Method::kRk4) o.integrator.fixed_step = 1e-3;
-  if (joint) o.joint_coordinates = lm.mechanism->MakeJointTree();
-  RecordingObserver rec;
-  Simulate(*model, o, rec);
-  return rec;
-}
-
 /// The azimuth of a body axis (column `col` of the body's R: 1, 2 or 3) at every row, unwrapped.
 std::vector<double> Azimuth(const RecordingObserver& rec, const std::string& body, int col) {
   const int x = rec.Index(fmt::format("{}.R.1{}", body, col)), y = rec.Index(fmt::format("{}.R.2{}", body, col));
@@ -187,7 +170,7 @@ std::vector<double> Azimuth(const RecordingObserver& rec, const std::string& bod
 // precesses on average at m g l / (I_s s) (a fast gyroscope: within the nutation's share, a few
 // percent).
 TEST(Gyroscope, RunsToItsEndUnderEverySolverWithTheInertialMotion) {
-  const RecordingObserver ref = RunWith("gyroscope.yaml", Method::kDormandPrince, false, 1e-10, 1e-12);
+  const RecordingObserver ref = testing::RunExampleWith("gyroscope.yaml", Method::kDormandPrince, false, 1e-10, 1e-12);
   ASSERT_EQ(ref.summary().status, RunStatus::kOk) << ref.summary().message;
   const double t_end = ref.rows().back()[0];
   ASSERT_DOUBLE_EQ(t_end, 10.0);
@@ -200,7 +183,7 @@ TEST(Gyroscope, RunsToItsEndUnderEverySolverWithTheInertialMotion) {
   for (const Method m : {Method::kBdf, Method::kAdams, Method::kDormandPrince, Method::kBogackiShampine, Method::kStabilizedRk3,
                          Method::kRk4}) {
     SCOPED_TRACE(MethodName(m));
-    const RecordingObserver run = RunWith("gyroscope.yaml", m, true);
+    const RecordingObserver run = testing::RunExampleWith("gyroscope.yaml", m, true);
     ASSERT_EQ(run.summary().status, RunStatus::kOk) << run.summary().message;
     ASSERT_EQ(run.rows().size(), ref.rows().size());
     EXPECT_DOUBLE_EQ(run.rows().back()[0], t_end);
@@ -230,7 +213,7 @@ TEST(SpinningTop, PrecessesAtTheClosedFormRate) {
   const double w = (i3 * w3 - std::sqrt(i3 * w3 * i3 * w3 - 4 * i1p * c * m * g * l)) / (2 * i1p * c);
   for (const bool joint : {true, false}) {
     SCOPED_TRACE(joint ? "joint coordinates" : "inertial coordinates");
-    const RecordingObserver rec = RunWith("spinning_top.yaml", Method::kBdf, joint);
+    const RecordingObserver rec = testing::RunExampleWith("spinning_top.yaml", Method::kBdf, joint);
     ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
     const std::vector<double> phi = Azimuth(rec, "top", 3);
     for (size_t k = 0; k < rec.rows().size(); k += 50) {

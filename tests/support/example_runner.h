@@ -65,6 +65,25 @@ inline RecordingObserver RunExample(const std::string& name, double t_end = 0.0,
   return rec;
 }
 
+/// Loads examples/<name> and simulates it as its file says (times, output interval, tolerances)
+/// but for the solver, the coordinates (joint or inertial) and, when > 0, rtol and atol; rk4 takes
+/// a fixed step of 1 ms.
+inline RecordingObserver RunExampleWith(const std::string& name, Method method, bool joint, double rtol = 0.0, double atol = 0.0) {
+  const LoadedModel lm = LoadModelFile(ExamplePath(name));
+  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+  RunOptions o;
+  o.t_end = *lm.simulation.t_end;
+  o.dt = *lm.simulation.dt;
+  o.integrator.method = method;
+  o.integrator.rtol = rtol > 0 ? rtol : *lm.simulation.rtol;
+  o.integrator.atol = atol > 0 ? atol : *lm.simulation.atol;
+  if (method == Method::kRk4) o.integrator.fixed_step = 1e-3;
+  if (joint) o.joint_coordinates = lm.mechanism->MakeJointTree();
+  RecordingObserver rec;
+  Simulate(*model, o, rec);
+  return rec;
+}
+
 /// Compiles a graph and simulates it into memory over [0, t_end], samples every dt.
 inline RecordingObserver RunGraph(BondGraph g, const CompileOptions& co, double t_end, double dt,
                                   Method method = IntegratorOptions{}.method, double rtol = 1e-10, double atol = 1e-12,

@@ -3,12 +3,18 @@
 // (tests/mech/joint_kinds_test.cc against closed forms, tests/sim/joint_coordinates_joints_test.cc
 // in joint coordinates): a cube on each joint to the ground, a nut on a screw, a Cardan joint.
 
+#include <algorithm>
+#include <cstdio>
 #include <cmath>
+#include <numbers>
 #include <string>
 
 #include <Eigen/Dense>
 
+#include <gtest/gtest.h>
+
 #include "multibond/mech/mechanism.h"
+#include "multibond/sim/simulator.h"
 
 namespace multibond::mech::joint_kind_models {
 
@@ -77,6 +83,60 @@ inline Mechanism Nut(bool rigid) {
   return m;
 }
 
+/// The statics of a run of the cube on J,
+/// loaded by gravity `g` and kT about `torque_axis`: the reactions carry the load, the
+/// deflection along g is m g / K_t (rigid: none). Returns the largest error over its closed form.
+inline double ExpectHeldStatics(const RecordingObserver& rec, const Eigen::Vector3d& g, const Eigen::Vector3d& torque_axis, bool rigid) {
+  const double mass = 1.0;
+  const Eigen::Vector3d f{rec.Last("J.F.x"), rec.Last("J.F.y"), rec.Last("J.F.z")};
+  const Eigen::Vector3d moment{rec.Last("J.M.x"), rec.Last("J.M.y"), rec.Last("J.M.z")};
+  // The joint's force on the child balances its weight, its moment the torque (steady state).
+  EXPECT_LT((f + mass * g).norm(), 1e-6 * mass * kG) << f.transpose();
+  EXPECT_LT((moment + kT * torque_axis).norm(), 1e-6 * kT) << moment.transpose();
+  const Eigen::Vector3d r{rec.Last("cube.r.x"), rec.Last("cube.r.y"), rec.Last("cube.r.z")};
+  const Eigen::Vector3d r0{rec.rows().front()[rec.Index("cube.r.x")], rec.rows().front()[rec.Index("cube.r.y")],
+                           rec.rows().front()[rec.Index("cube.r.z")]};
+  // The deflection along the load: m g / K_t (rigid: held to the integration error).
+  const double along_g = (r - r0).dot(g.normalized()), expected = rigid ? 0.0 : mass * g.norm() / kKt;
+  if (rigid) EXPECT_NEAR(along_g, 0.0, 1e-9);
+  else EXPECT_NEAR(along_g, expected, 1e-6 * expected);
+  return std::max({(f + mass * g).norm(), (moment + kT * torque_axis).norm(), std::abs(along_g - expected)});
+}
+
+/// Checks a run of Nut(rigid) at its last row, t s from rest, against the closed form, and
+/// returns the largest error of the slide (m), its speed (m/s) and the angle over 2 pi / lead.
+/// Compliant: the helix spring carries m (g - a) at the deflection d = m (g - a) / K_h, 9.8e-7 m;
+/// it starts undeflected and settles (about critically damped) in ~1 ms. The common motion
+/// m z + M y = -(m + M) a t^2 / 2 (M = I k^2, y = theta / k) holds from rest whatever the spring
+/// does, so the nut is below the ideal fall by d M / (m + M), the spin lags by d m / (m + M).
+inline double ExpectTheNutsFall(const RecordingObserver& rec, bool rigid, double t) {
+  const double mass = 1.0, inertia = 1.0 / 600, k = 2 * std::numbers::pi / kLead;
+  const double a = mass * kG / (mass + inertia * k * k);  // the fall's acceleration, g / 659 here
+  const double deflection = rigid ? 0.0 : mass * (kG - a) / kKh * (inertia * k * k) / (mass + inertia * k * k);
+  const double s = -0.5 * a * t * t;
+  EXPECT_NEAR(rec.Last("J.slide"), s - deflection, 1e-11);
+  EXPECT_NEAR(rec.Last("cube.r.z"), s - deflection, 1e-11);
+  EXPECT_NEAR(rec.Last("J.speed"), -a * t, 1e-8);
+  EXPECT_NEAR(rec.Last("J.angle"), k * s, 1e-6);
+  EXPECT_NEAR(rec.Last("J.rate"), -k * a * t, 1e-6);
+  // The reactions: the helix holds m (g - a) of the weight, and turns the nut by I theta''.
+  EXPECT_NEAR(rec.Last("J.F.z"), mass * (kG - a), 1e-6);
+  EXPECT_NEAR(rec.Last("J.M.z"), -inertia * k * a, 1e-6);
+  EXPECT_NEAR(rec.Last("J.helix_force"), -mass * (kG - a), 1e-6);
+  // Energy: the potential released is the kinetic energy of the fall and the spin (the spring
+  // keeps m^2 (g - a)^2 / 2 K_h, 4e-6 J, and its damper takes about as much at the start).
+  const double released = mass * kG * (0.5 * a * t * t);
+  EXPECT_NEAR(rec.Last("energy.kinetic"), 0.5 * (mass + inertia * k * k) * a * a * t * t, 1e-6 * released);
+  // No work is done (gravity's is stored): kinetic + potential (gravity's and the springs') +
+  // dissipated stays 0.
+  const double balance = rec.Last("energy.kinetic") + rec.Last("energy.potential") + rec.Last("energy.dissipated");
+  EXPECT_NEAR(balance, 0.0, 1e-8 * released);
+  std::printf("Screw (%s): slide %.12g, closed form %.12g (deflection %.3g); energy (kinetic + potential + dissipated) / released %.3g\n",
+              rigid ? "rigid" : "compliant", rec.Last("J.slide"), s, deflection, balance / released);
+  return std::max({std::abs(rec.Last("J.slide") - (s - deflection)), std::abs(rec.Last("J.speed") + a * t),
+                   std::abs(rec.Last("J.angle") - k * s) / k});
+}
+
 /// A cube hanging on a universal joint from the ground at its centre: the ground's yoke about x,
 /// the cube's about its y.
 inline Mechanism CubeOnACross(bool rigid, const Eigen::Vector3d& omega) {
@@ -128,6 +188,30 @@ inline Mechanism Cardan(double beta, double w1, bool rigid) {
   m.AddJoint(cross);
   m.AddDrive(motor);
   return m;
+}
+
+/// Checks a run of Cardan(beta, w1, rigid) over one input turn against the closed form and
+/// returns the largest relative error of w2. The yokes stay perpendicular, (R_in y) . (R_out z) =
+/// 0, and the spider rocks on the input yoke: over a turn the output turns once too (angle_a
+/// returns).
+inline double ExpectCardanSpeeds(const RecordingObserver& rec, double beta, double w1, bool rigid) {
+  const Eigen::Vector3d s2(std::cos(beta), std::sin(beta), 0);
+  double max_error = 0.0, max_perpendicular = 0.0;
+  for (const auto& row : rec.rows()) {
+    const double t = row[0], c = std::cos(w1 * t), sb = std::sin(beta);
+    const double expected = w1 * std::cos(beta) / (1 - sb * sb * c * c);
+    const Eigen::Vector3d w2{row[rec.Index("out.omega.x")], row[rec.Index("out.omega.y")], row[rec.Index("out.omega.z")]};
+    max_error = std::max(max_error, std::abs(w2.dot(s2) - expected) / expected);
+    const Eigen::Vector3d a1{row[rec.Index("in.R.12")], row[rec.Index("in.R.22")], row[rec.Index("in.R.32")]};
+    const Eigen::Vector3d a2{row[rec.Index("out.R.13")], row[rec.Index("out.R.23")], row[rec.Index("out.R.33")]};
+    max_perpendicular = std::max(max_perpendicular, std::abs(a1.dot(a2)));
+  }
+  std::printf("Cardan (%s): max relative error of w2 %.3g, max |a1.a2| %.3g\n", rigid ? "rigid" : "compliant", max_error,
+              max_perpendicular);
+  EXPECT_LT(max_error, rigid ? 1e-9 : 1e-6);
+  EXPECT_LT(max_perpendicular, rigid ? 1e-8 : 1e-7);
+  EXPECT_NEAR(rec.Last("J.angle_a"), 0.0, rigid ? 1e-6 : 1e-3);
+  return max_error;
 }
 
 }  // namespace multibond::mech::joint_kind_models
