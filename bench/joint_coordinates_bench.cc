@@ -16,7 +16,7 @@
 //   ideal differential, 5 s                dopri5: 3,218 steps, 109 ms bdf: 256 steps, 47 ms
 //                                          bdf: 4,174 steps, 148 ms    dopri5: 864 steps, 74 ms
 //   compliant differential, srk3, 5 s      73,451 steps, 115 ms        77,209 steps, 317 ms
-//   compliant differential, bdf, 5 s       28,214 steps, 450 ms        25,488 steps, 604 ms
+//   compliant differential, bdf, 5 s       27,649 steps, 334 ms        25,175 steps, 526 ms
 //
 // The compliant differential's steps are its couplings' (srk3 at the stability limit of the
 // -7.5e4 /s modes, BDF resolving the 194 rad/s ones), in either coordinates; there the map costs

@@ -99,6 +99,8 @@ class JointCoordinateSystem : public OdeSystem {
   static void SetAxis(Body& b, const Eigen::Vector3d& n);
   static Eigen::Vector3d Inertia(const Body& b, const Eigen::Vector3d& v);
   static Eigen::Vector3d InverseInertia(const Body& b, const Eigen::Vector3d& v);
+  /// pattern_ from the model's Jacobian pattern and the tree (the constructor's last step).
+  void BuildPattern(const JacobianPattern& mp);
   /// Velocities (u, d') of y from the momenta in x, with the configuration already in bodies_.
   void VelocitiesFromModel(const double* x, double* y);
   /// The body's tree parent, or the ground (at rest at the origin).

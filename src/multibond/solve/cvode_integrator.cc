@@ -21,6 +21,9 @@
 namespace multibond {
 namespace {
 
+/// KLU's ordering codes (sunlinsol_klu.h names only its default, 1 = COLAMD): 0 is AMD.
+constexpr int kKluOrderingAmd = 0;
+
 struct CvodeMemDeleter {
   void operator()(void* mem) const noexcept { CVodeFree(&mem); }
 };
@@ -282,6 +285,13 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<CvodeCallbackState>
       callbacks_.increment.assign(n_, 0.0);
       jacobian_.reset(sun::NonNull(SUNSparseMatrix(n_, n_, pattern->nonzeros(), CSC_MAT, ctx_.get())));
       linear_solver_.reset(sun::NonNull(SUNLinSol_KLU(y_.get(), jacobian_.get(), ctx_.get())));
+      // KLU orders by AMD on A + A^T, not its default COLAMD: our Jacobians are structurally
+      // almost symmetric (a coupling ties two bodies both ways), where AMD's fill is smaller.
+      // BDF, measured (release): the compliant differential 0.45 -> 0.34 s, its pitch-point
+      // variant 1.20 -> 0.72 s, the four-bar 0.29 -> 0.20 s, the planetary set 0.28 -> 0.21 s,
+      // the 10,000-body chain 179 -> 170 ms; the compliant differential in joint coordinates
+      // 0.88 -> 0.52 s (dense: 0.60 s).
+      Check(SUNLinSol_KLUSetOrdering(linear_solver_.get(), kKluOrderingAmd), t0);
       Check(CVodeSetLinearSolver(mem, linear_solver_.get(), jacobian_.get()), t0);
     } else {
       callbacks_.pattern = nullptr;
