@@ -50,8 +50,9 @@ class JointCoordinateSystem : public OdeSystem {
   bool has_invariants() const override { return model_.has_invariants(); }
   /// The momenta onto the ideal constraints (the model's projection), the velocities read back.
   void Project(double t, double* y) override;
-  /// From the model's: every body state may depend on every other (the tree couples them), and
-  /// the other states keep the model's structure (a quadrature that nothing reads stays alone).
+  /// From the model's and the tree (BuildPattern): a body's coordinates reach its own and its
+  /// descendants' states, a force on a body the rates of the body and its children; the other
+  /// states keep the model's structure (a quadrature that nothing reads stays alone).
   const JacobianPattern* jacobian_pattern() const override { return pattern_.n > 0 ? &pattern_ : nullptr; }
 
   /// y from the model's state x: charts at x's orientations (psi = theta = 0), so that ToModel
