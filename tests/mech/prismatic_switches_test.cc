@@ -94,6 +94,7 @@ TEST_P(PrismaticStops, WithoutRestitutionItRestsAgainstTheStopThatHoldsMG) {
   EXPECT_NEAR(rec.Last("guide.slide"), upper, 1e-12);
   EXPECT_NEAR(rec.Last("guide.speed"), 0.0, 1e-12);
   EXPECT_NEAR(rec.Last("guide.F.x"), -kMass * g, 1e-9);  // the stop's reaction on the slider
+  EXPECT_NEAR(rec.Last("slider.F.x"), -kMass * g, 1e-9);
   EXPECT_LT(std::abs(rec.Last("energy.residual")), 1e-9);
 }
 
