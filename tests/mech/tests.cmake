@@ -5,3 +5,4 @@ multibond_test(mech/differential_pitch_test.cc LIBS multibond::io LABELS physics
 multibond_test(mech/assembly_test.cc LIBS multibond::io LABELS physics)
 multibond_test(mech/joint_kinds_test.cc LIBS multibond::io LABELS physics)
 multibond_test(mech/gyroscopic_test.cc LIBS multibond::io LABELS physics)
+multibond_test(mech/prismatic_switches_test.cc LIBS multibond::io LABELS physics)

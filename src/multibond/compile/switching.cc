@@ -258,10 +258,12 @@ void CompiledModel::HandleEvents(double t, double* x, Workspace& ws, const int* 
     CalcDerivatives(t, x, xdot.data(), ws);
     constraints_.Values(t, ws.slots.data(), values.data());
   };
+  bool impulse = false;  // an impact changed the flows at once: slipping frictions may now slide the other way
   for (int i = 0; i < switches_.size(); ++i) {
     if (!roots[2 * i] && !roots[2 * i + 1]) continue;
     const SwitchTable::Entry& e = switches_.entries()[i];
     const auto mode = static_cast<SwitchTable::Mode>(ws.modes[i]);
+    impulse = impulse || mode == SwitchTable::kOpen;
     evaluate();
     const double g = values[e.lambda], lambda = ws.lambda[e.lambda];
     EventRecord rec{t, "", e.name, ""};
@@ -331,6 +333,31 @@ void CompiledModel::HandleEvents(double t, double* x, Workspace& ws, const int* 
         }
         break;
       }
+    }
+    log.push_back(std::move(rec));
+  }
+  // A slipping friction whose relative flow an impact reversed (a slider rebounding from its stop)
+  // slips the new way; one the impact brought to rest sticks if it can. Its flow jumped across zero
+  // without crossing it, so no root reported it.
+  for (int i = 0; impulse && i < switches_.size(); ++i) {
+    const SwitchTable::Entry& e = switches_.entries()[i];
+    const auto mode = static_cast<SwitchTable::Mode>(ws.modes[i]);
+    if (e.kind != Switching::Kind::kFriction || (mode != SwitchTable::kSlipPositive && mode != SwitchTable::kSlipNegative)) continue;
+    evaluate();
+    const double g = values[e.lambda];
+    if (mode == SwitchTable::kSlipPositive ? g > 0.0 : g < 0.0) continue;
+    EventRecord rec{t, "slip", e.name, ""};
+    if (g != 0.0) {
+      ws.modes[i] = g > 0.0 ? SwitchTable::kSlipPositive : SwitchTable::kSlipNegative;
+      rec.description = fmt::format("reversed by an impact: slides at {:.6g}", g);
+    } else {
+      ws.modes[i] = SwitchTable::kStick;
+      evaluate();
+      const double hold = ws.lambda[e.lambda];
+      const double limit = e.mu_s * switches_.Normal(e, t, ws.slots.data());
+      ws.modes[i] = AfterZeroCrossing(hold, limit);
+      if (ws.modes[i] == SwitchTable::kStick) rec.kind = e.capacity ? "lock" : "stick";
+      rec.description = fmt::format("stopped by an impact: holding takes {:.6g}, static limit {:.6g}", hold, limit);
     }
     log.push_back(std::move(rec));
   }

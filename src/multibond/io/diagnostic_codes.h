@@ -77,7 +77,8 @@ enum class Outcome {
   X(kConstraintComplianceIgnored, "constraint.compliance_ignored", kWarning,                                                   \
     "compliances given to some ideal constraints but not to all: they are not used")                                           \
   X(kEventUnsupported, "event.unsupported", kModelError,                                                                       \
-    "a contact or friction on a vector bond, or on a flow that is not held at zero")                                           \
+    "a contact or friction on a vector bond, or on a flow that is not held at zero; end stops or friction on a joint that is "  \
+    "not revolute or prismatic")                                                                                               \
   X(kEventUnknownVariable, "event.unknown_variable", kModelError,                                                               \
     "a contact's gap or a friction's normal force that names no variable or signal of the model")                               \
   X(kEventDirection, "event.direction", kModelError,                                                                           \

@@ -419,27 +419,33 @@ void MechanismReader::ReadJointKind(const YAML::Node& j, const std::string& name
 
 void MechanismReader::ReadAxialSwitches(const YAML::Node& j, const std::string& name, const std::string& type,
                                          const Eigen::Vector3d& axis, mech::Joint& joint) {
-  if (type != "revolute") {
-    sink_.Error(Loc(j["limits"] ? j["limits"] : j["friction"]), name, "end stops and friction act on a revolute joint's free rotation",
-                "use type: revolute with its axis");
+  if (type != "revolute" && type != "prismatic") {
+    sink_.Error(codes::kEventUnsupported, Loc(j["limits"] ? j["limits"] : j["friction"]), name,
+                "end stops and friction act on a revolute or prismatic joint's free axis (the turn about it or the slide along it)",
+                "use type: revolute or type: prismatic with its axis");
     return;
   }
+  // A revolute joint's stops are angles and its friction a torque; a prismatic joint's, lengths and a force.
+  const bool slide = type == "prismatic";
+  const char* unit = slide ? "m" : "rad";
   joint.axis = axis;
   if (const YAML::Node l = j["limits"]) {
     CheckKeys(l, {"lower", "upper", "restitution"}, name);
     mech::Joint::Stops stops;
     stops.where = Loc(l);
     if (!l["lower"] || !l["upper"]) {
-      sink_.Error(Loc(l), name, "end stops need 'lower' and 'upper' (rad, from the assembled position)", "e.g. limits: {lower: -0.5, upper: 0.5}");
+      sink_.Error(Loc(l), name, fmt::format("end stops need 'lower' and 'upper' ({}, from the assembled position)", unit),
+                  slide ? "e.g. limits: {lower: -0.05, upper: 0.05}" : "e.g. limits: {lower: -0.5, upper: 0.5}");
       return;
     }
     stops.lower = Number(l["lower"], name, Env{});
     stops.upper = Number(l["upper"], name, Env{});
     if (!(stops.lower < 0.0 && stops.upper > 0.0))
       sink_.Error(codes::kParamRange, Loc(l), name,
-                  fmt::format("the assembled position must lie between the stops: lower < 0 < upper (got {:g} and {:g})", stops.lower,
-                              stops.upper),
-                  "angles are measured from the position the model starts in");
+                  fmt::format("the assembled position must lie between the stops: lower < 0 < upper (got {:g} and {:g}), in {} from it",
+                              stops.lower, stops.upper, unit),
+                  slide ? "slides are measured in m along the axis from the position the model starts in"
+                        : "angles are measured in rad from the position the model starts in");
     if (l["restitution"]) {
       stops.restitution = Number(l["restitution"], name, Env{});
       if (!(stops.restitution >= 0.0 && stops.restitution <= 1.0))
@@ -454,9 +460,10 @@ void MechanismReader::ReadAxialSwitches(const YAML::Node& j, const std::string& 
     if (IsPlainValue(f) || f.IsMap()) {
       fr.torque = ReadTimeFunction(f, name, Env{});
       if (fr.torque.is_constant() && !(fr.torque.value >= 0.0))
-        sink_.Error(codes::kParamRange, Loc(f), name, fmt::format("a friction torque must be >= 0 (got {:g})", fr.torque.value));
+        sink_.Error(codes::kParamRange, Loc(f), name,
+                    fmt::format("a friction {} must be >= 0 (got {:g})", slide ? "force [N]" : "torque [N m]", fr.torque.value));
     } else {
-      fr.signal = Str(f, name);  // a signal's name: a torque the model computes (a brake's command)
+      fr.signal = Str(f, name);  // a signal's name: a torque or force the model computes (a brake's command)
     }
     joint.friction = fr;
   }

@@ -48,7 +48,8 @@ class MechanismReader : public MechanismValues {
   /// couplings into `joint`.
   void ReadJointKind(const YAML::Node& j, const std::string& name, const std::string& type, const Eigen::Vector3d* axis,
                      mech::Joint& joint);
-  /// A revolute joint's `limits: {lower, upper, restitution}` and `friction: TORQUE` (docs/events.md).
+  /// A revolute or prismatic joint's `limits: {lower, upper, restitution}` (rad or m) and
+  /// `friction: TORQUE` (N m) or `friction: FORCE` (N) (docs/events.md).
   void ReadAxialSwitches(const YAML::Node& j, const std::string& name, const std::string& type, const Eigen::Vector3d& axis,
                          mech::Joint& joint);
   void ReadGears(const YAML::Node& gears, mech::Mechanism& m);

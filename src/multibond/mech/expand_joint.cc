@@ -25,7 +25,7 @@ void Expander::AddJoint(const Joint& j) {
       if (!j.parent_point.isZero()) AddLever(j.name + ".t_parent_arm", j.parent, j.parent_point, -1.0, sum);
     }
     AddFrameElement(j.name + ".t_frame", c.frame, j.parent, j.child, c.directions, j.where);
-    if ((Slides(j) && j.sensors) || SlidesAndTurns(j) || SlidesInPlane(j)) {
+    if (SlideSensed(j) || SlidesAndTurns(j) || SlidesInPlane(j)) {
       // The relative velocity of the joint's points, a 1-junction the slide sensor also reads.
       const std::string rel = j.name + ".t_rel";
       Element r = Make(rel, ElementKind::kOne, 3, "translation", j.where);

@@ -1,5 +1,5 @@
 /// \file
-/// Switching elements: the end stops and friction of revolute joints, gear backlash contacts.
+/// Switching elements: the end stops and friction of revolute and prismatic joints, gear backlash contacts.
 
 #include "multibond/mech/expander.h"
 
@@ -12,21 +12,24 @@
 namespace multibond::mech::detail {
 
 void Expander::AddAxialSwitches(const Joint& j) {
+  // A revolute joint's turn (rad, N m) or a prismatic joint's slide (m, N) along its free axis.
+  const bool slide = Slides(j);
+  const std::string domain = slide ? "translation" : "rotation";
   const std::string axial = j.name + ".axial";  // made by AddAxialSensor
   if (j.stops) {
-    const std::string angle = j.name + ".angle";
+    const std::string q = j.name + (slide ? ".slide" : ".angle");
     for (const bool lower : {true, false}) {
       const std::string stop = j.name + (lower ? ".lower" : ".upper");
-      Element c = MakeContact(stop, angle, lower ? 1.0 : -1.0, lower ? -j.stops->lower : j.stops->upper, j.stops->restitution,
+      Element c = MakeContact(stop, domain, q, lower ? 1.0 : -1.0, lower ? -j.stops->lower : j.stops->upper, j.stops->restitution,
                               j.stops->where);
       c.switching.limit = true;
       g_.Add(c);
-      if (lower) Bond(stop, axial, stop);  // its flow is the rate: the angle leaves the lower stop as it grows
+      if (lower) Bond(stop, axial, stop);  // its flow is the rate: q leaves the lower stop as it grows
       else Bond(axial, stop, stop);
     }
   }
   if (j.friction) {
-    Element f = Make(j.name + ".friction", ElementKind::kSf, 1, "rotation", j.friction->where);
+    Element f = Make(j.name + ".friction", ElementKind::kSf, 1, domain, j.friction->where);
     f.source.components = {TimeFunction::Constant(0.0)};
     f.constraint = true;
     f.switching.kind = Switching::Kind::kFriction;
@@ -57,9 +60,9 @@ std::string Expander::AddAngle(const std::string& name, const std::string& of, c
   return name;
 }
 
-Element Expander::MakeContact(const std::string& name, const std::string& gap, double scale, double offset, double restitution,
-                    const SourceLocation& where) {
-  Element c = Make(name, ElementKind::kSf, 1, "rotation", where);
+Element Expander::MakeContact(const std::string& name, const std::string& domain, const std::string& gap, double scale, double offset,
+                              double restitution, const SourceLocation& where) {
+  Element c = Make(name, ElementKind::kSf, 1, domain, where);
   c.source.components = {TimeFunction::Constant(0.0)};
   c.constraint = true;
   c.switching.kind = Switching::Kind::kContact;
@@ -80,8 +83,7 @@ void Expander::AddBacklashContacts(const std::string& from, const GearMesh& gm, 
   for (const bool positive : {true, false}) {
     const std::string flank = name + (positive ? ".flank_pos" : ".flank_neg");
     // gap h - q (the positive flank) or q + h
-    Element c = MakeContact(flank, q, positive ? -1.0 : 1.0, h, gm.restitution, gm.where);
-    c.domain = domain;
+    Element c = MakeContact(flank, domain, q, positive ? -1.0 : 1.0, h, gm.restitution, gm.where);
     // The mesh's K, if given, shares a load with redundant constraints as the rigid mesh's would.
     if (gm.stiffness > 0.0 && std::isfinite(gm.stiffness)) c.compliance = Eigen::VectorXd::Constant(1, arm * arm / gm.stiffness);
     g_.Add(c);

@@ -115,13 +115,16 @@ class Expander {
   bool HasIdealConstraints() const;
 
   /// A joint with an axis of rotation that needs its rate: a revolute, cylindrical, planar or
-  /// screw joint's sensor, end stops, friction, a screw's helix.
+  /// screw joint's sensor, a revolute joint's end stops or friction, a screw's helix.
   static bool Turns(const Joint& j) {
     const bool turning_kind = j.kind == "revolute" || j.kind == "cylindrical" || j.kind == "planar" || j.kind == "screw";
-    return ((turning_kind && j.sensors) || j.stops || j.friction || j.helix) && !j.axis.isZero();
+    return ((turning_kind && j.sensors) || ((j.stops || j.friction) && j.kind != "prismatic") || j.helix) && !j.axis.isZero();
   }
-  /// A prismatic joint with its axis (and a translation coupling): it gets the slide and speed sensor.
+  /// A prismatic joint with its axis (and a translation coupling): it gets the slide and speed
+  /// sensor, and its end stops and friction act along the axis.
   static bool Slides(const Joint& j) { return j.kind == "prismatic" && !j.axis.isZero(); }
+  /// A prismatic joint that needs its slide rate `<joint>.axial`: its sensor, end stops, friction.
+  static bool SlideSensed(const Joint& j) { return Slides(j) && (j.sensors || j.stops || j.friction); }
   /// A cylindrical or screw joint: the slide along its axis (junction `<joint>.t_axial`, besides
   /// the turn's `<joint>.axial`), for the sensor or the screw's helix.
   static bool SlidesAndTurns(const Joint& j) {
@@ -159,10 +162,11 @@ class Expander {
   /// slide: `<joint>.t_axial`).
   void AddAxialSensor(const Joint& j, const std::string& rel, const std::string& domain, const std::string& junction = {});
 
-  /// A revolute joint's end stops and friction (docs/events.md): the rotation rate about its
-  /// free axis (the 1-junction `<joint>.axial`), its angle (`<joint>.angle`, from the assembled
-  /// position), contacts at the stops (`<joint>.lower`, gap angle - lower; `<joint>.upper`, gap
-  /// upper - angle), a friction on the rate (`<joint>.friction`, a capacity).
+  /// A revolute or prismatic joint's end stops and friction (docs/events.md): the rate about or
+  /// along its free axis (the 1-junction `<joint>.axial`), its angle or slide (`<joint>.angle`
+  /// [rad] or `<joint>.slide` [m], from the assembled position), contacts at the stops
+  /// (`<joint>.lower`, gap q - lower; `<joint>.upper`, gap upper - q), a friction on the rate
+  /// (`<joint>.friction`, a capacity: a torque or a force), all in the joint's domain.
   void AddAxialSwitches(const Joint& j);
 
   /// An MTF carrying the lever arm of a body point: its flow is scale * (w x R point), into `sum`.
@@ -206,10 +210,10 @@ class Expander {
   /// An angle [rad], the integral of the flow of the 1-junction `of` from 0; returns its name.
   std::string AddAngle(const std::string& name, const std::string& of, const SourceLocation& where, const std::string& unit = "rad");
 
-  /// A rotational contact (docs/events.md) whose gap is scale * gap + offset; the caller bonds it
-  /// so that its flow is the separation velocity.
-  Element MakeContact(const std::string& name, const std::string& gap, double scale, double offset, double restitution,
-                      const SourceLocation& where);
+  /// A contact (docs/events.md) in `domain` ("rotation" or "translation") whose gap is
+  /// scale * gap + offset; the caller bonds it so that its flow is the separation velocity.
+  Element MakeContact(const std::string& name, const std::string& domain, const std::string& gap, double scale, double offset,
+                      double restitution, const SourceLocation& where);
 
   /// A rigid mesh with backlash: its deflection rate d (the 1-junction `<mesh>.mesh`) is free,
   /// its deflection q (`<mesh>.mesh.q`) the integral of d, and the two flanks are contacts

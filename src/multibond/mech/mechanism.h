@@ -79,10 +79,11 @@ struct Joint {
   Eigen::Vector3d child_point = Eigen::Vector3d::Zero();   ///< child frame, from its CoM
   std::optional<Coupling> translation, rotation;
   /// Revolute and prismatic joints: the free axis (parent frame), along which the joint sensor
-  /// measures (docs/mechanisms.md, "Joint sensors"). Revolute joints: the switching elements on the rotation
-  /// about it (docs/events.md): end stops at relative angles `lower` < `upper` [rad, from the
-  /// assembled position] with impacts of `restitution`, and a friction torque (Coulomb: sticks
-  /// while the torque needed is within it), a number, a time function or a signal's name.
+  /// measures (docs/mechanisms.md, "Joint sensors"). Revolute and prismatic joints: the switching
+  /// elements on the rotation about it or the slide along it (docs/events.md): end stops at
+  /// relative positions `lower` < `upper` [rad or m, from the assembled position] with impacts of
+  /// `restitution`, and a friction torque or force (Coulomb: sticks while the torque or force
+  /// needed is within it), a number, a time function or a signal's name.
   Eigen::Vector3d axis = Eigen::Vector3d::Zero();
   /// Universal joints: the child's yoke axis (child frame), perpendicular to the parent's `axis`
   /// at t = 0. The rotation coupling (one direction) then acts about n = (R_p axis) x (R_c
@@ -98,7 +99,7 @@ struct Joint {
   };
   std::optional<Stops> stops;
   struct Friction {
-    TimeFunction torque = TimeFunction::Constant(0.0);
+    TimeFunction torque = TimeFunction::Constant(0.0);  ///< N m (revolute) or N (prismatic)
     std::string signal;
     SourceLocation where;
   };
