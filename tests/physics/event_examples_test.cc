@@ -240,6 +240,26 @@ TEST(JointStops, TheBarStrikesItsStopAtTheSpeedEnergyGivesAndLosesOneMinusESquar
   EXPECT_LT(std::abs(run->rec.Last("energy.residual")), 1e-8);
 }
 
+// At rest against its stop (e = 0) the bar is in statics: the stop holds gravity's torque about
+// the pivot, m g (L/2) sin(30 deg - 0.2 rad) = 1.6845 N m, and the joint's moment J.M, all the
+// joint exerts on the bar, carries it (the coupling across the axis carries none); the moment
+// about the centre of mass, B.M, is zero with the pivot force's lever (a weight's worth of F up).
+TEST(JointStops, AtRestOnItsStopTheJointsMomentIsGravitysTorque) {
+  const auto run = Hinge("limits: {lower: -0.2, upper: 0.2, restitution: 0.0}", 1.0);
+  const double a = 0.02, L = 1.0, m = 2700 * a * a * L, g = 9.81;
+  const double torque = m * g * (L / 2) * std::sin(M_PI / 6 - 0.2);
+  EXPECT_NEAR(run->rec.Last("hinge.angle"), -0.2, 1e-9);
+  EXPECT_NEAR(run->rec.Last("hinge.M.y"), torque, 1e-9 * torque);
+  EXPECT_NEAR(run->rec.Last("hinge.M.x"), 0.0, 1e-12);
+  EXPECT_NEAR(run->rec.Last("hinge.M.z"), 0.0, 1e-12);
+  EXPECT_NEAR(run->rec.Last("hinge.F.z"), m * g, 1e-9 * m * g);
+  EXPECT_NEAR(run->rec.Last("bar.M.y"), 0.0, 1e-9 * torque);
+  // A brake holding the bar where it was released carries gravity's torque at 30 degrees.
+  const auto held = Hinge("friction: 3.0", 0.2);
+  const double at_30 = m * g * (L / 2) * std::sin(M_PI / 6);
+  EXPECT_NEAR(held->rec.Last("hinge.M.y"), at_30, 1e-9 * at_30);
+}
+
 TEST(JointFriction, ABrakeStrongerThanGravityHoldsTheBarExactlyAWeakerOneStopsIt) {
   // Gravity's torque about the pivot at 30 degrees: m g (L/2) sin 30 = 2.649 N m.
   const auto held = Hinge("friction: 3.0", 1.0);

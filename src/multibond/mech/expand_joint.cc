@@ -53,7 +53,9 @@ void Expander::AddJoint(const Joint& j) {
     AddCompliance(j.name + ".r_frame", j.name + ".r", c.stiffness, c.damping, "rotation", DirectionNames(c), j.where,
                   c.rigid);
     std::vector<std::pair<std::string, double>> moment = {{j.name + ".r_in.e", -1.0}};
-    if (j.helix) moment.push_back({j.name + ".axial.in.e", -1.0});  // the helix's torque on the child
+    // The helix's torque on the child, or the stops' and the friction's couple about the free
+    // axis: the joint's moment is all it exerts, not its coupling's alone.
+    if (j.helix || (Turns(j) && (j.stops || j.friction))) moment.push_back({j.name + ".axial.in.e", -1.0});
     AddOutput(SumOutput(j.name + ".M", std::move(moment), "N m", j.where));
   }
   if (Turns(j)) AddAxialSensor(j, RelativeOmega(j.child, j.parent), "rotation");
