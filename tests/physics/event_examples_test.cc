@@ -2,6 +2,7 @@
 // of a bouncing ball and its rest, a block that sticks exactly, stick-slip on a belt, a clutch
 // that locks; the energy account closing through every event.
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -275,6 +276,40 @@ TEST(JointFriction, ABrakeStrongerThanGravityHoldsTheBarExactlyAWeakerOneStopsIt
     }
   }
   EXPECT_LT(std::abs(slowed->rec.Last("energy.residual")), 1e-8);
+}
+
+// A brake's torque may be a model parameter (a name that is no signal's), and a sweep or --set
+// changes it: 3 N m holds the bar against gravity's 2.649 N m, 2 N m lets it swing and lock.
+TEST(JointFriction, ABrakesTorqueMayBeAParameter) {
+  const std::string yaml = R"(
+model: hinge
+gravity: [0, 0, -9.81]
+parameters:
+  brake: {value: 3.0, description: "the brake's Coulomb torque [N m]"}
+bodies:
+  bar: {shape: {box: {size: [0.02, 0.02, 1.0]}}, density: 2700,
+        position: [-0.25, 0, -0.4330127018922193], orientation: {axis: y, degrees: 30}}
+joints:
+  hinge: {type: revolute, parent: ground, child: bar, at: [0, 0, 0], child_at: [0, 0, 0.5], axis: y, rigid: true, friction: brake}
+)";
+  for (const double brake : {3.0, 2.0}) {
+    SCOPED_TRACE(brake);
+    LoadedModel lm = LoadModelString(yaml, "<brake>", {}, {ParameterOverride{"brake", fmt::format("{}", brake)}});
+    const auto model = CompiledModel::Compile(std::move(lm.graph), lm.compile);
+    RunOptions o;
+    o.t_end = 2.0;
+    o.dt = 1e-3;
+    o.integrator.rtol = 1e-10;
+    o.integrator.atol = 1e-12;
+    RecordingObserver rec;
+    ASSERT_EQ(Simulate(*model, o, rec).status, RunStatus::kOk);
+    if (brake > 2.649) {
+      EXPECT_TRUE(rec.events().empty());
+      EXPECT_LE(std::abs(rec.Last("bar.h.y")), 1e-12);
+    } else {
+      EXPECT_EQ(OfKind(rec, "lock").size(), 1u);
+    }
+  }
 }
 
 }  // namespace

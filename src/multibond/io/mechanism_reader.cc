@@ -457,7 +457,8 @@ void MechanismReader::ReadAxialSwitches(const YAML::Node& j, const std::string& 
   if (const YAML::Node f = j["friction"]) {
     mech::Joint::Friction fr;
     fr.where = Loc(f);
-    if (IsPlainValue(f) || f.IsMap()) {
+    // A number, a time function or a model parameter's name; any other name is a signal's.
+    if (IsPlainValue(f) || f.IsMap() || (f.IsScalar() && cx_.FindParameter(f.Scalar()))) {
       fr.torque = ReadTimeFunction(f, name, Env{});
       if (fr.torque.is_constant() && !(fr.torque.value >= 0.0))
         sink_.Error(codes::kParamRange, Loc(f), name,
