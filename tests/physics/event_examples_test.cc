@@ -190,11 +190,14 @@ TEST(DifferentialBacklash, TeethCrossThePlayAtEveryReversalAndTheEnergyAccountCl
   EXPECT_LT(worst, 1e-8);
 }
 
-/// The bar of docs/mechanisms/joint.yaml, on a rigid revolute joint with `extra` (limits or a friction torque).
-std::unique_ptr<Run> Hinge(const std::string& extra, double t_end) {
+/// The bar of docs/mechanisms/joint.yaml, on a rigid revolute joint with `extra` (limits or a
+/// friction torque), the model's `parameters` section given, and `overrides` of them (as --set).
+std::unique_ptr<Run> Hinge(const std::string& extra, double t_end, const std::string& parameters = "",
+                           const std::vector<ParameterOverride>& overrides = {}) {
   const std::string yaml = R"(
 model: hinge
 gravity: [0, 0, -9.81]
+)" + parameters + R"(
 bodies:
   bar: {shape: {box: {size: [0.02, 0.02, 1.0]}}, density: 2700,
         position: [-0.25, 0, -0.4330127018922193], orientation: {axis: y, degrees: 30}}
@@ -202,7 +205,7 @@ joints:
   hinge: {type: revolute, parent: ground, child: bar, at: [0, 0, 0], child_at: [0, 0, 0.5], axis: y, rigid: true, )" +
                            extra + R"(}
 )";
-  LoadedModel lm = LoadModelString(yaml);
+  LoadedModel lm = LoadModelString(yaml, "<string>", {}, overrides);
   auto run = std::make_unique<Run>();
   run->model = CompiledModel::Compile(std::move(lm.graph), lm.compile);
   RunOptions o;
@@ -281,33 +284,15 @@ TEST(JointFriction, ABrakeStrongerThanGravityHoldsTheBarExactlyAWeakerOneStopsIt
 // A brake's torque may be a model parameter (a name that is no signal's), and a sweep or --set
 // changes it: 3 N m holds the bar against gravity's 2.649 N m, 2 N m lets it swing and lock.
 TEST(JointFriction, ABrakesTorqueMayBeAParameter) {
-  const std::string yaml = R"(
-model: hinge
-gravity: [0, 0, -9.81]
-parameters:
-  brake: {value: 3.0, description: "the brake's Coulomb torque [N m]"}
-bodies:
-  bar: {shape: {box: {size: [0.02, 0.02, 1.0]}}, density: 2700,
-        position: [-0.25, 0, -0.4330127018922193], orientation: {axis: y, degrees: 30}}
-joints:
-  hinge: {type: revolute, parent: ground, child: bar, at: [0, 0, 0], child_at: [0, 0, 0.5], axis: y, rigid: true, friction: brake}
-)";
+  const std::string parameters = "parameters:\n  brake: {value: 3.0, description: \"the brake's Coulomb torque [N m]\"}\n";
   for (const double brake : {3.0, 2.0}) {
     SCOPED_TRACE(brake);
-    LoadedModel lm = LoadModelString(yaml, "<brake>", {}, {ParameterOverride{"brake", fmt::format("{}", brake)}});
-    const auto model = CompiledModel::Compile(std::move(lm.graph), lm.compile);
-    RunOptions o;
-    o.t_end = 2.0;
-    o.dt = 1e-3;
-    o.integrator.rtol = 1e-10;
-    o.integrator.atol = 1e-12;
-    RecordingObserver rec;
-    ASSERT_EQ(Simulate(*model, o, rec).status, RunStatus::kOk);
+    const auto run = Hinge("friction: brake", 2.0, parameters, {ParameterOverride{"brake", fmt::format("{}", brake)}});
     if (brake > 2.649) {
-      EXPECT_TRUE(rec.events().empty());
-      EXPECT_LE(std::abs(rec.Last("bar.h.y")), 1e-12);
+      EXPECT_TRUE(run->rec.events().empty());
+      EXPECT_LE(std::abs(run->rec.Last("bar.h.y")), 1e-12);
     } else {
-      EXPECT_EQ(OfKind(rec, "lock").size(), 1u);
+      EXPECT_EQ(OfKind(run->rec, "lock").size(), 1u);
     }
   }
 }
