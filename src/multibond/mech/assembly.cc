@@ -379,9 +379,11 @@ std::vector<std::string> Violations(const std::vector<double>& v, const std::vec
   return out;
 }
 
-/// A `mech.assembly` error at the worst row: the violated rows as its details.
-void Refuse(DiagnosticSink& sink, const AssemblySpec& spec, const std::string& message, const std::vector<double>& v,
-            const std::vector<Label>& labels, std::string hint) {
+/// When a row of `v` misses by more than the tolerance, a `mech.assembly` error at the worst row
+/// (the violated rows as its details), and true.
+bool Refused(DiagnosticSink& sink, const AssemblySpec& spec, const std::string& message, const std::vector<double>& v,
+             const std::vector<Label>& labels, std::string hint) {
+  if (!(MaxAbs(v) > spec.tolerance)) return false;
   size_t worst = 0;
   std::vector<std::string> details = Violations(v, labels, spec.tolerance, &worst);
   Diagnostic d;
@@ -392,6 +394,7 @@ void Refuse(DiagnosticSink& sink, const AssemblySpec& spec, const std::string& m
   if (details.size() > 1) d.details.assign(details.begin() + 1, details.begin() + static_cast<std::ptrdiff_t>(std::min<size_t>(details.size(), 6)));
   d.hint = std::move(hint);
   sink.Add(std::move(d));
+  return true;
 }
 
 }  // namespace
@@ -456,20 +459,15 @@ AssemblyReport Assemble(Mechanism& m, const AssemblySpec& spec, DiagnosticSink& 
     rows = std::move(next);
   }
   report.position_residual = std::max(MaxAbs(rows.joint), MaxAbs(rows.given));
-  if (MaxAbs(rows.given) > spec.tolerance) {
-    Refuse(sink, spec, "no assembly: the given coordinates contradict each other", rows.given, given_labels,
-           "give each coordinate once: a body's position or orientation fixes the joint angles and slides that reach it");
+  if (Refused(sink, spec, "no assembly: the given coordinates contradict each other", rows.given, given_labels,
+              "give each coordinate once: a body's position or orientation fixes the joint angles and slides that reach it") ||
+      Refused(sink, spec,
+              fmt::format("no assembly satisfies the joints{} (after {} iterations)", full.given.empty() ? "" : " at the given coordinates",
+                          report.iterations),
+              rows.joint, joint_labels,
+              "check the joints' points ('at', 'child_at') against the links' lengths, and the given coordinates (a crank longer "
+              "than its rod allows cannot reach every angle)"))
     return report;
-  }
-  if (MaxAbs(rows.joint) > spec.tolerance) {
-    Refuse(sink, spec,
-           fmt::format("no assembly satisfies the joints{} (after {} iterations)", full.given.empty() ? "" : " at the given coordinates",
-                       report.iterations),
-           rows.joint, joint_labels,
-           "check the joints' points ('at', 'child_at') against the links' lengths, and the given coordinates (a crank longer "
-           "than its rod allows cannot reach every angle)");
-    return report;
-  }
 
   // --- velocity level: one linear least-squares problem --------------------------------------
   Mechanism assembled = m;
@@ -505,16 +503,11 @@ AssemblyReport Assemble(Mechanism& m, const AssemblySpec& spec, DiagnosticSink& 
   vel = Rows{};
   as.VelocityRows(pose, u, vel);
   report.velocity_residual = std::max(MaxAbs(vel.joint), MaxAbs(vel.given));
-  if (MaxAbs(vel.given) > spec.tolerance) {
-    Refuse(sink, spec, "no assembly: the given speeds contradict each other", vel.given, vgiven_labels,
-           "give each rate once: an ideal velocity drive's speed at t = 0 is given too");
+  if (Refused(sink, spec, "no assembly: the given speeds contradict each other", vel.given, vgiven_labels,
+              "give each rate once: an ideal velocity drive's speed at t = 0 is given too") ||
+      Refused(sink, spec, "no assembly: the given speeds contradict the joints", vel.joint, vjoint_labels,
+              "a mechanism that cannot move cannot take a speed: check the given rates and the ideal drives' speeds at t = 0"))
     return report;
-  }
-  if (MaxAbs(vel.joint) > spec.tolerance) {
-    Refuse(sink, spec, "no assembly: the given speeds contradict the joints", vel.joint, vjoint_labels,
-           "a mechanism that cannot move cannot take a speed: check the given rates and the ideal drives' speeds at t = 0");
-    return report;
-  }
 
   // --- the result and what moved --------------------------------------------------------------
   std::vector<std::string> lines;

@@ -5,6 +5,7 @@
 #include <limits>
 #include <map>
 #include <stdexcept>
+#include <utility>
 
 #include <fmt/format.h>
 
@@ -207,28 +208,43 @@ void JointCoordinateSystem::BuildPattern(const JacobianPattern& mp) {
       for (int k = 0; k < nb; ++k)
         if (below[i][k]) below[p][k] = true;
   }
-  auto rate_rows_of = [&](int body, std::vector<bool>& rows) {  // S u and d', or d'
-    const Body& b = bodies_[body];
-    const int first = b.rotates() ? 6 : 3;
-    std::fill(rows.begin() + b.y + first, rows.begin() + b.y + first + (b.rotates() ? 6 : 3), true);
+  // A set of y' rows, gathered by marking (no n x n table: a large tree's pattern is sparse).
+  std::vector<char> marked(n_, 0);
+  std::vector<int> rows;
+  auto mark = [&](int r) {
+    if (!marked[r]) marked[r] = 1, rows.push_back(r);
   };
-  auto add_reached = [&](int x_column, std::vector<bool>& rows) {  // the y' rows of one x column
+  auto take_rows = [&] {  // the rows marked, sorted; the marks cleared
+    std::sort(rows.begin(), rows.end());
+    for (const int r : rows) marked[r] = 0;
+    return std::exchange(rows, {});
+  };
+  auto rate_rows_of = [&](int body) {  // S u and d', or d'
+    const Body& b = bodies_[body];
+    const int first = b.y + (b.rotates() ? 6 : 3);
+    for (int r = first; r < first + (b.rotates() ? 6 : 3); ++r) mark(r);
+  };
+  auto add_reached = [&](int x_column) {  // the y' rows of one x column
     for (int e = mp.col_start[x_column]; e < mp.col_start[x_column + 1]; ++e) {
       const int r = mp.row_index[e];
       if (y_of_x[r] >= 0) {
-        rows[y_of_x[r]] = true;
+        mark(y_of_x[r]);
       } else if (kind_of_x[r] & (kMomentum | kSpin)) {
         const int owner = body_of_x[r];
         for (int k = 0; k < nb; ++k)
-          if (k == owner || bodies_[k].parent == owner) rate_rows_of(k, rows);
+          if (k == owner || bodies_[k].parent == owner) rate_rows_of(k);
       }
     }
   };
+  std::vector<std::vector<int>> x_columns_of(nb);  // each body's own x columns
+  for (int c = 0; c < nx; ++c)
+    if (body_of_x[c] >= 0) x_columns_of[body_of_x[c]].push_back(c);
   // The y' rows of each group of a body's coordinates (all columns of a group alike).
   struct Group {
     int first, size, reaches;
   };
-  std::vector<std::vector<bool>> column_rows(n_);
+  std::vector<std::vector<int>> group_rows;
+  std::vector<int> group_of(n_, -1);  // a body coordinate's group in group_rows
   for (int i = 0; i < nb; ++i) {
     const Body& b = bodies_[i];
     // The offset moves velocities only under a turning parent (w_P x R_P d).
@@ -237,26 +253,29 @@ void JointCoordinateSystem::BuildPattern(const JacobianPattern& mp) {
         b.rotates() ? std::vector<Group>{{0, 3, kR | kPosition | kMomentum | kSpin}, {3, 3, offset}, {6, 3, kMomentum | kSpin}, {9, 3, kMomentum}}
                     : std::vector<Group>{{0, 3, offset}, {3, 3, kMomentum}};
     for (const Group& group : groups) {
-      std::vector<bool> rows(n_, false);
-      std::fill(rows.begin() + b.y, rows.begin() + b.y + (b.rotates() ? 12 : 6), true);
-      for (int k = 0; k < nb; ++k)
-        if (below[i][k]) rate_rows_of(k, rows);
-      for (int c = 0; c < nx; ++c)
-        if (body_of_x[c] >= 0 && below[i][body_of_x[c]] && (kind_of_x[c] & group.reaches)) add_reached(c, rows);
-      for (int k = 0; k < group.size; ++k) column_rows[b.y + group.first + k] = rows;
+      for (int r = b.y; r < b.y + (b.rotates() ? 12 : 6); ++r) mark(r);
+      for (int k = 0; k < nb; ++k) {
+        if (!below[i][k]) continue;
+        rate_rows_of(k);
+        for (const int c : x_columns_of[k])
+          if (kind_of_x[c] & group.reaches) add_reached(c);
+      }
+      for (int k = 0; k < group.size; ++k) group_of[b.y + group.first + k] = static_cast<int>(group_rows.size());
+      group_rows.push_back(take_rows());
     }
   }
   pattern_.n = n_;
   pattern_.col_start.assign(1, 0);
   for (int j = 0; j < n_; ++j) {
-    std::vector<bool>& rows = column_rows[j];
-    if (rows.empty()) {  // an other state
-      rows.assign(n_, false);
-      add_reached(x_of_y[j], rows);
+    if (group_of[j] >= 0) {  // a body's coordinate: its group's rows hold its own
+      const std::vector<int>& own = group_rows[group_of[j]];
+      pattern_.row_index.insert(pattern_.row_index.end(), own.begin(), own.end());
+    } else {  // an other state: its own row and those its x column reaches
+      mark(j);
+      add_reached(x_of_y[j]);
+      const std::vector<int> own = take_rows();
+      pattern_.row_index.insert(pattern_.row_index.end(), own.begin(), own.end());
     }
-    rows[j] = true;
-    for (int r = 0; r < n_; ++r)
-      if (rows[r]) pattern_.row_index.push_back(r);
     pattern_.col_start.push_back(static_cast<int>(pattern_.row_index.size()));
   }
 }
