@@ -11,3 +11,4 @@ multibond_test(compile/constraint_solver_test.cc LIBS multibond::compile LABELS 
 multibond_test(compile/state_layout_test.cc LIBS multibond::compile LABELS unit)
 multibond_test(compile/energy_account_test.cc LIBS multibond::compile LABELS unit)
 multibond_test(compile/constraint_formulas_test.cc LIBS multibond::analysis multibond::sim LABELS unit)
+multibond_test(compile/kinks_test.cc LIBS multibond::compile LABELS unit)

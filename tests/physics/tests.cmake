@@ -10,3 +10,4 @@ multibond_test(physics/linear_examples_test.cc LIBS multibond::analysis LABELS p
 multibond_test(physics/event_examples_test.cc LIBS multibond::io LABELS physics)
 multibond_test(physics/gravity_potential_test.cc LIBS multibond::io LABELS physics)
 multibond_test(physics/ideal_drive_test.cc LIBS multibond::sim multibond::mech LABELS physics)
+multibond_test(physics/formula_events_test.cc LIBS multibond::io LABELS physics)

@@ -27,6 +27,7 @@
 #include "multibond/causality/causality.h"
 #include "multibond/compile/constraint_solver.h"
 #include "multibond/compile/energy_account.h"
+#include "multibond/compile/kinks.h"
 #include "multibond/compile/operations.h"
 #include "multibond/compile/state_layout.h"
 #include "multibond/compile/switching.h"
@@ -83,6 +84,9 @@ struct Workspace {
   /// part of the run's state rather than scratch, kept here because every evaluation reads it
   /// and the simulator changes it only at events (docs/events.md).
   std::vector<signed char> modes;
+  /// Formulas with kinks only (empty otherwise): dx/dt of the evaluation behind their event
+  /// functions (CompiledModel::CalcEventFunctions).
+  std::vector<double> event_xdot;
   /// Algebraic loops only (empty otherwise): the affine map of the torn variables and its solve.
   struct TearScratch {
     Eigen::MatrixXd a;  ///< A, then I - A
@@ -245,10 +249,19 @@ class CompiledModel {
 
   // --- switching elements and events (compile/switching.cc; docs/events.md) ---
   const SwitchTable& switches() const { return switches_; }
-  /// The event functions of the switching elements (SwitchTable::Roots): 2 per element.
-  int num_event_functions() const { return switches_.num_roots(); }
+  /// The event functions: the switching elements' (SwitchTable::Roots, 2 per element, events
+  /// where they cross downwards), then the switching functions of formulas that are not of time
+  /// alone (KinkTable::Roots, events where they cross either way).
+  int num_event_functions() const { return switches_.num_roots() + kinks_.num_roots(); }
+  int num_switch_event_functions() const { return switches_.num_roots(); }
   /// Their values at (t, x) in the modes of `ws` (an evaluation fills ws).
   void CalcEventFunctions(double t, const double* x, Workspace& ws, double* g) const;
+  /// The kinks and switches of formulas (compile/kinks.h; docs/events.md).
+  const KinkTable& kinks() const { return kinks_; }
+  /// The kinks whose switching function is zero (within 1e-12) at (t, x), each described (the
+  /// formula, where it is, the switching function): an operating point on a kink, where a
+  /// tangent is the mean of the one-sided slopes. Evaluates ws at (t, x); allocates.
+  std::vector<std::string> KinksAt(double t, const double* x, Workspace& ws) const;
   /// The modes at the start: contacts open where their gap is > 0; frictions slip where their
   /// relative flow is not zero, else stick if the static limit holds.
   void InitializeModes(double t, double* x, Workspace& ws) const;
@@ -257,9 +270,10 @@ class CompiledModel {
   /// dissipation state), appended to `log`. `rest_time`: a rebound whose flight would be
   /// shorter stays in contact (impacts accumulating). x is left on the constraints that hold.
   void HandleEvents(double t, double* x, Workspace& ws, const int* roots, double rest_time, std::vector<EventRecord>& log) const;
-  /// The times in (t0, t1) where a source or a friction's normal force jumps or kinks (time
-  /// events), ascending, with the element's name.
-  std::vector<std::pair<double, std::string>> TimeEvents(double t0, double t1) const;
+  /// The times in (t0, t1) where a source or a friction's normal force jumps or kinks, or a
+  /// formula's switching function of time alone changes sign (sampled at most `resolution`
+  /// apart, KinkTable::TimeEvents): the time events, ascending.
+  std::vector<TimeEvent> TimeEvents(double t0, double t1, double resolution) const;
 
   // --- directional derivatives (compile/tangent.cc), for the linearisation ---
   /// One component of a source (Se, Sf, a mechanism's drive): an input of the linear model.
@@ -351,6 +365,10 @@ class CompiledModel {
   /// of formulas' names finds; CompileFormula appends it to programs_ and returns its index.
   expr::Program CompileFormulaProgram(const expr::NodePtr& root, const FormulaScope& scope) const;
   int CompileFormula(const expr::NodePtr& root, const FormulaScope& scope);
+  /// The switching functions of the tree's kinks into kinks_ (compile/kinks.h).
+  void CollectKinks(const expr::NodePtr& root, const FormulaScope& scope);
+  /// A name of the engine's trees ("#x3", "#w12") as the variable it is, for messages.
+  std::string InternalName(const std::string& internal) const;
   /// The instruction that computes one slot class from formulas, with the classes it reads.
   struct FormulaInstr {
     plan::Instr in;
@@ -515,6 +533,7 @@ class CompiledModel {
   double ConstraintRate(double t, const double* x, Workspace& ws, int lambda) const;
   double StoredEnergyTotal(const double* x) const;
   SwitchTable switches_;
+  KinkTable kinks_;
 
   /// Ideal constraints: their declarations, tables and solver (compile/constraint_solver.h);
   /// empty without constraints. Its generated code (GenerateCode) is its own.

@@ -42,6 +42,7 @@ Workspace CompiledModel::MakeWorkspace() const {
   }
   if (!constraints_.empty()) constraints_.SizeScratch(ws, num_slots_, num_moduli_, num_states());
   ws.modes.assign(switches_.size(), SwitchTable::kOpen);
+  if (kinks_.num_roots() > 0) ws.event_xdot.assign(num_states(), 0.0);
   return ws;
 }
 

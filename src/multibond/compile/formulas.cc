@@ -171,7 +171,38 @@ expr::Program CompiledModel::CompileFormulaProgram(const NodePtr& root, const Fo
 
 int CompiledModel::CompileFormula(const NodePtr& root, const FormulaScope& scope) {
   programs_.push_back(CompileFormulaProgram(root, scope));
+  CollectKinks(root, scope);
   return static_cast<int>(programs_.size()) - 1;
+}
+
+std::string CompiledModel::InternalName(const std::string& internal) const {
+  const int offset = std::stoi(internal.substr(2));
+  if (internal[1] == 'x') return layout_.state_names()[offset];
+  const int c = class_of_slot_[offset];
+  return c >= 0 ? class_names_[c] : "u";  // the unknown of a resistor's law solved backwards
+}
+
+void CompiledModel::CollectKinks(const NodePtr& root, const FormulaScope& scope) {
+  auto name_of = [this](const std::string& internal) { return InternalName(internal); };
+  std::string owner;
+  if (scope.element >= 0) {
+    owner = graph_.element(scope.element).name;
+  } else {  // "the signal w_ref", "the input of pid": the last word
+    owner = scope.what.substr(scope.what.rfind(' ') + 1);
+  }
+  const std::function<void(const Node&)> walk = [&](const Node& n) {
+    for (const NodePtr& a : n.args) walk(*a);
+    for (const NodePtr& g : SwitchingFunctions(n)) {
+      KinkTable::Kink k;
+      k.owner = owner;
+      k.what = scope.what;
+      k.formula = scope.formula && root == scope.formula->root ? scope.formula->text : Readable(*root, name_of);
+      k.function = Readable(*g, name_of);
+      k.program = CompileFormulaProgram(g, scope);
+      kinks_.Add(std::move(k));
+    }
+  };
+  walk(*root);
 }
 
 CompiledModel::FormulaInstr CompiledModel::MakeFormulaInstr(int element, int out_class, int first, int n) {

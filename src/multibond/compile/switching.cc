@@ -185,12 +185,17 @@ void CompiledModel::PrescribeSwitches(double t, Workspace& ws) const {
 }
 
 void CompiledModel::CalcEventFunctions(double t, const double* x, Workspace& ws, double* g) const {
-  if (switches_.empty()) return;
-  std::vector<double>& xdot = ws.con.xdot;
-  CalcDerivatives(t, x, xdot.data(), ws);
-  std::vector<double>& values = ws.con.rhs;  // free after the solve
-  constraints_.Values(t, ws.slots.data(), values.data());
-  switches_.Roots(t, x, ws.slots.data(), ws.lambda.data(), values.data(), ws.modes.data(), g);
+  if (num_event_functions() == 0) return;
+  if (switches_.empty()) {
+    CalcDerivatives(t, x, ws.event_xdot.data(), ws);
+  } else {
+    std::vector<double>& xdot = ws.con.xdot;
+    CalcDerivatives(t, x, xdot.data(), ws);
+    std::vector<double>& values = ws.con.rhs;  // free after the solve
+    constraints_.Values(t, ws.slots.data(), values.data());
+    switches_.Roots(t, x, ws.slots.data(), ws.lambda.data(), values.data(), ws.modes.data(), g);
+  }
+  kinks_.Roots(t, x, ws.slots.data(), g + switches_.num_roots());
 }
 
 namespace {
@@ -364,16 +369,32 @@ void CompiledModel::HandleEvents(double t, double* x, Workspace& ws, const int* 
   Project(t, x, ws);  // the constraints that now hold, exactly
 }
 
-std::vector<std::pair<double, std::string>> CompiledModel::TimeEvents(double t0, double t1) const {
-  std::vector<std::pair<double, std::string>> out = switches_.TimeEvents(t0, t1);
+std::vector<std::string> CompiledModel::KinksAt(double t, const double* x, Workspace& ws) const {
+  std::vector<std::string> out;
+  if (kinks_.empty()) return out;
+  std::vector<double> xdot(num_states());
+  CalcDerivatives(t, x, xdot.data(), ws);
+  constexpr double kTie = 1e-12;
+  for (const KinkTable::Kink& k : kinks_.kinks())
+    if (std::abs(expr::Run(k.program, t, x, ws.slots.data())) <= kTie)
+      out.push_back(fmt::format("`{}` in {} ({} = 0 there)", k.formula, k.what, k.function));
+  return out;
+}
+
+std::vector<TimeEvent> CompiledModel::TimeEvents(double t0, double t1, double resolution) const {
+  std::vector<std::pair<double, std::string>> jumps = switches_.TimeEvents(t0, t1);
   for (const Instr& in : plan_) {
     if (in.op != Op::kSource) continue;
     for (int k = 0; k < in.n; ++k)
       for (const double b : source_fns_[in.coef + k].Breakpoints())
-        if (b > t0 && b < t1) out.push_back({b, graph_.element(in.element).name});
+        if (b > t0 && b < t1) jumps.push_back({b, graph_.element(in.element).name});
   }
-  std::sort(out.begin(), out.end());
-  out.erase(std::unique(out.begin(), out.end()), out.end());
+  std::sort(jumps.begin(), jumps.end());
+  jumps.erase(std::unique(jumps.begin(), jumps.end()), jumps.end());
+  std::vector<TimeEvent> out = kinks_.TimeEvents(t0, t1, resolution);
+  for (auto& [t, element] : jumps)
+    out.push_back({t, "time", std::move(element), "a source's value or slope jumps: the integration restarts"});
+  std::stable_sort(out.begin(), out.end());
   return out;
 }
 

@@ -37,10 +37,15 @@ class OdeSystem {
   /// share no row, and factorise it as a sparse matrix.
   virtual const JacobianPattern* jacobian_pattern() const { return nullptr; }
   /// Event functions (docs/events.md): the integrator stops where one of them crosses zero
-  /// downwards (from > 0 to <= 0), located to its time tolerance on the step's interpolant.
+  /// (downwards, from > 0 to <= 0, unless RootDirections says either way), located to its time
+  /// tolerance on the step's interpolant.
   virtual int num_roots() const { return 0; }
   /// The num_roots() event functions at (t, x) into g. Must not allocate.
   virtual void CalcRoots(double /*t*/, const double* /*x*/, double* /*g*/) {}
+  /// Which crossings of each event function are events (num_roots() entries): -1 from > 0 to
+  /// <= 0 only (the default), 0 either way (a formula's switching function, whose branch changes
+  /// at a crossing in either direction).
+  virtual void RootDirections(int* direction) const { std::fill(direction, direction + num_roots(), -1); }
 };
 
 }  // namespace multibond

@@ -474,7 +474,9 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   // where the integration stops exactly and restarts) and the switching elements' event
   // functions (located by the integrator's root finding; the model changes modes and applies
   // impacts; the integration restarts).
-  const std::vector<std::pair<double, std::string>> time_events = model.TimeEvents(options.t_start, options.t_end);
+  // A formula's switching function of time alone is sampled at least four times per output
+  // interval (KinkTable::TimeEvents).
+  const std::vector<TimeEvent> time_events = model.TimeEvents(options.t_start, options.t_end, options.dt / 4);
   size_t next_time_event = 0;
   std::vector<int> roots(chart ? 0 : model.num_event_functions());
   const double span = options.t_end - options.t_start;
@@ -500,17 +502,30 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
       return;
     }
     while (true) {
-      double target = tout;
+      // Never a step past the next time event: up to it, or to tout and no further than it.
+      double target = tout, stop_time = std::numeric_limits<double>::infinity();
       bool stop = false;
-      if (next_time_event < time_events.size() && time_events[next_time_event].first <= tout) {
-        target = time_events[next_time_event].first;
-        stop = true;
+      if (next_time_event < time_events.size()) {
+        stop_time = time_events[next_time_event].time;
+        stop = stop_time <= tout;
+        if (stop) target = stop_time;
       }
-      const double reached = integrator->AdvanceUntil(target, stop, advanced.data(), roots.empty() ? nullptr : roots.data());
+      system.set_time_event(stop_time);
+      const double reached = integrator->AdvanceUntil(target, stop_time, advanced.data(), roots.empty() ? nullptr : roots.data());
       if (std::any_of(roots.begin(), roots.end(), [](int r) { return r != 0; })) {
-        log.clear();
-        model.HandleEvents(reached, x.data(), ws, roots.data(), rest_time, log);
-        for (const EventRecord& r : log) record(r);
+        const auto switched = roots.begin() + model.num_switch_event_functions();
+        if (std::any_of(roots.begin(), switched, [](int r) { return r != 0; })) {
+          log.clear();
+          model.HandleEvents(reached, x.data(), ws, roots.data(), rest_time, log);
+          for (const EventRecord& r : log) record(r);
+        }
+        // A formula's switching function changed sign: its branch changed, nothing jumps; the
+        // integration restarts there (below).
+        for (int r = 0; r < model.kinks().num_roots(); ++r)
+          if (roots[static_cast<size_t>(model.num_switch_event_functions() + r)] != 0) {
+            const KinkTable::Kink& k = model.kinks().root_kink(r);
+            record({reached, "kink", k.owner, KinkTable::Describe(k)});
+          }
         // A restart estimates its first step anew, small: a first step as long as the last could
         // start and end on the same side of an event function (a whole rebound) and miss it.
         carried.AddCounts(integrator->stats());  // a restart zeroes the integrator's counters
@@ -518,8 +533,10 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
         continue;
       }
       if (stop) {
-        for (; next_time_event < time_events.size() && time_events[next_time_event].first == target; ++next_time_event)
-          record({target, "time", time_events[next_time_event].second, "a source's value or slope jumps: the integration restarts"});
+        for (; next_time_event < time_events.size() && time_events[next_time_event].time == target; ++next_time_event) {
+          const TimeEvent& e = time_events[next_time_event];
+          record({target, e.kind, e.element, e.description});
+        }
         if (chart) chart->ToModel(y.data(), x.data());
         model.Project(target, x.data(), ws);  // the constraints that hold at the restart (new targets)
         if (chart) chart->FromModel(x.data(), y.data());

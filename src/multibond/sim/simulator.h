@@ -6,7 +6,9 @@
 /// they end the run with a status, and the samples computed until then have been delivered.
 
 #include <atomic>
+#include <cmath>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <stdexcept>
@@ -34,6 +36,7 @@ class ModelSystem : public OdeSystem {
   int num_states() const override { return model_.num_states(); }
   void CalcDerivatives(double t, const double* x, double* xdot) override {
     if (stop_ && stop_->load(std::memory_order_relaxed)) throw RunInterrupted();
+    t = LeftOfTimeEvent(t);
     model_.CalcStateDerivatives(t, x, xdot, ws_);
     if (model_.has_formulas()) CheckFormulas(t, x, xdot);
   }
@@ -43,7 +46,22 @@ class ModelSystem : public OdeSystem {
   const JacobianPattern* jacobian_pattern() const override { return model_.jacobian_pattern(); }
   /// The switching elements' event functions (docs/events.md).
   int num_roots() const override { return model_.num_event_functions(); }
-  void CalcRoots(double t, const double* x, double* g) override { model_.CalcEventFunctions(t, x, ws_, g); }
+  void CalcRoots(double t, const double* x, double* g) override { model_.CalcEventFunctions(LeftOfTimeEvent(t), x, ws_, g); }
+  /// The time event the integration is heading for (infinity: none). An evaluation at that very
+  /// time (the last stage of the step that ends there, an implicit method's end point) is made
+  /// just before it: a step up to a source's jump integrates the value before the jump, and the
+  /// value after it counts from the restart on. Without it the last step before a voltage step
+  /// at 0.3 s saw 1 V in its last stage (u_C 1.7e-2 V too high under rk4 at a step of 0.01 s).
+  void set_time_event(double t) {
+    time_event_ = t;
+    left_of_event_ = std::nextafter(t, -std::numeric_limits<double>::infinity());
+  }
+  /// The switching elements' events are downward crossings; a formula's kink changes branch
+  /// at a crossing either way.
+  void RootDirections(int* direction) const override {
+    const int n = model_.num_event_functions(), switching = model_.num_switch_event_functions();
+    for (int i = 0; i < n; ++i) direction[i] = i < switching ? -1 : 0;
+  }
   Workspace& workspace() { return ws_; }
   /// Thrown when a formula gives a value that is not finite from finite inputs (a division by
   /// zero, the root of a negative number): the run stops there with the element, the formula and
@@ -55,9 +73,12 @@ class ModelSystem : public OdeSystem {
  private:
   /// A non-finite derivative from a finite state: a formula's fault? (simulator.cc)
   void CheckFormulas(double t, const double* x, const double* xdot);
+  double LeftOfTimeEvent(double t) const { return t >= time_event_ ? left_of_event_ : t; }
   const CompiledModel& model_;
   Workspace ws_;
   const std::atomic<bool>* stop_;
+  double time_event_ = std::numeric_limits<double>::infinity();
+  double left_of_event_ = std::numeric_limits<double>::infinity();
 };
 
 struct RunOptions {

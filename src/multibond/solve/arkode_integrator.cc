@@ -338,19 +338,22 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
     projections_ = 0;
   }
 
-  void AdvanceTo(double tout, double* x) override { AdvanceUntil(tout, false, x, nullptr); }
+  void AdvanceTo(double tout, double* x) override { AdvanceUntil(tout, sun::kNoStopTime, x, nullptr); }
 
-  double AdvanceUntil(double tout, bool stop_at_tout, double* x, int* roots) override {
+  double AdvanceUntil(double tout, double stop_time, double* x, int* roots) override {
     MB_ASSERT(mem_ != nullptr, "AdvanceTo called before Reset");
     MB_ASSERT(tout >= time_, fmt::format("AdvanceTo({}) is before the current time {}", tout, time_));
+    MB_ASSERT(stop_time >= tout, "a stop time before tout");
     if (roots) std::fill(roots, roots + roots_found_.size(), 0);
-    if (tout > time_) {
+    if (sun::TooCloseToStep(time_, tout)) {
+      time_ = tout;  // nothing to integrate (sundials_support.h)
+    } else {
       callbacks_.ClearMessages();
       root_time_ = -std::numeric_limits<double>::infinity();
       if (fixed_step()) {
         AdvanceFixed(tout);
       } else {
-        AdvanceAdaptive(tout, stop_at_tout);
+        AdvanceAdaptive(tout, stop_time);
       }
       if (root_time_ > -std::numeric_limits<double>::infinity()) {  // stopped at an event: y_ holds the state there
         if (roots) sun::CopyRoots(roots_found_, roots);
@@ -416,12 +419,11 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
   /// is measured every kDriftCheckInterval steps, and only when it matters (CheckDrift) is the
   /// state projected and ERKStep restarted from it: ERKStepReset keeps the step size and the
   /// controller's history, and costs one evaluation.
-  void AdvanceAdaptive(double tout, bool stop_at_tout) {
+  void AdvanceAdaptive(double tout, double stop_time) {
     void* mem = mem_.get();
     const double hmin = sun::MinUsefulStep(time_);  // see there
     if (options_.max_step == 0 || hmin < options_.max_step) Check(ERKStepSetMinStep(mem, hmin), time_);
-    // SUNDIALS 6.4 cannot clear a stop time: one beyond any run stands for none.
-    Check(ERKStepSetStopTime(mem, stop_at_tout ? tout : std::numeric_limits<double>::max()), time_);
+    Check(ERKStepSetStopTime(mem, std::min(stop_time, sun::kNoStopTime)), time_);
     // An event found by a step that went past an earlier tout: the interpolant of that step
     // still gives the state there, and the one at tout before it.
     if (pending_root_ > -std::numeric_limits<double>::infinity()) {
@@ -507,9 +509,10 @@ class ArkodeIntegrator final : public sun::SundialsIntegrator<ErkCallbackState> 
     if (const int nr = callbacks_.system->num_roots(); nr > 0) {
       roots_found_.assign(nr, 0);
       pending_roots_.assign(nr, 0);
-      std::vector<int> downwards(nr, -1);  // events are crossings from > 0 to <= 0 (OdeSystem::CalcRoots)
+      std::vector<int> directions(nr, -1);  // which crossings are events (OdeSystem::RootDirections)
+      callbacks_.system->RootDirections(directions.data());
       Check(ERKStepRootInit(mem, nr, sun::Roots), t0);
-      Check(ERKStepSetRootDirection(mem, downwards.data()), t0);
+      Check(ERKStepSetRootDirection(mem, directions.data()), t0);
       Check(ERKStepSetNoInactiveRootWarn(mem), t0);
     }
     if (const ButcherTablePtr table = OwnTable(options_.method)) {

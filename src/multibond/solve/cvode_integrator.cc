@@ -194,19 +194,21 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<CvodeCallbackState>
     time_ = t0;
   }
 
-  void AdvanceTo(double tout, double* x) override { AdvanceUntil(tout, false, x, nullptr); }
+  void AdvanceTo(double tout, double* x) override { AdvanceUntil(tout, sun::kNoStopTime, x, nullptr); }
 
-  double AdvanceUntil(double tout, bool stop_at_tout, double* x, int* roots) override {
+  double AdvanceUntil(double tout, double stop_time, double* x, int* roots) override {
     MB_ASSERT(mem_ != nullptr, "AdvanceTo called before Reset");
     MB_ASSERT(tout >= time_, fmt::format("AdvanceTo({}) is before the current time {}", tout, time_));
+    MB_ASSERT(stop_time >= tout, "a stop time before tout");
     if (roots) std::fill(roots, roots + roots_found_.size(), 0);
-    if (tout > time_) {
+    if (sun::TooCloseToStep(time_, tout)) {
+      time_ = tout;  // nothing to integrate (sundials_support.h)
+    } else {
       callbacks_.ClearMessages();
       const double hmin = sun::MinUsefulStep(time_);  // see there
       if (options_.max_step == 0 || hmin < options_.max_step)
         Check(CVodeSetMinStep(mem_.get(), hmin), time_);
-      // SUNDIALS 6.4 cannot clear a stop time: one beyond any run stands for none.
-      Check(CVodeSetStopTime(mem_.get(), stop_at_tout ? tout : std::numeric_limits<double>::max()), time_);
+      Check(CVodeSetStopTime(mem_.get(), std::min(stop_time, sun::kNoStopTime)), time_);
       sunrealtype reached = time_;
       // CV_NORMAL may step past tout and interpolate back; harmless for smooth models.
       const int flag = CVode(mem_.get(), tout, y_.get(), &reached, CV_NORMAL);
@@ -310,9 +312,10 @@ class CvodeIntegrator final : public sun::SundialsIntegrator<CvodeCallbackState>
     if (options_.initial_step > 0) Check(CVodeSetInitStep(mem, options_.initial_step), t0);
     if (const int nr = callbacks_.system->num_roots(); nr > 0) {
       roots_found_.assign(nr, 0);
-      std::vector<int> downwards(nr, -1);  // events are crossings from > 0 to <= 0 (OdeSystem::CalcRoots)
+      std::vector<int> directions(nr, -1);  // which crossings are events (OdeSystem::RootDirections)
+      callbacks_.system->RootDirections(directions.data());
       Check(CVodeRootInit(mem, nr, sun::Roots), t0);
-      Check(CVodeSetRootDirection(mem, downwards.data()), t0);
+      Check(CVodeSetRootDirection(mem, directions.data()), t0);
       Check(CVodeSetNoInactiveRootWarn(mem), t0);
     }
     Check(CVodeSetMaxNumSteps(mem, options_.max_steps_per_output), t0);

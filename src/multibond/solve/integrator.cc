@@ -23,7 +23,7 @@ class StatelessIntegrator final : public Integrator {
     MB_ASSERT(tout >= time_, fmt::format("AdvanceTo({}) is before the current time {}", tout, time_));
     time_ = tout;
   }
-  double AdvanceUntil(double tout, bool, double* x, int*) override {  // no state: no event function either
+  double AdvanceUntil(double tout, double, double* x, int*) override {  // no state: no event function either
     AdvanceTo(tout, x);
     return tout;
   }

@@ -112,13 +112,16 @@ class Integrator {
   /// rethrown here after the solver has returned.
   virtual void AdvanceTo(double tout, double* x) = 0;
   /// Integrates towards tout and stops early where an event function of the system crosses zero
-  /// downwards (OdeSystem::CalcRoots; SUNDIALS' root finding on the step's interpolant, to its
-  /// time tolerance). `stop_at_tout`: never step past tout, which is a discontinuity (a time
-  /// event); else the solver may step past it and interpolate back, as AdvanceTo does. Writes x
-  /// at the time reached and returns that time; `roots` (num_roots() entries, or null without
-  /// event functions) gets 1 for each function that crossed there, 0 for the others. The caller
-  /// restarts the integration (Reset) after handling an event.
-  virtual double AdvanceUntil(double tout, bool stop_at_tout, double* x, int* roots) = 0;
+  /// (OdeSystem::CalcRoots and RootDirections; SUNDIALS' root finding on the step's interpolant,
+  /// to its time tolerance). `stop_time` (>= tout): the solver never steps past it: tout itself
+  /// when tout is a discontinuity (a time event), the next time event beyond tout (a step past
+  /// it would integrate across the jump and the next call could not go back), or infinity; below
+  /// it the solver may step past tout and interpolate back, as AdvanceTo does. Writes x at the
+  /// time reached and returns that time; `roots` (num_roots() entries, or null without event
+  /// functions) gets 1 for each function that crossed there, 0 for the others. The caller
+  /// restarts the integration (Reset) after handling an event. A tout within a few roundings of
+  /// the current time is no interval to integrate: the clock moves there, the state stays.
+  virtual double AdvanceUntil(double tout, double stop_time, double* x, int* roots) = 0;
   virtual double time() const = 0;
   virtual IntegratorStats stats() const = 0;
   virtual const IntegratorOptions& options() const = 0;

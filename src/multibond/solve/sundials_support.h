@@ -290,6 +290,17 @@ inline MatrixPtr MakeDenseMatrix(sunindextype rows, sunindextype cols, SUNContex
   return m;
 }
 
+/// SUNDIALS 6.4 cannot clear a stop time: one beyond any run stands for none.
+inline constexpr double kNoStopTime = std::numeric_limits<double>::max();
+
+/// True when tout lies within a few roundings of t: no solver can step there (CVODE and ARKODE
+/// refuse an output time within two roundings of the start, CV_TOO_CLOSE), and the state does
+/// not change over such a time. An event one rounding from an output time (a step at 0.3 s and
+/// the output time 3 * 0.1 s) leaves such a gap; the integrators then just move their clock.
+inline bool TooCloseToStep(double t, double tout) {
+  return tout - t <= 16.0 * std::numeric_limits<double>::epsilon() * std::max(std::abs(t), std::abs(tout));
+}
+
 /// The smallest step worth taking from time t on: a few units in the last place of t; below
 /// it t + h rounds to (almost) t. Near a finite-time singularity the adaptive controllers
 /// shrink h to ~1e-170 and keep "accepting" steps that no longer move t until
