@@ -5,6 +5,7 @@
 
 #include "multibond/analysis/linearize.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,6 +13,8 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "multibond/analysis/bode.h"
+#include "multibond/analysis/modes.h"
 #include "multibond/compile/compiled_model.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
@@ -90,6 +93,61 @@ TEST(Linearize, DuffingSpringStiffensWithDisplacement) {
     }
   }
   EXPECT_DOUBLE_EQ(lm.A(q, p), 1.0);
+}
+
+TEST(Linearize, BilinearDamperAtRestHasTheMeanOfItsRatesInModesAndBode) {
+  // examples/linear/bilinear_damper.yaml: m = 250, k = 16000, damper c_bump max(f, 0) +
+  // c_reb min(f, 0) with c_bump = 800, c_reb = 2400, at rest (f = 0, on the kink). Its slope is
+  // c_mean = (c_bump + c_reb)/2: w_n = sqrt(k/m) = 8 rad/s, zeta = c_mean/(2 sqrt(k m)) = 0.4 (the
+  // sum of both slopes, 3200, would give 0.8); the mobility force -> velocity at w_n is 1/c_mean.
+  const double pi = std::acos(-1.0);
+  struct Case {
+    double m, k, c_bump, c_reb;
+  };
+  for (const Case& c : {Case{250, 16000, 800, 2400}, Case{2, 50, 3, 0.5}}) {
+    SCOPED_TRACE(c.c_reb);
+    const auto model = Compiled("examples/linear/bilinear_damper.yaml",
+                                {{"m", fmt::format("{}", c.m)}, {"k", fmt::format("{}", c.k)},
+                                 {"c_bump", fmt::format("{}", c.c_bump)}, {"c_reb", fmt::format("{}", c.c_reb)}});
+    const LinearModel lm = Linearize(*model, 0.0, model->MakeInitialState());
+    const double c_mean = (c.c_bump + c.c_reb) / 2, wn = std::sqrt(c.k / c.m), zeta = c_mean / (2 * std::sqrt(c.k * c.m));
+    const int p = Index(lm.states, "body.p"), q = Index(lm.states, "spring.q");
+    EXPECT_NEAR(lm.A(p, p), -c_mean / c.m, 1e-12 * c_mean / c.m);
+    EXPECT_NEAR(lm.A(p, q), -c.k, 1e-12 * c.k);
+    const std::vector<Mode> modes = ComputeModes(lm);
+    ASSERT_EQ(modes.size(), 1u);
+    EXPECT_NEAR(modes[0].frequency_hz, wn / (2 * pi), 1e-9 * wn / (2 * pi));
+    EXPECT_NEAR(modes[0].damping_ratio, zeta, 1e-9);
+    EXPECT_NEAR(modes[0].eigenvalue.real(), -zeta * wn, 1e-9 * wn);
+    EXPECT_NEAR(modes[0].eigenvalue.imag(), wn * std::sqrt(1 - zeta * zeta), 1e-9 * wn);
+    const int force = Index(lm.inputs, "force"), velocity = Index(lm.outputs, "velocity"), disp = Index(lm.outputs, "displacement");
+    const std::vector<BodePoint> at_wn = FrequencyResponse(lm, force, velocity, {wn / (2 * pi)});
+    ASSERT_EQ(at_wn.size(), 1u);
+    EXPECT_NEAR(std::abs(at_wn[0].value - 1.0 / c_mean), 0.0, 1e-9 / c_mean);
+    EXPECT_NEAR(at_wn[0].phase_deg, 0.0, 1e-9);
+    // Far below the resonance the displacement is the spring's: 1/k.
+    const std::vector<BodePoint> dc = FrequencyResponse(lm, force, disp, {1e-6 * wn / (2 * pi)});
+    EXPECT_NEAR(dc[0].value.real(), 1.0 / c.k, 1e-9 / c.k);
+  }
+  // The file's own values: zeta = 0.4, not 0.8.
+  const auto model = Compiled("examples/linear/bilinear_damper.yaml");
+  const std::vector<Mode> modes = ComputeModes(Linearize(*model, 0.0, model->MakeInitialState()));
+  ASSERT_EQ(modes.size(), 1u);
+  EXPECT_NEAR(modes[0].damping_ratio, 0.4, 1e-12);
+  EXPECT_NEAR(modes[0].frequency_hz, 8.0 / (2 * pi), 1e-12);
+}
+
+TEST(Linearize, BilinearDamperAwayFromTheKinkTakesTheRateOfItsSide) {
+  // Moving in compression (f > 0) the damper is c_bump, in rebound c_reb: A(p, p) = -c/m.
+  const auto model = Compiled("examples/linear/bilinear_damper.yaml");
+  for (const double v : {0.1, -0.1}) {
+    Eigen::VectorXd x = model->MakeInitialState();
+    const LinearModel at_rest = Linearize(*model, 0.0, x);
+    x(Index(at_rest.full_states, "body.p")) = 250.0 * v;
+    const LinearModel lm = Linearize(*model, 0.0, x);
+    const int p = Index(lm.states, "body.p");
+    EXPECT_NEAR(lm.A(p, p), -(v > 0 ? 800.0 : 2400.0) / 250.0, 1e-12) << v;
+  }
 }
 
 TEST(Linearize, SpinningBodyMatchesCentralDifferencesOnTheRotationGroup) {

@@ -60,9 +60,44 @@ TEST(EquationExamplesCli, SetIsRecordedInRunJsonAndReachesTheModel) {
   EXPECT_EQ(std::stod(values[0]), 0.0);
 }
 
+TEST(EquationExamplesCli, SetReachesTheInitialValuesOfAPidAndALag) {
+  // pi_steady.yaml: the pid's initial value b*w_ref/ki and the lag's w_meas0 are formulas of
+  // parameters; with --set w_ref=20 --set ki=4 the loop starts (and stays) at w = 20 rad/s,
+  // u = b w_ref = 1 N m, i = b w_ref/ki = 0.25, and the sensor at w_meas0 = 5.
+  TempDir tmp("multibond-equations");
+  const fs::path out = tmp.path() / "out";
+  const CliResult r = RunCli({"run", Example("pi_steady.yaml"), "--set", "w_ref=20", "--set", "ki=4", "--set", "w_meas0=5", "-o",
+                              out.string(), "-q"});
+  ASSERT_EQ(r.code, 0) << r.out;
+  std::istringstream csv(ReadFile(out / "results.csv"));
+  std::string header, line;
+  std::getline(csv, header);
+  const std::vector<std::string> names = Cells(header);
+  auto column = [&](const std::string& name) {
+    const auto it = std::find(names.begin(), names.end(), name);
+    EXPECT_NE(it, names.end()) << name << " in " << header;
+    return static_cast<size_t>(it - names.begin());
+  };
+  const size_t speed = column("speed [rad/s]"), torque = column("torque [N m]"), i = column("speed_control.i [-]");
+  const size_t measured = column("measured [rad/s]");
+  int rows = 0;
+  while (std::getline(csv, line) && !line.empty()) {
+    const std::vector<std::string> v = Cells(line);
+    ASSERT_EQ(v.size(), names.size());
+    if (rows == 0) {
+      EXPECT_EQ(std::stod(v[i]), 0.25);
+      EXPECT_EQ(std::stod(v[measured]), 5.0);
+    }
+    EXPECT_NEAR(std::stod(v[speed]), 20.0, 1e-9 * 20.0) << line;
+    EXPECT_NEAR(std::stod(v[torque]), 1.0, 1e-9) << line;
+    ++rows;
+  }
+  EXPECT_GT(rows, 100);
+}
+
 TEST(EquationExamplesCli, GeneratedCodeWritesTheInterpretersResults) {
   TempDir tmp("multibond-equations");
-  for (const char* file : {"pendulum.yaml", "duffing.yaml", "tank.yaml", "motor_pi.yaml", "speed_dependent_load.yaml"}) {
+  for (const char* file : {"pendulum.yaml", "duffing.yaml", "tank.yaml", "motor_pi.yaml", "speed_dependent_load.yaml", "pi_steady.yaml"}) {
     SCOPED_TRACE(file);
     std::vector<std::string> sha;
     for (const char* jit : {"off", "on"}) {

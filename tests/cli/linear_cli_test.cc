@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <set>
 #include <sstream>
@@ -95,6 +96,42 @@ TEST_F(LinearCliTest, ModesOfTwoMassesAreTheRootsOfTheCharacteristicPolynomial) 
   }
   EXPECT_EQ(elements, (std::set<std::string>{"mass1", "mass2", "spring1", "spring2"}));
   EXPECT_THAT(r.out, HasSubstr("0.630482"));
+}
+
+TEST_F(LinearCliTest, ModesOfTheBilinearDamperAtRestHaveTheMeanOfItsTwoRates) {
+  // examples/linear/bilinear_damper.yaml at rest, on the damper's kink: c_mean = (800 + 2400)/2,
+  // w_n = sqrt(16000/250) = 8 rad/s, zeta = c_mean / (2 sqrt(k m)) = 1600 / 4000 = 0.4; and with
+  // --set c_reb=1200, c_mean = 1000 and zeta = 0.25.
+  const double pi = std::acos(-1.0);
+  for (const auto& [set, zeta] : {std::pair{std::string(), 0.4}, std::pair{std::string(" --set c_reb=1200"), 0.25}}) {
+    const fs::path dir = Out("bilinear" + std::to_string(static_cast<int>(zeta * 100)));
+    const Result r = Run("modes " + Example("linear/bilinear_damper.yaml") + set + " -o " + dir.string());
+    ASSERT_EQ(r.code, 0) << r.out << r.err;
+    const nlohmann::json j = Json(dir / "modes.json");
+    ASSERT_EQ(j["modes"].size(), 1u) << j.dump(1);
+    const nlohmann::json& m = j["modes"][0];
+    EXPECT_NEAR(m["frequency_hz"].get<double>(), 8.0 / (2.0 * pi), 1e-9) << set;
+    EXPECT_NEAR(m["damping_ratio"].get<double>(), zeta, 1e-9) << set;
+    EXPECT_NEAR(m["damped_frequency_hz"].get<double>(), 8.0 * std::sqrt(1.0 - zeta * zeta) / (2.0 * pi), 1e-9) << set;
+  }
+}
+
+TEST_F(LinearCliTest, BodeOfTheBilinearDamperAtResonanceIsTheMobilityOneOverTheMeanRate) {
+  // Force -> velocity, j w / (k - m w^2 + j c w): 1/c_mean = 1/1600 at w_n = 8 rad/s, phase 0.
+  const fs::path dir = Out("bilinear_bode");
+  char fn[32];
+  std::snprintf(fn, sizeof fn, "%.17g", 8.0 / (2.0 * std::acos(-1.0)));
+  const Result r = Run("bode " + Example("linear/bilinear_damper.yaml") + " --input force --output velocity --freq " + fn + " -o " +
+                       dir.string());
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  std::istringstream in(ReadFile(dir / "bode.csv"));
+  std::string header, row;
+  std::getline(in, header);
+  std::getline(in, row);
+  double f = 0.0, db = 0.0, deg = 0.0;
+  ASSERT_EQ(std::sscanf(row.c_str(), "%lf,%lf,%lf", &f, &db, &deg), 3) << row;
+  EXPECT_NEAR(db, 20.0 * std::log10(1.0 / 1600.0), 1e-9);
+  EXPECT_NEAR(deg, 0.0, 1e-9);
 }
 
 TEST_F(LinearCliTest, BodeAtTheUndampedNaturalFrequencyIsFiveAtMinus90Degrees) {

@@ -1,6 +1,8 @@
 // Programs of formulas (compile/expr_program.h): the interpreter gives the tree's value to the bit,
 // constants are folded without changing a bit, running allocates nothing, and the generated C++
-// (compiled by the project's JIT) gives the interpreter's bits for every function and operator.
+// (compiled by the project's JIT) gives the interpreter's bits for every function and operator;
+// the tangent (RunTangent) of each function with a kink, at the kink (the mean of the one-sided
+// slopes) and away from it (the branch's slope), against the symbolic derivatives.
 
 #include <stdlib.h>
 #include <unistd.h>
@@ -24,6 +26,7 @@
 
 #include "multibond/compile/expr_program.h"
 #include "multibond/compile/jit.h"
+#include "multibond/compile/symbolic.h"
 #include "multibond/core/error.h"
 #include "support/counting_new.h"
 #include "support/temp_dir.h"
@@ -382,6 +385,153 @@ TEST(ExprProgram, SolveForFindsTheRootToTheLastBitsOrSaysThereIsNone) {
   // No root: u^2 + 1 never reaches -5 (NaN, for the caller to name the formula).
   EXPECT_TRUE(std::isnan(Solved("u^2 + 1", "2*u", -5.0)));
   EXPECT_TRUE(std::isnan(Solved("u", "1", std::numeric_limits<double>::quiet_NaN())));
+}
+
+
+// ---------------------------------------------------------------------------------------------
+// Tangents (RunTangent) at and away from kinks.
+
+/// The directional derivative of `text` at the states x along dx (t = 0, no slots).
+double TangentAt(const std::string& text, const std::vector<double>& x, const std::vector<double>& dx) {
+  const Program p = CompileProgram(*Tree(text), Resolve);
+  double v = 0.0;
+  const double d = RunTangent(p, 0.0, x.data(), nullptr, 0.0, dx.data(), nullptr, &v);
+  EXPECT_EQ(Bits(v), Bits(Run(p, 0.0, x.data(), nullptr))) << text;  // the value is Run's
+  return d;
+}
+
+/// The partial derivatives of `text` in x0, x1, x2 at x (one tangent pass along each axis).
+std::vector<double> Gradient(const std::string& text, const std::vector<double>& x) {
+  std::vector<double> g;
+  for (int i = 0; i < 3; ++i) {
+    std::vector<double> dx(3, 0.0);
+    dx[static_cast<size_t>(i)] = 1.0;
+    g.push_back(TangentAt(text, x, dx));
+  }
+  return g;
+}
+
+/// The mean of the one-sided slopes of `text` at x along the axis i, by differences that the
+/// functions below, piecewise linear, give exactly (h a power of 2, the points small integers).
+double MeanOneSidedSlope(const std::string& text, std::vector<double> x, int i) {
+  const Program p = CompileProgram(*Tree(text), Resolve);
+  const double h = 0x1p-10, x0 = x[static_cast<size_t>(i)];
+  x[static_cast<size_t>(i)] = x0 + h;
+  const double up = Run(p, 0.0, x.data(), nullptr);
+  x[static_cast<size_t>(i)] = x0 - h;
+  const double down = Run(p, 0.0, x.data(), nullptr);
+  x[static_cast<size_t>(i)] = x0;
+  const double at = Run(p, 0.0, x.data(), nullptr);
+  return ((up - at) / h + (at - down) / h) / 2.0;
+}
+
+using Gradient3 = std::vector<double>;
+
+TEST(ExprTangent, MaxAtATieTakesHalfOfEachArgument) {
+  EXPECT_EQ(Gradient("max(x0, x1)", {0.0, 0.0, 0.0}), (Gradient3{0.5, 0.5, 0.0}));
+  EXPECT_EQ(Gradient("max(x0, x1)", {-2.0, -2.0, 0.0}), (Gradient3{0.5, 0.5, 0.0}));
+  EXPECT_EQ(Gradient("max(x0, 0)", {0.0, 0.0, 0.0}), (Gradient3{0.5, 0.0, 0.0}));  // a constant bound
+  EXPECT_EQ(Gradient("max(x0, x1)", {0.0, -0.0, 0.0}), (Gradient3{0.5, 0.5, 0.0}));  // 0 == -0: a tie
+  // Along a direction that keeps the tie, both slopes are 1: so is the tangent.
+  EXPECT_EQ(TangentAt("max(x0, x1)", {1.0, 1.0, 0.0}, {1.0, 1.0, 0.0}), 1.0);
+  EXPECT_EQ(TangentAt("max(3*x0, x0)", {0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}), 2.0);  // (3 + 1)/2
+}
+
+TEST(ExprTangent, MaxAwayFromATieIsTheSlopeOfTheLargerArgument) {
+  EXPECT_EQ(Gradient("max(x0, x1)", {1.0, 0.0, 0.0}), (Gradient3{1.0, 0.0, 0.0}));
+  EXPECT_EQ(Gradient("max(x0, x1)", {0.0, 1e-300, 0.0}), (Gradient3{0.0, 1.0, 0.0}));
+  EXPECT_EQ(Gradient("max(x0, 0)", {-1.0, 0.0, 0.0}), (Gradient3{0.0, 0.0, 0.0}));
+}
+
+TEST(ExprTangent, MinAtATieTakesHalfOfEachArgument) {
+  EXPECT_EQ(Gradient("min(x0, x1)", {0.0, 0.0, 0.0}), (Gradient3{0.5, 0.5, 0.0}));
+  EXPECT_EQ(Gradient("min(x0, 0)", {0.0, 0.0, 0.0}), (Gradient3{0.5, 0.0, 0.0}));
+  EXPECT_EQ(TangentAt("min(x0, -x0)", {0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}), 0.0);  // (1 - 1)/2: -|x0|
+}
+
+TEST(ExprTangent, MinAwayFromATieIsTheSlopeOfTheSmallerArgument) {
+  EXPECT_EQ(Gradient("min(x0, x1)", {1.0, 0.0, 0.0}), (Gradient3{0.0, 1.0, 0.0}));
+  EXPECT_EQ(Gradient("min(x0, x1)", {-1e-300, 0.0, 0.0}), (Gradient3{1.0, 0.0, 0.0}));
+}
+
+TEST(ExprTangent, ClampAtABoundTakesHalfForXAndHalfForTheBound) {
+  EXPECT_EQ(Gradient("clamp(x0, x1, x2)", {-1.0, -1.0, 1.0}), (Gradient3{0.5, 0.5, 0.0}));  // at lo
+  EXPECT_EQ(Gradient("clamp(x0, x1, x2)", {1.0, -1.0, 1.0}), (Gradient3{0.5, 0.0, 0.5}));   // at hi
+  // lo == x == hi: lo on one side, hi on the other, x on neither.
+  EXPECT_EQ(Gradient("clamp(x0, x1, x2)", {2.0, 2.0, 2.0}), (Gradient3{0.0, 0.5, 0.5}));
+  EXPECT_EQ(Gradient("clamp(x0, -1, 1)", {-1.0, 0.0, 0.0}), (Gradient3{0.5, 0.0, 0.0}));
+  EXPECT_EQ(Gradient("clamp(x0, -1, 1)", {1.0, 0.0, 0.0}), (Gradient3{0.5, 0.0, 0.0}));
+}
+
+TEST(ExprTangent, ClampAwayFromItsBoundsIsTheSlopeOfTheBranchTaken) {
+  EXPECT_EQ(Gradient("clamp(x0, x1, x2)", {0.0, -1.0, 1.0}), (Gradient3{1.0, 0.0, 0.0}));   // between
+  EXPECT_EQ(Gradient("clamp(x0, x1, x2)", {-2.0, -1.0, 1.0}), (Gradient3{0.0, 1.0, 0.0}));  // below
+  EXPECT_EQ(Gradient("clamp(x0, x1, x2)", {2.0, -1.0, 1.0}), (Gradient3{0.0, 0.0, 1.0}));   // above
+  // lo > hi (no interval): lo wins below lo, hi elsewhere, as the value does.
+  EXPECT_EQ(Gradient("clamp(x0, x1, x2)", {0.0, 1.0, -1.0}), (Gradient3{0.0, 1.0, 0.0}));
+  EXPECT_EQ(Gradient("clamp(x0, x1, x2)", {2.0, 1.0, -1.0}), (Gradient3{0.0, 0.0, 1.0}));
+}
+
+TEST(ExprTangent, AbsAtZeroIsZeroAndSignsSlopeIsZero) {
+  EXPECT_EQ(Gradient("abs(x0)", {0.0, 0.0, 0.0}), (Gradient3{0.0, 0.0, 0.0}));
+  EXPECT_EQ(Gradient("abs(x0)", {-0.0, 0.0, 0.0}), (Gradient3{0.0, 0.0, 0.0}));
+  EXPECT_EQ(Gradient("abs(x0)", {2.0, 0.0, 0.0}), (Gradient3{1.0, 0.0, 0.0}));
+  EXPECT_EQ(Gradient("abs(x0)", {-2.0, 0.0, 0.0}), (Gradient3{-1.0, 0.0, 0.0}));
+  for (const double x : {-1.0, 0.0, 1.0}) EXPECT_EQ(Gradient("sign(x0)", {x, 0.0, 0.0}), (Gradient3{0.0, 0.0, 0.0})) << x;
+}
+
+TEST(ExprTangent, ABilinearDamperAtRestHasTheMeanOfItsTwoRates) {
+  // c_bump max(f, 0) + c_reb min(f, 0) at f = 0: (c_bump + c_reb)/2, not their sum.
+  EXPECT_EQ(TangentAt("800*max(x0, 0) + 2400*min(x0, 0)", {0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}), 1600.0);
+  EXPECT_EQ(TangentAt("800*max(x0, 0) + 2400*min(x0, 0)", {0.5, 0.0, 0.0}, {1.0, 0.0, 0.0}), 800.0);
+  EXPECT_EQ(TangentAt("800*max(x0, 0) + 2400*min(x0, 0)", {-0.5, 0.0, 0.0}, {1.0, 0.0, 0.0}), 2400.0);
+}
+
+/// Points at and away from every kink of the formulas below (small integers and their halves).
+const std::vector<std::vector<double>> kKinkPoints = {
+    {0, 0, 0}, {1, 1, 1}, {-1, -1, 1}, {1, -1, 1}, {2, 2, 2}, {0, -1, 1}, {-2, -1, 1}, {2, -1, 1}, {0.5, 0, -0.5}, {-1, 0, 2},
+};
+const std::vector<std::string> kKinkFormulas = {
+    "max(x0, x1)", "min(x0, x1)", "clamp(x0, x1, x2)", "abs(x0)", "sign(x0)", "max(x0, 0)", "min(x0, 0)",
+    "clamp(2*x0, -1, 1)", "3*max(x0, x1) - 2*min(x1, x2) + abs(x2)",
+};
+
+TEST(ExprTangent, EveryKinkHasTheMeanOfItsOneSidedSlopesAlongEachArgument) {
+  // Along one argument at a time the one-sided slopes are those of the branches; their mean is
+  // the tangent (sign: 0 away from its jump, and 0 by definition at it).
+  for (const std::string& f : kKinkFormulas)
+    for (const std::vector<double>& x : kKinkPoints) {
+      const std::vector<double> g = Gradient(f, x);
+      for (int i = 0; i < 3; ++i) {
+        if (f.find("sign") != std::string::npos) {
+          EXPECT_EQ(g[static_cast<size_t>(i)], 0.0) << f;
+          continue;
+        }
+        EXPECT_EQ(g[static_cast<size_t>(i)], MeanOneSidedSlope(f, x, i))
+            << f << " along x" << i << " at (" << x[0] << ", " << x[1] << ", " << x[2] << ")";
+      }
+    }
+}
+
+TEST(ExprTangent, AgreesWithTheSymbolicDerivativesAtAndAwayFromKinks) {
+  // The symbolic derivative (compile/symbolic.cc: Newton's slopes, laws from energies) and the
+  // tangent take the same value at a kink, so that the linearisation and the laws agree. (Not
+  // abs at 0, where GiNaC's derivative of abs is not defined: NaN, the tangent 0.)
+  for (const std::string& f : kKinkFormulas)
+    for (const std::vector<double>& x : kKinkPoints) {
+      if (f.find("abs(x2)") != std::string::npos && x[2] == 0.0) continue;
+      if (f == "abs(x0)" && x[0] == 0.0) continue;
+      const std::vector<double> g = Gradient(f, x);
+      const auto at = [&](const std::string& name) -> std::optional<double> {
+        if (name.size() == 2 && name[0] == 'x') return x[static_cast<size_t>(name[1] - '0')];
+        return std::nullopt;
+      };
+      for (int i = 0; i < 3; ++i) {
+        const NodePtr d = Differentiate(*Tree(f), fmt::format("x{}", i));
+        EXPECT_EQ(g[static_cast<size_t>(i)], Evaluate(*d, at))
+            << f << " along x" << i << " at (" << x[0] << ", " << x[1] << ", " << x[2] << ")";
+      }
+    }
 }
 
 }  // namespace

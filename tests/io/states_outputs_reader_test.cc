@@ -2,6 +2,7 @@
 // signals, integral states with a 'rate', lag and PID states with their checks, and the names that
 // formulas read bare (a signal, a state, a parameter) kept apart.
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -9,6 +10,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "multibond/compile/compiled_model.h"
 #include "multibond/io/model_loader.h"
 #include "support/load_errors.h"
 
@@ -130,6 +132,77 @@ TEST(StatesOutputsReader, SignalStatesAreChecked) {
                           "m: unknown state kind 'lagg'",
                           "n: unknown key 'of'"));
   EXPECT_EQ(ds[12].hint, "did you mean 'lag'?");
+}
+
+TEST(StatesOutputsReader, InitialValuesOfSignalStatesAreNumbersOrFormulasOfParameters) {
+  const std::string states =
+      "states:\n"
+      "  angle: {kind: integral, rate: shaft.f, initial: \"w_ref/2\"}\n"
+      "  smooth: {kind: lag, input: shaft.f, time_constant: 0.2, initial: 2*w_ref}\n"
+      "  u: {kind: pid, input: \"w_ref - shaft.f\", kp: 1, ki: 4, initial: \"K*w_ref/4\"}\n"
+      "  v: {kind: pid, input: \"w_ref - shaft.f\", kp: 1, ki: 4, initial: -1.5}\n"
+      "  pos: {kind: integral, of: shaft, initial: \"-K\"}\n";
+  for (const bool set : {false, true}) {
+    const std::vector<ParameterOverride> overrides =
+        set ? std::vector<ParameterOverride>{{"w_ref", "20"}, {"K", "2*w_ref"}} : std::vector<ParameterOverride>{};
+    const LoadedModel lm = LoadModelString(Motor(states), "m.yaml", {}, overrides);
+    const double w_ref = set ? 20.0 : 10.0, K = set ? 40.0 : 0.5;
+    const auto& aux = lm.graph.aux_states();
+    EXPECT_EQ(aux[lm.graph.FindAux("angle")].initial(0, 0), w_ref / 2);
+    EXPECT_EQ(aux[lm.graph.FindAux("smooth")].initial(0, 0), 2 * w_ref);
+    const AuxState& u = aux[lm.graph.FindAux("u")];
+    ASSERT_EQ(u.initial.size(), 1);
+    EXPECT_EQ(u.initial(0, 0), K * w_ref / 4);  // the integral state u.i's initial value
+    EXPECT_EQ(aux[lm.graph.FindAux("v")].initial(0, 0), -1.5);
+    EXPECT_EQ(aux[lm.graph.FindAux("pos")].initial(0, 0), -K);
+    // They are the initial state: u.i and v.i are the pids' integral states.
+    const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+    const Eigen::VectorXd x0 = model->MakeInitialState();
+    const std::vector<std::string>& names = model->state_names();
+    auto at = [&](const std::string& name) {
+      const auto it = std::find(names.begin(), names.end(), name);
+      EXPECT_NE(it, names.end()) << name;
+      return it == names.end() ? NAN : x0(it - names.begin());
+    };
+    EXPECT_EQ(at("angle"), w_ref / 2);
+    EXPECT_EQ(at("smooth"), 2 * w_ref);
+    EXPECT_EQ(at("u.i"), K * w_ref / 4);
+    EXPECT_EQ(at("v.i"), -1.5);
+    EXPECT_EQ(at("pos"), -K);
+  }
+}
+
+TEST(StatesOutputsReader, AnInitialValueIsAConstantSaidAtItsCharacter) {
+  // Line 9 onwards (Motor's text has 7 lines, then 'states:'); the columns are those of the name
+  // in the formula.
+  const auto ds = LoadErrors(Motor("states:\n"
+                                   "  a: {kind: pid, input: \"w_ref - shaft.f\", ki: 1, initial: \"w_ref + t\"}\n"
+                                   "  b: {kind: lag, input: shaft.f, time_constant: 1, initial: \"2*shaft.f\"}\n"
+                                   "  c: {kind: integral, rate: shaft.f, initial: \"a\"}\n"
+                                   "  d: {kind: pid, input: \"w_ref - shaft.f\", ki: 1, initial: [1, 2]}\n"
+                                   "  e2: {kind: pid, input: \"w_ref - shaft.f\", kp: 1, initial: 0.5}\n"
+                                   "  f2: {kind: pid, input: \"w_ref - shaft.f\", kp: 1, initial: 0}\n"
+                                   "  g: {kind: pid, input: \"w_ref - shaft.f\", ki: 1, initial: \"w_reff\"}\n"));
+  EXPECT_THAT(Said(ds),
+              ElementsAre("a: an initial value is a constant: a number or a formula of parameters ('t' is time) [expr.not_constant]",
+                          "b: an initial value is a constant: a number or a formula of parameters ('shaft.f' is a variable of the model) "
+                          "[expr.not_constant]",
+                          "c: an initial value is a constant: a number or a formula of parameters ('a' is a variable of the model) "
+                          "[expr.not_constant]",
+                          "d: a PID's initial value is that of its integral state 'd.i': one number (got 2) [param.range]",
+                          "e2: a PID without ki has no integral action: its integral state 'e2.i' has no effect, so its initial value "
+                          "must be 0 (got 0.5) [param.range]",
+                          "g: unknown parameter 'w_reff' [param.unknown]"));
+  ASSERT_EQ(ds.size(), 6u);
+  EXPECT_EQ(ds[0].where.file, "m.yaml");
+  EXPECT_EQ(ds[0].where.line, 9);
+  EXPECT_EQ(ds[0].where.column, 69);  // the 't'
+  EXPECT_EQ(ds[1].where.line, 10);
+  EXPECT_EQ(ds[1].where.column, 64);  // the 's' of shaft.f
+  EXPECT_EQ(ds[2].where.line, 11);
+  EXPECT_EQ(ds[2].where.column, 48);
+  EXPECT_EQ(ds[3].hint, "to start at a steady output u0 with zero error, initial: u0/ki");
+  EXPECT_EQ(ds[5].hint, "did you mean 'w_ref'?");
 }
 
 TEST(StatesOutputsReader, NamesThatFormulasReadBareAreKeptApart) {

@@ -213,6 +213,56 @@ TEST(MotorPiExample, SpeedReachesTheSetPointAndTheVoltageItsSteadyValue) {
   EXPECT_LT(testing::MaxEnergyResidual(r.rec), 1e-8);
 }
 
+// --- pi_steady.yaml: a PI loop started at steady state stays there; a lag from x0 ---
+
+TEST(PiSteadyExample, APiControllerStartedAtSteadyStateStaysThereAndTheLagFollowsItsExponential) {
+  // The plant J dw/dt = u - b w with u = kp (w_ref - w) + ki i, started at w = w_ref and
+  // i0 = b w_ref / ki (the pid's `initial`, a formula of parameters): w = w_ref, u = b w_ref, i = i0
+  // for all t. The sensor T dx/dt = w - x from x0 = w_meas0: x = w_ref + (x0 - w_ref) exp(-t/T).
+  // The parameters set as --set sets them reach both initial values (formulas of them).
+  const std::vector<std::vector<ParameterOverride>> sets = {
+      {}, {{"w_ref", "20"}, {"b", "0.3"}, {"ki", "5"}, {"w_meas0", "-3"}, {"T", "0.05"}}};
+  for (const auto& set : sets) {
+    SCOPED_TRACE(set.size());
+    const ExampleRun r = RunEquationExample("pi_steady.yaml", set);
+    ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+    const double b = r.Param("b"), w_ref = r.Param("w_ref"), ki = r.Param("ki"), T = r.Param("T"), x0 = r.Param("w_meas0");
+    if (set.empty()) {
+      EXPECT_NEAR(b * w_ref, 0.5, 1e-15);  // the file's comment
+      EXPECT_EQ(w_ref, 10.0);
+    } else {
+      EXPECT_EQ(w_ref, 20.0);
+    }
+    const int speed = r.rec.Index("speed"), torque = r.rec.Index("torque"), i = r.rec.Index("speed_control.i");
+    const int measured = r.rec.Index("measured");
+    ASSERT_GT(r.rec.rows().size(), 100u);
+    EXPECT_EQ(r.rec.rows().front()[i], b * w_ref / ki);
+    EXPECT_EQ(r.rec.rows().front()[measured], x0);
+    for (const auto& row : r.rec.rows()) {
+      EXPECT_NEAR(row[speed], w_ref, 1e-9 * w_ref) << "t = " << row[0];
+      EXPECT_NEAR(row[torque], b * w_ref, 1e-9 * b * w_ref) << "t = " << row[0];
+      EXPECT_NEAR(row[i], b * w_ref / ki, 1e-9 * b * w_ref / ki) << "t = " << row[0];
+      EXPECT_NEAR(row[measured], w_ref + (x0 - w_ref) * std::exp(-row[0] / T), 1e-8) << "t = " << row[0];
+    }
+  }
+}
+
+TEST(PiSteadyExample, WithoutItsInitialValueTheLoopStartsFromZeroTorqueAndSags) {
+  // The same model with the pid's integral at 0: u = 0 at the start, so the rotor slows
+  // (dw/dt = -b w_ref / J = -25 rad/s^2 at t = 0) before the integral catches up: the initial
+  // value is what holds it.
+  std::string text = testing::ExampleText("equations/pi_steady.yaml");
+  const std::string initial = ", initial: \"b*w_ref/ki\"";
+  ASSERT_NE(text.find(initial), std::string::npos);
+  text.erase(text.find(initial), initial.size());
+  const LoadedModel lm = LoadModelString(text, "pi_steady.yaml");
+  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+  const RecordingObserver rec = testing::RunCompiled(*model, 1.0, 1e-2);
+  ASSERT_EQ(rec.summary().status, RunStatus::kOk);
+  EXPECT_EQ(rec.rows().front()[rec.Index("torque")], 0.0);
+  EXPECT_LT(rec.At("speed", 0.1), 10.0 - 0.5);
+}
+
 // --- speed_dependent_load.yaml: J dw/dt = tau0 - c w - d w^2 ---
 
 TEST(SpeedDependentLoadExample, SpeedFollowsTheRiccatiSolutionToItsSteadyValue) {
@@ -242,7 +292,7 @@ TEST(SpeedDependentLoadExample, SpeedFollowsTheRiccatiSolutionToItsSteadyValue) 
 // --- generated code: the same bits ---
 
 TEST(EquationExamples, GeneratedCodeGivesTheInterpretersBits) {
-  for (const char* file : {"pendulum.yaml", "duffing.yaml", "tank.yaml", "motor_pi.yaml", "speed_dependent_load.yaml"}) {
+  for (const char* file : {"pendulum.yaml", "duffing.yaml", "tank.yaml", "motor_pi.yaml", "speed_dependent_load.yaml", "pi_steady.yaml"}) {
     SCOPED_TRACE(file);
     const ExampleRun interpreted = RunEquationExample(file, {}, false), generated = RunEquationExample(file, {}, true);
     ASSERT_EQ(interpreted.rec.summary().status, RunStatus::kOk);

@@ -12,8 +12,12 @@ namespace multibond::expr {
 
 namespace {
 
-/// The partial derivatives of f at its arguments a (value v = f(a)) into da. At a kink (abs,
-/// min, max, clamp at a corner) the derivative of the branch the function takes; sign's is 0.
+/// The partial derivatives of f at its arguments a (value v = f(a)) into da. Away from a kink the
+/// derivative of the branch the function takes. Exactly at a kink the mean of the one-sided
+/// slopes (docs/linear-analysis.md, "At a kink"), as the symbolic derivatives (compile/symbolic.cc)
+/// have it: min and max at a tie a == b half of each argument's; clamp(x, lo, hi) at x == lo
+/// (or hi) half for x and half for that bound (at lo == x == hi, half for each bound, none for
+/// x); abs at 0 the mean of -1 and 1, 0; sign 0 everywhere (its jump at 0 has no slope).
 void Partials(Fn fn, const double* a, double v, double* da) {
   switch (fn) {
     case Fn::kSin: da[0] = std::cos(a[0]); break;
@@ -36,23 +40,33 @@ void Partials(Fn fn, const double* a, double v, double* da) {
     case Fn::kSqrt: da[0] = 0.5 / v; break;
     case Fn::kAbs: da[0] = a[0] > 0.0 ? 1.0 : (a[0] < 0.0 ? -1.0 : 0.0); break;
     case Fn::kSign: da[0] = 0.0; break;
-    case Fn::kMin:  // mb_min takes b when b < a
-      da[0] = a[1] < a[0] ? 0.0 : 1.0;
+    case Fn::kMin:  // mb_min takes b when b < a; a tie: half of each
+      da[0] = a[0] == a[1] ? 0.5 : (a[1] < a[0] ? 0.0 : 1.0);
       da[1] = 1.0 - da[0];
       break;
-    case Fn::kMax:  // mb_max takes b when a < b
-      da[0] = a[0] < a[1] ? 0.0 : 1.0;
+    case Fn::kMax:  // mb_max takes b when a < b; a tie: half of each
+      da[0] = a[0] == a[1] ? 0.5 : (a[0] < a[1] ? 0.0 : 1.0);
       da[1] = 1.0 - da[0];
       break;
     case Fn::kHypot:
       da[0] = v > 0.0 ? a[0] / v : 0.0;
       da[1] = v > 0.0 ? a[1] / v : 0.0;
       break;
-    case Fn::kClamp:  // clamp(x, lo, hi)
-      da[0] = (a[0] < a[1] || a[2] < a[0]) ? 0.0 : 1.0;
-      da[1] = a[0] < a[1] ? 1.0 : 0.0;
-      da[2] = (!(a[0] < a[1]) && a[2] < a[0]) ? 1.0 : 0.0;
+    case Fn::kClamp: {  // clamp(x, lo, hi): lo if x < lo, else hi if hi < x, else x
+      const double x = a[0], lo = a[1], hi = a[2];
+      if (x == lo && x == hi) {  // lo on one side, hi on the other
+        da[0] = 0.0, da[1] = 0.5, da[2] = 0.5;
+      } else if (x == lo && !(hi < x)) {  // at the lower bound: lo below, x above
+        da[0] = 0.5, da[1] = 0.5, da[2] = 0.0;
+      } else if (x == hi && !(x < lo)) {  // at the upper bound: x below, hi above
+        da[0] = 0.5, da[1] = 0.0, da[2] = 0.5;
+      } else {
+        da[0] = (x < lo || hi < x) ? 0.0 : 1.0;
+        da[1] = x < lo ? 1.0 : 0.0;
+        da[2] = (!(x < lo) && hi < x) ? 1.0 : 0.0;
+      }
       break;
+    }
     case Fn::kSmoothAbs:  // sqrt(x^2 + eps^2)
       da[0] = a[0] / v;
       da[1] = a[1] / v;

@@ -176,7 +176,12 @@ double ValueReader::Constant(const YAML::Node& n, const std::string& text, const
       continue;
     }
     good = false;
-    if (NamesAVariable(id, cx_))
+    if (NamesAVariable(id, cx_) && !constant_rule_.empty())
+      sink_.Error(codes::kExprNotConstant, At(n, name->offset), element,
+                  fmt::format("{} ({})", constant_rule_,
+                              id == "t" ? std::string("'t' is time") : fmt::format("'{}' is a variable of the model", PrintableExcerpt(id))),
+                  law_keys_hint_.empty() ? kConstantHint : law_keys_hint_);
+    else if (NamesAVariable(id, cx_))
       sink_.Error(codes::kExprNotConstant, At(n, name->offset), element,
                   id == "t" ? std::string("'t' (time) in a value that is a constant")
                             : fmt::format("'{}' is a variable of the model, in a value that is a constant", PrintableExcerpt(id)),

@@ -62,7 +62,7 @@ void StatesOutputsReader::ReadStates(const YAML::Node& n, const std::string& pre
       keys = {"kind", "input", "time_constant", "initial", "unit", "description"};
     } else if (kind == "pid") {
       a.kind = AuxState::Kind::kPid;
-      keys = {"kind", "input", "kp", "ki", "kd", "tf", "tt", "min", "max", "unit", "description"};
+      keys = {"kind", "input", "kp", "ki", "kd", "tf", "tt", "min", "max", "initial", "unit", "description"};
     } else {
       const std::string guess = DidYouMean(kind, {"orientation", "integral", "lag", "pid"});
       sink_.Error(s["kind"] ? Loc(s["kind"]) : a.where, name, fmt::format("unknown state kind '{}'", kind),
@@ -143,6 +143,8 @@ void StatesOutputsReader::ReadStates(const YAML::Node& n, const std::string& pre
         range("max", fmt::format("max must be > min (got min {:g}, max {:g})", c.u_min, c.u_max), "the output is clamped to [min, max]");
     }
     if (s["initial"]) {
+      // A constant, like the gains: a number or a formula of parameters (which --set changes).
+      constant_rule_ = "an initial value is a constant: a number or a formula of parameters";
       if (a.kind == AuxState::Kind::kOrientation) {
         a.initial = Matrix(s["initial"], name, env);
         if (a.initial.rows() != 3 || a.initial.cols() != 3) sink_.Error(Loc(s["initial"]), name, "an orientation's initial value is a 3x3 matrix");
@@ -150,9 +152,20 @@ void StatesOutputsReader::ReadStates(const YAML::Node& n, const std::string& pre
           sink_.Error(Loc(s["initial"]), name, "the initial orientation is not a rotation matrix (R^T R = I, det R = +1)");
       } else {
         a.initial = Vector(s["initial"], name, env);
-        if ((a.rate.given() || a.kind == AuxState::Kind::kLag) && a.initial.size() > 1)
+        if (a.kind == AuxState::Kind::kPid && a.initial.size() > 1)
+          sink_.Error(codes::kParamRange, Loc(s["initial"]), name,
+                      fmt::format("a PID's initial value is that of its integral state '{}.i': one number (got {})", name, a.initial.size()),
+                      "to start at a steady output u0 with zero error, initial: u0/ki");
+        else if ((a.rate.given() || a.kind == AuxState::Kind::kLag) && a.initial.size() > 1)
           sink_.Error(codes::kParamRange, Loc(s["initial"]), name, fmt::format("the state is scalar: its initial value is one number (got {})", a.initial.size()));
+        else if (a.kind == AuxState::Kind::kPid && a.pid.ki == 0.0 && a.initial.size() == 1 && a.initial(0, 0) != 0.0)
+          sink_.Error(codes::kParamRange, Loc(s["initial"]), name,
+                      fmt::format("a PID without ki has no integral action: its integral state '{}.i' has no effect, so its initial value "
+                                  "must be 0 (got {:g})",
+                                  name, a.initial(0, 0)),
+                      "give ki > 0, or leave out 'initial'");
       }
+      constant_rule_.clear();
     }
     if (s["components"] && !a.rate.given())
       a.components = Components(s["components"], name);

@@ -80,6 +80,10 @@ class ValueReader {
   /// The hint of a formula that names time or a variable where a constant is needed: the keys
   /// of the element being read that take a law ("" = the general hint).
   std::string law_keys_hint_;
+  /// What a constant being read is, where a formula that names time or a variable is more
+  /// helpfully said so than in general: the message then starts with it (e.g. "an initial value
+  /// is a constant: a number or a formula of parameters"); "" = the general message.
+  std::string constant_rule_;
 
   /// Parses `text`, the scalar `n`; reports a syntax error at its character. `number`: a number
   /// was expected there (the message says so). Null after a reported problem.
