@@ -159,5 +159,59 @@ simulation: {t_end: 1, dt: 0.01}
   EXPECT_LT(std::abs(run->summary.energy_residual), 1e-6);
 }
 
+TEST_P(EverySolver, ASwitchedSourceSlidesOnItsSurface) {
+  // BondGraphTools' switched source: e = 1 - sign(q - 1) into R = 1, C = 1: q = 2 (1 - exp(-t))
+  // until q = 1 at ln 2, then held there by the sign's equivalent value 0 (e = q = 1 V).
+  const auto run = RunExample("events/switched_source.yaml", solver(), step() > 0 ? 1e-3 : 0.0);
+  ASSERT_EQ(run->summary.status, RunStatus::kOk) << run->summary.message;
+  const std::vector<EventRecord> slides = OfKind(run->rec, "slide");
+  ASSERT_EQ(slides.size(), 1u);
+  EXPECT_NEAR(slides[0].time, std::log(2.0), solver() == "rk4" ? 1e-9 : 1e-7);
+  EXPECT_EQ(slides[0].element, "source");
+  EXPECT_TRUE(OfKind(run->rec, "kink").empty());
+  EXPECT_TRUE(OfKind(run->rec, "leave").empty());
+  EXPECT_NEAR(run->rec.At("C.q", 0.5), 2.0 * (1.0 - std::exp(-0.5)), 1e-7);
+  for (const double t : {1.0, 2.0, 3.0}) {
+    EXPECT_NEAR(run->rec.At("C.q", t), 1.0, 1e-7) << t;
+    EXPECT_NEAR(run->rec.At("source_voltage", t), 1.0, 1e-7) << t;
+  }
+  // Held on the surface, the solvers step at their pace: 66 steps under BDF, 31 under dopri5
+  // (rk4: its 3,000 fixed steps).
+  EXPECT_LT(run->summary.stats.steps, solver() == "rk4" ? 3010 : 500);
+  EXPECT_LT(std::abs(run->summary.energy_residual), 1e-7);
+}
+
+TEST_P(EverySolver, ASlidingSourceLeavesWhereItsEquivalentValueLeavesItsRange) {
+  // The same source charging C through R with a drain d = 0.5 t out of the capacitor's node:
+  // q' = e - q - d. Held at q = 1 the source must give e = 1 + d, the sign -d: it leaves at
+  // d = 1, t = 2 s, and the charge falls: q' = 2 - q - d from q(2) = 1.
+  const auto run = RunWithDefaults(LoadModelString(R"yaml(model: sliding_leaves
+domain: electrical
+elements:
+  source: {type: Se, effort: "1 - sign(C.q - 1)"}
+  R:      {type: R, resistance: 1.0}
+  node:   {type: "0"}
+  C:      {type: C, compliance: 1.0}
+  drain:  {type: Sf, flow: {ramp: {slope: 0.5}}}
+  loop:   {type: "1"}
+bonds: [source -> loop, loop -> R, loop -> node, node -> C, node -> drain]
+simulation: {t_end: 3, dt: 0.01}
+)yaml"), solver(), step() > 0 ? 1e-3 : 0.0);
+  ASSERT_EQ(run->summary.status, RunStatus::kOk) << run->summary.message;
+  const std::vector<EventRecord> slides = OfKind(run->rec, "slide"), leaves = OfKind(run->rec, "leave");
+  ASSERT_EQ(slides.size(), 1u);
+  ASSERT_EQ(leaves.size(), 1u);
+  // Until it slides: q = 2.5 - 0.5 t - 2.5 exp(-t), q = 1 at t1.
+  auto q_before = [](double t) { return 2.5 - 0.5 * t - 2.5 * std::exp(-t); };
+  double lo = 0.0, hi = 2.0;
+  for (int i = 0; i < 200; ++i) (q_before(0.5 * (lo + hi)) < 1.0 ? lo : hi) = 0.5 * (lo + hi);
+  EXPECT_NEAR(slides[0].time, lo, 1e-6);
+  EXPECT_NEAR(leaves[0].time, 2.0, 1e-6);
+  EXPECT_NEAR(run->rec.At("C.q", 1.5), 1.0, 1e-7);
+  // After: q' + q = 2 - 0.5 t from q(2) = 1: q = 2.5 - 0.5 t + c exp(-(t - 2)), c = -0.5.
+  EXPECT_NEAR(run->rec.Last("C.q"), 2.5 - 1.5 - 0.5 * std::exp(-1.0), 1e-6);
+  EXPECT_LT(std::abs(run->summary.energy_residual), 1e-7);
+}
+
 }  // namespace
 }  // namespace multibond

@@ -87,6 +87,20 @@ struct Workspace {
   /// Formulas with kinks only (empty otherwise): dx/dt of the evaluation behind their event
   /// functions (CompiledModel::CalcEventFunctions).
   std::vector<double> event_xdot;
+  /// Signs of the state only (compile/sliding.cc; empty otherwise): each one's mode, a part of
+  /// the run's state like `modes` (kFree, the default: the formula's sign; kLocked: held at the
+  /// branch of its side, changed at its events; kSliding: held at its equivalent value), and the
+  /// hysteresis of a locked sign's event function (the run's absolute tolerance).
+  enum KinkMode : signed char { kFree = 0, kLocked, kSliding };
+  std::vector<signed char> kink_modes;
+  double kink_hysteresis = 0.0;
+  /// Sliding signs only (compile/sliding.cc): the scratch of their equivalent values' solve.
+  struct SlideScratch {
+    std::vector<double> xdot, rate, d_slots, d_moduli, tmp;
+    std::vector<int> active;
+    Eigen::VectorXd r0, r1, sigma;
+    Eigen::MatrixXd b;
+  } slide;
   /// Algebraic loops only (empty otherwise): the affine map of the torn variables and its solve.
   struct TearScratch {
     Eigen::MatrixXd a;  ///< A, then I - A
@@ -262,6 +276,15 @@ class CompiledModel {
   /// formula, where it is, the switching function): an operating point on a kink, where a
   /// tangent is the mean of the one-sided slopes. Evaluates ws at (t, x); allocates.
   std::vector<std::string> KinksAt(double t, const double* x, Workspace& ws) const;
+  /// At an event where the kink root `r` (KinkTable::root_kink) crossed: a `sign` of the state
+  /// that the motion drives back to its surface from both sides starts to slide (kind `slide`),
+  /// one that slides leaves (`leave`), any other kink is a change of branch (`kink`).
+  EventRecord HandleKink(double t, const double* x, Workspace& ws, int r) const;
+  /// The modes of the signs of the state at the start of a run (x at t0): locked at the side of
+  /// their switching function, sliding if it is zero there and the motion holds it, else free;
+  /// `hysteresis`: how far beyond its surface a locked sign's switching function goes before its
+  /// event (the run's absolute tolerance: noise of the integration does not flip the branch).
+  void InitializeKinks(double t, const double* x, Workspace& ws, double hysteresis) const;
   /// The modes at the start: contacts open where their gap is > 0; frictions slip where their
   /// relative flow is not zero, else stick if the static limit holds.
   void InitializeModes(double t, double* x, Workspace& ws) const;
@@ -365,8 +388,9 @@ class CompiledModel {
   /// of formulas' names finds; CompileFormula appends it to programs_ and returns its index.
   expr::Program CompileFormulaProgram(const expr::NodePtr& root, const FormulaScope& scope) const;
   int CompileFormula(const expr::NodePtr& root, const FormulaScope& scope);
-  /// The switching functions of the tree's kinks into kinks_ (compile/kinks.h).
-  void CollectKinks(const expr::NodePtr& root, const FormulaScope& scope);
+  /// The switching functions of the tree's kinks into kinks_ (compile/kinks.h); returns the tree
+  /// to compile, its `sign`s of the state reading their slide slots (compile/sliding.cc).
+  expr::NodePtr CollectKinks(const expr::NodePtr& root, const FormulaScope& scope);
   /// A name of the engine's trees ("#x3", "#w12") as the variable it is, for messages.
   std::string InternalName(const std::string& internal) const;
   /// The instruction that computes one slot class from formulas, with the classes it reads.
@@ -409,7 +433,7 @@ class CompiledModel {
   /// d_slots, the moduli's into d_moduli, dx/dt's into dxdot; `time`: the direction includes
   /// d/dt of the sources (the constraints' own tangent pass), else a state and input direction.
   void TangentPass(double t, const double* x, const double* dx, bool time, const double* du, double* dxdot, const Workspace& ws,
-                   std::vector<double>& d_slots, std::vector<double>& d_moduli) const;
+                   std::vector<double>& d_slots, std::vector<double>& d_moduli, std::vector<double>* scratch = nullptr) const;
   /// One state block's derivative's derivative along dx, from the slots w and their derivatives d.
   static void TangentGather(const Gather& gt, const double* x, const double* dx, const double* w, const double* d, double* dxdot);
   /// The tables the plan's instructions refer to (coefficients, sum terms, source functions).
@@ -534,6 +558,16 @@ class CompiledModel {
   double StoredEnergyTotal(const double* x) const;
   SwitchTable switches_;
   KinkTable kinks_;
+  std::vector<int> slides_;  ///< the kinks that may slide (a sign of the state), by index in kinks_
+  /// Sliding (compile/sliding.cc): whether some sign slides in `ws`; the slide slots of one;
+  /// dg/dt along the motion of one kink's switching function (an evaluation of the plan and its
+  /// tangent pass); the equivalent values of those that slide, into their slots.
+  bool Sliding(const Workspace& ws) const;
+  /// Kink `kink`'s mode and held value (Workspace::kink_modes; its slots m = 0, s = value, or
+  /// m = 1, s = 0 when free).
+  void SetSlide(Workspace& ws, int kink, Workspace::KinkMode mode, double value) const;
+  double SwitchingRate(double t, const double* x, Workspace& ws, int kink) const;
+  void SolveSliding(double t, const double* x, Workspace& ws) const;
 
   /// Ideal constraints: their declarations, tables and solver (compile/constraint_solver.h);
   /// empty without constraints. Its generated code (GenerateCode) is its own.

@@ -43,6 +43,22 @@ Workspace CompiledModel::MakeWorkspace() const {
   if (!constraints_.empty()) constraints_.SizeScratch(ws, num_slots_, num_moduli_, num_states());
   ws.modes.assign(switches_.size(), SwitchTable::kOpen);
   if (kinks_.num_roots() > 0) ws.event_xdot.assign(num_states(), 0.0);
+  ws.kink_modes.assign(slides_.size(), Workspace::kFree);
+  for (const int k : slides_) SetSlide(ws, k, Workspace::kFree, 0.0);
+  if (!slides_.empty()) {
+    Workspace::SlideScratch& s = ws.slide;
+    s.xdot.assign(num_states(), 0.0);
+    s.rate.assign(num_states(), 0.0);
+    s.d_slots.assign(ws.slots.size(), 0.0);
+    s.d_moduli.assign(ws.moduli.size(), 0.0);
+    s.tmp.assign(ws.slots.size(), 0.0);
+    s.active.reserve(slides_.size());
+    const auto m = static_cast<Eigen::Index>(slides_.size());
+    s.r0.setZero(m);
+    s.r1.setZero(m);
+    s.sigma.setZero(m);
+    s.b.setZero(m, m);
+  }
   return ws;
 }
 
@@ -113,7 +129,7 @@ void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot
   }
   // Read once per evaluation: the code compiled in the background may arrive between two.
   const JitCode* g = jit_ready_.load(std::memory_order_acquire);
-  if (!g) {
+  if (!g || !slides_.empty()) {  // the fast code keeps its slots to itself: not the slide slots
     CalcDerivatives(t, x, xdot, ws);
     return;
   }
@@ -142,6 +158,7 @@ void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Wor
     CalcConstrained(t, x, xdot, ws, /*share=*/true);
     return;
   }
+  if (!slides_.empty() && Sliding(ws)) SolveSliding(t, x, ws);
   EvalPlan(t, x, xdot, ws);
 }
 

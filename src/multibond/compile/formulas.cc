@@ -170,8 +170,7 @@ expr::Program CompiledModel::CompileFormulaProgram(const NodePtr& root, const Fo
 }
 
 int CompiledModel::CompileFormula(const NodePtr& root, const FormulaScope& scope) {
-  programs_.push_back(CompileFormulaProgram(root, scope));
-  CollectKinks(root, scope);
+  programs_.push_back(CompileFormulaProgram(CollectKinks(root, scope), scope));
   return static_cast<int>(programs_.size()) - 1;
 }
 
@@ -182,7 +181,7 @@ std::string CompiledModel::InternalName(const std::string& internal) const {
   return c >= 0 ? class_names_[c] : "u";  // the unknown of a resistor's law solved backwards
 }
 
-void CompiledModel::CollectKinks(const NodePtr& root, const FormulaScope& scope) {
+NodePtr CompiledModel::CollectKinks(const NodePtr& root, const FormulaScope& scope) {
   auto name_of = [this](const std::string& internal) { return InternalName(internal); };
   std::string owner;
   if (scope.element >= 0) {
@@ -190,19 +189,42 @@ void CompiledModel::CollectKinks(const NodePtr& root, const FormulaScope& scope)
   } else {  // "the signal w_ref", "the input of pid": the last word
     owner = scope.what.substr(scope.what.rfind(' ') + 1);
   }
-  const std::function<void(const Node&)> walk = [&](const Node& n) {
-    for (const NodePtr& a : n.args) walk(*a);
-    for (const NodePtr& g : SwitchingFunctions(n)) {
+  const std::string formula = scope.formula && root == scope.formula->root ? scope.formula->text : Readable(*root, name_of);
+  // Bottom up: each call's switching functions into the table; a `sign` of the state compiled as
+  // sign(x)*m + s over its two slide slots (compile/sliding.cc).
+  const std::function<NodePtr(const NodePtr&)> walk = [&](const NodePtr& n) -> NodePtr {
+    NodePtr out = n;
+    if (!n->args.empty()) {
+      auto copy = std::make_shared<Node>(*n);
+      bool changed = false;
+      for (NodePtr& a : copy->args) {
+        NodePtr b = walk(a);
+        changed = changed || b != a;
+        a = std::move(b);
+      }
+      if (changed) out = copy;
+    }
+    for (const NodePtr& g : SwitchingFunctions(*n)) {
       KinkTable::Kink k;
       k.owner = owner;
       k.what = scope.what;
-      k.formula = scope.formula && root == scope.formula->root ? scope.formula->text : Readable(*root, name_of);
+      k.formula = formula;
       k.function = Readable(*g, name_of);
       k.program = CompileFormulaProgram(g, scope);
-      kinks_.Add(std::move(k));
+      const int index = kinks_.Add(std::move(k));
+      if (index < 0 || n->fn != expr::Fn::kSign || kinks_.kinks()[static_cast<size_t>(index)].time_only) continue;
+      if (kinks_.kinks()[static_cast<size_t>(index)].slide_slot < 0) {
+        kinks_.SetSlideSlot(index, num_slots_, static_cast<int>(slides_.size()));
+        num_slots_ += 2;
+        class_of_slot_.resize(static_cast<size_t>(num_slots_), -1);
+        slides_.push_back(index);
+      }
+      const int slot = kinks_.kinks()[static_cast<size_t>(index)].slide_slot;
+      out = expr::Binary(Node::Kind::kAdd, expr::Binary(Node::Kind::kMul, out, SlotRef(slot)), SlotRef(slot + 1));
     }
+    return out;
   };
-  walk(*root);
+  return walk(root);
 }
 
 CompiledModel::FormulaInstr CompiledModel::MakeFormulaInstr(int element, int out_class, int first, int n) {

@@ -26,14 +26,15 @@ std::vector<NodePtr> SwitchingFunctions(const Node& node) {
   }
 }
 
-void KinkTable::Add(Kink kink) {
-  if (kink.program.inputs.empty()) return;  // of numbers and parameters only: one branch for ever
-  for (const Kink& k : kinks_)
-    if (k.owner == kink.owner && k.function == kink.function) return;
+int KinkTable::Add(Kink kink) {
+  if (kink.program.inputs.empty()) return -1;  // of numbers and parameters only: one branch for ever
+  for (size_t k = 0; k < kinks_.size(); ++k)
+    if (kinks_[k].owner == kink.owner && kinks_[k].function == kink.function) return static_cast<int>(k);
   kink.time_only = std::all_of(kink.program.inputs.begin(), kink.program.inputs.end(),
                                [](const expr::Input& in) { return in.in == expr::Input::In::kTime; });
   if (!kink.time_only) roots_.push_back(static_cast<int>(kinks_.size()));
   kinks_.push_back(std::move(kink));
+  return static_cast<int>(kinks_.size()) - 1;
 }
 
 void KinkTable::Roots(double t, const double* x, const double* w, double* out) const {

@@ -43,12 +43,23 @@ class KinkTable {
     std::string function;  ///< the switching function, readable: "(t - 0.5)/0.1 - 1"
     expr::Program program; ///< the switching function's program
     bool time_only = false;  ///< reads t and constants only: its changes are time events
+    /// A `sign` of the state (compile/sliding.cc): the first of its two workspace slots, m and
+    /// s, the formula's sign(x) compiled as sign(x)*m + s (m = 1, s = 0 off a sliding surface; m =
+    /// 0, s = the equivalent value on it); -1 for every other kink.
+    int slide_slot = -1;
+    int slide = -1;  ///< its index among the kinks that may slide (Workspace::kink_modes), or -1
   };
 
   /// Adds a switching function unless an equal one of the same owner is already there (a
   /// formula compiled twice, a transformer's ratio in both of its equations). Constant switching
   /// functions (of parameters only) are dropped: their branch never changes.
-  void Add(Kink kink);
+  /// Returns its index (or that of the equal one), -1 for a constant one.
+  int Add(Kink kink);
+  /// Gives kink `k` its slide slots (Kink::slide_slot).
+  void SetSlideSlot(int k, int slot, int slide) {
+    kinks_[static_cast<size_t>(k)].slide_slot = slot;
+    kinks_[static_cast<size_t>(k)].slide = slide;
+  }
 
   bool empty() const { return kinks_.empty(); }
   const std::vector<Kink>& kinks() const { return kinks_; }

@@ -196,6 +196,19 @@ void CompiledModel::CalcEventFunctions(double t, const double* x, Workspace& ws,
     switches_.Roots(t, x, ws.slots.data(), ws.lambda.data(), values.data(), ws.modes.data(), g);
   }
   kinks_.Roots(t, x, ws.slots.data(), g + switches_.num_roots());
+  // A locked sign: its switching function on its side, past the hysteresis; a sliding one: how
+  // far its equivalent value is from the end of its range.
+  for (int r = 0; !slides_.empty() && r < kinks_.num_roots(); ++r) {
+    const KinkTable::Kink& k = kinks_.root_kink(r);
+    if (k.slide < 0) continue;
+    const double held = ws.slots[static_cast<size_t>(k.slide_slot) + 1];
+    double& out = g[switches_.num_roots() + r];
+    switch (ws.kink_modes[static_cast<size_t>(k.slide)]) {
+      case Workspace::kLocked: out = held * out + ws.kink_hysteresis; break;
+      case Workspace::kSliding: out = 1.0 - std::abs(held); break;
+      default: break;
+    }
+  }
 }
 
 namespace {

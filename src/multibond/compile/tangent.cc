@@ -48,11 +48,14 @@ bool CompiledModel::can_linearize(std::string* why) const {
 }
 
 void CompiledModel::TangentPass(double t, const double* x, const double* dx, bool time, const double* du, double* dxdot,
-                                const Workspace& ws, std::vector<double>& d_slots, std::vector<double>& d_moduli) const {
+                                const Workspace& ws, std::vector<double>& d_slots, std::vector<double>& d_moduli,
+                                std::vector<double>* scratch) const {
   const double* w = ws.slots.data();
   double* d = d_slots.data();
   std::fill(d_slots.begin(), d_slots.end(), 0.0);
-  std::vector<double> tmp(d_slots.size(), 0.0);
+  std::vector<double> own;
+  std::vector<double>& tmp = scratch ? *scratch : own;
+  tmp.assign(d_slots.size(), 0.0);
   if (!needed_moduli_.empty()) EvalModuli(dx, d_moduli.data(), /*derivative=*/true);
   const plan::TangentArgs args{t, x, dx, w, d, tmp.data(), ws.moduli.data(), d_moduli.data(), ws.lambda.data(), tables(), moduli_.data(),
                                /*source_rate=*/time};

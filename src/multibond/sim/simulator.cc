@@ -367,6 +367,9 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   // Ideal constraints start satisfied: initial momenta are projected onto them (after the
   // switching elements' modes are known: only the constraints that hold).
   model.InitializeModes(options.t_start, x.data(), ws);
+  // The signs of the state: locked at their side, or sliding (compile/sliding.cc); a locked
+  // one's event lies the absolute tolerance past its surface.
+  model.InitializeKinks(options.t_start, x.data(), ws, options.integrator.atol);
   if (model.has_constraints()) model.Project(options.t_start, x.data(), ws);
   // In joint coordinates the integrator advances y, and every output time maps it back to x.
   std::optional<JointCoordinateSystem> chart;
@@ -519,12 +522,12 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
           model.HandleEvents(reached, x.data(), ws, roots.data(), rest_time, log);
           for (const EventRecord& r : log) record(r);
         }
-        // A formula's switching function changed sign: its branch changed, nothing jumps; the
+        // A formula's switching function changed sign: its branch changed, nothing jumps (a sign
+        // the motion drives back from both sides starts to slide, or one that slid leaves); the
         // integration restarts there (below).
         for (int r = 0; r < model.kinks().num_roots(); ++r)
           if (roots[static_cast<size_t>(model.num_switch_event_functions() + r)] != 0) {
-            const KinkTable::Kink& k = model.kinks().root_kink(r);
-            record({reached, "kink", k.owner, KinkTable::Describe(k)});
+            record(model.HandleKink(reached, x.data(), ws, r));
           }
         // A restart estimates its first step anew, small: a first step as long as the last could
         // start and end on the same side of an event function (a whole rebound) and miss it.
