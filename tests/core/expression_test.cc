@@ -382,10 +382,12 @@ TEST(Expression, FormatWritesTheFewestParentheses) {
   EXPECT_EQ(Formatted("k*(q > 0)"), "k*(q > 0)");
   EXPECT_EQ(Formatted("(not a) + 1"), "(not a) + 1");
   EXPECT_EQ(Formatted("a < (not b)"), "a < (not b)");
-  // The operand of not is in parentheses unless it is a name, a number, a call, a power or a sign.
-  EXPECT_EQ(Formatted("not a < b"), "not (a < b)");
-  EXPECT_EQ(Formatted("not x + 1"), "not (x + 1)");
-  EXPECT_EQ(Formatted("not not a"), "not (not a)");
+  EXPECT_EQ(Formatted("not a < (not (b < c))"), "not a < (not b < c)");
+  // The operand of not: in parentheses only where the precedence needs them (more would nest the
+  // text deeper than the formula it came from).
+  EXPECT_EQ(Formatted("not (a < b)"), "not a < b");
+  EXPECT_EQ(Formatted("not (x + 1)"), "not x + 1");
+  EXPECT_EQ(Formatted("not (not a)"), "not not a");
   EXPECT_EQ(Formatted("not(done)"), "not done");
   EXPECT_EQ(Formatted("not -x^2"), "not -x^2");
   EXPECT_EQ(Formatted("not sign(x)"), "not sign(x)");
@@ -393,6 +395,23 @@ TEST(Expression, FormatWritesTheFewestParentheses) {
   EXPECT_EQ(Format(*Call(Fn::kGe, {Number(-1), Name("x")})), "-1 >= x");
   EXPECT_EQ(Format(*Call(Fn::kNot, {Number(-1)})), "not -1");
   EXPECT_EQ(Format(*Call(Fn::kLt, {Call(Fn::kLt, {Name("a"), Name("b")}), Name("c")})), "(a < b) < c");
+}
+
+TEST(Expression, FormatNestsNoDeeperThanTheFormula) {
+  // 64 nested negations of a comparison, and 32 negations each of a comparison in parentheses
+  // whose right side is the next: as deep as a formula may be; formatted, they parse again.
+  std::string nots;
+  for (int i = 0; i < 64; ++i) nots += "not ";
+  std::string chain = "x";
+  for (int i = 0; i < 32; ++i) chain = fmt::format("not a < ({})", chain);
+  for (const std::string& text : {nots + "x < y", nots + "x", chain}) {
+    const ParseResult r = Parse(text);
+    ASSERT_TRUE(r.root) << text.substr(0, 80) << ": " << r.error->message;
+    const ParseResult again = Parse(Format(*r.root));
+    ASSERT_TRUE(again.root) << Format(*r.root).substr(0, 80) << ": " << again.error->message;
+    EXPECT_EQ(Dump(*again.root), Dump(*r.root));
+  }
+  EXPECT_FALSE(Parse("not " + nots + "x").root);  // 65
 }
 
 TEST(Expression, FormatOfAParsedFormulaParsesBackToTheSameTree) {

@@ -590,11 +590,10 @@ void FormatTo(const Node& n, int need, std::string& out) {
         out += fmt::format(" {} ", f.op);
         FormatTo(*n.args[1], level + 1, out);
       } else if (n.fn == Fn::kNot) {
-        // The one place with parentheses the precedence does not need: `not (a < b)` and
-        // `not (x + 1)` read better than `not a < b` (which is the same); a name, a number, a
-        // call, a power or a sign goes without.
+        // `not a < b`, not `not (a < b)`: parentheses the precedence does not need would nest the
+        // text deeper than the formula it was parsed from, beyond kMaxFormulaDepth at worst.
         out += "not ";
-        FormatTo(*n.args[0], kSigned, out);
+        FormatTo(*n.args[0], kNot, out);
       } else {
         out += f.name;
         out += '(';
