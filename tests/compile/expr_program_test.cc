@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <bit>
 #include <cmath>
@@ -83,7 +84,20 @@ const std::vector<std::string> kFormulas = {
     "x0 + 1 - x1*3 + x2/7 - x0^1.5", "1 + x0 - (2 - x1) * (3*x2) + 0.5/x0", "k^x0 - 0.5^x1", "x0", "t", "k*pi",
     // a bound operand on the other side of the input it bounds; arguments that are constants
     "clamp(0.5, x0, x1) + min(-1, x2) + atan2(k, x0) + max(x0, 1)",
+    // comparisons, logic and if (kSwitching below: also at NaN, infinite and zero inputs)
+    "x0 < x1", "x0 <= x1", "x0 > x1", "x0 >= x1", "x0 == x1", "x0 != x1", "x0 and x1", "x0 or x1", "not x0",
+    "if(x0, x1, x2)", "if(x0 > 0, sqrt(x0), sqrt(-x0))", "if(x0 < x1 and not x2 >= 0 or t > 1, log(x0), x1/x2)",
+    "k*x0*(x0 > 0) + w0*(x0 <= 0)", "if(x0 == 0, 1, sin(x0)/x0)", "(x0 != x0) + 2*(x1 == x1) - (x0 != x1)",
+    "if(k > 2, x0, x1)", "x0 < k", "1 >= x0", "if(x0 > 1, 2, -0)", "not (k < 1) and x0 > 0 or w1", "if(not x0, 1/x1, -x2)",
 };
+
+/// The formulas of kFormulas made of comparisons, logic and if: their values are 1, 0 or a branch
+/// selected, so the interpreter and generated code agree to the bit at NaNs too.
+bool Switching(const std::string& f) {
+  return f.find('<') != std::string::npos || f.find('>') != std::string::npos || f.find('=') != std::string::npos ||
+         f.find("and") != std::string::npos || f.find("or") != std::string::npos || f.find("not") != std::string::npos ||
+         f.find("if(") != std::string::npos;
+}
 
 /// Inputs of every kind: ordinary, large, tiny, zeros of both signs, out of the functions' domains.
 double RandomValue(std::mt19937_64& rng) {
@@ -167,6 +181,11 @@ TEST(ExprProgram, FoldsConstantsWithoutChangingABit) {
   EXPECT_EQ(constant.steps[0].op, Step::Op::kConst);
   EXPECT_TRUE(constant.inputs.empty());
   EXPECT_EQ(expr::Run(constant, 0, nullptr, nullptr), 2.5 * std::numbers::pi + std::atan2(1.0, 2.0));
+  // Comparisons, logic and if of constants are folded too (the unused branch's infinity is not
+  // in the value).
+  const Program logic = CompileProgram(*Tree("if(k > 2, pi, 1/0) + (k < 3 and not k == 2.5) + (k != k)"), Resolve);
+  ASSERT_EQ(logic.steps.size(), 1u);
+  EXPECT_EQ(expr::Run(logic, 0, nullptr, nullptr), std::numbers::pi);
   // Folded or computed at run time (k and pi read from slots), every formula gives the same bits.
   std::mt19937_64 rng(11);
   for (const std::string& f : kFormulas) {
@@ -360,6 +379,58 @@ TEST(ExprProgram, GeneratedCodeGivesTheInterpretersBits) {
   }
   EXPECT_EQ(compared, 20000 * static_cast<long>(kFormulas.size()));
   EXPECT_GT(nans, 0);  // the domains' edges were reached too
+
+  // Comparisons, logic and if at NaN, infinities, zeros of both signs and a NaN of another
+  // payload: the same bits (a NaN on a branch not taken never reaches the value).
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  const double special[] = {nan, -nan, inf, -inf, 0.0, -0.0, 1.0, -1.0, 0.5, std::bit_cast<double>(std::uint64_t{0x7ff8000000000abc})};
+  int switching = 0;
+  for (const double a : special)
+    for (const double b : special)
+      for (const double c : special) {
+        const Inputs in{a > 0 ? 2.0 : 0.5, {a, b, c}, {b, c, 2.5, std::numbers::pi}};
+        all(in.t, in.x, in.w, out.data());
+        for (size_t k = 0; k < kFormulas.size(); ++k) {
+          if (!Switching(kFormulas[k])) continue;
+          const double interpreted = expr::Run(programs[k], in.t, in.x, in.w);
+          // A sum or a product of two NaNs may give either's payload (the compiler may swap the
+          // operands of + and *): there, NaN is NaN. Everywhere else, the bits.
+          const bool commutes = kFormulas[k].find('+') != std::string::npos || kFormulas[k].find('*') != std::string::npos;
+          const double evaluated = EvaluateAt(*Tree(kFormulas[k]), in);
+          if (commutes && std::isnan(interpreted)) {
+            ASSERT_TRUE(std::isnan(out[k]) && std::isnan(evaluated)) << kFormulas[k];
+          } else {
+            ASSERT_EQ(Bits(out[k]), Bits(interpreted)) << kFormulas[k] << ": generated " << out[k] << ", interpreted " << interpreted
+                                                       << " at x = " << a << " " << b << " " << c;
+            ASSERT_EQ(Bits(interpreted), Bits(evaluated)) << kFormulas[k];
+          }
+          ++switching;
+        }
+      }
+  EXPECT_EQ(switching, 1000 * static_cast<int>(std::count_if(kFormulas.begin(), kFormulas.end(), Switching)));
+  EXPECT_GE(std::count_if(kFormulas.begin(), kFormulas.end(), Switching), 21);
+}
+
+TEST(ExprProgram, ComparisonsLogicAndIfAtNaN) {
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  const auto run = [](const std::string& f, double x0, double x1 = 0.0, double x2 = 0.0) {
+    const double x[3] = {x0, x1, x2};
+    return expr::Run(CompileProgram(*Tree(f), Resolve), 0.0, x, nullptr);
+  };
+  EXPECT_EQ(run("x0 < x1", nan, 1.0), 0.0);
+  EXPECT_EQ(run("x0 >= x1", 1.0, nan), 0.0);
+  EXPECT_EQ(run("x0 == x1", nan, nan), 0.0);
+  EXPECT_EQ(run("x0 != x1", nan, nan), 1.0);
+  EXPECT_EQ(run("not x0", nan), 1.0);  // NaN is false
+  EXPECT_EQ(run("x0 or x1", nan, 0.0), 0.0);
+  EXPECT_EQ(run("x0 and x1", nan, 1.0), 0.0);
+  EXPECT_EQ(run("if(x0, 1, 2)", nan), 2.0);
+  EXPECT_EQ(run("if(x0 > 0, sqrt(x0), 0)", -1.0), 0.0);     // the NaN of sqrt(-1) is not taken
+  EXPECT_EQ(run("if(x0 != 0, 1/x0, 3)", 0.0), 3.0);         // nor the infinity of 1/0
+  EXPECT_EQ(run("if(x0 > 0, x1, x2)", 1.0, inf, nan), inf);
+  EXPECT_TRUE(std::isnan(run("if(x0 > 0, x1, x2)", -1.0, inf, nan)));
+  EXPECT_EQ(run("x0 < x1 and x1 < x2", 0.0, 0.5, 1.0), 1.0);
+  EXPECT_EQ(run("x0 < x1 and x1 < x2", 0.0, 1.5, 1.0), 0.0);
 }
 
 /// law(u) = target by SolveFor, u read from w[0].

@@ -147,6 +147,43 @@ TEST(Symbolic, Simplifies) {
     EXPECT_NEAR(At(*back, {{"q", q}}), At(*Tree(all), {{"q", q}}), 1e-13 * std::abs(At(*Tree(all), {{"q", q}}))) << Format(*back);
 }
 
+TEST(Symbolic, ComparisonsLogicAndIf) {
+  // Comparisons and logic are piecewise constant: derivative 0.
+  for (const char* f : {"q < 1", "q <= k", "q > 0", "q >= -q", "q == 2", "q != 2", "q > 0 and q < 1", "q < 0 or q > 1",
+                        "not q > 0", "k*(q > 0 and not q == 3)"})
+    EXPECT_EQ(Format(*Differentiate(*Tree(f), "q")), "0") << f;
+  // if differentiates to the select of the branches' derivatives, not to a blend of them.
+  EXPECT_EQ(Format(*Differentiate(*Tree("if(q > 0, k*q^2/2, c*q)"), "q")), "if(q > 0, k*q, c)");
+  EXPECT_EQ(Format(*Differentiate(*Tree("if(q > 0 and q < 1, q^3, 0)"), "q")), "if(q > 0 and q < 1, 3*q^2, 0)");
+  EXPECT_EQ(Format(*Differentiate(*Tree("2*if(not q <= 1, sqrt(q), 1)"), "q")), "2*if(not q <= 1, 1/(2*sqrt(q)), 0)");
+  // The branch not taken may be NaN or infinite where the one taken is fine: it stays out.
+  const NodePtr d = Differentiate(*Tree("if(q > 0, sqrt(q), 5*q)"), "q");
+  EXPECT_EQ(At(*d, {{"q", 0.0}}), 5.0);
+  EXPECT_EQ(At(*d, {{"q", -1.0}}), 5.0);
+  EXPECT_EQ(At(*d, {{"q", 4.0}}), 0.25);
+  ExpectDerivative("if(q > 0.5, q^2, -q) + q*(q < 0) + if(q >= 1 or q < -1, sin(q), cos(q))", {-2.3, -0.4, 0.3, 0.8, 1.7});
+  // A select of equal branches is the branch; one of a known condition is the branch taken.
+  EXPECT_EQ(Format(*Simplify(*Tree("if(q > 0, k*q, q*k)"))), "k*q");
+  EXPECT_EQ(Format(*Simplify(*Tree("if(2 > 1, q, 0) + (1 == 1) + (3 < 2) + (1 and 0) + (0 or 2) + (not 0)"))), "3 + q");
+  // Comparisons of a variable with itself are kept: at a NaN, q == q is false.
+  EXPECT_EQ(Format(*Simplify(*Tree("q == q"))), "q == q");
+  // Every operator comes back as itself, with its value.
+  const std::string all = "(q < 1) + (q <= 1) + 2*(q > 1) + (q >= 1) + (q == 2) + (q != 2) + (q > 0 and q < 3) + (q < 0 or q > 1) + "
+                          "(not q > 1) + if(q > 1, q^2, -q)";
+  const NodePtr back = Simplify(*Tree(all));
+  for (const double q : {-1.0, 0.5, 1.0, 2.0, 3.5}) EXPECT_EQ(At(*back, {{"q", q}}), At(*Tree(all), {{"q", q}})) << Format(*back);
+  // A law with a switch has no closed-form energy here: numerical integration, no error.
+  EXPECT_FALSE(IntegrateFromZero(*Tree("if(q > 0, k*q, 2*k*q)"), "q").has_value());
+  EXPECT_FALSE(IntegrateFromZero(*Tree("k*q*(q > 0)"), "q").has_value());
+  // (A law in which the switch does not depend on q integrates as before.)
+  const std::optional<NodePtr> e = IntegrateFromZero(*Tree("if(k > 1, k, 1)*q"), "q");
+  ASSERT_TRUE(e.has_value());
+  EXPECT_EQ(At(**e, {{"q", 2.0}, {"k", 3.0}}), 6.0);
+  EXPECT_EQ(At(**e, {{"q", 2.0}, {"k", 0.5}}), 2.0);
+  EXPECT_TRUE(DependsOn(*Tree("if(q > 0, 1, 2)"), "q"));
+  EXPECT_FALSE(DependsOn(*Tree("if(q > 0, x, x)"), "q"));
+}
+
 TEST(Symbolic, WhatFormulasCannotExpressIsAnError) {
   try {
     Simplify(*Tree("sqrt(-1)"));

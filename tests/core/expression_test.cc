@@ -117,10 +117,18 @@ TEST(Expression, NumbersAndNames) {
 }
 
 TEST(Expression, EveryFunctionWithItsNumberOfArguments) {
-  ASSERT_EQ(FunctionNames().size(), static_cast<size_t>(kNumFns));
+  int operators = 0;
+  for (int i = 0; i < kNumFns; ++i) operators += Info(static_cast<Fn>(i)).op != nullptr;
+  EXPECT_EQ(operators, 9);  // < <= > >= == != and or not
+  ASSERT_EQ(FunctionNames().size(), static_cast<size_t>(kNumFns - operators));
   for (int i = 0; i < kNumFns; ++i) {
     const FunctionInfo& f = Info(static_cast<Fn>(i));
     EXPECT_EQ(static_cast<int>(f.fn), i);
+    if (f.op) {  // written as an operator, never called by name: lt(a, b) is no function
+      EXPECT_EQ(FindFunction(f.name), nullptr) << f.name;
+      EXPECT_THAT(FunctionNames(), ::testing::Not(::testing::Contains(f.name)));
+      continue;
+    }
     ASSERT_EQ(FindFunction(f.name), &f) << f.name;
     std::string args, more;
     for (int k = 0; k < f.arity; ++k) args += fmt::format("{}x{}", k ? ", " : "", k);
@@ -138,7 +146,116 @@ TEST(Expression, EveryFunctionWithItsNumberOfArguments) {
   EXPECT_THAT(FunctionNames(), ::testing::Contains("smoothsign"));
   EXPECT_EQ(FindFunction("atan2")->arity, 2);
   EXPECT_EQ(FindFunction("clamp")->arity, 3);
+  EXPECT_EQ(FindFunction("if")->arity, 3);
   EXPECT_EQ(FindFunction("nope"), nullptr);
+  EXPECT_EQ(FindFunction("lt"), nullptr);
+  EXPECT_EQ(FindFunction("and"), nullptr);
+  // The enumerators of the operators, in the table's order after smoothsign.
+  EXPECT_EQ(static_cast<int>(Fn::kLt), static_cast<int>(Fn::kSmoothSign) + 1);
+  EXPECT_EQ(kNumFns, static_cast<int>(Fn::kIf) + 1);
+  EXPECT_STREQ(Info(Fn::kLe).op, "<=");
+  EXPECT_STREQ(Info(Fn::kNe).op, "!=");
+  EXPECT_STREQ(Info(Fn::kNot).op, "not");
+  EXPECT_EQ(Info(Fn::kIf).op, nullptr);
+}
+
+TEST(Expression, ComparisonsAndLogicHaveTheirPrecedence) {
+  EXPECT_EQ(Tree("a < b"), "(lt a b)");
+  EXPECT_EQ(Tree("a <= b"), "(le a b)");
+  EXPECT_EQ(Tree("a > b"), "(gt a b)");
+  EXPECT_EQ(Tree("a >= b"), "(ge a b)");
+  EXPECT_EQ(Tree("a == b"), "(eq a b)");
+  EXPECT_EQ(Tree("a != b"), "(ne a b)");
+  EXPECT_EQ(Tree("a<-1"), "(lt a (neg 1))");  // no blanks needed
+  // Comparisons bind looser than arithmetic, tighter than not, and, or.
+  EXPECT_EQ(Tree("a + 1 < b*2"), "(lt (+ a 1) (* b 2))");
+  EXPECT_EQ(Tree("-x^2 >= 0"), "(ge (neg (^ x 2)) 0)");
+  EXPECT_EQ(Tree("not a < b"), "(not (lt a b))");
+  EXPECT_EQ(Tree("not not a"), "(not (not a))");
+  EXPECT_EQ(Tree("a < b and c > d"), "(and (lt a b) (gt c d))");
+  EXPECT_EQ(Tree("a and b or c and d"), "(or (and a b) (and c d))");
+  EXPECT_EQ(Tree("a or b and c"), "(or a (and b c))");
+  EXPECT_EQ(Tree("not a and b"), "(and (not a) b)");
+  EXPECT_EQ(Tree("not a or not b"), "(or (not a) (not b))");
+  EXPECT_EQ(Tree("a and b and c"), "(and (and a b) c)");
+  EXPECT_EQ(Tree("a or b or c"), "(or (or a b) c)");
+  EXPECT_EQ(Tree("(a or b) and c"), "(and (or a b) c)");
+  EXPECT_EQ(Tree("(a < b) < c"), "(lt (lt a b) c)");  // in parentheses, a comparison is an operand
+  EXPECT_EQ(Tree("2*(x > 0)"), "(* 2 (gt x 0))");
+  EXPECT_EQ(Tree("(x)or(y)"), "(or x y)");
+  // if is a function of three arguments, each an expression of the whole grammar.
+  EXPECT_EQ(Tree("if(x > 0 and y < 1, a, b + 1)"), "(if (and (gt x 0) (lt y 1)) a (+ b 1))");
+  EXPECT_EQ(Tree("1 + if(c, a, b)"), "(+ 1 (if c a b))");
+  // Words that only start like an operator are names; a dotted name is a name.
+  EXPECT_EQ(Tree("order + android + note + not_ + and2 + x.and + or.q"), "(+ (+ (+ (+ (+ (+ order android) note) not_) and2) x.and) or.q)");
+  // Offsets: an operator's node starts where its text does.
+  const ParseResult r = Parse("x + 1 < y and not z");
+  ASSERT_TRUE(r.root);
+  EXPECT_EQ(r.root->offset, 0);                   // and
+  EXPECT_EQ(r.root->args[0]->offset, 0);          // <
+  EXPECT_EQ(r.root->args[1]->offset, 14);         // not
+  EXPECT_EQ(r.root->args[1]->args[0]->offset, 18);
+  EXPECT_EQ(Parse("  if(c, a, b)").root->offset, 2);
+  EXPECT_TRUE(IsReservedWord("and"));
+  EXPECT_TRUE(IsReservedWord("or"));
+  EXPECT_TRUE(IsReservedWord("not"));
+  EXPECT_FALSE(IsReservedWord("if"));
+  EXPECT_FALSE(IsReservedWord("And"));
+}
+
+TEST(Expression, ComparisonsDoNotChain) {
+  ParseError e = ErrorOf("0 < x < 1");
+  EXPECT_EQ(e.offset, 6);
+  EXPECT_EQ(e.message, "comparisons do not chain: '<' follows a comparison");
+  EXPECT_EQ(e.hint, "write 0 < x and x < 1");
+  e = ErrorOf("a <= b+1 >= (c)");
+  EXPECT_EQ(e.offset, 9);
+  EXPECT_EQ(e.hint, "write a <= b+1 and b+1 >= (c)");
+  e = ErrorOf("a == b == ");  // the third operand does not read: the hint is the general one
+  EXPECT_EQ(e.offset, 7);
+  EXPECT_EQ(e.hint, "write a < b and b < c");
+  EXPECT_TRUE(Parse("0 < x and x < 1").root);
+}
+
+TEST(Expression, OperatorsOfOtherLanguagesAreErrorsWithTheOneToWrite) {
+  ParseError e = ErrorOf("a = b");
+  EXPECT_EQ(e.offset, 2);
+  EXPECT_EQ(e.message, "'=' is not an operator of formulas");
+  EXPECT_EQ(e.hint, "equality is written ==, as in a == b");
+  e = ErrorOf("min(a = b, c)");
+  EXPECT_EQ(e.offset, 6);
+  EXPECT_THAT(e.hint, HasSubstr("=="));
+  EXPECT_EQ(ErrorOf("(a = b)").offset, 3);
+  e = ErrorOf("a && b");
+  EXPECT_EQ(e.offset, 2);
+  EXPECT_EQ(e.hint, "write 'and', as in a > 0 and b > 0");
+  EXPECT_EQ(ErrorOf("a || b").hint, "write 'or', as in a > 0 or b > 0");
+  e = ErrorOf("!a");
+  EXPECT_EQ(e.offset, 0);
+  EXPECT_THAT(e.hint, HasSubstr("'not'"));
+  EXPECT_EQ(ErrorOf("a <> b").hint, "'not equal' is written !=");
+  EXPECT_EQ(ErrorOf("a =< b").hint, "'at most' is written <=");
+  EXPECT_EQ(ErrorOf("a => b").hint, "'at least' is written >=");
+  // The words in the wrong place.
+  e = ErrorOf("a < not b");
+  EXPECT_EQ(e.offset, 4);
+  EXPECT_EQ(e.message, "unexpected 'not': a number, a name or '(' was expected");
+  EXPECT_THAT(e.hint, HasSubstr("a < (not b)"));
+  EXPECT_TRUE(Parse("a < (not b)").root);
+  e = ErrorOf("and b");
+  EXPECT_EQ(e.offset, 0);
+  EXPECT_EQ(e.hint, "'and' joins two conditions, as in a > 0 and b > 0");
+  EXPECT_EQ(ErrorOf("a or").offset, 4);
+  EXPECT_EQ(ErrorOf("a and or b").offset, 6);
+  e = ErrorOf("a not b");
+  EXPECT_EQ(e.offset, 2);
+  EXPECT_EQ(e.message, "unexpected 'not': an operator or the end was expected");
+  EXPECT_EQ(ErrorOf("and(a, b)").offset, 0);
+  e = ErrorOf("if(c, a)");
+  EXPECT_EQ(e.message, "if takes 3 arguments, not 2");
+  EXPECT_EQ(e.hint, "if(condition, value where true, value where false)");
+  EXPECT_EQ(ErrorOf("if + 1").message, "'if' is a function");
+  EXPECT_EQ(ErrorOf("lt(a, b)").message, "unknown function 'lt'");
 }
 
 TEST(Expression, ErrorsSayWhereAndWhat) {
@@ -247,6 +364,67 @@ TEST(Expression, FormatWritesTheFewestParentheses) {
   // Numbers built in code: a negative one is written as a sign, and parenthesised where needed.
   EXPECT_EQ(Format(*Binary(Node::Kind::kPow, Number(-2), Name("x"))), "(-2)^x");
   EXPECT_EQ(Format(*Binary(Node::Kind::kSub, Name("x"), Number(-0.0))), "x - -0");
+  // Comparisons and logic, as operators.
+  EXPECT_EQ(Formatted("a<b"), "a < b");
+  EXPECT_EQ(Formatted("(x>0)and(y<1)"), "x > 0 and y < 1");
+  EXPECT_EQ(Formatted("(a + 1) <= (b*c)"), "a + 1 <= b*c");
+  EXPECT_EQ(Formatted("(a < b) == (c >= d)"), "(a < b) == (c >= d)");
+  EXPECT_EQ(Formatted("(a and b) or c"), "a and b or c");
+  EXPECT_EQ(Formatted("a and (b or c)"), "a and (b or c)");
+  EXPECT_EQ(Formatted("a or (b or c)"), "a or (b or c)");
+  EXPECT_EQ(Formatted("(a or b) or c"), "a or b or c");
+  EXPECT_EQ(Formatted("a and (b and c)"), "a and (b and c)");
+  EXPECT_EQ(Formatted("a and (not b)"), "a and not b");
+  EXPECT_EQ(Formatted("(not a) or b"), "not a or b");
+  EXPECT_EQ(Formatted("not (a or b)"), "not (a or b)");
+  EXPECT_EQ(Formatted("-(a < b)"), "-(a < b)");
+  EXPECT_EQ(Formatted("(a != b)^2"), "(a != b)^2");
+  EXPECT_EQ(Formatted("k*(q > 0)"), "k*(q > 0)");
+  EXPECT_EQ(Formatted("(not a) + 1"), "(not a) + 1");
+  EXPECT_EQ(Formatted("a < (not b)"), "a < (not b)");
+  EXPECT_EQ(Formatted("not a < (not (b < c))"), "not a < (not b < c)");
+  // The operand of not: in parentheses only where the precedence needs them (more would nest the
+  // text deeper than the formula it came from).
+  EXPECT_EQ(Formatted("not (a < b)"), "not a < b");
+  EXPECT_EQ(Formatted("not (x + 1)"), "not x + 1");
+  EXPECT_EQ(Formatted("not (not a)"), "not not a");
+  EXPECT_EQ(Formatted("not(done)"), "not done");
+  EXPECT_EQ(Formatted("not -x^2"), "not -x^2");
+  EXPECT_EQ(Formatted("not sign(x)"), "not sign(x)");
+  EXPECT_EQ(Formatted("if( x>0 and y ,a,(b) )"), "if(x > 0 and y, a, b)");
+  EXPECT_EQ(Format(*Call(Fn::kGe, {Number(-1), Name("x")})), "-1 >= x");
+  EXPECT_EQ(Format(*Call(Fn::kNot, {Number(-1)})), "not -1");
+  EXPECT_EQ(Format(*Call(Fn::kLt, {Call(Fn::kLt, {Name("a"), Name("b")}), Name("c")})), "(a < b) < c");
+}
+
+TEST(Expression, FormatNestsNoDeeperThanTheFormula) {
+  // 64 nested negations of a comparison, and 32 negations each of a comparison in parentheses
+  // whose right side is the next: as deep as a formula may be; formatted, they parse again.
+  std::string nots;
+  for (int i = 0; i < 64; ++i) nots += "not ";
+  std::string chain = "x";
+  for (int i = 0; i < 32; ++i) chain = fmt::format("not a < ({})", chain);
+  for (const std::string& text : {nots + "x < y", nots + "x", chain}) {
+    const ParseResult r = Parse(text);
+    ASSERT_TRUE(r.root) << text.substr(0, 80) << ": " << r.error->message;
+    const ParseResult again = Parse(Format(*r.root));
+    ASSERT_TRUE(again.root) << Format(*r.root).substr(0, 80) << ": " << again.error->message;
+    EXPECT_EQ(Dump(*again.root), Dump(*r.root));
+  }
+  EXPECT_FALSE(Parse("not " + nots + "x").root);  // 65
+}
+
+TEST(Expression, FormatOfAParsedFormulaParsesBackToTheSameTree) {
+  for (const char* text : {"a < b", "not a < b and c or d", "x > 0 and y < 1", "not (a < b)", "a or (b or c)",
+                           "(a < b) == (c >= d)", "if(not x, if(y != 0, 1, -1), q^2 <= 3 or t > 1)", "not not not a",
+                           "2*(x > 0) - (x < 0)", "a and not b or not (c and d)", "-(x <= y)^2", "min(a < b, c) + (a == b)"}) {
+    const ParseResult r = Parse(text);
+    ASSERT_TRUE(r.root) << text;
+    const std::string formatted = Format(*r.root);
+    const ParseResult again = Parse(formatted);
+    ASSERT_TRUE(again.root) << text << " -> " << formatted;
+    EXPECT_EQ(Dump(*again.root), Dump(*r.root)) << text << " -> " << formatted;
+  }
 }
 
 /// A random tree of every kind of node, with numbers of any sign and magnitude.
@@ -301,9 +479,10 @@ TEST(Expression, FormatReadsBackToTheSameTextAndValue) {
 // a tree or a located error, and a tree formats to text that reads back to the same text.
 TEST(Expression, RandomTextGivesATreeOrALocatedError) {
   std::mt19937_64 rng(99);
-  const std::string alphabet = "0123456789.eE+-*/^(),_ abcpqtxz\t\n\x01\xc3\xa9#$";
+  const std::string alphabet = "0123456789.eE+-*/^(),_ abcpqtxz\t\n\x01\xc3\xa9#$<>=!&|";
   const std::vector<std::string> seeds = {"k1*q + k3*q^3", "-x^2^-y", "clamp(3*q, -1, 2)/(1e-3 + .5)",
-                                          "atan2(spring.q, J.omega.z)", "smoothsign(f, 1e-3)*F_c + c*f"};
+                                          "atan2(spring.q, J.omega.z)", "smoothsign(f, 1e-3)*F_c + c*f",
+                                          "if(q > 0 and not p <= 1, q, -q) + (t >= 2 or e != f)*(x == 1)"};
   int trees = 0, errors = 0;
   for (int i = 0; i < 20000; ++i) {
     std::string text;
@@ -370,6 +549,12 @@ TEST(Expression, Evaluates) {
   EXPECT_EQ(Eval("min(2, -3) + max(2, -3)"), -1.0);
   EXPECT_DOUBLE_EQ(Eval("log(exp(1))"), 1.0);
   EXPECT_EQ(Eval("sqrt(16) + abs(-2) + sign(-0.5)"), 5.0);
+  EXPECT_EQ(Eval("(1 < 2) + 10*(2 < 1) + 100*(2 <= 2) + 1000*(3 >= 4) + 1e4*(5 == 5) + 1e5*(5 != 5)"), 10101.0);
+  EXPECT_EQ(Eval("if(x > 0, 10, 20) + if(not x > 0, 1, 2)", {{"x", 1.0}}), 12.0);
+  EXPECT_EQ(Eval("if(x > 0, 10, 20) + if(not x > 0, 1, 2)", {{"x", -1.0}}), 21.0);
+  EXPECT_EQ(Eval("(x > 0 and x < 1) + 2*(x < 0 or x > 1)", {{"x", 0.5}}), 1.0);
+  EXPECT_EQ(Eval("(x > 0 and x < 1) + 2*(x < 0 or x > 1)", {{"x", 1.5}}), 2.0);
+  EXPECT_EQ(Eval("if(x > 0, sqrt(x), sqrt(-x))", {{"x", -4.0}}), 2.0);  // the NaN of the other branch stays out
   try {
     Eval("k1*x", v);
     ADD_FAILURE() << "no error for an unknown name";
@@ -410,6 +595,47 @@ TEST(Expression, TheFunctionsValues) {
     EXPECT_EQ(Bits(Power(x, 2.5)), Bits(std::pow(x, 2.5))) << x;
   }
   EXPECT_EQ(Power(0.0, 0.0), 1.0);
+  // Comparisons: 1 or 0; a NaN compares false, but != true.
+  const double inf = std::numeric_limits<double>::infinity();
+  const struct {
+    double a, b;
+    double lt, le, gt, ge, eq, ne;
+  } cases[] = {
+      {1.0, 2.0, 1, 1, 0, 0, 0, 1},  {2.0, 1.0, 0, 0, 1, 1, 0, 1},  {1.0, 1.0, 0, 1, 0, 1, 1, 0},
+      {0.0, -0.0, 0, 1, 0, 1, 1, 0}, {-inf, inf, 1, 1, 0, 0, 0, 1}, {nan, 1.0, 0, 0, 0, 0, 0, 1},
+      {1.0, nan, 0, 0, 0, 0, 0, 1},  {nan, nan, 0, 0, 0, 0, 0, 1},
+  };
+  for (const auto& c : cases) {
+    EXPECT_EQ(Bits(apply(Fn::kLt, c.a, c.b)), Bits(c.lt)) << c.a << " < " << c.b;
+    EXPECT_EQ(Bits(apply(Fn::kLe, c.a, c.b)), Bits(c.le)) << c.a << " <= " << c.b;
+    EXPECT_EQ(Bits(apply(Fn::kGt, c.a, c.b)), Bits(c.gt)) << c.a << " > " << c.b;
+    EXPECT_EQ(Bits(apply(Fn::kGe, c.a, c.b)), Bits(c.ge)) << c.a << " >= " << c.b;
+    EXPECT_EQ(Bits(apply(Fn::kEq, c.a, c.b)), Bits(c.eq)) << c.a << " == " << c.b;
+    EXPECT_EQ(Bits(apply(Fn::kNe, c.a, c.b)), Bits(c.ne)) << c.a << " != " << c.b;
+  }
+  // Truth: a number other than 0 is true; 0, -0 and NaN are false. and, or, not give 1 or 0.
+  for (const double x : {1.0, -2.0, 1e-300, inf, -inf}) {
+    EXPECT_EQ(Bits(apply(Fn::kNot, x)), Bits(0.0)) << x;
+    EXPECT_EQ(Bits(apply(Fn::kAnd, x, 3.0)), Bits(1.0)) << x;
+    EXPECT_EQ(Bits(apply(Fn::kOr, x, 0.0)), Bits(1.0)) << x;
+    EXPECT_EQ(Bits(apply(Fn::kIf, x, 7.0, 8.0)), Bits(7.0)) << x;
+  }
+  for (const double x : {0.0, -0.0, nan}) {
+    EXPECT_EQ(Bits(apply(Fn::kNot, x)), Bits(1.0)) << x;
+    EXPECT_EQ(Bits(apply(Fn::kAnd, x, 1.0)), Bits(0.0)) << x;
+    EXPECT_EQ(Bits(apply(Fn::kAnd, 1.0, x)), Bits(0.0)) << x;
+    EXPECT_EQ(Bits(apply(Fn::kOr, x, 0.0)), Bits(0.0)) << x;
+    EXPECT_EQ(Bits(apply(Fn::kOr, 0.0, x)), Bits(0.0)) << x;
+    EXPECT_EQ(Bits(apply(Fn::kOr, x, 2.0)), Bits(1.0)) << x;
+    EXPECT_EQ(Bits(apply(Fn::kIf, x, 7.0, 8.0)), Bits(8.0)) << x;
+  }
+  // if is a select: the branch taken comes out with its bits (-0, NaN, inf), the other never leaks.
+  EXPECT_EQ(Bits(apply(Fn::kIf, 1.0, -0.0, nan)), Bits(-0.0));
+  EXPECT_EQ(Bits(apply(Fn::kIf, 0.0, inf, -0.0)), Bits(-0.0));
+  EXPECT_EQ(Bits(apply(Fn::kIf, 0.0, nan, 2.5)), Bits(2.5));
+  EXPECT_EQ(Bits(apply(Fn::kIf, 1.0, 2.5, -inf)), Bits(2.5));
+  const double payload = std::bit_cast<double>(std::uint64_t{0x7ff8000000000123});
+  EXPECT_EQ(Bits(apply(Fn::kIf, 1.0, payload, 0.0)), Bits(payload));
   const std::string text = FunctionDefinitions();
   for (int i = 0; i < kNumFns; ++i)
     EXPECT_THAT(text, HasSubstr(fmt::format("double mb_{}(", Info(static_cast<Fn>(i)).name)));

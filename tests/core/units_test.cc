@@ -301,6 +301,68 @@ TEST(FormulaUnits, FunctionsOfOneDimension) {
   EXPECT_THAT(Message("clamp(1, L, T)"), HasSubstr("'L' is m, 'T' is s"));
 }
 
+TEST(FormulaUnits, AComparisonHasOneDimensionOnBothSidesAndIsANumber) {
+  EXPECT_EQ(UnitOf("L < L2"), "a number");
+  EXPECT_EQ(UnitOf("L > 0"), "a number");  // a number takes the other side's unit, as in a sum
+  EXPECT_EQ(UnitOf("0.5 <= L"), "a number");
+  EXPECT_EQ(UnitOf("L + L2 >= 2*L"), "a number");
+  EXPECT_EQ(UnitOf("T == n*T"), "a number");
+  EXPECT_EQ(UnitOf("k*(L > 0)"), "kg/s^2");  // N/m
+  EXPECT_EQ(UnitOf("L*(L > L2)"), "m");
+  // A mismatch is at the comparison's operator, naming both units.
+  EXPECT_EQ(MismatchAt("L < T"), 2);
+  EXPECT_EQ(Message("L < T"), "the two sides of '<' have different units: 'L' is m, 'T' is s");
+  EXPECT_THAT(Check("L < T", kNames).mismatch->hint, HasSubstr("the sides of a comparison need one dimension"));
+  EXPECT_EQ(MismatchAt("L+L2 <= (T)"), 5);
+  EXPECT_EQ(Message("L+L2 <= (T)"), "the two sides of '<=' have different units: 'L+L2' is m, 'T' is s");
+  EXPECT_EQ(MismatchAt("(L)>=+m"), 3);
+  EXPECT_EQ(MismatchAt("z != L"), 2);
+  EXPECT_EQ(MismatchAt("L == m*1"), 2);
+  EXPECT_EQ(MismatchAt("2*L > -T"), 4);
+  EXPECT_EQ(MismatchAt("L > 0 and T>L"), 11);
+  EXPECT_EQ(MismatchAt("L > d"), 2);  // one dimension, other sizes: values are not converted
+  EXPECT_THAT(Message("L > d"), HasSubstr("different sizes"));
+  EXPECT_EQ(UnitOf("L > d/1000"), "a number");
+  // The value is a number without dimension: not a length.
+  EXPECT_EQ(MismatchAt("L + (L > 0)"), 2);
+}
+
+TEST(FormulaUnits, LogicTakesTruthValues) {
+  EXPECT_EQ(UnitOf("L > 0 and T < 1"), "a number");
+  EXPECT_EQ(UnitOf("not L > 0 or z"), "a number");  // z: '-', no dimension
+  EXPECT_EQ(UnitOf("n and q"), "a number");          // free names
+  EXPECT_EQ(UnitOf("not (L/d)"), "a number");         // no dimension, of any size
+  EXPECT_EQ(MismatchAt("L > 0 and T"), 6);
+  EXPECT_EQ(Message("L > 0 and T"),
+            "'T', an operand of 'and', is s: the operands of and, or and not are truth values (comparisons, or numbers without "
+            "dimension)");
+  EXPECT_EQ(Check("L > 0 and T", kNames).mismatch->hint, "compare it, as in T > 0 or T != 0");
+  EXPECT_EQ(MismatchAt("L or z"), 2);
+  EXPECT_EQ(MismatchAt("z or  (L)"), 2);
+  EXPECT_EQ(MismatchAt("1 + 2*(not m)"), 7);
+  EXPECT_THAT(Message("1 + 2*(not m)"), HasSubstr("'m', an operand of 'not', is kg"));
+}
+
+TEST(FormulaUnits, TheBranchesOfIfHaveOneUnitWhichIsItsOwn) {
+  EXPECT_EQ(UnitOf("if(L > 0, L, L2)"), "m");
+  EXPECT_EQ(UnitOf("if(L > 0, L, 0)"), "m");
+  EXPECT_EQ(UnitOf("if(L > 0, 1, 2)"), "a number");
+  EXPECT_EQ(UnitOf("if(n, T, n*T)"), "s");
+  EXPECT_EQ(UnitOf("if(z, k, -k)*L"), "m kg/s^2");  // N
+  EXPECT_EQ(MismatchAt("1 + if(L > 0, L, T)"), 4);
+  EXPECT_EQ(Message("1 + if(L > 0, L, T)"), "the two branches of if have different units: 'L' is m, 'T' is s");
+  EXPECT_THAT(Check("if(L > 0, L, T)", kNames).mismatch->hint, HasSubstr("need one dimension"));
+  EXPECT_EQ(MismatchAt("if(L > 0, L, d)"), 0);  // other sizes
+  EXPECT_EQ(MismatchAt("T + if(L > 0, L, L2)"), 2);  // the value is a length
+  // The condition is a truth value.
+  EXPECT_EQ(MismatchAt("2*if(L, 1, 0)"), 2);
+  EXPECT_EQ(Message("2*if(L, 1, 0)"),
+            "the condition 'L' of if is m: a condition is a truth value (a comparison, or a number without dimension)");
+  // A mismatch inside a branch or the condition is found where it is.
+  EXPECT_EQ(MismatchAt("if(L > T, 1, 0)"), 5);
+  EXPECT_EQ(MismatchAt("if(L > 0, L + T, L)"), 12);
+}
+
 TEST(FormulaUnits, PowersTakeAConstantFractionWhenTheBaseHasAUnit) {
   EXPECT_EQ(UnitOf("L^2"), "m^2");
   EXPECT_EQ(UnitOf("T^-1"), "1/s");

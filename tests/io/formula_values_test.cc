@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -188,6 +189,17 @@ TEST(FormulaValues, SyntaxErrorsAndUnknownFunctionsHaveTheirCodes) {
   EXPECT_EQ(d.hint, "did you mean 'sin'?");
   d = WithCode(LoadErrors(Msd("{type: I, inertia: \"L*atan2(L)\"}")), "expr.arity");
   EXPECT_EQ(d.where.column, 33);
+  // In a law (line 7, the formula from column 30): a word of the grammar where it cannot stand,
+  // before '(', is a syntax error, not a function; comparisons do not chain.
+  d = WithCode(LoadErrors(Msd("{type: I, inertia: 1.0}", "{type: C, effort: \"q < not (L)\"}")), "expr.syntax");
+  EXPECT_EQ(d.where.column, 34);
+  EXPECT_THAT(d.hint, HasSubstr("a < (not b)"));
+  d = WithCode(LoadErrors(Msd("{type: I, inertia: 1.0}", "{type: C, effort: \"0 < q < 3\"}")), "expr.syntax");
+  EXPECT_EQ(d.where.column, 36);
+  EXPECT_EQ(d.hint, "write 0 < q and q < 3");
+  // A number may be a formula with switches of parameters: it is folded.
+  const LoadedModel lm = LoadModelString(Msd("{type: I, inertia: \"if(L > 1 and not tau > 1, 3, 4) + (k == 100)\"}"), "m.yaml");
+  EXPECT_EQ(Find(lm, "mass").param.scalar, 4.0);
 }
 
 TEST(FormulaValues, TimeOrAVariableWhereAConstantIsNeededNamesTheLawKeys) {
@@ -258,6 +270,53 @@ TEST(FormulaValues, ALawWithUnitsThatDoNotFitIsAnErrorAndItsOwnVariableIsFree) {
   const LoadedModel lm = LoadModelString(
       MsdWithUnits("{type: I, flow: \"p/m\"}", "{type: C, energy: \"k*q^2/2 + k*L^2*(1 - cos(q/L))\"}"), "m.yaml");
   EXPECT_EQ(lm.graph.element(lm.graph.Find("spring")).energy.text, "k*q^2/2 + k*L^2*(1 - cos(q/L))");
+}
+
+TEST(FormulaValues, AComparisonOfOtherUnitsIsAnErrorAtItsOperator) {
+  // Line 11 is '  spring: {type: C, effort: "k*q*(q > L) + (tau < L)*k*L"}': the quote at 29, the
+  // formula from 30, its '<' at offset 19.
+  auto ds = LoadErrors(MsdWithUnits("{type: I, inertia: m}", "{type: C, effort: \"k*q*(q > L) + (tau < L)*k*L\"}"));
+  ASSERT_EQ(ds.size(), 1u) << ds[0].ToString();
+  EXPECT_EQ(ds[0].code, "expr.units");
+  EXPECT_EQ(ds[0].where.line, 11);
+  EXPECT_EQ(ds[0].where.column, 49);
+  EXPECT_EQ(ds[0].message, "the two sides of '<' have different units: 'tau' is s, 'L' is m");
+  // The branches of if: at the 'if' (offset 6).
+  ds = LoadErrors(MsdWithUnits("{type: I, inertia: m}", "{type: C, effort: \"k*q + if(q > 0, k*L, tau)\"}"));
+  ASSERT_EQ(ds.size(), 1u) << ds[0].ToString();
+  EXPECT_EQ(ds[0].code, "expr.units");
+  EXPECT_EQ(ds[0].where.column, 36);
+  EXPECT_EQ(ds[0].message, "the two branches of if have different units: 'k*L' is m kg/s^2, 'tau' is s");
+  // Laws with switches that fit load, their text kept.
+  const LoadedModel lm = LoadModelString(
+      MsdWithUnits("{type: I, flow: \"if(p > 0 and not p > 10*m, p/m, 2*p/m)\"}", "{type: C, effort: \"k*q*(q > -L or q == 0)\"}"),
+      "m.yaml");
+  EXPECT_EQ(lm.graph.element(lm.graph.Find("spring")).law_effort.text, "k*q*(q > -L or q == 0)");
+}
+
+TEST(FormulaValues, TheWordsOfFormulasAreNoNames) {
+  for (const char* word : {"and", "or", "not"}) {
+    const std::string w = word;
+    Diagnostic d = WithCode(LoadErrors(Msd("{type: I, inertia: 1.0}").replace(Msd("").find("{L: 2.0"), 7, "{" + w + ": 1, L: 2.0")),
+                            "name.invalid");
+    EXPECT_EQ(d.where.line, 3) << w;
+    EXPECT_EQ(d.message, fmt::format("a parameter's name '{}' is a word of formulas: 'and', 'or' and 'not' are operators there", w));
+    d = WithCode(LoadErrors(Msd("{type: I, inertia: 1.0}") + "signals: {" + w + ": \"2*t\"}\n"), "name.invalid");
+    EXPECT_THAT(d.message, HasSubstr(fmt::format("a signal's name '{}' is a word of formulas", w)));
+    std::string model = Msd("{type: I, inertia: 1.0}");
+    for (size_t at; (at = model.find("mass")) != std::string::npos;) model.replace(at, 4, w);
+    d = WithCode(LoadErrors(model), "name.invalid");
+    EXPECT_EQ(d.where.line, 8) << w;
+    EXPECT_THAT(d.message, HasSubstr(fmt::format("an element's name '{}' is a word of formulas", w)));
+    d = WithCode(LoadErrors(Msd("{type: I, inertia: 1.0}") + "states: {" + w + ": {kind: integral, rate: \"mass.p\"}}\n"),
+                 "name.invalid");
+    EXPECT_THAT(d.message, HasSubstr(fmt::format("a state's name '{}' is a word of formulas", w)));
+  }
+  // A name that only starts like one is fine.
+  const LoadedModel lm = LoadModelString(Msd("{type: I, inertia: \"android + nothing\"}").replace(Msd("").find("{L: 2.0"), 7,
+                                                                                                 "{android: 1, nothing: 2, L: 2.0"),
+                                         "m.yaml");
+  EXPECT_EQ(Find(lm, "mass").param.scalar, 3.0);
 }
 
 TEST(FormulaValues, ASubmodelsParametersAreFreeAndShadowTheModels) {

@@ -18,6 +18,7 @@ namespace {
 /// have it: min and max at a tie a == b half of each argument's; clamp(x, lo, hi) at x == lo
 /// (or hi) half for x and half for that bound (at lo == x == hi, half for each bound, none for
 /// x); abs at 0 the mean of -1 and 1, 0; sign 0 everywhere (its jump at 0 has no slope).
+/// (Comparisons, logic and if are not here: RunTangent takes their derivatives itself.)
 void Partials(Fn fn, const double* a, double v, double* da) {
   switch (fn) {
     case Fn::kSin: da[0] = std::cos(a[0]); break;
@@ -78,6 +79,9 @@ void Partials(Fn fn, const double* a, double v, double* da) {
       da[1] = -a[0] * a[1] / s3;
       break;
     }
+    case Fn::kLt: case Fn::kLe: case Fn::kGt: case Fn::kGe: case Fn::kEq: case Fn::kNe:
+    case Fn::kAnd: case Fn::kOr: case Fn::kNot: case Fn::kIf:
+      MB_ASSERT(false, "a function RunTangent differentiates itself");
   }
 }
 
@@ -115,6 +119,21 @@ double RunTangent(const Program& p, double t, const double* x, const double* w, 
         break;
       }
       case Step::Op::kCall: {
+        if (s.fn == Fn::kIf) {
+          // A select: the value and the derivative of the branch taken, the other's (a NaN, an
+          // infinity) never multiplied in; the condition is piecewise constant.
+          const double args[3] = {regs[s.a], regs[s.b], regs[s.c]};
+          v = Apply(s.fn, args);
+          const double pick_true[3] = {regs[s.a], 1.0, 0.0};
+          dv = Apply(s.fn, pick_true) == 1.0 ? dregs[s.b] : dregs[s.c];
+          break;
+        }
+        if (IsComparison(s.fn) || s.fn == Fn::kAnd || s.fn == Fn::kOr || s.fn == Fn::kNot) {
+          // Piecewise constant (0 or 1): derivative 0, whatever the operands' derivatives hold.
+          const double args[2] = {regs[s.a], regs[s.b]};
+          v = Apply(s.fn, args);
+          break;
+        }
         const int arity = Info(s.fn).arity;
         const int at[3] = {s.a, s.b, s.c};
         double args[3] = {0.0, 0.0, 0.0}, partials[3] = {0.0, 0.0, 0.0};

@@ -31,6 +31,16 @@ DECLARE_FUNCTION_2P(mb_hypot)
 DECLARE_FUNCTION_3P(mb_clamp)
 DECLARE_FUNCTION_2P(mb_smoothabs)
 DECLARE_FUNCTION_2P(mb_smoothsign)
+DECLARE_FUNCTION_2P(mb_lt)
+DECLARE_FUNCTION_2P(mb_le)
+DECLARE_FUNCTION_2P(mb_gt)
+DECLARE_FUNCTION_2P(mb_ge)
+DECLARE_FUNCTION_2P(mb_eq)
+DECLARE_FUNCTION_2P(mb_ne)
+DECLARE_FUNCTION_2P(mb_and)
+DECLARE_FUNCTION_2P(mb_or)
+DECLARE_FUNCTION_1P(mb_not)
+DECLARE_FUNCTION_3P(mb_if)
 
 bool IsReal(const GiNaC::ex& e) { return GiNaC::is_exactly_a<GiNaC::numeric>(e) && GiNaC::ex_to<GiNaC::numeric>(e).is_real(); }
 const GiNaC::numeric& Num(const GiNaC::ex& e) { return GiNaC::ex_to<GiNaC::numeric>(e); }
@@ -132,6 +142,67 @@ GiNaC::ex SmoothSignDeriv(const GiNaC::ex& x, const GiNaC::ex& eps, unsigned i) 
 }
 REGISTER_FUNCTION(mb_smoothsign, eval_func(SmoothSignEval).evalf_func(SmoothSignEvalf).derivative_func(SmoothSignDeriv))
 
+// Comparisons and logic: 1 or 0 (a truth value is a number other than 0), their derivative 0
+// (piecewise constant). Evaluated at numbers only: x == x is not folded to 1 (a NaN, at run
+// time, is equal to nothing).
+template <bool (*Holds)(const GiNaC::numeric&, const GiNaC::numeric&)>
+GiNaC::ex CompareAt(const GiNaC::ex& a, const GiNaC::ex& b, GiNaC::ex (*held)(const GiNaC::ex&, const GiNaC::ex&)) {
+  if (IsReal(a) && IsReal(b)) return Holds(Num(a), Num(b)) ? 1 : 0;
+  return held(a, b);
+}
+bool Truth(const GiNaC::numeric& x) { return !x.is_zero(); }
+bool LtHolds(const GiNaC::numeric& a, const GiNaC::numeric& b) { return a < b; }
+bool LeHolds(const GiNaC::numeric& a, const GiNaC::numeric& b) { return a <= b; }
+bool GtHolds(const GiNaC::numeric& a, const GiNaC::numeric& b) { return a > b; }
+bool GeHolds(const GiNaC::numeric& a, const GiNaC::numeric& b) { return a >= b; }
+bool EqHolds(const GiNaC::numeric& a, const GiNaC::numeric& b) { return a == b; }
+bool NeHolds(const GiNaC::numeric& a, const GiNaC::numeric& b) { return a != b; }
+bool AndHolds(const GiNaC::numeric& a, const GiNaC::numeric& b) { return Truth(a) && Truth(b); }
+bool OrHolds(const GiNaC::numeric& a, const GiNaC::numeric& b) { return Truth(a) || Truth(b); }
+GiNaC::ex Zero2(const GiNaC::ex&, const GiNaC::ex&, const GiNaC::symbol&) { return 0; }
+
+#define MB_SYMBOLIC_COMPARISON(NAME, HOLDS)                                                                        \
+  GiNaC::ex NAME##Eval(const GiNaC::ex& a, const GiNaC::ex& b) {                                                  \
+    return CompareAt<HOLDS>(a, b, [](const GiNaC::ex& x, const GiNaC::ex& y) -> GiNaC::ex { return NAME(x, y).hold(); }); \
+  }                                                                                                               \
+  GiNaC::ex NAME##Evalf(const GiNaC::ex& a, const GiNaC::ex& b) { return NAME##Eval(a.evalf(), b.evalf()); }      \
+  REGISTER_FUNCTION(NAME, eval_func(NAME##Eval).evalf_func(NAME##Evalf).expl_derivative_func(Zero2))
+MB_SYMBOLIC_COMPARISON(mb_lt, LtHolds)
+MB_SYMBOLIC_COMPARISON(mb_le, LeHolds)
+MB_SYMBOLIC_COMPARISON(mb_gt, GtHolds)
+MB_SYMBOLIC_COMPARISON(mb_ge, GeHolds)
+MB_SYMBOLIC_COMPARISON(mb_eq, EqHolds)
+MB_SYMBOLIC_COMPARISON(mb_ne, NeHolds)
+MB_SYMBOLIC_COMPARISON(mb_and, AndHolds)
+MB_SYMBOLIC_COMPARISON(mb_or, OrHolds)
+#undef MB_SYMBOLIC_COMPARISON
+
+GiNaC::ex NotEval(const GiNaC::ex& a) {
+  if (IsReal(a)) return Truth(Num(a)) ? 0 : 1;
+  return mb_not(a).hold();
+}
+GiNaC::ex NotEvalf(const GiNaC::ex& a) { return NotEval(a.evalf()); }
+GiNaC::ex NotDeriv(const GiNaC::ex&, const GiNaC::symbol&) { return 0; }
+REGISTER_FUNCTION(mb_not, eval_func(NotEval).evalf_func(NotEvalf).expl_derivative_func(NotDeriv))
+
+// if(c, a, b): a where c holds, else b. Its derivative is the select of the branches'
+// derivatives, if(c, a', b'), not if(c, 1, 0) a' + if(c, 0, 1) b' as the chain rule would give
+// (0 times the other branch's NaN or infinity is NaN).
+GiNaC::ex IfEval(const GiNaC::ex& c, const GiNaC::ex& a, const GiNaC::ex& b) {
+  if (IsReal(c)) return Truth(Num(c)) ? a : b;
+  if (a.is_equal(b)) return a;
+  return mb_if(c, a, b).hold();
+}
+GiNaC::ex IfEvalf(const GiNaC::ex& c, const GiNaC::ex& a, const GiNaC::ex& b) {
+  const GiNaC::ex v = c.evalf();
+  if (IsReal(v)) return Truth(Num(v)) ? a.evalf() : b.evalf();
+  return mb_if(v, a.evalf(), b.evalf()).hold();
+}
+GiNaC::ex IfDeriv(const GiNaC::ex& c, const GiNaC::ex& a, const GiNaC::ex& b, const GiNaC::symbol& s) {
+  return mb_if(c, a.diff(s), b.diff(s));
+}
+REGISTER_FUNCTION(mb_if, eval_func(IfEval).evalf_func(IfEvalf).expl_derivative_func(IfDeriv))
+
 // ---------------------------------------------------------------------------------------------
 
 /// GiNaC keeps global state (its registries, the cache of its numerical integration) and is not
@@ -218,6 +289,16 @@ GiNaC::ex ToEx(const Node& n, Symbols& symbols) {
         case Fn::kClamp: return mb_clamp(arg(0), arg(1), arg(2));
         case Fn::kSmoothAbs: return mb_smoothabs(arg(0), arg(1));
         case Fn::kSmoothSign: return mb_smoothsign(arg(0), arg(1));
+        case Fn::kLt: return mb_lt(arg(0), arg(1));
+        case Fn::kLe: return mb_le(arg(0), arg(1));
+        case Fn::kGt: return mb_gt(arg(0), arg(1));
+        case Fn::kGe: return mb_ge(arg(0), arg(1));
+        case Fn::kEq: return mb_eq(arg(0), arg(1));
+        case Fn::kNe: return mb_ne(arg(0), arg(1));
+        case Fn::kAnd: return mb_and(arg(0), arg(1));
+        case Fn::kOr: return mb_or(arg(0), arg(1));
+        case Fn::kNot: return mb_not(arg(0));
+        case Fn::kIf: return mb_if(arg(0), arg(1), arg(2));
       }
   }
   MB_ASSERT(false, "a node kind");
@@ -399,6 +480,11 @@ NodePtr FunctionNode(const GiNaC::function& f) {
       {mb_max_SERIAL::serial, Fn::kMax},             {mb_hypot_SERIAL::serial, Fn::kHypot},
       {mb_clamp_SERIAL::serial, Fn::kClamp},         {mb_smoothabs_SERIAL::serial, Fn::kSmoothAbs},
       {mb_smoothsign_SERIAL::serial, Fn::kSmoothSign},
+      {mb_lt_SERIAL::serial, Fn::kLt},               {mb_le_SERIAL::serial, Fn::kLe},
+      {mb_gt_SERIAL::serial, Fn::kGt},               {mb_ge_SERIAL::serial, Fn::kGe},
+      {mb_eq_SERIAL::serial, Fn::kEq},               {mb_ne_SERIAL::serial, Fn::kNe},
+      {mb_and_SERIAL::serial, Fn::kAnd},             {mb_or_SERIAL::serial, Fn::kOr},
+      {mb_not_SERIAL::serial, Fn::kNot},             {mb_if_SERIAL::serial, Fn::kIf},
   };
   std::vector<NodePtr> args;
   for (const GiNaC::ex& a : f) args.push_back(FromEx(a));

@@ -25,6 +25,10 @@ namespace {
 //   min, max: the smaller / larger argument; a NaN in either gives NaN (std::fmin would hide it).
 //   clamp(x, lo, hi): lo if x < lo, else hi if x > hi, else x.
 //   smoothabs(x, eps) = sqrt(x*x + eps*eps); smoothsign(x, eps) = x / sqrt(x*x + eps*eps).
+//   lt, le, gt, ge, eq, ne (a < b, ...): 1 or 0, as C++ compares (false where a side is NaN,
+//   but a != b true); mb_true(x): the truth of a number, x != 0 and not NaN (NaN is false);
+//   and, or, not: 1 or 0; if(c, a, b): a where c is true, else b, a select (the bits of the
+//   branch taken, whatever the other holds).
 // NOLINTBEGIN
 #define MB_EXPR_FUNCTIONS                                                                                   \
   static inline double mb_sin(double x) { return std::sin(x); }                                            \
@@ -54,6 +58,17 @@ namespace {
   static inline double mb_clamp(double x, double lo, double hi) { return x < lo ? lo : (hi < x ? hi : x); } \
   static inline double mb_smoothabs(double x, double eps) { return std::sqrt(x * x + eps * eps); }         \
   static inline double mb_smoothsign(double x, double eps) { return x / std::sqrt(x * x + eps * eps); }    \
+  static inline double mb_lt(double a, double b) { return a < b ? 1.0 : 0.0; }                             \
+  static inline double mb_le(double a, double b) { return a <= b ? 1.0 : 0.0; }                            \
+  static inline double mb_gt(double a, double b) { return a > b ? 1.0 : 0.0; }                             \
+  static inline double mb_ge(double a, double b) { return a >= b ? 1.0 : 0.0; }                            \
+  static inline double mb_eq(double a, double b) { return a == b ? 1.0 : 0.0; }                            \
+  static inline double mb_ne(double a, double b) { return a != b ? 1.0 : 0.0; }                            \
+  static inline bool mb_true(double x) { return x < 0.0 || x > 0.0; }                                      \
+  static inline double mb_and(double a, double b) { return mb_true(a) && mb_true(b) ? 1.0 : 0.0; }         \
+  static inline double mb_or(double a, double b) { return mb_true(a) || mb_true(b) ? 1.0 : 0.0; }          \
+  static inline double mb_not(double a) { return mb_true(a) ? 0.0 : 1.0; }                                 \
+  static inline double mb_if(double c, double a, double b) { return mb_true(c) ? a : b; }                  \
   static inline double mb_pow(double a, double b) {                                                        \
     if (b == 2.0) return a * a;                                                                            \
     if (b == 3.0) return a * a * a;                                                                        \
@@ -89,6 +104,16 @@ constexpr std::array<FunctionInfo, kNumFns> kFunctions = {{
     {Fn::kClamp, "clamp", 3},
     {Fn::kSmoothAbs, "smoothabs", 2},
     {Fn::kSmoothSign, "smoothsign", 2},
+    {Fn::kLt, "lt", 2, "<"},
+    {Fn::kLe, "le", 2, "<="},
+    {Fn::kGt, "gt", 2, ">"},
+    {Fn::kGe, "ge", 2, ">="},
+    {Fn::kEq, "eq", 2, "=="},
+    {Fn::kNe, "ne", 2, "!="},
+    {Fn::kAnd, "and", 2, "and"},
+    {Fn::kOr, "or", 2, "or"},
+    {Fn::kNot, "not", 1, "not"},
+    {Fn::kIf, "if", 3},
 }};
 
 constexpr bool TableInEnumOrder() {
@@ -129,6 +154,7 @@ std::string FunctionHint(std::string_view word) {
   const FunctionInfo* best = nullptr;
   int best_d = word.size() <= 2 ? 2 : 3;
   for (const FunctionInfo& f : kFunctions) {
+    if (f.op) continue;
     const int d = EditDistance(word, f.name);
     if (d < best_d) {
       best_d = d;
@@ -177,7 +203,9 @@ class Parser {
     Space();
     if (pos_ < s_.size()) {
       if (s_[pos_] == ')') Fail(Here(), "')' without a matching '('");
-      Fail(Here(), fmt::format("unexpected {}", Shown(s_[pos_])), "an operator (+ - * / ^) or the end was expected");
+      StrayOperator();
+      Fail(Here(), fmt::format("unexpected {}", Shown(s_[pos_])),
+           "an operator (+ - * / ^, a comparison, and, or) or the end was expected");
     }
     return root;
   }
@@ -212,7 +240,113 @@ class Parser {
     return pos_ < s_.size() ? s_[pos_] : '\0';
   }
 
+  /// The word that starts at the next token, if it is one of the grammar's (and, or, not): a
+  /// bare word, not part of a dotted name. "" otherwise.
+  std::string_view WordAhead() {
+    Space();
+    if (pos_ >= s_.size() || !IsIdentStart(s_[pos_])) return {};
+    size_t end = pos_;
+    while (end < s_.size() && IsIdentChar(s_[end])) ++end;
+    if (end + 1 < s_.size() && s_[end] == '.' && IsIdentChar(s_[end + 1])) return {};
+    const std::string_view word = s_.substr(pos_, end - pos_);
+    return IsReservedWord(word) ? word : std::string_view();
+  }
+
+  /// A call of an operator of the table on its operands, at `offset`.
+  static NodePtr Operator(Fn fn, std::vector<NodePtr> args, int offset) {
+    auto n = NewNode(Node::Kind::kCall, offset);
+    n->fn = fn;
+    n->args = std::move(args);
+    return n;
+  }
+
   NodePtr Expr() {
+    NodePtr left = Conjunct();
+    while (WordAhead() == "or") {
+      pos_ += 2;
+      NodePtr right = Conjunct();
+      left = Operator(Fn::kOr, {left, std::move(right)}, left->offset);
+    }
+    return left;
+  }
+
+  NodePtr Conjunct() {
+    NodePtr left = Negation();
+    while (WordAhead() == "and") {
+      pos_ += 3;
+      NodePtr right = Negation();
+      left = Operator(Fn::kAnd, {left, std::move(right)}, left->offset);
+    }
+    return left;
+  }
+
+  NodePtr Negation() {
+    if (WordAhead() != "not") return Comparison();
+    const int at = Here();
+    Nest nest(*this, at);
+    pos_ += 3;
+    return Operator(Fn::kNot, {Negation()}, at);
+  }
+
+  /// The comparison operator at the next token, and its length (0: none).
+  std::pair<Fn, size_t> ComparisonAhead() {
+    const char c = Peek();
+    const char d = pos_ + 1 < s_.size() ? s_[pos_ + 1] : '\0';
+    if (c == '<') return d == '=' ? std::pair{Fn::kLe, size_t{2}} : std::pair{Fn::kLt, size_t{1}};
+    if (c == '>') return d == '=' ? std::pair{Fn::kGe, size_t{2}} : std::pair{Fn::kGt, size_t{1}};
+    if (c == '=' && d == '=') return {Fn::kEq, 2};
+    if (c == '!' && d == '=') return {Fn::kNe, 2};
+    return {Fn::kLt, 0};
+  }
+
+  NodePtr Comparison() {
+    Space();
+    const size_t start = pos_;
+    NodePtr left = Sum();
+    const auto [fn, length] = ComparisonAhead();
+    if (length == 0) return left;
+    const size_t first = pos_;
+    pos_ += length;
+    if (Peek() == '>' && fn == Fn::kLt) Fail(static_cast<int>(first), "'<>' is not an operator", "'not equal' is written !=");
+    NodePtr right = Sum();
+    const size_t middle_end = pos_;
+    if (const auto [fn2, length2] = ComparisonAhead(); length2 > 0) {
+      // a < b < c: the hint writes it out with the formula's own operands where they read.
+      const size_t second = pos_;
+      pos_ += length2;
+      const auto text = [&](size_t from, size_t to) {
+        std::string_view v = s_.substr(from, to - from);
+        while (!v.empty() && (v.back() == ' ' || v.back() == '\t' || v.back() == '\n' || v.back() == '\r')) v.remove_suffix(1);
+        while (!v.empty() && (v.front() == ' ' || v.front() == '\t' || v.front() == '\n' || v.front() == '\r')) v.remove_prefix(1);
+        return v;
+      };
+      std::string hint = "write a < b and b < c";
+      try {
+        Sum();
+        const std::string_view a = text(start, first), b = text(first + length, middle_end), c = text(second + length2, pos_);
+        if (a.size() + 2 * b.size() + c.size() <= 60)
+          hint = fmt::format("write {} {} {} and {} {} {}", a, Info(fn).op, b, b, Info(fn2).op, c);
+      } catch (const Failure&) {
+      }
+      Fail(static_cast<int>(second), fmt::format("comparisons do not chain: '{}' follows a comparison", Info(fn2).op), hint);
+    }
+    return Operator(fn, {left, std::move(right)}, left->offset);
+  }
+
+  /// A character that is no operator of the grammar but is one elsewhere (=, !, &, |, =<, =>):
+  /// fails with the operator to write instead.
+  void StrayOperator() {
+    const char c = Peek();
+    const char d = pos_ + 1 < s_.size() ? s_[pos_ + 1] : '\0';
+    if (c == '=' && d == '<') Fail(Here(), "'=<' is not an operator", "'at most' is written <=");
+    if (c == '=' && d == '>') Fail(Here(), "'=>' is not an operator", "'at least' is written >=");
+    if (c == '=') Fail(Here(), "'=' is not an operator of formulas", "equality is written ==, as in a == b");
+    if (c == '!') Fail(Here(), "'!' is not an operator", "the negation is written 'not', as in not (a < b); 'not equal' is !=");
+    if (c == '&') Fail(Here(), "'&' is not an operator", "write 'and', as in a > 0 and b > 0");
+    if (c == '|') Fail(Here(), "'|' is not an operator", "write 'or', as in a > 0 or b > 0");
+  }
+
+  NodePtr Sum() {
     NodePtr left = Term();
     for (char c = Peek(); c == '+' || c == '-'; c = Peek()) {
       ++pos_;
@@ -251,6 +385,10 @@ class Parser {
       ++pos_;
       return Binary(Node::Kind::kPow, base, Unary(), base->offset);
     }
+    if (const std::string_view word = WordAhead(); word == "and" || word == "or") return base;
+    else if (word == "not")
+      Fail(Here(), "unexpected 'not': an operator or the end was expected",
+           "'not' stands before what it negates, as in not (a < b); 'not equal' is written !=");
     if (IsIdentStart(c) || IsDigit(c) || c == '(' || c == '.')
       Fail(Here(), fmt::format("missing operator before {}", Shown(c)), "a product is written with '*', as in 2*x");
     return base;
@@ -265,10 +403,14 @@ class Parser {
       Nest nest(*this, at);
       ++pos_;
       NodePtr inner = Expr();
-      if (Peek() != ')') Expected("')' to close the '(' at offset " + std::to_string(at));
+      if (Peek() != ')') {
+        if (pos_ < s_.size()) StrayOperator();
+        Expected("')' to close the '(' at offset " + std::to_string(at));
+      }
       ++pos_;
       return inner;
     }
+    if (pos_ < s_.size()) StrayOperator();
     Expected("a number, a name or '('");
   }
 
@@ -322,6 +464,10 @@ class Parser {
                                s_.substr(start, pos_ - start)));
     const std::string_view word = s_.substr(start, pos_ - start);
     const int at = static_cast<int>(start);
+    if (!dotted && IsReservedWord(word))
+      Fail(at, fmt::format("unexpected '{}': a number, a name or '(' was expected", word),
+           word == "not" ? "inside a sum, a product or a comparison a negation is put in parentheses: a < (not b)"
+                         : fmt::format("'{}' joins two conditions, as in a > 0 {} b > 0", word, word));
     const FunctionInfo* f = dotted ? nullptr : FindFunction(word);
     if (Peek() != '(') {
       if (f) Fail(at, fmt::format("'{}' is a function", word), fmt::format("write {}(...)", word));
@@ -339,7 +485,10 @@ class Parser {
         ++pos_;
         args.push_back(Expr());
       }
-      if (Peek() != ')') Expected(fmt::format("',' or ')' in the arguments of {}", f->name));
+      if (Peek() != ')') {
+        if (pos_ < s_.size()) StrayOperator();
+        Expected(fmt::format("',' or ')' in the arguments of {}", f->name));
+      }
     }
     ++pos_;  // ')'
     if (static_cast<int>(args.size()) != f->arity)
@@ -360,6 +509,7 @@ class Parser {
       case Fn::kClamp: return "clamp(x, lo, hi)";
       case Fn::kSmoothAbs: return "smoothabs(x, eps)";
       case Fn::kSmoothSign: return "smoothsign(x, eps)";
+      case Fn::kIf: return "if(condition, value where true, value where false)";
       default: return fmt::format("{}(x)", f.name);
     }
   }
@@ -379,13 +529,18 @@ class Parser {
 // Formatting: a node is written at a level of the grammar; an operand below the level its place
 // needs is put in parentheses.
 
-enum Level : int { kSum = 1, kProduct = 2, kSigned = 3, kPower = 4, kAtom = 5 };
+enum Level : int { kOr = 1, kAnd = 2, kNot = 3, kCompare = 4, kSum = 5, kProduct = 6, kSigned = 7, kPower = 8, kAtom = 9 };
 
 int LevelOf(const Node& n) {
   switch (n.kind) {
     case Node::Kind::kNumber: return std::signbit(n.value) ? kSigned : kAtom;
-    case Node::Kind::kName:
-    case Node::Kind::kCall: return kAtom;
+    case Node::Kind::kName: return kAtom;
+    case Node::Kind::kCall:
+      if (IsComparison(n.fn)) return kCompare;
+      if (n.fn == Fn::kAnd) return kAnd;
+      if (n.fn == Fn::kOr) return kOr;
+      if (n.fn == Fn::kNot) return kNot;
+      return kAtom;
     case Node::Kind::kNeg: return kSigned;
     case Node::Kind::kAdd:
     case Node::Kind::kSub: return kSum;
@@ -423,15 +578,33 @@ void FormatTo(const Node& n, int need, std::string& out) {
       out += '^';
       FormatTo(*n.args[1], kSigned, out);
       break;
-    case Node::Kind::kCall:
-      out += Info(n.fn).name;
-      out += '(';
-      for (size_t i = 0; i < n.args.size(); ++i) {
-        if (i > 0) out += ", ";
-        FormatTo(*n.args[i], kSum, out);
+    case Node::Kind::kCall: {
+      const FunctionInfo& f = Info(n.fn);
+      if (IsComparison(n.fn)) {  // not associative: an operand that is a comparison is in parentheses
+        FormatTo(*n.args[0], kSum, out);
+        out += fmt::format(" {} ", f.op);
+        FormatTo(*n.args[1], kSum, out);
+      } else if (n.fn == Fn::kAnd || n.fn == Fn::kOr) {  // from the left, as the parser groups them
+        const int level = n.fn == Fn::kAnd ? kAnd : kOr;
+        FormatTo(*n.args[0], level, out);
+        out += fmt::format(" {} ", f.op);
+        FormatTo(*n.args[1], level + 1, out);
+      } else if (n.fn == Fn::kNot) {
+        // `not a < b`, not `not (a < b)`: parentheses the precedence does not need would nest the
+        // text deeper than the formula it was parsed from, beyond kMaxFormulaDepth at worst.
+        out += "not ";
+        FormatTo(*n.args[0], kNot, out);
+      } else {
+        out += f.name;
+        out += '(';
+        for (size_t i = 0; i < n.args.size(); ++i) {
+          if (i > 0) out += ", ";
+          FormatTo(*n.args[i], kOr, out);
+        }
+        out += ')';
       }
-      out += ')';
       break;
+    }
   }
   if (parens) out += ')';
 }
@@ -450,9 +623,11 @@ void CollectNames(const Node& n, std::vector<const Node*>& out) {
 
 const FunctionInfo* FindFunction(std::string_view name) {
   for (const FunctionInfo& f : kFunctions)
-    if (name == f.name) return &f;
+    if (!f.op && name == f.name) return &f;
   return nullptr;
 }
+
+bool IsReservedWord(std::string_view word) { return word == "and" || word == "or" || word == "not"; }
 
 const FunctionInfo& Info(Fn fn) {
   const int i = static_cast<int>(fn);
@@ -462,7 +637,8 @@ const FunctionInfo& Info(Fn fn) {
 
 std::vector<std::string> FunctionNames() {
   std::vector<std::string> out;
-  for (const FunctionInfo& f : kFunctions) out.emplace_back(f.name);
+  for (const FunctionInfo& f : kFunctions)
+    if (!f.op) out.emplace_back(f.name);
   return out;
 }
 
@@ -526,7 +702,7 @@ std::vector<const Node*> Names(const Node& root) {
 
 std::string Format(const Node& root) {
   std::string out;
-  FormatTo(root, kSum, out);
+  FormatTo(root, kOr, out);
   return out;
 }
 
@@ -577,6 +753,16 @@ double Apply(Fn fn, const double* a) {
     case Fn::kClamp: return mb_clamp(a[0], a[1], a[2]);
     case Fn::kSmoothAbs: return mb_smoothabs(a[0], a[1]);
     case Fn::kSmoothSign: return mb_smoothsign(a[0], a[1]);
+    case Fn::kLt: return mb_lt(a[0], a[1]);
+    case Fn::kLe: return mb_le(a[0], a[1]);
+    case Fn::kGt: return mb_gt(a[0], a[1]);
+    case Fn::kGe: return mb_ge(a[0], a[1]);
+    case Fn::kEq: return mb_eq(a[0], a[1]);
+    case Fn::kNe: return mb_ne(a[0], a[1]);
+    case Fn::kAnd: return mb_and(a[0], a[1]);
+    case Fn::kOr: return mb_or(a[0], a[1]);
+    case Fn::kNot: return mb_not(a[0]);
+    case Fn::kIf: return mb_if(a[0], a[1], a[2]);
   }
   MB_ASSERT(false, "a function of the table");
 }

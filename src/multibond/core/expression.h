@@ -9,15 +9,21 @@
 /// offsets and numbers become exact hexadecimal literals.
 ///
 /// Grammar (precedence from low to high; `^` is right-associative, unary minus binds looser
-/// than `^`, so -x^2 = -(x^2)):
-///   expr    = term { ("+" | "-") term }
-///   term    = unary { ("*" | "/") unary }
-///   unary   = ("-" | "+") unary | power
-///   power   = primary [ "^" unary ]
-///   primary = number | name | name "(" [ expr { "," expr } ] ")" | "(" expr ")"
-///   number  = digits [ "." digits ] [ ("e" | "E") [ "+" | "-" ] digits ]  (also ".5", "2.")
-///   name    = ident { "." ( ident | digits ) }      ident = (letter | "_") { letter | digit | "_" }
-/// Reserved names: `t` (time, s), `pi`, `e` is NOT reserved (it is a variable in a law).
+/// than `^`, so -x^2 = -(x^2); comparisons do not chain: a < b < c is an error):
+///   expr       = conjunct { "or" conjunct }
+///   conjunct   = negation { "and" negation }
+///   negation   = "not" negation | comparison
+///   comparison = sum [ ("<" | "<=" | ">" | ">=" | "==" | "!=") sum ]
+///   sum        = term { ("+" | "-") term }
+///   term       = unary { ("*" | "/") unary }
+///   unary      = ("-" | "+") unary | power
+///   power      = primary [ "^" unary ]
+///   primary    = number | name | name "(" [ expr { "," expr } ] ")" | "(" expr ")"
+///   number     = digits [ "." digits ] [ ("e" | "E") [ "+" | "-" ] digits ]  (also ".5", "2.")
+///   name       = ident { "." ( ident | digits ) }      ident = (letter | "_") { letter | digit | "_" }
+/// Reserved names: `t` (time, s), `pi`, `e` is NOT reserved (it is a variable in a law). The
+/// words `and`, `or` and `not` are operators, never names (IsReservedWord).
+/// Comparisons and logic are calls of the table (Fn::kLt ... Fn::kNot), written as operators.
 
 #include <functional>
 #include <memory>
@@ -37,19 +43,30 @@ enum class Fn : unsigned char {
   // helpers (documented in docs/model-format.md): hypot(x, y); clamp(x, lo, hi);
   // smoothabs(x, eps) = sqrt(x^2 + eps^2); smoothsign(x, eps) = x / sqrt(x^2 + eps^2)
   kHypot, kClamp, kSmoothAbs, kSmoothSign,
+  // comparisons (a < b, ...: 1 or 0; false where a side is NaN, but != true), logic (a and b,
+  // a or b, not a: 1 or 0, on truth values: x is true where x != 0, NaN is false), and
+  // if(c, a, b): a where c is true, else b (a select: the other branch does not reach the value).
+  // The comparisons and logic are written as operators (FunctionInfo::op), not as calls.
+  kLt, kLe, kGt, kGe, kEq, kNe, kAnd, kOr, kNot, kIf,
 };
-inline constexpr int kNumFns = static_cast<int>(Fn::kSmoothSign) + 1;
+inline constexpr int kNumFns = static_cast<int>(Fn::kIf) + 1;
 
 struct FunctionInfo {
   Fn fn;
-  const char* name;  ///< as written in a model: "atan2"
+  const char* name;  ///< as written in a model: "atan2"; an operator's: "lt" (generated code's mb_lt)
   int arity;
+  const char* op = nullptr;  ///< an operator's text ("<", "and", "not"), nullptr for a function
 };
-/// The row of a function, or nullptr for an unknown name.
+/// The row of a function called by name (not an operator's: FindFunction("lt") is nullptr), or
+/// nullptr for an unknown name.
 const FunctionInfo* FindFunction(std::string_view name);
 const FunctionInfo& Info(Fn fn);
-/// Every function name, for "did you mean" hints.
+/// Every name of a function called by name (operators not included), for "did you mean" hints.
 std::vector<std::string> FunctionNames();
+/// True for the words of the grammar that are operators (`and`, `or`, `not`): no name may be one.
+bool IsReservedWord(std::string_view word);
+/// Whether fn is a comparison (kLt ... kNe).
+inline constexpr bool IsComparison(Fn fn) { return fn >= Fn::kLt && fn <= Fn::kNe; }
 
 /// One node of the tree. Immutable once built; shared between trees.
 struct Node;
@@ -114,7 +131,7 @@ double Apply(Fn fn, const double* args);
 /// code equal (and saves a call on the common q^2, q^3).
 double Power(double base, double exponent);
 
-/// C++ text defining mb_<name> for every function (mb_sin, ..., mb_smoothsign) and mb_pow: the
+/// C++ text defining mb_<name> for every function (mb_sin, ..., mb_smoothsign, mb_lt, ..., mb_if) and mb_pow: the
 /// very definitions Apply and Power run (one macro is both compiled and written out), for the
 /// top of generated code (compile/expr_program.h, ProgramPreamble). Needs <cmath>.
 const char* FunctionDefinitions();

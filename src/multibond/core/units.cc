@@ -296,6 +296,36 @@ class Checker {
     return found >= 0 ? found : n.offset;
   }
 
+  /// The offset of the operator of a comparison, `and` or `or` (a call of the table written as
+  /// an operator): its text just before its right operand, past blanks, '(' and '+' signs.
+  int CallOperatorOffset(const expr::Node& n) const {
+    const std::string_view op = expr::Info(n.fn).op;
+    int i = n.args[1]->offset - 1;
+    if (i < 0 || static_cast<size_t>(i) >= text_.size()) return n.offset;
+    while (i >= 0) {
+      const char c = text_[static_cast<size_t>(i)];
+      if (!(c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '(' || c == '+')) break;
+      --i;
+    }
+    const int begin = i - static_cast<int>(op.size()) + 1;
+    if (begin >= 0 && text_.substr(static_cast<size_t>(begin), op.size()) == op) return begin;
+    return n.offset;
+  }
+
+  /// `u`, an operand of and, or, not or the condition of if, is a truth value: a comparison, or
+  /// a number without dimension (of any scale: x != 0 does not depend on it).
+  void RequireTruth(const FormulaUnit& u, const expr::Node& arg, int offset, const char* op) const {
+    if (!IsUnit(u) || IsDimensionless(u.unit.dim)) return;
+    Fail(offset,
+         std::string_view(op) == "if"
+             ? fmt::format("the condition '{}' of if is {}: a condition is a truth value (a comparison, or a number without dimension)",
+                           Excerpt(arg), DescribeUnit(u))
+             : fmt::format("'{}', an operand of '{}', is {}: the operands of and, or and not are truth values (comparisons, or "
+                           "numbers without dimension)",
+                           Excerpt(arg), op, DescribeUnit(u)),
+         fmt::format("compare it, as in {} > 0 or {} != 0", Excerpt(arg), Excerpt(arg)));
+  }
+
   /// One past the last character of the node in the text.
   size_t End(const expr::Node& n) const {
     using K = expr::Node::Kind;
@@ -316,6 +346,7 @@ class Checker {
       }
       case K::kName: return static_cast<size_t>(n.offset) + n.name.size();
       case K::kCall: {
+        if (expr::Info(n.fn).op) return End(*n.args.back());  // an operator: a < b, a and b, not a
         size_t i = text_.find('(', static_cast<size_t>(n.offset));
         for (int depth = 0; i < text_.size(); ++i) {
           if (text_[i] == '(') ++depth;
@@ -347,19 +378,24 @@ class Checker {
 
   /// The unit of the sides of a sum (or of the arguments of min, max, ...): one dimension, and one
   /// scale where both are known. `where`: "'+'", or nullptr for the arguments of `fn`.
+  /// `what`, `hint`: the message's subject and the hint on different dimensions, instead of those
+  /// said of where/fn (a comparison's, the branches of if).
   FormulaUnit Same(const FormulaUnit& a, const FormulaUnit& b, const expr::Node& na, const expr::Node& nb, int offset,
-                   const char* where, const char* fn) {
+                   const char* where, const char* fn, const char* what_instead = nullptr, const char* hint_instead = nullptr) {
     if (!IsUnit(a) || !IsUnit(b)) {
       if (IsUnit(a)) return a;
       if (IsUnit(b)) return b;
       return a.kind == FormulaUnit::Kind::kFree || b.kind == FormulaUnit::Kind::kFree ? Free() : Number();
     }
-    const std::string what = where ? fmt::format("the two sides of {}", where) : fmt::format("the arguments of {}", fn);
+    const std::string what = what_instead ? std::string(what_instead)
+                             : where      ? fmt::format("the two sides of {}", where)
+                                          : fmt::format("the arguments of {}", fn);
     const std::string sides = fmt::format("'{}' is {}, '{}' is {}", Excerpt(na), DescribeUnit(a), Excerpt(nb), DescribeUnit(b));
     if (a.unit.dim != b.unit.dim)
       Fail(offset, fmt::format("{} have different units: {}", what, sides),
-           where ? "the terms of a sum need one dimension; check the formula and the units of its parameters"
-                 : fmt::format("{} needs one dimension in all its arguments; check the formula and the units of its parameters", fn));
+           hint_instead ? std::string(hint_instead)
+           : where      ? "the terms of a sum need one dimension; check the formula and the units of its parameters"
+                        : fmt::format("{} needs one dimension in all its arguments; check the formula and the units of its parameters", fn));
     FormulaUnit u = a;
     if (a.scale_known && b.scale_known && !SameScale(a.unit.scale, b.unit.scale))
       Fail(offset, fmt::format("{} have units of one dimension but of different sizes: {} (values are not converted)", what, sides),
@@ -483,6 +519,24 @@ class Checker {
       case Fn::kAtan2: case Fn::kSmoothSign:
         (void)Same(args[0], args[1], *n.args[0], *n.args[1], n.offset, nullptr, name);
         return Dimensionless();
+      case Fn::kLt: case Fn::kLe: case Fn::kGt: case Fn::kGe: case Fn::kEq: case Fn::kNe: {
+        const std::string where = fmt::format("'{}'", expr::Info(n.fn).op);
+        (void)Same(args[0], args[1], *n.args[0], *n.args[1], CallOperatorOffset(n), where.c_str(), nullptr, nullptr,
+                   "the sides of a comparison need one dimension; check the formula and the units of its parameters");
+        return Dimensionless();
+      }
+      case Fn::kAnd: case Fn::kOr:
+        RequireTruth(args[0], *n.args[0], CallOperatorOffset(n), expr::Info(n.fn).op);
+        RequireTruth(args[1], *n.args[1], CallOperatorOffset(n), expr::Info(n.fn).op);
+        return Dimensionless();
+      case Fn::kNot:
+        RequireTruth(args[0], *n.args[0], n.offset, "not");
+        return Dimensionless();
+      case Fn::kIf:
+        RequireTruth(args[0], *n.args[0], n.offset, "if");
+        return Same(args[1], args[2], *n.args[1], *n.args[2], n.offset, nullptr, name, "the two branches of if",
+                    "the value where the condition holds and the value where it does not need one dimension; check the formula "
+                    "and the units of its parameters");
     }
     return Free();
   }

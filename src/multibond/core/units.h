@@ -83,7 +83,11 @@ std::string FormatDimension(const Dimension& d);
 //  * sin, cos, tan, asin, acos, atan, sinh, cosh, tanh, exp and log take a number (an angle in
 //    rad); their value, and that of sign, atan2 and smoothsign, is a number;
 //  * x^y: y has no dimension; when x has a dimension, y is a constant whose value is a fraction
-//    with a denominator of at most 100 (sqrt(x) is x^(1/2)).
+//    with a denominator of at most 100 (sqrt(x) is x^(1/2));
+//  * the sides of a comparison (<, <=, >, >=, ==, !=) have one dimension (and scale, as a sum's);
+//    the operands of and, or, not and the condition of if are truth values: comparisons or
+//    values without dimension (of any scale); the value of each of these is a number;
+//  * the two branches of if have one dimension (and scale), which is the value's.
 
 /// What the analysis knows of the value of a formula or of a part of it.
 struct FormulaUnit {

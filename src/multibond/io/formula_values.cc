@@ -37,6 +37,7 @@ const char* ParseErrorCode(const std::string& text, const expr::ParseError& e) {
   size_t j = i;
   while (j < text.size() && (IsIdentChar(text[j]) || text[j] == '.')) ++j;
   const std::string name = text.substr(i, j - i);
+  if (expr::IsReservedWord(name)) return codes::kExprSyntax;  // "not (a < b)" where 'not' cannot stand
   while (j < text.size() && (text[j] == ' ' || text[j] == '\t')) ++j;
   if (j >= text.size() || text[j] != '(') return codes::kExprSyntax;
   return expr::FindFunction(name) ? codes::kExprArity : codes::kExprUnknownFunction;

@@ -8,6 +8,7 @@
 
 #include <fmt/format.h>
 
+#include "multibond/core/expression.h"
 #include "multibond/core/identifier.h"
 #include "multibond/core/structure.h"
 #include "multibond/io/diagnostic_codes.h"
@@ -24,6 +25,12 @@ bool ValueReader::CheckName(const std::string& name, const SourceLocation& where
     // The results' own columns: time, and the energy account energy.work, energy.stored, ...
     sink_.Error(codes::kNameInvalid, where, name, fmt::format("{} name '{}' is reserved for the results' {} column{}", what, name, name,
                                                         name == "energy" ? "s (energy.work, energy.stored, ...)" : ""),
+                "choose another name");
+    return false;
+  }
+  if (expr::IsReservedWord(name)) {
+    sink_.Error(codes::kNameInvalid, where, name,
+                fmt::format("{} name '{}' is a word of formulas: 'and', 'or' and 'not' are operators there", what, name),
                 "choose another name");
     return false;
   }
