@@ -34,6 +34,12 @@ TEST(SwitchingFunctions, AreTheArgumentsWhoseSignChoosesTheBranch) {
   EXPECT_EQ(Switching("max(f, 0)"), std::vector<std::string>{"f - 0"});
   EXPECT_EQ(Switching("min(a, 2*b)"), std::vector<std::string>{"a - 2*b"});
   EXPECT_EQ(Switching("clamp(x, lo, hi)"), (std::vector<std::string>{"x - lo", "x - hi"}));
+  EXPECT_EQ(Switching("x < 1"), std::vector<std::string>{"x - 1"});
+  EXPECT_EQ(Switching("a != b"), std::vector<std::string>{"a - b"});
+  EXPECT_EQ(Switching("if(t >= 0.5, 1, 0)"), std::vector<std::string>{});  // its comparison is its own node
+  EXPECT_EQ(Switching("if(u, 1, 0)"), std::vector<std::string>{"u"});       // a number as a truth value
+  EXPECT_EQ(Switching("u and x > 0"), std::vector<std::string>{"u"});
+  EXPECT_EQ(Switching("not v"), std::vector<std::string>{"v"});
   for (const char* smooth : {"sin(x)", "x^2", "smoothabs(x, 1e-3)", "smoothsign(x, 1e-3)", "hypot(x, y)", "a + b", "x"})
     EXPECT_TRUE(Switching(smooth).empty()) << smooth;
 }

@@ -83,6 +83,45 @@ TEST_P(EverySolver, AForcePulseOfTimeIsNeverSteppedOver) {
   EXPECT_LT(std::abs(run->summary.energy_residual), 2e-8);  // the tolerance's level
 }
 
+TEST_P(EverySolver, ARectangularPulseWrittenWithComparisonsIsExact) {
+  // 1 N from 0.5 s to 1.5 s, as a user of `if` writes it: the comparisons' time events at 0.5 and
+  // 1.5 s, the force constant between them, so every solver integrates it to rounding.
+  const auto run = RunWithDefaults(LoadModelString(R"yaml(model: rectangle
+domain: translation
+elements:
+  push: {type: Se, effort: "if(t >= 0.5 and t < 1.5, 1, 0)"}
+  v:    {type: "1"}
+  mass: {type: I, inertia: 1.0}
+bonds: [push -> v, v -> mass]
+simulation: {t_end: 3, dt: 0.1}
+)yaml"), solver(), step());
+  ASSERT_EQ(run->summary.status, RunStatus::kOk) << run->summary.message;
+  EXPECT_NEAR(run->rec.Last("mass.p"), 1.0, 1e-12);
+  EXPECT_NEAR(run->rec.At("mass.p", 1.0), 0.5, 1e-12);
+  const std::vector<EventRecord> kinks = OfKind(run->rec, "kink");
+  ASSERT_EQ(kinks.size(), 2u);
+  EXPECT_EQ(kinks[0].time, 0.5);
+  EXPECT_EQ(kinks[1].time, 1.5);
+}
+
+TEST_P(EverySolver, AOneSidedSpringWrittenWithIfHasTheSameKinks) {
+  const auto run = RunWithDefaults(LoadModelString(R"yaml(model: one_sided_if
+domain: translation
+elements:
+  v:      {type: "1"}
+  mass:   {type: I, inertia: 1.0, p0: 1.0}
+  spring: {type: C, effort: "if(q > 0, 100*q, 0)", q0: -0.1}
+bonds: [v -> mass, v -> spring]
+simulation: {t_end: 1, dt: 0.01}
+)yaml"), solver(), step() > 0 ? 1e-4 : 0.0);
+  ASSERT_EQ(run->summary.status, RunStatus::kOk) << run->summary.message;
+  const std::vector<EventRecord> kinks = OfKind(run->rec, "kink");
+  ASSERT_EQ(kinks.size(), 2u);
+  EXPECT_NEAR(kinks[0].time, 0.1, 1e-5);
+  EXPECT_NEAR(kinks[1].time, 0.1 + std::numbers::pi / 10, 1e-5);
+  EXPECT_NEAR(run->rec.Last("mass.p"), -1.0, 1e-6);
+}
+
 TEST(FormulaEvents, ThePulseToANanoUnderBdfAndAdams) {
   for (const char* solver : {"bdf", "adams"}) {
     LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/events/force_pulse.yaml");

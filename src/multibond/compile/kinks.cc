@@ -13,15 +13,36 @@ using expr::Fn;
 using expr::Node;
 using expr::NodePtr;
 
+namespace {
+
+/// A comparison or a logical operation: its value is 0 or 1, and its own switching functions
+/// say where it changes.
+bool IsTruthValue(const Node& n) {
+  return n.kind == Node::Kind::kCall && (expr::IsComparison(n.fn) || n.fn == Fn::kAnd || n.fn == Fn::kOr || n.fn == Fn::kNot);
+}
+
+}  // namespace
+
 std::vector<NodePtr> SwitchingFunctions(const Node& node) {
   if (node.kind != Node::Kind::kCall) return {};
   auto diff = [&](size_t a, size_t b) { return expr::Binary(Node::Kind::kSub, node.args[a], node.args[b]); };
+  // A number used as a truth value (`if(x, a, b)`, `x and y`) changes where it crosses zero.
+  auto truth = [&](size_t a) { return IsTruthValue(*node.args[a]) ? std::vector<NodePtr>{} : std::vector<NodePtr>{node.args[a]}; };
+  if (expr::IsComparison(node.fn)) return {diff(0, 1)};
   switch (node.fn) {
     case Fn::kAbs:
     case Fn::kSign: return {node.args[0]};
     case Fn::kMin:
     case Fn::kMax: return {diff(0, 1)};
     case Fn::kClamp: return {diff(0, 1), diff(0, 2)};
+    case Fn::kIf:
+    case Fn::kNot: return truth(0);
+    case Fn::kAnd:
+    case Fn::kOr: {
+      std::vector<NodePtr> out = truth(0);
+      for (NodePtr& g : truth(1)) out.push_back(std::move(g));
+      return out;
+    }
     default: return {};
   }
 }

@@ -3,7 +3,7 @@
 /// The kinks and switches of formulas (docs/events.md, "Kinks and switches in formulas"): every
 /// call of a function that is not smooth (`abs`, `sign`, `min`, `max`, `clamp`, and the
 /// comparisons and `if`) has a switching function, the argument whose sign decides the branch
-/// (`x` of abs(x), `a - b` of max(a, b), `x - lo` and `x - hi` of clamp(x, lo, hi)). The
+/// (`x` of abs(x), `a - b` of max(a, b) and of a < b, `x - lo` and `x - hi` of clamp(x, lo, hi)). The
 /// integrators must not step across a change of branch, where the right-hand side or its
 /// derivative jumps: a switching function of time alone gives time events, found ahead of the
 /// integration (KinkTable::TimeEvents), where the integration stops exactly and restarts; any
@@ -30,8 +30,9 @@ struct TimeEvent {
 };
 
 /// The switching functions of a node of a formula's tree: none for a smooth node; the argument
-/// of abs and sign; a - b for min and max; x - lo and x - hi for clamp. Each is a new tree over
-/// the call's own arguments.
+/// of abs and sign; a - b for min and max and for each comparison a < b, a == b, ...; x - lo and
+/// x - hi for clamp; a number used as a truth value (the condition of `if`, an operand of `and`,
+/// `or`, `not` that is no comparison) itself. Each is a new tree over the call's own arguments.
 std::vector<expr::NodePtr> SwitchingFunctions(const expr::Node& node);
 
 class KinkTable {
