@@ -104,6 +104,15 @@ Prepared Prepare(const LinearArgs& a, const std::vector<std::string>& argv, cons
   r.record["rhs_engine"] = r.p.model->rhs_engine();
   r.record["options"]["at"] = r.op.t;
   r.record["options"]["steady"] = a.steady;
+  // An operating point on a kink: every linear command says so (linearize lists it among its
+  // notes too), on the terminal and in the record.
+  nlohmann::json warnings = nlohmann::json::array();
+  for (const std::string& n : r.lm.notes)
+    if (n.rfind(linear::kOnKinkNote, 0) == 0) {
+      warnings.push_back(n);
+      if (!a.quiet) std::cerr << "warning: " << n << '\n';
+    }
+  if (!warnings.empty()) r.record["warnings"] = warnings;
   return r;
 }
 

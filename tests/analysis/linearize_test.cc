@@ -147,7 +147,20 @@ TEST(Linearize, BilinearDamperAwayFromTheKinkTakesTheRateOfItsSide) {
     const LinearModel lm = Linearize(*model, 0.0, x);
     const int p = Index(lm.states, "body.p");
     EXPECT_NEAR(lm.A(p, p), -(v > 0 ? 800.0 : 2400.0) / 250.0, 1e-12) << v;
+    for (const std::string& note : lm.notes) EXPECT_EQ(note.find(kOnKinkNote), std::string::npos) << note;  // off the kink
   }
+}
+
+TEST(Linearize, AnOperatingPointOnAKinkIsSaid) {
+  // At rest the damper's switching function f is 0: one note, naming the damper and its formula.
+  const auto model = Compiled("examples/linear/bilinear_damper.yaml");
+  const LinearModel lm = Linearize(*model, 0.0, model->MakeInitialState());
+  std::vector<std::string> kinks;
+  for (const std::string& note : lm.notes)
+    if (note.rfind(kOnKinkNote, 0) == 0) kinks.push_back(note);
+  ASSERT_EQ(kinks.size(), 1u);
+  EXPECT_NE(kinks[0].find("the effort law of damper"), std::string::npos) << kinks[0];
+  EXPECT_NE(kinks[0].find("max(j.f, 0)"), std::string::npos) << kinks[0];
 }
 
 TEST(Linearize, SpinningBodyMatchesCentralDifferencesOnTheRotationGroup) {

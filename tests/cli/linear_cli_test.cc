@@ -107,6 +107,8 @@ TEST_F(LinearCliTest, ModesOfTheBilinearDamperAtRestHaveTheMeanOfItsTwoRates) {
     const fs::path dir = Out("bilinear" + std::to_string(static_cast<int>(zeta * 100)));
     const Result r = Run("modes " + Example("linear/bilinear_damper.yaml") + set + " -o " + dir.string());
     ASSERT_EQ(r.code, 0) << r.out << r.err;
+    // On the damper's kink: said on the terminal and in the record.
+    EXPECT_NE(r.err.find("warning: the operating point sits on a kink"), std::string::npos) << r.err;
     const nlohmann::json j = Json(dir / "modes.json");
     ASSERT_EQ(j["modes"].size(), 1u) << j.dump(1);
     const nlohmann::json& m = j["modes"][0];

@@ -24,6 +24,9 @@ struct Storage {
   Eigen::MatrixXd hessian;  ///< states.size() x states.size(), symmetric
 };
 
+/// How the note on an operating point that sits on a kink of a formula begins (Linearize).
+inline constexpr const char* kOnKinkNote = "the operating point sits on a kink";
+
 struct LinearModel {
   std::string model;  ///< the model's name
   double at = 0.0;    ///< the time of the operating point [s]

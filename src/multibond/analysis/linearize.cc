@@ -197,9 +197,9 @@ LinearModel Linearize(const CompiledModel& model, double t, const Eigen::VectorX
   // A point on a kink has no tangent: the one-sided models differ, and the tangent's rules take
   // the mean of their slopes (docs/linear-analysis.md).
   for (const std::string& kink : model.KinksAt(t, x.data(), ws))
-    lm.notes.push_back(fmt::format("the operating point sits on a kink: {}; the linear model takes the mean of the slopes on "
+    lm.notes.push_back(fmt::format("{}: {}; the linear model takes the mean of the slopes on "
                                    "either side, and the model on either side differs from it (linearise about a point off the "
-                                   "kink for a one-sided model)", kink));
+                                   "kink for a one-sided model)", kOnKinkNote, kink));
   model.CalcDerivatives(t, x.data(), xdot.data(), ws);
   std::vector<Eigen::VectorXd> slot_cols;  // d(slots)/dz_j
   lm.A = ReducedJacobian(model, t, x, c, xdot, ws, dws, &slot_cols);
