@@ -14,6 +14,7 @@
 #include <string>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/equations.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
 
@@ -90,6 +91,11 @@ TEST(ModulatedStorage, AStiffnessThatReadsTimeStoresHalfKqSquaredAndBooksItsChan
     EXPECT_NEAR(xdot[w], 0.5 * kQ0 * kQ0 * dk, 1e-10 * (0.5 * kQ0 * kQ0 * dk) + 1e-300) << t;
     EXPECT_NEAR(xdot[model->FindVariable("mass.p")->offset], -k * x[q], 1e-13 * k) << t;
   }
+}
+
+TEST(ModulatedStorage, EquationsShowThePowerOfTheModulation) {
+  const std::string text = FormatEquations(*Compiled(Oscillator("(4 + t)*q", 1.0, 0.1, 0.0)), EquationFormat::kText);
+  EXPECT_THAT(text, HasSubstr("d(spring.modulation_work)/dt = d/dt of the stored energy of spring at fixed q: spring.q^2/2"));
 }
 
 TEST(ModulatedStorage, ASpringWhoseStiffnessDoublesFollowsTheOscillatorPiecewiseAndTheAccountCloses) {
