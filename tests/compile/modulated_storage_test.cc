@@ -66,12 +66,10 @@ std::string Oscillator(const std::string& law, double m, double q0, double p0, c
 }
 
 // The spring of tests (a): k(t) = k0 (1 + H(t - t1)), the step H written as the smooth
-// (1 + tanh((t - t1)/tau))/2. A smooth switch because the integral of the modulation's power
-// must see the switch: sign(t - t1) jumps, and the integral of its derivative (0 but at t1, where
-// it is a Dirac) books nothing; a clamp ramp's corners are kinks that the solver resolves only by
-// step-size control or a tight --max-step until kinks of formulas are solver events. The tanh is
-// odd about t1, so the motion differs from that of the instant jump by O((omega tau)^2) only
-// (here ~1e-9 of the amplitude), and so does the work booked from 1/2 Delta k q(t1)^2.
+// (1 + tanh((t - t1)/tau))/2, whose work is all in the integral of the power (no event); with
+// sign(t - t1) instead, below, the jump is booked at the kink's time event. The tanh is odd about
+// t1, so the motion differs from that of the instant jump by O((omega tau)^2) only (here ~1e-9 of
+// the amplitude), and so does the work booked from 1/2 Delta k q(t1)^2.
 constexpr double kM = 1.0, kK0 = 4.0 * M_PI * M_PI, kT1 = 0.4005, kTau = 1e-5, kQ0 = 0.1, kP0 = 0.2;
 const std::string kSwitched = "39.47841760435743*(1 + 0.5*(1 + tanh((t - 0.4005)/1e-5)))*q";
 
@@ -150,13 +148,45 @@ TEST(ModulatedStorage, ASpringWhoseStiffnessDoublesFollowsTheOscillatorPiecewise
   }
 }
 
-TEST(ModulatedStorage, AClampRampOfStiffnessBooksItsWorkWithATightMaxStep) {
+TEST(ModulatedStorage, AnInstantSwitchIsATimeEventAndTheJumpOfItsEnergyIsBookedThere) {
+  // k(t) = k0 (1 + (1 + sign(t - t1))/2): the kink of sign is a time event, where the integration
+  // stops; the power of the jump is a Dirac that no integral sees, so the jump of the stored
+  // energy at fixed q, 1/2 k0 q(t1)^2, is booked there (BookModulationJumps). The motion is the
+  // piecewise closed form to the integrator's accuracy.
+  const double w1 = std::sqrt(kK0 / kM), w2 = std::sqrt(2 * kK0 / kM);
+  const double q1 = kQ0 * std::cos(w1 * kT1) + kP0 / (kM * w1) * std::sin(w1 * kT1);
+  const double p1 = -kM * w1 * kQ0 * std::sin(w1 * kT1) + kP0 * std::cos(w1 * kT1);
+  const double amplitude = std::hypot(q1, p1 / (kM * w2)), jump = 0.5 * kK0 * q1 * q1;
+  for (const Method method : {Method::kDormandPrince, Method::kBdf}) {
+    SCOPED_TRACE(static_cast<int>(method));
+    const auto model = Compiled(Oscillator("39.47841760435743*(1 + 0.5*(1 + sign(t - 0.4005)))*q", kM, kQ0, kP0));
+    const RecordingObserver rec = Simulated(*model, 2.0, 1e-3, method, 0.0, method == Method::kBdf ? 1e-13 : 1e-11);
+    ASSERT_EQ(rec.events().size(), 1u);
+    EXPECT_EQ(rec.events().front().kind, "kink");
+    double worst_q = 0, worst_jump = 0;
+    for (const auto& row : rec.rows()) {
+      const double t = row[0], s = t - kT1;
+      const double q = t < kT1 ? kQ0 * std::cos(w1 * t) + kP0 / (kM * w1) * std::sin(w1 * t)
+                               : q1 * std::cos(w2 * s) + p1 / (kM * w2) * std::sin(w2 * s);
+      worst_q = std::max(worst_q, std::abs(row[rec.Index("spring.q")] - q) / amplitude);
+      worst_jump = std::max(worst_jump, std::abs(row[rec.Index("spring.modulation_work")] - (t < kT1 ? 0.0 : jump)) / jump);
+    }
+    EXPECT_LT(worst_q, 1e-7);
+    EXPECT_LT(worst_jump, 1e-8);
+    EXPECT_LT(rec.summary().max_abs_energy_residual, 1e-9);
+    std::printf("sign switch (%s): |q - exact| %.2e of the amplitude, work booked - 1/2 k0 q(t1)^2: %.2e of it, max |residual| "
+                "%.2e\n",
+                method == Method::kBdf ? "bdf" : "dopri5", worst_q, worst_jump, rec.summary().max_abs_energy_residual);
+  }
+}
+
+TEST(ModulatedStorage, AClampRampOfStiffnessBooksItsWorkOverTheRamp) {
   // k(t) = k0 (1 + clamp((t - t1)/tau, 0, 1)): the power is 1/2 q^2 k0/tau on the ramp and 0
-  // elsewhere, discontinuous at its corners, which the solver does not stop at yet (kinks of
-  // formulas are not events): --max-step well below tau resolves them. The work booked is the
-  // change of stored energy, to the residual's accuracy.
+  // elsewhere; its corners are time events, so the integral of the power is exact on each piece,
+  // and the work is the change of stored energy to the residual's accuracy.
   const auto model = Compiled(Oscillator("39.47841760435743*(1 + clamp((t - 0.4005)/0.01, 0, 1))*q", kM, kQ0, kP0));
-  const RecordingObserver rec = Simulated(*model, 1.0, 1e-3, Method::kDormandPrince, 1e-4);
+  const RecordingObserver rec = Simulated(*model, 1.0, 1e-3, Method::kDormandPrince);
+  EXPECT_GE(rec.events().size(), 2u);  // its corners (once for the law, once for the power, as GiNaC writes it)
   EXPECT_LT(rec.summary().max_abs_energy_residual, 1e-9);
   EXPECT_GT(rec.Last("spring.modulation_work"), 0.05);
 }

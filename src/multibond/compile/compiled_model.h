@@ -335,6 +335,11 @@ class CompiledModel {
   int energy_term(int element) const { return energy_.term(element); }  ///< or -1
   double KineticEnergy(double t, const double* x) const { return energy_.Kinetic(t, x); }
   double PotentialEnergy(double t, const double* x) const { return energy_.Potential(t, x); }
+  /// At a time event t (where the integration stops and restarts): adds to each modulated storage
+  /// element's modulation_work the jump of its stored energy there, E(t+, x) - E(t-, x) one double
+  /// either side (a switch such as sign(t - t1), whose power is a Dirac that no integral sees; 0 to
+  /// rounding where E is continuous). compile/modulated_storage.cc; the simulator calls it.
+  void BookModulationJumps(double t, double* x) const;
   double KineticEnergy(const double* x) const { return KineticEnergy(0.0, x); }
   double PotentialEnergy(const double* x) const { return PotentialEnergy(0.0, x); }
   double Work(const double* x) const { return energy_.Work(x); }              ///< total work of all sources and modulations so far

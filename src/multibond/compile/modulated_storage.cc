@@ -8,12 +8,15 @@
 /// state, `<element>.modulation_work`, integrated like a source's work). That power is a formula
 /// of its own: the symbolic derivative of E in each name it reads, times the name's rate (t: 1;
 /// a state: its derivative, a slot of the plan; a signal: the same sum over what it reads), so it
-/// is one more kExpr instruction of the plan, exact, interpreted and generated alike. The
-/// energy, for the account, has the signals written out in t and the state. What has no such
+/// is one more kExpr instruction of the plan, exact, interpreted and generated alike; where E
+/// jumps at a kink of time (sign(t - t1)), a time event, the jump is booked there
+/// (BookModulationJumps). The energy, for the account, has the signals written out in t and the
+/// state. What has no such
 /// rate (an effort or a flow, a controller's output, an orientation) is refused with
 /// `law.energy`, after the plan is ordered (so that an algebraic loop through the law is
 /// reported as one).
 
+#include <cmath>
 #include <functional>
 #include <string>
 
@@ -306,6 +309,14 @@ std::optional<CompiledModel::FormulaInstr> CompiledModel::ModulationPowerInstr(i
   });
   fi.def.formula = fmt::format("d/dt of the stored energy of {} at fixed {}: {}", e.name, OwnName(e), expr::Format(*shown));
   return fi;
+}
+
+void CompiledModel::BookModulationJumps(double t, double* x) const {
+  if (modulation_class_.empty()) return;
+  const double before = std::nextafter(t, -HUGE_VAL), after = std::nextafter(t, HUGE_VAL);
+  for (const StateBlock& blk : layout_.blocks())
+    if (blk.kind == StateBlock::Kind::kWork && blk.rate_class >= 0)
+      x[blk.offset] += energy_.StoredEnergy(blk.owner, after, x) - energy_.StoredEnergy(blk.owner, before, x);
 }
 
 void CompiledModel::RefuseUnbookedModulation() const {

@@ -541,6 +541,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
           record({target, e.kind, e.element, e.description});
         }
         if (chart) chart->ToModel(y.data(), x.data());
+        model.BookModulationJumps(target, x.data());  // a modulated storage's energy that jumps here: work
         model.Project(target, x.data(), ws);  // the constraints that hold at the restart (new targets)
         if (chart) chart->FromModel(x.data(), y.data());
         carried.AddCounts(integrator->stats());
