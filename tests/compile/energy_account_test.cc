@@ -75,19 +75,19 @@ TEST(EnergyAccount, AMassAndASpringStoreTheirClosedForms) {
   x[b.Offset("damper.dissipated")] = 0.5;
   x[b.Offset("leak.dissipated")] = 0.125;
 
-  EXPECT_DOUBLE_EQ(b.account.StoredEnergy(g.Find("mass"), x.data()), 0.5 * p * p / m);
-  EXPECT_DOUBLE_EQ(b.account.StoredEnergy(g.Find("spring"), x.data()), 0.5 * k * q * q);
-  EXPECT_EQ(b.account.StoredEnergy(g.Find("damper"), x.data()), 0.0);
+  EXPECT_DOUBLE_EQ(b.account.StoredEnergy(g.Find("mass"), 0.0, x.data()), 0.5 * p * p / m);
+  EXPECT_DOUBLE_EQ(b.account.StoredEnergy(g.Find("spring"), 0.0, x.data()), 0.5 * k * q * q);
+  EXPECT_EQ(b.account.StoredEnergy(g.Find("damper"), 0.0, x.data()), 0.0);
   EXPECT_EQ(b.account.term(g.Find("damper")), -1);
   ASSERT_EQ(b.account.num_terms(), 2);
 
   // One pass over the terms, in the order term(element) gives.
   double per_term[2];
-  const EnergyAccount::Totals t = b.account.StoredEnergies(x.data(), per_term);
-  EXPECT_EQ(per_term[b.account.term(g.Find("mass"))], b.account.StoredEnergy(g.Find("mass"), x.data()));
-  EXPECT_EQ(per_term[b.account.term(g.Find("spring"))], b.account.StoredEnergy(g.Find("spring"), x.data()));
-  EXPECT_EQ(t.kinetic, b.account.Kinetic(x.data()));
-  EXPECT_EQ(t.potential, b.account.Potential(x.data()));
+  const EnergyAccount::Totals t = b.account.StoredEnergies(0.0, x.data(), per_term);
+  EXPECT_EQ(per_term[b.account.term(g.Find("mass"))], b.account.StoredEnergy(g.Find("mass"), 0.0, x.data()));
+  EXPECT_EQ(per_term[b.account.term(g.Find("spring"))], b.account.StoredEnergy(g.Find("spring"), 0.0, x.data()));
+  EXPECT_EQ(t.kinetic, b.account.Kinetic(0.0, x.data()));
+  EXPECT_EQ(t.potential, b.account.Potential(0.0, x.data()));
   EXPECT_DOUBLE_EQ(t.kinetic, 0.5 * p * p / m);
   EXPECT_DOUBLE_EQ(t.potential, 0.5 * k * q * q);
   EXPECT_EQ(b.account.Work(x.data()), 1.0);
@@ -105,8 +105,8 @@ TEST(EnergyAccount, MatrixInertiaAndStiffness) {
     x[b.Offset("mass.p") + i] = p[i];
     x[b.Offset("spring.q") + i] = q[i];
   }
-  ExpectRelative(b.account.StoredEnergy(b.graph.Find("mass"), x.data()), 0.5 * p.dot(mm.ldlt().solve(p)), 1e-14);
-  ExpectRelative(b.account.StoredEnergy(b.graph.Find("spring"), x.data()), 0.5 * q.dot(kk * q), 1e-14);
+  ExpectRelative(b.account.StoredEnergy(b.graph.Find("mass"), 0.0, x.data()), 0.5 * p.dot(mm.ldlt().solve(p)), 1e-14);
+  ExpectRelative(b.account.StoredEnergy(b.graph.Find("spring"), 0.0, x.data()), 0.5 * q.dot(kk * q), 1e-14);
 }
 
 TEST(EnergyAccount, ARotatedBodyStoresItsEnergyInItsFrame) {
@@ -134,13 +134,13 @@ TEST(EnergyAccount, ARotatedBodyStoresItsEnergyInItsFrame) {
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) x[at + 3 * i + j] = r(i, j);  // row-major, as the layout keeps R
   const double want = 0.5 * h.dot(r * ib.inverse() * r.transpose() * h);
-  ExpectRelative(b.account.StoredEnergy(body, x.data()), want, 1e-14);
-  ExpectRelative(b.account.Kinetic(x.data()), want, 1e-14);
+  ExpectRelative(b.account.StoredEnergy(body, 0.0, x.data()), want, 1e-14);
+  ExpectRelative(b.account.Kinetic(0.0, x.data()), want, 1e-14);
   // Unrotated, the same h stores a different energy: the account does read R.
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) x[at + 3 * i + j] = i == j ? 1.0 : 0.0;
-  ExpectRelative(b.account.StoredEnergy(body, x.data()), 0.5 * h.dot(ib.inverse() * h), 1e-14);
-  EXPECT_GT(std::abs(b.account.StoredEnergy(body, x.data()) - want), 0.1 * want);
+  ExpectRelative(b.account.StoredEnergy(body, 0.0, x.data()), 0.5 * h.dot(ib.inverse() * h), 1e-14);
+  EXPECT_GT(std::abs(b.account.StoredEnergy(body, 0.0, x.data()) - want), 0.1 * want);
 }
 
 /// A tree's program whose own name (`own`) reads the state x[state].
@@ -174,10 +174,10 @@ TEST(EnergyAccount, FormulaEnergiesArePrograms) {
   std::vector<double> x(b.layout.num_states(), 0.0);
   x[b.Offset("mass.p")] = p;
   x[b.Offset("spring.q")] = q;
-  ExpectRelative(b.account.StoredEnergy(spring, x.data()), 0.5 * k1 * q * q + 0.25 * k3 * std::pow(q, 4), 1e-15);
-  ExpectRelative(b.account.StoredEnergy(mass, x.data()), p * p / (2.0 * m), 1e-15);
-  ExpectRelative(b.account.Kinetic(x.data()), p * p / (2.0 * m), 1e-15);
-  ExpectRelative(b.account.Potential(x.data()), 0.5 * k1 * q * q + 0.25 * k3 * std::pow(q, 4), 1e-15);
+  ExpectRelative(b.account.StoredEnergy(spring, 0.0, x.data()), 0.5 * k1 * q * q + 0.25 * k3 * std::pow(q, 4), 1e-15);
+  ExpectRelative(b.account.StoredEnergy(mass, 0.0, x.data()), p * p / (2.0 * m), 1e-15);
+  ExpectRelative(b.account.Kinetic(0.0, x.data()), p * p / (2.0 * m), 1e-15);
+  ExpectRelative(b.account.Potential(0.0, x.data()), 0.5 * k1 * q * q + 0.25 * k3 * std::pow(q, 4), 1e-15);
 }
 
 TEST(EnergyAccount, ALawWithoutAClosedFormIsIntegratedByQuadrature) {
@@ -194,11 +194,50 @@ TEST(EnergyAccount, ALawWithoutAClosedFormIsIntegratedByQuadrature) {
   for (const double q : {1.5, -0.7, 1e-3, 25.0}) {
     x[b.Offset("spring.q")] = q;
     const double want = k * (q * std::atan(q) - 0.5 * std::log1p(q * q));
-    ExpectRelative(b.account.StoredEnergy(spring, x.data()), want, 1e-12);
-    ExpectRelative(b.account.Potential(x.data()), want, 1e-12);
+    ExpectRelative(b.account.StoredEnergy(spring, 0.0, x.data()), want, 1e-12);
+    ExpectRelative(b.account.Potential(0.0, x.data()), want, 1e-12);
   }
   x[b.Offset("spring.q")] = 0.0;
-  EXPECT_EQ(b.account.StoredEnergy(spring, x.data()), 0.0);
+  EXPECT_EQ(b.account.StoredEnergy(spring, 0.0, x.data()), 0.0);
+}
+
+TEST(EnergyAccount, AModulatedSpringsEnergyReadsTimeAndItsModulationWorkIsWork) {
+  // A spring whose stiffness doubles over time, E = 1/2 k0 (1 + t) q^2: a program of t and x; the
+  // layout gives it the state spring.modulation_work (its power's class among the internal
+  // ones), whose derivative copies that class's slot and which counts in Work().
+  BondGraph g = Oscillator(Param::Scalar(1.0), Param::Scalar(1.0), 1);
+  const int spring = g.Find("spring");
+  const Structure s = StructureOf(g);
+  HandSlots slots(g, s);
+  const int power = slots.AddRate(ModulationPowerName("spring"));
+  const StateLayout layout(slots.Input(g, s));
+  const auto v = layout.FindVariable("spring.modulation_work");
+  ASSERT_TRUE(v);
+  const int q_at = layout.FindVariable("spring.q")->offset;
+  const EnergyAccount account({g, layout, [&](int element, int state) -> std::optional<EnergyAccount::FormulaEnergy> {
+                                 if (element != spring) return std::nullopt;
+                                 const expr::ParseResult parsed = expr::Parse("1/2*3*(1 + t)*q^2");
+                                 return EnergyAccount::FormulaEnergy{expr::CompileProgram(*parsed.root, [&](const expr::Node& n) {
+                                   return n.name == "t" ? expr::Input{expr::Input::In::kTime, 0, 0.0}
+                                                        : expr::Input{expr::Input::In::kState, state, 0.0};
+                                 })};
+                               }});
+  std::vector<double> x(layout.num_states(), 0.0);
+  x[q_at] = 0.2;
+  x[v->offset] = 0.125;
+  x[layout.FindVariable("force.work")->offset] = 1.0;
+  EXPECT_DOUBLE_EQ(account.StoredEnergy(spring, 0.0, x.data()), 0.5 * 3 * 0.04);
+  EXPECT_DOUBLE_EQ(account.StoredEnergy(spring, 2.0, x.data()), 0.5 * 3 * 3 * 0.04);
+  EXPECT_DOUBLE_EQ(account.Work(x.data()), 1.125);
+  // Its gather copies the power's slot.
+  const std::vector<StateBlock>& blocks = layout.blocks();
+  for (size_t k = 0; k < blocks.size(); ++k)
+    if (blocks[k].offset == v->offset) {
+      EXPECT_EQ(blocks[k].kind, StateBlock::Kind::kWork);
+      EXPECT_EQ(blocks[k].owner, spring);
+      EXPECT_EQ(layout.gathers()[k].kind, StateBlock::Kind::kIntegral);
+      EXPECT_EQ(layout.gathers()[k].flow, slots.OffsetOf(power));
+    }
 }
 
 }  // namespace

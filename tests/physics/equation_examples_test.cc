@@ -289,10 +289,61 @@ TEST(SpeedDependentLoadExample, SpeedFollowsTheRiccatiSolutionToItsSteadyValue) 
   EXPECT_NEAR(r.rec.Last("motor.source.work") + r.rec.Last("load.source.work"), 0.5 * J * w_inf * w_inf, 1e-6 * 0.5 * J * w_inf * w_inf);
 }
 
+// --- switched_spring.yaml: omega1 = sqrt(k0/m) before t1, omega2 = sqrt(2 k0/m) after ---
+
+TEST(SwitchedSpringExample, MotionIsTheOscillatorsPiecewiseAndTheSwitchsWorkTheEnergysJump) {
+  const ExampleRun r = RunEquationExample("switched_spring.yaml");
+  ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+  const double m = r.Param("m"), k0 = r.Param("k0"), t1 = r.Param("t1"), q0 = r.Param("q0"), v0 = r.Param("v0");
+  const double w1 = std::sqrt(k0 / m), w2 = std::sqrt(2.0 * k0 / m);
+  const double q1 = q0 * std::cos(w1 * t1) + v0 / w1 * std::sin(w1 * t1), v1 = -q0 * w1 * std::sin(w1 * t1) + v0 * std::cos(w1 * t1);
+  const double amplitude = std::hypot(q1, v1 / w2), jump = 0.5 * k0 * q1 * q1, e0 = 0.5 * k0 * q0 * q0 + 0.5 * m * v0 * v0;
+  EXPECT_NEAR(jump, 0.0770, 1e-4);  // the file's comment
+  const int x = r.rec.Index("x"), p = r.rec.Index("mass.p"), work = r.rec.Index("spring.modulation_work");
+  const int stored = r.rec.Index("spring.energy"), kinetic = r.rec.Index("energy.kinetic");
+  for (const auto& row : r.rec.rows()) {
+    const double t = row[0], s = t - t1;
+    const double q = t < t1 ? q0 * std::cos(w1 * t) + v0 / w1 * std::sin(w1 * t) : q1 * std::cos(w2 * s) + v1 / w2 * std::sin(w2 * s);
+    const double v = t < t1 ? -q0 * w1 * std::sin(w1 * t) + v0 * std::cos(w1 * t) : -q1 * w2 * std::sin(w2 * s) + v1 * std::cos(w2 * s);
+    EXPECT_NEAR(row[x], q, 1e-7 * amplitude) << "t = " << t;
+    EXPECT_NEAR(row[p], m * v, 1e-7 * m * w2 * amplitude) << "t = " << t;
+    // The switch's work: none before it, the stored energy's jump after it (booked at the kink's
+    // time event), and the energy stored is the start's plus the work.
+    EXPECT_NEAR(row[work], t < t1 ? 0.0 : jump, 1e-9 * jump) << "t = " << t;
+    EXPECT_NEAR(row[stored] + row[kinetic], e0 + row[work], 1e-9 * (e0 + jump)) << "t = " << t;
+  }
+  EXPECT_LT(MaxAbs(r.rec, "energy.residual"), 1e-9);
+  ASSERT_EQ(r.rec.events().size(), 1u);  // the switch, a kink of time
+  EXPECT_EQ(r.rec.events().front().kind, "kink");
+}
+
+// --- modulated_capacitor.yaml: with no current, voltage = Q x/(eps A), work = the energy's change ---
+
+TEST(ModulatedCapacitorExample, VoltageFollowsTheGapAndTheWorkIsTheChangeOfStoredEnergy) {
+  const ExampleRun r = RunEquationExample("modulated_capacitor.yaml");
+  ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+  const double eps = r.Param("eps"), A = r.Param("A"), Q = r.Param("Q"), x0 = r.Param("x0"), v0 = r.Param("v0"), f = r.Param("freq");
+  const double e0 = Q * Q * x0 / (2.0 * eps * A), w = 2.0 * std::numbers::pi * f;
+  EXPECT_NEAR(Q * (x0 + 2.0 * v0 / w) / (eps * A), 23.31, 0.005);  // the file's comment at t = 0.25 s
+  const int gap = r.rec.Index("gap"), voltage = r.rec.Index("voltage"), work = r.rec.Index("cap.modulation_work");
+  const int stored = r.rec.Index("cap.energy");
+  for (const auto& row : r.rec.rows()) {
+    const double x = x0 + v0 / w * (1.0 - std::cos(w * row[0]));
+    EXPECT_NEAR(row[gap], x, 1e-8 * x0) << "t = " << row[0];
+    EXPECT_NEAR(row[voltage], Q * row[gap] / (eps * A), 1e-14 * Q * x0 / (eps * A)) << "t = " << row[0];
+    EXPECT_NEAR(row[work], Q * Q * (x - x0) / (2.0 * eps * A), 1e-8 * e0) << "t = " << row[0];
+    EXPECT_NEAR(row[work], row[stored] - e0, 1e-13 * e0) << "t = " << row[0];
+  }
+  EXPECT_LT(MaxAbs(r.rec, "energy.residual"), 1e-12);
+  // The drive's work is what the guide dissipated.
+  EXPECT_NEAR(r.rec.Last("drive.work"), r.rec.Last("guide.dissipated"), 1e-9 * r.rec.Last("guide.dissipated"));
+}
+
 // --- generated code: the same bits ---
 
 TEST(EquationExamples, GeneratedCodeGivesTheInterpretersBits) {
-  for (const char* file : {"pendulum.yaml", "duffing.yaml", "tank.yaml", "motor_pi.yaml", "speed_dependent_load.yaml", "pi_steady.yaml"}) {
+  for (const char* file : {"pendulum.yaml", "duffing.yaml", "tank.yaml", "motor_pi.yaml", "speed_dependent_load.yaml", "pi_steady.yaml",
+                           "switched_spring.yaml", "modulated_capacitor.yaml"}) {
     SCOPED_TRACE(file);
     const ExampleRun interpreted = RunEquationExample(file, {}, false), generated = RunEquationExample(file, {}, true);
     ASSERT_EQ(interpreted.rec.summary().status, RunStatus::kOk);

@@ -39,11 +39,13 @@ void CompiledModel::Build() {
   AssignSlots();             // slot classes, their names; the multipliers' offsets
   layout_ = StateLayout({graph_, structure_, effort_class_, flow_class_, class_offset_, class_size_, class_units_,
                          signal_class_, internal_class_, options_.energy_account});  // blocks, x0, gathers, names
+  AnalyzeModulatedStorage();  // modulated_storage.cc: storage laws that read t, signals, other states
   energy_ = EnergyAccount({graph_, layout_, [this](int element, int state) {
                              return StoredEnergyFormula(element, state);  // formulas.cc
                            }});  // each I's and C's stored energy
   const std::vector<int> modulus_of = PlanModuli();
   const PlanDeps deps = OrderPlan(EmitInstructions(modulus_of));  // plan_, tears_, tear_closure_
+  RefuseUnbookedModulation();  // modulated_storage.cc: after the order, so that a loop is reported as one
   needed_moduli_ = plan::Specialize(plan_, coef_, sum_terms_, sum_signs_, moduli_);
   CheckFormulaUse();  // formulas.cc
   if (!tears_.empty() && !constraints_.empty()) {

@@ -320,17 +320,29 @@ class CompiledModel {
   void CalcTangent(double t, const double* x, const double* dx, const double* du, double* dxdot, Workspace& ws,
                    Workspace& dws) const;
 
-  // --- energy account (compile/energy_account.h: from the state x alone) ---
-  double StoredEnergy(int element, const double* x) const { return energy_.StoredEnergy(element, x); }  ///< I or C
+  // --- energy account (compile/energy_account.h: from the time and the state) ---
+  /// An I's or C's stored energy at (t, x). The time matters to a storage law that reads it
+  /// (directly or through a signal); the overloads without it evaluate at t = 0, which is the
+  /// same for every other model.
+  double StoredEnergy(int element, double t, const double* x) const { return energy_.StoredEnergy(element, t, x); }
+  double StoredEnergy(int element, const double* x) const { return StoredEnergy(element, 0.0, x); }
   /// Every I's and C's stored energy in one pass (what an output row needs): per_term receives
   /// num_energy_terms() values, in the order energy_term(element) gives; returns the sums.
   using EnergyTotals = EnergyAccount::Totals;
-  EnergyTotals StoredEnergies(const double* x, double* per_term) const { return energy_.StoredEnergies(x, per_term); }
+  EnergyTotals StoredEnergies(double t, const double* x, double* per_term) const { return energy_.StoredEnergies(t, x, per_term); }
+  EnergyTotals StoredEnergies(const double* x, double* per_term) const { return StoredEnergies(0.0, x, per_term); }
   int num_energy_terms() const { return energy_.num_terms(); }
   int energy_term(int element) const { return energy_.term(element); }  ///< or -1
-  double KineticEnergy(const double* x) const { return energy_.Kinetic(x); }
-  double PotentialEnergy(const double* x) const { return energy_.Potential(x); }
-  double Work(const double* x) const { return energy_.Work(x); }              ///< total work of all sources so far
+  double KineticEnergy(double t, const double* x) const { return energy_.Kinetic(t, x); }
+  double PotentialEnergy(double t, const double* x) const { return energy_.Potential(t, x); }
+  /// At a time event t (where the integration stops and restarts): adds to each modulated storage
+  /// element's modulation_work the jump of its stored energy there, E(t+, x) - E(t-, x) one double
+  /// either side (a switch such as sign(t - t1), whose power is a Dirac that no integral sees; 0 to
+  /// rounding where E is continuous). compile/modulated_storage.cc; the simulator calls it.
+  void BookModulationJumps(double t, double* x) const;
+  double KineticEnergy(const double* x) const { return KineticEnergy(0.0, x); }
+  double PotentialEnergy(const double* x) const { return PotentialEnergy(0.0, x); }
+  double Work(const double* x) const { return energy_.Work(x); }              ///< total work of all sources and modulations so far
   double Dissipated(const double* x) const { return energy_.Dissipated(x); }  ///< total dissipated in all resistors so far
   bool has_energy_account() const { return options_.energy_account; }
 
@@ -411,6 +423,34 @@ class CompiledModel {
   /// its `energy:` formula or its law's closed-form integral as a program of x, else its law as
   /// a program of x[0] (EnergyAccount integrates it); nullopt if its parameter gives its energy.
   std::optional<EnergyAccount::FormulaEnergy> StoredEnergyFormula(int element, int state) const;
+  // --- Storage modulated by time, signals or other states (compile/modulated_storage.cc) ---
+  /// The stored energy E(q, s) of a C or I whose law reads t, signals or states other than its
+  /// own (s), and the power its modulation puts in, dE/dt at fixed q = sum_s dE/ds ds/dt: the
+  /// derivative of E in each name it reads times that name's rate (a state's derivative is a
+  /// slot of the plan; a signal's rate is its own such sum), so that the energy account books
+  /// it as work (`<element>.modulation_work`).
+  struct Modulation {
+    expr::NodePtr energy;  ///< E in the model's names (own state `q`/`p`), signals written out: a function of t and x
+    expr::NodePtr power;   ///< dE/dt at fixed own state, reading states and the slots of their rates
+    std::optional<Diagnostic> refusal;  ///< why its work cannot be booked; thrown after OrderPlan (loops first)
+  };
+  /// True if the law or energy of a C or I given by formulas reads anything but its own state
+  /// (`q`/`p` or its state's full name), pi and numbers.
+  static bool IsModulated(const Element& e);
+  /// The slot class of each modulated storage element's power (with the energy account), made
+  /// after the signals' (AssignSlots); the layout gives each a modulation_work state.
+  void AssignModulationSlots();
+  /// modulation_: each modulated element's energy and power (after the layout, before the
+  /// energy account).
+  void AnalyzeModulatedStorage();
+  /// The power's instruction of a modulated element, if it has a power class (the kC/kI case of
+  /// FormulaInstructions; a refused one computes 0 until RefuseUnbookedModulation throws).
+  std::optional<FormulaInstr> ModulationPowerInstr(int element, int state, const Formula& given);
+  /// Throws the first refusal of modulation_ (after OrderPlan, which reports algebraic loops).
+  void RefuseUnbookedModulation() const;
+  std::unordered_map<int, Modulation> modulation_;  ///< per modulated C or I
+  std::unordered_map<int, int> modulation_class_;   ///< modulated C or I -> the slot class of its power
+
   /// Refuses what formulas do not support yet: solved algebraic loops through them (the formulas that
   /// ideal constraints cannot take are refused by ConstraintSolver::RefuseFormulas).
   void CheckFormulaUse() const;

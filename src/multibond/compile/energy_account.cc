@@ -1,7 +1,7 @@
 /// \file
 /// The energy account (compile/energy_account.h; docs/design.md, "Energy account"): each I's and
-/// C's stored energy from the state, and the totals of the sources' work and the resistors'
-/// dissipation, integrated as states.
+/// C's stored energy from the time and the state, and the totals of the sources' and the
+/// modulations' work and the resistors' dissipation, integrated as states.
 
 #include "multibond/compile/energy_account.h"
 
@@ -62,11 +62,11 @@ EnergyAccount::EnergyAccount(const Input& in) {
   }
 }
 
-double EnergyAccount::EnergyOf(const Term& et, const double* x) const {
+double EnergyAccount::EnergyOf(const Term& et, double t, const double* x) const {
   // 1/2 s^T E s with E = I^-1 or K (row-major in coef_); a body's angular momentum is
   // taken to its frame first (h_b = R^T h), where its inertia is constant. No allocation: these
   // run at every output time.
-  if (et.program >= 0) return expr::Run(programs_[et.program], 0.0, x, nullptr);
+  if (et.program >= 0) return expr::Run(programs_[et.program], t, x, nullptr);
   if (et.law >= 0) return LawEnergy(programs_[et.law], x[et.state]);
   const double* s = x + et.state;
   double hb[3];
@@ -85,33 +85,33 @@ double EnergyAccount::EnergyOf(const Term& et, const double* x) const {
   return 0.5 * sum;
 }
 
-double EnergyAccount::StoredEnergy(int element, const double* x) const {
+double EnergyAccount::StoredEnergy(int element, double t, const double* x) const {
   const int term = term_of_element_.at(element);
-  return term < 0 ? 0.0 : EnergyOf(terms_[term], x);
+  return term < 0 ? 0.0 : EnergyOf(terms_[term], t, x);
 }
 
-EnergyAccount::Totals EnergyAccount::StoredEnergies(const double* x, double* per_term) const {
-  Totals t;
+EnergyAccount::Totals EnergyAccount::StoredEnergies(double t, const double* x, double* per_term) const {
+  Totals sums;
   for (size_t k = 0; k < terms_.size(); ++k) {
-    const double e = EnergyOf(terms_[k], x);
+    const double e = EnergyOf(terms_[k], t, x);
     per_term[k] = e;
-    (terms_[k].kinetic ? t.kinetic : t.potential) += e;
+    (terms_[k].kinetic ? sums.kinetic : sums.potential) += e;
   }
-  for (int offset : potential_work_) t.potential -= x[offset];
-  return t;
+  for (int offset : potential_work_) sums.potential -= x[offset];
+  return sums;
 }
 
-double EnergyAccount::Kinetic(const double* x) const {
+double EnergyAccount::Kinetic(double t, const double* x) const {
   double sum = 0.0;
   for (const Term& et : terms_)
-    if (et.kinetic) sum += EnergyOf(et, x);
+    if (et.kinetic) sum += EnergyOf(et, t, x);
   return sum;
 }
 
-double EnergyAccount::Potential(const double* x) const {
+double EnergyAccount::Potential(double t, const double* x) const {
   double sum = 0.0;
   for (const Term& et : terms_)
-    if (!et.kinetic) sum += EnergyOf(et, x);
+    if (!et.kinetic) sum += EnergyOf(et, t, x);
   for (int offset : potential_work_) sum -= x[offset];
   return sum;
 }

@@ -198,6 +198,13 @@ class EquationWriter {
           "extra states ({}); they do not feed back into the equations above",
           names);
       out += latex_ ? "% " + OneLine(line) + "\n" : "\n" + line + "\n";
+      // And the work of each modulated storage element's modulation, the integral of its power
+      // (compile/modulated_storage.cc).
+      for (const StateBlock& blk : m_.state_blocks())
+        if (blk.kind == StateBlock::Kind::kWork && blk.rate_class >= 0) {
+          const std::string rate = fmt::format("d({})/dt = {}", m_.state_names()[blk.offset], Def(blk.rate_class).formula);
+          out += latex_ ? "% " + OneLine(rate) + "\n" : "  " + rate + "\n";
+        }
     }
     return out;
   }

@@ -316,25 +316,17 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
       const Formula& given = e.energy.given() ? e.energy : e.law_effort;  // an I's flow law is its law_effort (graph.h)
       scalar_only(b, given);
       const char* own = inertia ? "p" : "q";
-      NodePtr law = given.root;
-      // A storage element is conservative: its law (or energy) is a function of its own state
-      // and constants alone, so that its stored energy is a function of the state.
-      for (const Node* n : expr::Names(*given.root))
-        if (n->name != own && n->name != "pi") {
-          Diagnostic d;
-          d.code = "law.energy";
-          d.where = At(&given, n->offset);
-          d.element = e.name;
-          d.message = fmt::format("the {} of a storage element may depend on {} and parameters only, not on '{}'",
-                                  e.energy.given() ? "stored energy" : "law", own, n->name);
-          d.hint = "a stored energy is a function of the element's own state; for other dependencies use a source or a "
-                   "transformer given by a formula";
-          throw ModelError(d);
-        }
+      const int state = layout_.blocks()[layout_.element_block(i)].offset;
+      // The law (or energy) may read t, signals and other states besides its own (a modulated
+      // storage, compile/modulated_storage.cc: those are held fixed in its stored energy, and the
+      // power of their change is booked as the modulation's work). Its own state by its full
+      // name is its own variable.
+      const NodePtr root = Replace(given.root, layout_.state_names()[state], expr::Name(own));
+      NodePtr law = root;
       if (e.energy.given()) {
-        // The law is the energy's derivative in the element's own state; the energy must be a
-        // function of that state alone (else the account would not balance).
-        if (!expr::DependsOn(*e.energy.root, own)) {
+        // The law is the energy's derivative in the element's own state, which the energy must
+        // depend on.
+        if (!expr::DependsOn(*root, own)) {
           Diagnostic d;
           d.code = "law.energy";
           d.where = e.energy.where;
@@ -343,15 +335,15 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
           d.hint = fmt::format("write the energy in the element's own {} ({})", inertia ? "momentum" : "displacement", own);
           throw ModelError(d);
         }
-        law = expr::Differentiate(*e.energy.root, own);
+        law = expr::Differentiate(*root, own);
       }
-      const int state = layout_.blocks()[layout_.element_block(i)].offset;
       const double sigma = inertia ? 1.0 : g.PowerSign(b, i);
       const NodePtr tree = Signed(sigma, Replace(law, own, StateRef(state)));
       const std::string what = fmt::format("the {} law of {}", inertia ? "flow" : "effort", e.name);
       const std::string law_text = e.energy.given() ? fmt::format("d({})/d{}", e.energy.text, own) : given.text;
       const std::string shown = fmt::format("{}({} at {} = {})", sigma < 0 ? "-" : "", law_text, own, layout_.state_names()[state]);
       emit(inertia ? flow_class_[b] : effort_class_[b], 1, [&](int) { return tree; }, &given, what, shown);
+      if (std::optional<FormulaInstr> power = ModulationPowerInstr(i, state, given)) out.push_back(std::move(*power));
       break;
     }
     case ElementKind::kR: {
@@ -574,17 +566,17 @@ std::optional<EnergyAccount::FormulaEnergy> CompiledModel::StoredEnergyFormula(i
   const Element& e = graph_.element(element);
   if (!HasFormulas(e)) return std::nullopt;
   const char* own = e.kind == ElementKind::kI ? "p" : "q";
-  std::optional<NodePtr> energy;
-  const Formula* f = &e.energy;
-  if (e.energy.given()) {
-    energy = e.energy.root;
-  } else {
-    f = &e.law_effort;  // C: effort of q; I: flow of p
-    energy = expr::IntegrateFromZero(*f->root, own);
-  }
+  const Formula* f = e.energy.given() ? &e.energy : &e.law_effort;  // C: effort of q; I: flow of p
   const FormulaScope scope{f, element, "the stored energy of " + e.name};
+  // A law that reads more than its own state: E(q, s) at fixed s, its signals written out in t
+  // and the state (AnalyzeModulatedStorage); a refused one stores 0 until the refusal is thrown.
+  if (const auto m = modulation_.find(element); m != modulation_.end())
+    return EnergyAccount::FormulaEnergy{
+        CompileFormulaProgram(m->second.refusal ? expr::Number(0.0) : Replace(m->second.energy, own, StateRef(state)), scope)};
+  const NodePtr root = Replace(f->root, layout_.state_names()[state], expr::Name(own));  // its state by its full name
+  const std::optional<NodePtr> energy = e.energy.given() ? std::optional<NodePtr>(root) : expr::IntegrateFromZero(*root, own);
   if (energy) return EnergyAccount::FormulaEnergy{CompileFormulaProgram(Replace(*energy, own, StateRef(state)), scope)};
-  return EnergyAccount::FormulaEnergy{CompileFormulaProgram(Replace(f->root, own, StateRef(0)), scope), true};  // of x[0]
+  return EnergyAccount::FormulaEnergy{CompileFormulaProgram(Replace(root, own, StateRef(0)), scope), true};  // of x[0]
 }
 
 void CompiledModel::CheckFormulaUse() const {

@@ -85,7 +85,8 @@ void CompiledModel::AssignSlots() {
     name_class(flow_class_[b], g.bond(b).name + ".f");
   }
 
-  AssignSignalSlots();  // formulas.cc: signals, signal states' rates
+  AssignSignalSlots();      // formulas.cc: signals, signal states' rates
+  AssignModulationSlots();  // modulated_storage.cc: the power of each modulated storage element
 
   // --- Ideal constraints: one multiplier per dimension of each. ---
   constraints_.AssignMultipliers(dim);

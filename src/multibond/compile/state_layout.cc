@@ -99,6 +99,13 @@ void StateLayout::LayOut(const Input& in) {
         add_block(StateBlock::Kind::kDissipation, i, 1, e.name + ".dissipated", {}, "J");
       if (e.kind == ElementKind::kR) add_block(StateBlock::Kind::kDissipation, i, 1, e.name + ".dissipated", {}, "J");
       if (IsSource(e.kind) || e.kind == ElementKind::kR) x0.push_back(0.0);
+      // A storage element whose law reads t, signals or other states: the work its modulation
+      // does, the integral of its power (a formula's slot, compile/modulated_storage.cc).
+      if (const auto it = in.internal_class.find(ModulationPowerName(e.name)); IsStorage(e.kind) && it != in.internal_class.end()) {
+        const int blk = add_block(StateBlock::Kind::kWork, i, 1, e.name + ".modulation_work", {}, "J");
+        blocks_[blk].rate_class = it->second;
+        x0.push_back(0.0);
+      }
     }
   }
   x0_ = Eigen::Map<Eigen::VectorXd>(x0.data(), static_cast<Eigen::Index>(x0.size()));
@@ -130,6 +137,13 @@ void StateLayout::BuildGathers(const Input& in) {
     derivative_sign_.push_back(sign);
 
     StateGather gt{blk.kind, blk.offset, blk.size, -1, -1, -1, 1.0};
+    if (blk.kind == StateBlock::Kind::kWork && blk.rate_class >= 0) {
+      // A modulation's work: its derivative copies the power's slot, as a signal state's does.
+      gt.kind = StateBlock::Kind::kIntegral;
+      gt.flow = in.class_offset[source];
+      gathers_.push_back(gt);
+      continue;
+    }
     switch (blk.kind) {
       case StateBlock::Kind::kMomentum:
       case StateBlock::Kind::kDisplacement:

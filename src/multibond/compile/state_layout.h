@@ -22,7 +22,14 @@
 
 namespace multibond {
 
+/// The name of the internal slot class that holds the power a modulated C or I (a storage law
+/// that reads t, signals or other states) takes from its modulation; its integral is the state
+/// `<element>.modulation_work` of the energy account (compile/modulated_storage.cc).
+inline std::string ModulationPowerName(const std::string& element) { return element + ".modulation_power"; }
+
 /// A named, contiguous group of states (I momenta, C displacements, auxiliary states, energy).
+/// A kWork block is a source's work, or (owner a C or I, rate_class set) the work of a storage
+/// element's modulation.
 struct StateBlock {
   enum class Kind { kMomentum, kDisplacement, kOrientation, kIntegral, kWork, kDissipation };
   Kind kind;
@@ -75,14 +82,17 @@ class StateLayout {
     const std::unordered_map<std::string, int>& signal_class;
     /// The signal states' rates ("lag.rate", "pid.i.rate") -> their slot class (StateBlock::rate_class).
     const std::unordered_map<std::string, int>& internal_class;
-    /// Add a work state per source and a dissipation state per resistor (the energy account).
+      /// Add a work state per source and a dissipation state per resistor (the energy account),
+    /// and a modulation work state per storage element with a modulation power class
+    /// (ModulationPowerName, among internal_class).
     bool energy_account = true;
   };
 
   StateLayout() = default;
   /// Lays out the states in order: each I's and C's block (element order), each auxiliary
   /// state's (orientations, integrals, signal states; a PID's i and, with kd > 0, d), then the
-  /// energy account's work and dissipation; then the gathers and the name index.
+  /// energy account's work, dissipation and modulation work (element order); then the gathers
+  /// and the name index.
   explicit StateLayout(const Input& in);
 
   int num_states() const { return static_cast<int>(state_names_.size()); }

@@ -62,7 +62,9 @@ enum class Outcome {
   X(kExprVectorLaw, "expr.vector_law", kModelError, "a law given by a formula on a bond of more than one component")          \
   X(kExprUnsupported, "expr.unsupported", kModelError,                                                                         \
     "a formula where formulas are not supported yet: with ideal constraints, or in an algebraic loop solved by tearing")      \
-  X(kLawEnergy, "law.energy", kModelError, "a stored energy that is not a function of its element's own state alone")         \
+  X(kLawEnergy, "law.energy", kModelError,                                                                                     \
+    "a stored energy that does not depend on its element's own state, or a storage law whose modulation's work cannot be "     \
+    "booked (a read without a rate in the plan, such as an effort or a flow; a modulated law without a closed-form energy)")   \
   X(kCausalityConflict, "causality.conflict", kModelError,                                                                     \
     "two elements impose the same effort or flow (two Se on a 0-junction, two Sf on a 1-junction, both ports of a two-port " \
     "given the same variable)")                                                                                                \

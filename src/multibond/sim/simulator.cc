@@ -383,7 +383,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   const std::vector<std::string>& advanced_names = chart ? chart->state_names() : model.state_names();
   auto integrator = chart ? MakeIntegrator(*chart, options.integrator) : MakeIntegrator(system, options.integrator);
   integrator->Reset(options.t_start, advanced.data());
-  EnergyBalance balance(model.KineticEnergy(x.data()) + model.PotentialEnergy(x.data()));
+  EnergyBalance balance(model.KineticEnergy(options.t_start, x.data()) + model.PotentialEnergy(options.t_start, x.data()));
 
   RunSummary summary;
   std::vector<double> row(layout.columns.size());
@@ -397,7 +397,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
     model.CalcDerivatives(t, x.data(), xdot.data(), ws);  // fills every effort and flow at (t, x)
     if (model.has_formulas())
       if (const std::string why = model.FindActiveResistor(ws); !why.empty()) throw std::runtime_error(why);
-    const CompiledModel::EnergyTotals stored = model.StoredEnergies(x.data(), energies.data());
+    const CompiledModel::EnergyTotals stored = model.StoredEnergies(t, x.data(), energies.data());
     const double work = model.Work(x.data()), kin = stored.kinetic, pot = stored.potential;
     const double diss = model.Dissipated(x.data());
     const double residual = balance.Residual(work, kin, pot, diss);
@@ -541,6 +541,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
           record({target, e.kind, e.element, e.description});
         }
         if (chart) chart->ToModel(y.data(), x.data());
+        model.BookModulationJumps(target, x.data());  // a modulated storage's energy that jumps here: work
         model.Project(target, x.data(), ws);  // the constraints that hold at the restart (new targets)
         if (chart) chart->FromModel(x.data(), y.data());
         carried.AddCounts(integrator->stats());
