@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/formula_trees.h"
 #include "multibond/compile/symbolic.h"
 
 namespace multibond {
@@ -21,32 +22,10 @@ namespace {
 using expr::Node;
 using expr::NodePtr;
 
-// Names the engine gives the slots and states it reads in the trees it writes. The parser reads
-// identifiers only, so no model formula can name them.
-NodePtr SlotRef(int offset) { return expr::Name("#w" + std::to_string(offset)); }
-NodePtr StateRef(int offset) { return expr::Name("#x" + std::to_string(offset)); }
-
-/// The tree with every name that `replace` answers replaced (the rest kept; offsets kept).
-NodePtr Substitute(const NodePtr& n, const std::function<NodePtr(const Node&)>& replace) {
-  if (n->kind == Node::Kind::kName) {
-    NodePtr r = replace(*n);
-    return r ? r : n;
-  }
-  if (n->args.empty()) return n;
-  auto copy = std::make_shared<Node>(*n);
-  bool changed = false;
-  for (NodePtr& a : copy->args) {
-    NodePtr b = Substitute(a, replace);
-    changed = changed || b != a;
-    a = std::move(b);
-  }
-  return changed ? NodePtr(copy) : n;
-}
-
-/// `name` in the tree becomes `by`.
-NodePtr Replace(const NodePtr& n, const std::string& name, const NodePtr& by) {
-  return Substitute(n, [&](const Node& m) { return m.name == name ? by : nullptr; });
-}
+using formula_trees::Replace;
+using formula_trees::SlotRef;
+using formula_trees::StateRef;
+using formula_trees::Substitute;
 
 NodePtr Signed(double sign, NodePtr a) { return sign < 0 ? expr::Unary(Node::Kind::kNeg, std::move(a)) : a; }
 

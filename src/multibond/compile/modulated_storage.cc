@@ -23,6 +23,7 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/formula_trees.h"
 #include "multibond/compile/symbolic.h"
 
 namespace multibond {
@@ -31,30 +32,10 @@ namespace {
 using expr::Node;
 using expr::NodePtr;
 
-// The engine's names of slots and states in its own trees (as in formulas.cc).
-NodePtr SlotRef(int offset) { return expr::Name("#w" + std::to_string(offset)); }
-NodePtr StateRef(int offset) { return expr::Name("#x" + std::to_string(offset)); }
-
-/// The tree with every name that `replace` answers replaced (the rest kept; offsets kept).
-NodePtr Substitute(const NodePtr& n, const std::function<NodePtr(const Node&)>& replace) {
-  if (n->kind == Node::Kind::kName) {
-    NodePtr r = replace(*n);
-    return r ? r : n;
-  }
-  if (n->args.empty()) return n;
-  auto copy = std::make_shared<Node>(*n);
-  bool changed = false;
-  for (NodePtr& a : copy->args) {
-    NodePtr b = Substitute(a, replace);
-    changed = changed || b != a;
-    a = std::move(b);
-  }
-  return changed ? NodePtr(copy) : n;
-}
-
-NodePtr Replace(const NodePtr& n, const std::string& name, const NodePtr& by) {
-  return Substitute(n, [&](const Node& m) { return m.name == name ? by : nullptr; });
-}
+using formula_trees::Replace;
+using formula_trees::SlotRef;
+using formula_trees::StateRef;
+using formula_trees::Substitute;
 
 bool IsZero(const NodePtr& n) { return n->kind == Node::Kind::kNumber && n->value == 0.0; }
 bool IsOne(const NodePtr& n) { return n->kind == Node::Kind::kNumber && n->value == 1.0; }
