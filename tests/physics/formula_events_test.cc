@@ -104,6 +104,24 @@ simulation: {t_end: 3, dt: 0.1}
   EXPECT_EQ(kinks[1].time, 1.5);
 }
 
+TEST(FormulaEvents, TwoKinksOfOneElementThatChangeTogetherAreOneEvent) {
+  // abs(t - 0.5) and max(t - 0.5, 0): two switching functions, written differently, one restart.
+  const auto run = RunWithDefaults(LoadModelString(R"yaml(model: together
+domain: translation
+elements:
+  push: {type: Se, effort: "abs(t - 0.5) + max(t - 0.5, 0)"}
+  v:    {type: "1"}
+  mass: {type: I, inertia: 1.0}
+bonds: [push -> v, v -> mass]
+simulation: {t_end: 1, dt: 0.1}
+)yaml"), "bdf");
+  ASSERT_EQ(run->summary.status, RunStatus::kOk) << run->summary.message;
+  ASSERT_EQ(OfKind(run->rec, "kink").size(), 1u);
+  EXPECT_EQ(OfKind(run->rec, "kink")[0].time, 0.5);
+  // p = (t - 0.5)^2 / 2 + ... : 0.125 + 0.125 + 0.125 at t = 1 (abs: 0.125 before and after, max: 0.125).
+  EXPECT_NEAR(run->rec.Last("mass.p"), 0.375, 1e-8);
+}
+
 TEST(FormulaEvents, ThePulseToANanoUnderBdfAndAdams) {
   for (const char* solver : {"bdf", "adams"}) {
     LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/events/force_pulse.yaml");

@@ -408,6 +408,11 @@ std::vector<TimeEvent> CompiledModel::TimeEvents(double t0, double t1, double re
   for (auto& [t, element] : jumps)
     out.push_back({t, "time", std::move(element), "a source's value or slope jumps: the integration restarts"});
   std::stable_sort(out.begin(), out.end());
+  // One event per element and time: two kinks of one formula that change together (a law and the
+  // derivative GiNaC wrote of it) are one restart.
+  out.erase(std::unique(out.begin(), out.end(),
+                        [](const TimeEvent& a, const TimeEvent& b) { return a.time == b.time && a.element == b.element && a.kind == b.kind; }),
+            out.end());
   return out;
 }
 

@@ -525,9 +525,13 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
         // A formula's switching function changed sign: its branch changed, nothing jumps (a sign
         // the motion drives back from both sides starts to slide, or one that slid leaves); the
         // integration restarts there (below).
+        std::string last_kink;  // one `kink` entry per element and time (a law and its derivative's kinks)
         for (int r = 0; r < model.kinks().num_roots(); ++r)
           if (roots[static_cast<size_t>(model.num_switch_event_functions() + r)] != 0) {
-            record(model.HandleKink(reached, x.data(), ws, r));
+            const EventRecord e = model.HandleKink(reached, x.data(), ws, r);
+            if (e.kind == "kink" && e.element == last_kink) continue;
+            if (e.kind == "kink") last_kink = e.element;
+            record(e);
           }
         // A restart estimates its first step anew, small: a first step as long as the last could
         // start and end on the same side of an event function (a whole rebound) and miss it.
