@@ -600,13 +600,18 @@ class CompiledModel {
   KinkTable kinks_;
   std::vector<int> slides_;  ///< the kinks that may slide (a sign of the state), by index in kinks_
   /// Sliding (compile/sliding.cc): whether some sign slides in `ws`; the slide slots of one;
-  /// dg/dt along the motion of one kink's switching function (an evaluation of the plan and its
-  /// tangent pass); the equivalent values of those that slide, into their slots.
+  /// the rates of switching functions along the motion; the equivalent values of those that
+  /// slide, into their slots.
   bool Sliding(const Workspace& ws) const;
   /// Kink `kink`'s mode and held value (Workspace::kink_modes; its slots m = 0, s = value, or
   /// m = 1, s = 0 when free).
   void SetSlide(Workspace& ws, int kink, Workspace::KinkMode mode, double value) const;
+  /// kink < 0: the evaluation and tangent pass along the motion into ws.slide; kink >= 0: its
+  /// switching function's rate from the last such pass.
   double SwitchingRate(double t, const double* x, Workspace& ws, int kink) const;
+  /// The rates of kink `kink`'s switching function with its sign locked at +1 and at -1 (left
+  /// locked at -1).
+  std::pair<double, double> RatesEitherSide(double t, const double* x, Workspace& ws, int kink) const;
   void SolveSliding(double t, const double* x, Workspace& ws) const;
 
   /// Ideal constraints: their declarations, tables and solver (compile/constraint_solver.h);

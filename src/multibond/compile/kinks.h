@@ -70,8 +70,8 @@ class KinkTable {
   const Kink& root_kink(int r) const { return kinks_[static_cast<size_t>(roots_[static_cast<size_t>(r)])]; }
   /// The event functions at (t, x) with the workspace slots w of an evaluation there. No allocation.
   void Roots(double t, const double* x, const double* w, double* out) const;
-  /// The times in (t0, t1) where a switching function of time alone changes sign (or reaches or
-  /// leaves zero): each the first double at which its sign differs from the sign before, found
+  /// The times in (t0, t1) where a switching function of time alone changes sign (a touch of
+  /// zero is none): each the first double at which it has left the side it was on, found
   /// by sampling at most `resolution` apart (and at least 4,096 samples over the span, at most
   /// 4 million) and bisection to adjacent doubles; a sampling interval in which the function
   /// turns (its derivative changes sign) is searched at its extremum too, so that a function

@@ -30,9 +30,15 @@ void CompiledModel::SetSlide(Workspace& ws, int kink, Workspace::KinkMode mode, 
 }
 
 double CompiledModel::SwitchingRate(double t, const double* x, Workspace& ws, int kink) const {
+  // kink < 0: the plan and its tangent pass along the motion (d/dt of every slot); else the
+  // kink's switching function differentiated along the last such pass (SolveSliding reads the
+  // rates of several kinks from one pass).
   Workspace::SlideScratch& s = ws.slide;
-  EvalPlan(t, x, s.xdot.data(), ws);
-  TangentPass(t, x, s.xdot.data(), /*time=*/true, nullptr, s.rate.data(), ws, s.d_slots, s.d_moduli, &s.tmp);
+  if (kink < 0) {
+    EvalPlan(t, x, s.xdot.data(), ws);
+    TangentPass(t, x, s.xdot.data(), /*time=*/true, nullptr, s.rate.data(), ws, s.d_slots, s.d_moduli, &s.tmp);
+    return 0.0;
+  }
   return expr::RunTangent(kinks_.kinks()[static_cast<size_t>(kink)].program, t, x, ws.slots.data(), 1.0, s.xdot.data(),
                           s.d_slots.data());
 }
@@ -50,12 +56,8 @@ void CompiledModel::SolveSliding(double t, const double* x, Workspace& ws) const
     return ws.slots[static_cast<size_t>(kinks_.kinks()[static_cast<size_t>(s.active[static_cast<size_t>(i)])].slide_slot) + 1];
   };
   auto rates = [&](Eigen::VectorXd& out) {
-    Workspace::SlideScratch& sc = ws.slide;
-    EvalPlan(t, x, sc.xdot.data(), ws);
-    TangentPass(t, x, sc.xdot.data(), /*time=*/true, nullptr, sc.rate.data(), ws, sc.d_slots, sc.d_moduli, &sc.tmp);
-    for (Eigen::Index i = 0; i < m; ++i)
-      out[i] = expr::RunTangent(kinks_.kinks()[static_cast<size_t>(sc.active[static_cast<size_t>(i)])].program, t, x,
-                                ws.slots.data(), 1.0, sc.xdot.data(), sc.d_slots.data());
+    SwitchingRate(t, x, ws, -1);
+    for (Eigen::Index i = 0; i < m; ++i) out[i] = SwitchingRate(t, x, ws, s.active[static_cast<size_t>(i)]);
   };
   for (Eigen::Index i = 0; i < m; ++i) held(i) = 0.0;
   rates(s.r0);
@@ -85,6 +87,16 @@ bool Holds(double above, double below) {
 
 }  // namespace
 
+std::pair<double, double> CompiledModel::RatesEitherSide(double t, const double* x, Workspace& ws, int kink) const {
+  double rate[2];
+  for (const int side : {0, 1}) {
+    SetSlide(ws, kink, Workspace::kLocked, side == 0 ? 1.0 : -1.0);
+    SwitchingRate(t, x, ws, -1);
+    rate[side] = SwitchingRate(t, x, ws, kink);
+  }
+  return {rate[0], rate[1]};
+}
+
 EventRecord CompiledModel::HandleKink(double t, const double* x, Workspace& ws, int r) const {
   const KinkTable::Kink& k = kinks_.root_kink(r);
   EventRecord rec{t, "kink", k.owner, KinkTable::Describe(k)};
@@ -100,10 +112,7 @@ EventRecord CompiledModel::HandleKink(double t, const double* x, Workspace& ws, 
     return rec;
   }
   // The motion on either side, with the sign at +1 and at -1.
-  SetSlide(ws, index, Workspace::kLocked, 1.0);
-  const double above = SwitchingRate(t, x, ws, index);
-  SetSlide(ws, index, Workspace::kLocked, -1.0);
-  const double below = SwitchingRate(t, x, ws, index);
+  const auto [above, below] = RatesEitherSide(t, x, ws, index);
   if (Holds(above, below) && constraints_.empty()) {
     SetSlide(ws, index, Workspace::kSliding, 0.0);
     SolveSliding(t, x, ws);
@@ -132,10 +141,7 @@ void CompiledModel::InitializeKinks(double t, const double* x, Workspace& ws, do
       SetSlide(ws, index, Workspace::kLocked, g > 0.0 ? 1.0 : -1.0);
       continue;
     }
-    SetSlide(ws, index, Workspace::kLocked, 1.0);
-    const double above = SwitchingRate(t, x, ws, index);
-    SetSlide(ws, index, Workspace::kLocked, -1.0);
-    const double below = SwitchingRate(t, x, ws, index);
+    const auto [above, below] = RatesEitherSide(t, x, ws, index);
     SetSlide(ws, index, Holds(above, below) && constraints_.empty() ? Workspace::kSliding : Workspace::kFree, 0.0);
   }
 }
