@@ -32,8 +32,8 @@ find_program(MULTIBOND_SYSTEM_PYTHON NAMES python3 PATHS /usr/bin NO_DEFAULT_PAT
 find_program(MULTIBOND_OCTAVE NAMES octave)
 foreach(name result_names staged_file column_store results_files mat_writer h5_writer)
   multibond_test(io/${name}_test.cc LIBS multibond::io nlohmann_json::nlohmann_json LABELS unit)
-  target_compile_definitions(io_${name}_test PRIVATE
-    MULTIBOND_SYSTEM_PYTHON="$<$<BOOL:${MULTIBOND_SYSTEM_PYTHON}>:${MULTIBOND_SYSTEM_PYTHON}>"
-    MULTIBOND_OCTAVE="$<$<BOOL:${MULTIBOND_OCTAVE}>:${MULTIBOND_OCTAVE}>")
 endforeach()
+multibond_test_setting(io DEFINITIONS
+  MULTIBOND_SYSTEM_PYTHON="$<$<BOOL:${MULTIBOND_SYSTEM_PYTHON}>:${MULTIBOND_SYSTEM_PYTHON}>"
+  MULTIBOND_OCTAVE="$<$<BOOL:${MULTIBOND_OCTAVE}>:${MULTIBOND_OCTAVE}>")
 multibond_test(io/plot_web_test.cc LIBS multibond::io LABELS unit)
