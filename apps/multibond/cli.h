@@ -83,5 +83,10 @@ Command AddLinearizeCommand(CLI::App& app);
 Command AddModesCommand(CLI::App& app);
 Command AddBodeCommand(CLI::App& app);
 Command AddSweepCommand(CLI::App& app);
+Command AddJitFinishCommand(CLI::App& app);
+/// The program a run hands an unfinished background compile over to (this executable, for
+/// `jit-finish`), or "" when none may be: MULTIBOND_JIT_KEEP=0, or a program file that someone
+/// other than its owner (this user or root) could have changed.
+std::string JitFinisher();
 
 }  // namespace multibond::cli

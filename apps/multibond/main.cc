@@ -26,7 +26,7 @@ int main(int argc, char** argv) {
   const std::vector<Command> commands = {AddCheckCommand(app), AddEquationsCommand(app), AddGraphCommand(app),
                                          AddRunCommand(app),   AddCompareCommand(app),   AddPlotCommand(app),
                                          AddLinearizeCommand(app), AddModesCommand(app), AddBodeCommand(app),
-                                         AddSweepCommand(app),     AddViewCommand(app)};
+                                         AddSweepCommand(app),     AddViewCommand(app),    AddJitFinishCommand(app)};
   app.add_subcommand("version", "Print the version");
   try {
     app.parse(argc, argv);

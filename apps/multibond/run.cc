@@ -95,6 +95,14 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   const double integrate_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - simulate_start).count() - results.write_seconds();
   if (tty) std::fprintf(stderr, "\n");
+  // --jit auto: a compile the run did not wait for goes on in a process of its own and fills the
+  // cache, so that the next run of this model starts on the generated code (rhs_engine says so).
+  if (a.run.jit == "auto") {
+    if (const std::string program = JitFinisher(); !program.empty()) {
+      const std::string kept = model->HandOverCompile(program);
+      if (tty && !kept.empty()) std::fprintf(stderr, "note: the generated code: %s\n", kept.c_str());
+    }
+  }
   nlohmann::json record = MakeRunRecord(a.model, lm.text, lm.graph.name(), o, summary, argv);
   record["rhs_engine"] = model->rhs_engine();
   record["states"] = model->num_states();

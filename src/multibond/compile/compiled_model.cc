@@ -111,6 +111,7 @@ void CompiledModel::GenerateCode() {
     pending_engine_ = fmt::format("interpreter while the generated code ({} unit{}) compiles in the background", g.units.size(),
                                   g.units.size() == 1 ? "" : "s");
     jit_state_ = JitState::kCompiling;
+    jit_units_ = g.units;
     jit_thread_ = std::thread([this, units = std::move(g.units)] { LoadGeneratedRhs(units); });
   }
 }
@@ -156,6 +157,8 @@ void CompiledModel::LoadGeneratedRhs(const std::vector<std::string>& units) {
     jit_code_ = std::move(code);
     rhs_engine_ = "generated code (" + jit.description + ")";
     jit_ready_.store(jit_code_.get(), std::memory_order_release);
+  } else if (jit_cancel_ && !jit_handed_over_.empty()) {
+    rhs_engine_ = "interpreter (the run ended before the generated code was compiled: " + jit_handed_over_ + ")";
   } else {
     rhs_engine_ = "interpreter (code generation failed: " + jit.description + ")";
     // In the background nobody looks at the engine before the run's end: said here (not for a
@@ -174,6 +177,21 @@ bool CompiledModel::WaitForGeneratedCode() const {
   std::unique_lock<std::mutex> lock(jit_mutex_);
   jit_done_.wait(lock, [this] { return jit_state_.load() != JitState::kCompiling; });
   return uses_generated_code();
+}
+
+std::string CompiledModel::HandOverCompile(const std::string& program) const {
+  if (jit_state_.load(std::memory_order_acquire) != JitState::kCompiling || StopRequested()) return "";
+  const bool whole = jit_units_.size() == 1 && jit_units_.front().find("multibond_rhs_fast(") != std::string::npos;
+  std::string note = HandOverUnits(jit_units_, /*light=*/!whole, program);
+  if (note.empty()) note = "every unit was already built";
+  {
+    std::lock_guard<std::mutex> lock(jit_mutex_);
+    if (jit_state_.load() != JitState::kCompiling) return "";  // it finished meanwhile
+    jit_handed_over_ = note;
+  }
+  jit_cancel_ = true;
+  WaitForGeneratedCode();  // the compile thread ends its compilers and publishes rhs_engine_
+  return note;
 }
 
 CompiledModel::~CompiledModel() {

@@ -204,6 +204,11 @@ class CompiledModel {
   }
   /// Waits for a background compile to end; then true when the generated code evaluates.
   bool WaitForGeneratedCode() const;
+  /// At the end of a run that a background compile did not catch up with: hands the units not
+  /// yet built over to `program jit-finish` (compile/jit.h, HandOverUnits), which fills the cache
+  /// for the next run of this model, and ends this process's compile. Returns what was done (also
+  /// in rhs_engine() from then on), "" when no compile was running.
+  std::string HandOverCompile(const std::string& program) const;
   /// True when the generated code evaluates now (not still compiling in the background).
   bool generated_code_ready() const { return generated_ != nullptr || jit_ready_.load(std::memory_order_acquire) != nullptr; }
   ~CompiledModel();
@@ -553,7 +558,9 @@ class CompiledModel {
   enum class JitState { kNone, kCompiling, kDone };
   std::atomic<JitState> jit_state_{JitState::kNone};
   std::string pending_engine_;       ///< rhs_engine() while compiling in the background
-  std::atomic<bool> jit_cancel_{false};
+  mutable std::atomic<bool> jit_cancel_{false};
+  std::vector<std::string> jit_units_;   ///< the texts being compiled in the background
+  mutable std::string jit_handed_over_;  ///< HandOverCompile's note, written before the cancel
   std::thread jit_thread_;
   mutable std::mutex jit_mutex_;
   mutable std::condition_variable jit_done_;

@@ -6,6 +6,7 @@
 #include <dlfcn.h>
 #include <fcntl.h>
 #include <openssl/evp.h>
+#include <sys/file.h>
 #include <sys/mman.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
@@ -407,6 +408,40 @@ std::vector<std::string> JitFlags(bool light) {
           "-fPIC",      "-shared",               "-fno-math-errno"};
 }
 
+/// A unit's name in the cache: the hash of the compiler, the flags and the text.
+std::string Stem(const Compiler& cxx, const std::vector<std::string>& flags, const std::string& source) {
+  std::string key = cxx.identity;
+  for (const auto& f : flags) key += " " + f;
+  return "rhs-" + Sha256(key + "\n" + source);
+}
+
+bool IsStem(const std::string& s) {
+  return s.size() == 68 && s.rfind("rhs-", 0) == 0 &&
+         std::all_of(s.begin() + 4, s.end(), [](char c) { return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'); });
+}
+
+/// The largest unit source `jit-finish` reads back (a unit is a few megabytes at most).
+constexpr off_t kMaxUnitBytes = off_t{256} << 20;
+
+/// Reads `name` of the folder `dir`: a regular file of ours that nobody else can write, at most
+/// kMaxUnitBytes; "" and `text` filled, else why not.
+std::string ReadPrivate(int dir, const std::string& name, std::string& text) {
+  Fd fd(openat(dir, name.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC));
+  if (fd.get() < 0) return fmt::format("cannot open {}: {}", name, Errno());
+  if (std::string why = Untrusted(fd.get(), S_IFREG, name); !why.empty()) return why;
+  struct stat st {};
+  if (fstat(fd.get(), &st) != 0) return fmt::format("cannot examine {}: {}", name, Errno());
+  if (st.st_size > kMaxUnitBytes) return fmt::format("{} is larger than {} bytes", name, kMaxUnitBytes);
+  text.assign(static_cast<size_t>(st.st_size), '\0');
+  for (size_t done = 0; done < text.size();) {
+    const ssize_t n = pread(fd.get(), text.data() + done, text.size() - done, static_cast<off_t>(done));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return fmt::format("cannot read {}: {}", name, n < 0 ? Errno() : "it became shorter");
+    done += static_cast<size_t>(n);
+  }
+  return "";
+}
+
 }  // namespace
 
 namespace {
@@ -474,11 +509,8 @@ JitBatch CompileAndLoadUnits(const std::vector<std::string>& sources, const std:
   const size_t n = sources.size();
   const Compiler cxx = FindCompiler();
   const std::vector<std::string> flags = JitFlags(control.light);
-  std::string key_prefix = cxx.identity;
-  for (const auto& f : flags) key_prefix += " " + f;
-  key_prefix += "\n";
   std::vector<std::string> stems(n);
-  for (size_t i = 0; i < n; ++i) stems[i] = "rhs-" + Sha256(key_prefix + sources[i]);
+  for (size_t i = 0; i < n; ++i) stems[i] = Stem(cxx, flags, sources[i]);
 
   const fs::path cache = JitCacheFolder();
   Fd dfd;
@@ -578,6 +610,100 @@ JitBatch CompileAndLoadUnits(const std::vector<std::string>& sources, const std:
     batch.description = fmt::format("{} units in {}: {} compiled, {} from the cache, {} already loaded by this process", n,
                                     dir.string(), batch.compiled, batch.from_disk, batch.reused);
   return batch;
+}
+
+std::string HandOverUnits(const std::vector<std::string>& sources, bool light, const std::string& program) {
+  const fs::path cache = JitCacheFolder();
+  if (cache.empty()) return "not kept: no cache folder ($MULTIBOND_CACHE, $XDG_CACHE_HOME and $HOME are not set)";
+  Fd dfd;
+  if (std::string why = OpenPrivateFolder(cache, dfd); !why.empty()) return "not kept: " + why;
+  const Compiler cxx = FindCompiler();
+  const std::vector<std::string> flags = JitFlags(light);
+  std::vector<std::string> argv = {program, "jit-finish"};
+  if (light) argv.emplace_back("--light");
+  const size_t first = argv.size();
+  for (const std::string& source : sources) {
+    const std::string stem = Stem(cxx, flags, source);
+    Fd fd;
+    bool missing = false;
+    struct stat file {};
+    if (OpenVerified(dfd.get(), stem, fd, &missing, &file).empty()) continue;  // already built
+    // The text under its fixed name, as Build stores it (published by rename).
+    const std::string tmp = stem + "." + UniqueTag() + ".cc";
+    if (std::string why = WriteNew(dfd.get(), tmp, source); !why.empty()) return "not kept: " + why;
+    if (renameat(dfd.get(), tmp.c_str(), dfd.get(), (stem + ".cc").c_str()) != 0) {
+      unlinkat(dfd.get(), tmp.c_str(), 0);
+      return fmt::format("not kept: cannot store {}.cc: {}", stem, Errno());
+    }
+    argv.push_back(stem);
+  }
+  if (argv.size() == first) return "";
+  std::string error;
+  const pid_t pid = StartProcess(argv, "", "/dev/null", &error);
+  if (pid < 0) return "not kept: " + error;
+  // Never waited for: it outlives this process (its own process group, so a Ctrl-C at the
+  // terminal does not reach it), and takes what CPU the machine leaves.
+  setpriority(PRIO_PGRP, static_cast<id_t>(pid), 10);
+  return fmt::format("{} unit{} compiling on for the next run in process {} ({})", argv.size() - first,
+                     argv.size() - first == 1 ? "" : "s", pid, cache.string());
+}
+
+int FinishUnits(const std::vector<std::string>& stems, bool light, std::string* log) {
+  const auto say = [log](const std::string& line) {
+    if (log) *log += line + "\n";
+  };
+  const fs::path cache = JitCacheFolder();
+  Fd dfd;
+  if (cache.empty()) {
+    say("no cache folder");
+    return 0;
+  }
+  if (std::string why = OpenPrivateFolder(cache, dfd); !why.empty()) {
+    say(why);
+    return 0;
+  }
+  // One finisher at a time per cache folder, the others waiting their turn: a loop of short runs
+  // queues its compiles instead of starting them all at once.
+  Fd lock(openat(dfd.get(), "jit-finish.lock", O_RDWR | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0600));
+  if (lock.get() < 0 || !Untrusted(lock.get(), S_IFREG, "jit-finish.lock").empty() || flock(lock.get(), LOCK_EX) != 0) {
+    say("cannot lock jit-finish.lock of the cache folder");
+    return 0;
+  }
+  const Compiler cxx = FindCompiler();
+  const std::vector<std::string> flags = JitFlags(light);
+  Limits limits;
+  limits.nice = 10;
+  int built = 0;
+  for (const std::string& stem : stems) {
+    if (!IsStem(stem)) {
+      say(fmt::format("{}: not the name of a unit (rhs- and 64 hexadecimal digits)", stem));
+      continue;
+    }
+    Fd fd;
+    bool missing = false;
+    struct stat file {};
+    if (OpenVerified(dfd.get(), stem, fd, &missing, &file).empty()) {
+      say(stem + ": already built");
+      continue;
+    }
+    std::string source;
+    if (std::string why = ReadPrivate(dfd.get(), stem + ".cc", source); !why.empty()) {
+      say(stem + ": " + why);
+      continue;
+    }
+    // Only a text whose hash is its name is compiled: what the run asked for, nothing else.
+    if (Stem(cxx, flags, source) != stem) {
+      say(stem + ": the text does not have this name's hash (for this compiler and these flags)");
+      continue;
+    }
+    if (std::string why = Build(cache, dfd.get(), stem, source, cxx, flags, limits); !why.empty()) {
+      say(stem + ": " + why);
+      continue;
+    }
+    ++built;
+    say(stem + ": built");
+  }
+  return built;
 }
 
 }  // namespace multibond

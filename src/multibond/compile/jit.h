@@ -75,4 +75,19 @@ struct JitBatch {
 /// (JitBatch::description says which), not an exception.
 JitBatch CompileAndLoadUnits(const std::vector<std::string>& sources, const std::string& symbol, const JitControl& control = {});
 
+/// Hands the units of a background compile that the end of a run would cancel over to a process
+/// of their own, so that the generated code reaches the cache for the next run of the model
+/// (`--jit auto`). Each unit not yet cached is stored in the cache folder as <stem>.cc (as a
+/// build stores it), then `program jit-finish [--light] STEM...` is started in a process group of
+/// its own, at niceness 10, and not waited for. Returns what was started ("" when every unit was
+/// already built), or "not kept: " and why not.
+std::string HandOverUnits(const std::vector<std::string>& sources, bool light, const std::string& program);
+
+/// The other side, `multibond jit-finish`: builds the library of each named unit of the cache
+/// folder that has none. A unit's text is compiled only when it is a private file of ours whose
+/// hash (with this compiler and these flags) is its name. Returns the number built; `log`
+/// receives a line per unit.
+int FinishUnits(const std::vector<std::string>& stems, bool light, std::string* log = nullptr);
+
 }  // namespace multibond
+
