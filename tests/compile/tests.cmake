@@ -14,3 +14,4 @@ multibond_test(compile/energy_account_test.cc LIBS multibond::compile LABELS uni
 multibond_test(compile/constraint_formulas_test.cc LIBS multibond::analysis multibond::sim LABELS unit)
 multibond_test(compile/kinks_test.cc LIBS multibond::compile LABELS unit)
 multibond_test(compile/modulated_storage_test.cc LIBS multibond::io LABELS unit)
+multibond_test(compile/multiport_energy_test.cc LIBS multibond::io multibond::sim LABELS unit)

@@ -3,6 +3,7 @@
 // `--set` would) and run with the file's simulation settings; and the same runs through generated
 // code, which must give the interpreter's bits.
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <optional>
@@ -10,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include <gsl/gsl_errno.h>
+#include <gsl/gsl_odeiv2.h>
 #include <gtest/gtest.h>
 
 #include "support/example_runner.h"
@@ -339,11 +342,82 @@ TEST(ModulatedCapacitorExample, VoltageFollowsTheGapAndTheWorkIsTheChangeOfStore
   EXPECT_NEAR(r.rec.Last("drive.work"), r.rec.Last("guide.dissipated"), 1e-9 * r.rec.Last("guide.dissipated"));
 }
 
+// --- electrostatic_transducer.yaml: a two-port C from one energy; statics, an independent integration, energy ---
+
+/// The transducer's equations written by hand (the file's comment), for GSL: states q (charge),
+/// x (gap), p (the plate's momentum), y (the spring's extension).
+struct Transducer {
+  double eps_a, V, Rs, m, k, b;
+};
+
+int TransducerRates(double, const double s[], double ds[], void* params) {
+  const Transducer& c = *static_cast<const Transducer*>(params);
+  const double q = s[0], x = s[1], v = s[2] / c.m, y = s[3];
+  ds[0] = (c.V - q * x / c.eps_a) / c.Rs;                         // the current through Rs
+  ds[1] = v;                                                       // the gap opens with the plate
+  ds[2] = -q * q / (2.0 * c.eps_a) - c.k * y - c.b * v;            // attraction, spring, damper
+  ds[3] = v;
+  return GSL_SUCCESS;
+}
+
+TEST(ElectrostaticTransducerExample, FollowsTheHandWrittenEquationsAndSettlesAtTheStatics) {
+  const ExampleRun r = RunEquationExample("electrostatic_transducer.yaml");
+  ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+  Transducer c{r.Param("eps") * r.Param("A"), r.Param("V"), r.Param("Rs"), r.Param("m"), r.Param("k"), r.Param("b")};
+  const double x0 = r.Param("x0");
+  // The statics: k (x0 - x) x^2 = eps A V^2 / 2 on (2 x0 / 3, x0), by bisection to the last bit.
+  double lo = 2.0 * x0 / 3.0, hi = x0;
+  for (int i = 0; i < 200 && hi - lo > 0.0; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (c.k * (x0 - mid) * mid * mid > c.eps_a * c.V * c.V / 2.0 ? lo : hi) = mid;  // decreasing there
+  }
+  const double x_rest = 0.5 * (lo + hi), q_rest = c.eps_a * c.V / x_rest;
+  EXPECT_NEAR(x_rest, 0.92559e-3, 0.000005e-3);  // the file's comment
+  EXPECT_NEAR(q_rest, 114.79e-9, 0.005e-9);
+  // GSL's Runge-Kutta-Prince-Dormand (8, 9), each state against its own scale.
+  gsl_odeiv2_system sys{TransducerRates, nullptr, 4, &c};
+  const double scale[4] = {q_rest, x0, c.m * 0.1, x0};
+  gsl_odeiv2_driver* d = gsl_odeiv2_driver_alloc_scaled_new(&sys, gsl_odeiv2_step_rk8pd, 1e-9, 1e-13, 1e-13, 1.0, 0.0, scale);
+  double s[4] = {0.0, x0, 0.0, 0.0}, t = 0.0;
+  const int iq = r.rec.Index("plates.q.charge"), ix = r.rec.Index("plates.q.gap"), ip = r.rec.Index("plate.p"), iy = r.rec.Index("spring.q");
+  const int iv = r.rec.Index("voltage"), iforce = r.rec.Index("force");
+  double p_max = 0.0;
+  for (const auto& row : r.rec.rows()) p_max = std::max(p_max, std::abs(row[ip]));
+  ASSERT_GT(p_max, 1e-5);  // the plate moves
+  for (const auto& row : r.rec.rows()) {
+    if (row[0] > t) {
+      ASSERT_EQ(gsl_odeiv2_driver_apply(d, &t, row[0], s), GSL_SUCCESS) << "t = " << row[0];
+    }
+    EXPECT_NEAR(row[iq], s[0], 1e-7 * q_rest) << "t = " << row[0];
+    EXPECT_NEAR(row[ix], s[1], 1e-7 * x0) << "t = " << row[0];
+    EXPECT_NEAR(row[ip], s[2], 1e-6 * p_max) << "t = " << row[0];
+    EXPECT_NEAR(row[iy], s[3], 1e-7 * x0) << "t = " << row[0];
+    // The efforts are the energy's gradient at the state.
+    EXPECT_NEAR(row[iv], row[iq] * row[ix] / c.eps_a, 1e-13 * c.V) << "t = " << row[0];
+    EXPECT_NEAR(row[iforce], row[iq] * row[iq] / (2.0 * c.eps_a), 1e-13 * c.k * x0) << "t = " << row[0];
+    // The gap and the spring integrate the same velocity.
+    EXPECT_NEAR(row[ix] - x0, row[iy], 1e-12 * x0) << "t = " << row[0];
+  }
+  gsl_odeiv2_driver_free(d);
+  // At rest: the statics.
+  EXPECT_NEAR(r.rec.Last("plates.q.gap"), x_rest, 1e-9 * x0);
+  EXPECT_NEAR(r.rec.Last("plates.q.charge"), q_rest, 1e-9 * q_rest);
+  EXPECT_NEAR(r.rec.Last("force"), c.k * (x0 - x_rest), 1e-8 * c.k * x0);
+  // Work in = stored + dissipated: the source's work is the electric, spring and kinetic energy and
+  // what Rs and the damper turned into heat.
+  const double work = r.rec.Last("source.work");
+  EXPECT_NEAR(work, c.V * q_rest, 1e-8 * c.V * q_rest);
+  const double stored = r.rec.Last("plates.energy") + r.rec.Last("spring.energy") + r.rec.Last("plate.energy");
+  EXPECT_NEAR(stored, q_rest * q_rest * x_rest / (2.0 * c.eps_a) + c.k * (x_rest - x0) * (x_rest - x0) / 2.0, 1e-8 * work);
+  EXPECT_NEAR(work, stored + r.rec.Last("series.dissipated") + r.rec.Last("damper.dissipated"), 1e-9 * work);
+  EXPECT_LT(MaxAbs(r.rec, "energy.residual"), 1e-9);  // relative (docs/model-format.md, "Output files")
+}
+
 // --- generated code: the same bits ---
 
 TEST(EquationExamples, GeneratedCodeGivesTheInterpretersBits) {
   for (const char* file : {"pendulum.yaml", "duffing.yaml", "tank.yaml", "motor_pi.yaml", "speed_dependent_load.yaml", "pi_steady.yaml",
-                           "switched_spring.yaml", "modulated_capacitor.yaml"}) {
+                           "switched_spring.yaml", "modulated_capacitor.yaml", "electrostatic_transducer.yaml"}) {
     SCOPED_TRACE(file);
     const ExampleRun interpreted = RunEquationExample(file, {}, false), generated = RunEquationExample(file, {}, true);
     ASSERT_EQ(interpreted.rec.summary().status, RunStatus::kOk);

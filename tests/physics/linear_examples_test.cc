@@ -1,6 +1,7 @@
 // Linear analysis of the examples against closed forms and against an independent Jacobian:
 // the two-mass example's modes from the generalized eigenproblem, and the compliant
-// differential's modes against central differences of its variational equation.
+// differential's modes against central differences of its variational equation; the
+// electrostatic transducer (a multiport C) at rest against its hand-written Jacobian.
 
 #include <gtest/gtest.h>
 
@@ -123,6 +124,55 @@ TEST(LinearExamples, TwoMassModesAreThoseOfTheGeneralizedEigenproblem) {
     EXPECT_NEAR(share["spring1"], e_k1 / total, 1e-12);
     EXPECT_NEAR(share["spring2"], e_k2 / total, 1e-12);
   }
+}
+
+TEST(LinearExamples, TransducerAtRestIsTheHandWrittenJacobianWithMaxwellsCrossTerm) {
+  // examples/equations/electrostatic_transducer.yaml at its static equilibrium (the file's
+  // comment): states q, x (the multiport's charge and gap), p (the plate), y (the spring).
+  const auto model = Compiled("examples/equations/electrostatic_transducer.yaml");
+  const double eps_a = 8.854e-12 * 0.01, x0 = 1.0e-3, V = 1200.0, Rs = 1.0e5, m = 0.01, k = 1000.0, b = 1.0;
+  double lo = 2.0 * x0 / 3.0, hi = x0;  // k (x0 - x) x^2 = eps A V^2 / 2, decreasing on (2 x0 / 3, x0)
+  for (int i = 0; i < 200; ++i) (k * (x0 - 0.5 * (lo + hi)) * 0.25 * (lo + hi) * (lo + hi) > eps_a * V * V / 2.0 ? lo : hi) = 0.5 * (lo + hi);
+  const double x = 0.5 * (lo + hi), q = eps_a * V / x;
+  Eigen::VectorXd state = model->MakeInitialState();
+  const std::vector<std::string>& names = model->state_names();
+  auto at = [&](const std::string& name) {
+    const auto it = std::find(names.begin(), names.end(), name);
+    EXPECT_NE(it, names.end()) << name;
+    return static_cast<Eigen::Index>(it - names.begin());
+  };
+  state[at("plates.q.charge")] = q;
+  state[at("plates.q.gap")] = x;
+  state[at("spring.q")] = x - x0;
+  const LinearModel lm = Linearize(*model, 0.0, state);
+  const std::vector<std::string> order = {"plates.q.charge", "plates.q.gap", "plate.p", "spring.q"};
+  ASSERT_EQ(lm.states, order);
+  Eigen::Matrix4d hand = Eigen::Matrix4d::Zero();
+  hand(0, 0) = -x / (eps_a * Rs);  // dq/dt = (V - q x / (eps A)) / Rs
+  hand(0, 1) = -q / (eps_a * Rs);
+  hand(1, 2) = 1.0 / m;            // dx/dt = p / m
+  hand(2, 0) = -q / eps_a;         // dp/dt = -q^2 / (2 eps A) - k y - b p / m
+  hand(2, 2) = -b / m;
+  hand(2, 3) = -k;
+  hand(3, 2) = 1.0 / m;            // dy/dt = p / m
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) EXPECT_NEAR(lm.A(i, j), hand(i, j), 1e-12 * hand.row(i).cwiseAbs().maxCoeff()) << i << ", " << j;
+  // The multiport's Hessian: d voltage / dx = d force / dq = q / (eps A) (Maxwell), d voltage / dq = x / (eps A), d force / dx = 0.
+  const auto plates = std::find_if(lm.storages.begin(), lm.storages.end(), [](const Storage& st) { return st.element == "plates"; });
+  ASSERT_NE(plates, lm.storages.end());
+  ASSERT_EQ(plates->hessian.rows(), 2);
+  EXPECT_NEAR(plates->hessian(0, 0), x / eps_a, 1e-12 * x / eps_a);
+  EXPECT_NEAR(plates->hessian(0, 1), q / eps_a, 1e-12 * q / eps_a);
+  EXPECT_EQ(plates->hessian(1, 0), plates->hessian(0, 1));
+  EXPECT_NEAR(plates->hessian(1, 1), 0.0, 1e-12 * q / eps_a);
+  // The slow mode: the plate on the spring softened by the attraction at fixed V, k_eff = k -
+  // eps A V^2 / x^3, to within the electrical pole's correction (w0 Rs C = 3e-3 at most).
+  const std::vector<Mode> modes = ComputeModes(lm);
+  const double k_eff = k - eps_a * V * V / (x * x * x), w0 = std::sqrt(k_eff / m);
+  const auto slow = std::find_if(modes.begin(), modes.end(), [](const Mode& md) { return md.conjugate_pair; });
+  ASSERT_NE(slow, modes.end());
+  EXPECT_NEAR(slow->frequency_hz * 2.0 * M_PI, w0, 1e-5 * w0);  // measured: 7e-7
+  EXPECT_NEAR(slow->damping_ratio, b / (2.0 * std::sqrt(k_eff * m)), 3e-3 * slow->damping_ratio);  // measured: 1.5e-3
 }
 
 TEST(LinearExamples, CompliantDifferentialMatchesAnIndependentJacobian) {

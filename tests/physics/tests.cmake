@@ -5,7 +5,7 @@ multibond_test(physics/ideal_constraints_test.cc LIBS multibond::io LABELS physi
 multibond_test(physics/differential_ideal_test.cc LIBS multibond::io LABELS physics)
 multibond_test(physics/rhs_allocation_test.cc LIBS multibond::io LABELS physics)
 multibond_test(physics/repaired_physics_test.cc LIBS multibond::io LABELS physics)
-multibond_test(physics/equation_examples_test.cc LIBS multibond::io LABELS physics)
+multibond_test(physics/equation_examples_test.cc LIBS multibond::io PkgConfig::GSL LABELS physics)
 multibond_test(physics/linear_examples_test.cc LIBS multibond::analysis LABELS physics)
 multibond_test(physics/event_examples_test.cc LIBS multibond::io LABELS physics)
 multibond_test(physics/gravity_potential_test.cc LIBS multibond::io LABELS physics)

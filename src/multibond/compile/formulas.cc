@@ -14,6 +14,7 @@
 
 #include "multibond/compile/compiled_model.h"
 #include "multibond/compile/formula_trees.h"
+#include "multibond/compile/multiport_energy.h"
 #include "multibond/compile/symbolic.h"
 
 namespace multibond {
@@ -293,9 +294,19 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
       const bool inertia = e.kind == ElementKind::kI;
       const int b = e.bonds.front();
       const Formula& given = e.energy.given() ? e.energy : e.law_effort;  // an I's flow law is its law_effort (graph.h)
+      const int state = layout_.blocks()[layout_.element_block(i)].offset;
+      if (IsMultiportEnergy(e) && dim[b] == e.dim) {
+        // One energy of the vector state: the efforts (flows) are its gradient.
+        const MultiportEnergy m = BuildMultiportEnergy(e, layout_.state_names(), state);
+        const double sigma = inertia ? 1.0 : g.PowerSign(b, i);
+        const std::vector<std::string> own = OwnVariables(e);
+        emit(inertia ? flow_class_[b] : effort_class_[b], e.dim, [&](int k) { return Signed(sigma, m.gradient[static_cast<size_t>(k)]); },
+             &e.energy, fmt::format("the {} law of {}", inertia ? "flow" : "effort", e.name),
+             fmt::format("{}grad({}) in ({} ... {})", sigma < 0 ? "-" : "", e.energy.text, own.front(), own.back()));
+        break;
+      }
       scalar_only(b, given);
       const char* own = inertia ? "p" : "q";
-      const int state = layout_.blocks()[layout_.element_block(i)].offset;
       // The law (or energy) may read t, signals and other states besides its own (a modulated
       // storage, compile/modulated_storage.cc: those are held fixed in its stored energy, and the
       // power of their change is booked as the modulation's work). Its own state by its full
@@ -547,6 +558,8 @@ std::optional<EnergyAccount::FormulaEnergy> CompiledModel::StoredEnergyFormula(i
   const char* own = e.kind == ElementKind::kI ? "p" : "q";
   const Formula* f = e.energy.given() ? &e.energy : &e.law_effort;  // C: effort of q; I: flow of p
   const FormulaScope scope{f, element, "the stored energy of " + e.name};
+  if (IsMultiportEnergy(e))
+    return EnergyAccount::FormulaEnergy{CompileFormulaProgram(BuildMultiportEnergy(e, layout_.state_names(), state).energy, scope)};
   // A law that reads more than its own state: E(q, s) at fixed s, its signals written out in t
   // and the state (AnalyzeModulatedStorage); a refused one stores 0 until the refusal is thrown.
   if (const auto m = modulation_.find(element); m != modulation_.end())

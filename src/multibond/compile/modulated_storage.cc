@@ -64,7 +64,7 @@ SourceLocation At(const Formula& f, int offset) {
 }  // namespace
 
 bool CompiledModel::IsModulated(const Element& e) {
-  if (!IsStorage(e.kind) || !HasFormulas(e)) return false;
+  if (!IsStorage(e.kind) || !HasFormulas(e) || IsMultiportEnergy(e)) return false;  // a multiport reads its own state only
   const Formula& f = GivenLaw(e);
   if (!f.given()) return false;
   const std::string own = OwnName(e), full = OwnStateName(e);

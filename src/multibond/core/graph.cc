@@ -35,6 +35,18 @@ bool IsOnePort(ElementKind k) { return !IsJunction(k) && !IsTwoPort(k); }
 bool IsSource(ElementKind k) { return k == ElementKind::kSe || k == ElementKind::kSf; }
 bool IsStorage(ElementKind k) { return k == ElementKind::kI || k == ElementKind::kC; }
 
+bool IsMultiportEnergy(const Element& e) { return IsStorage(e.kind) && e.energy.given() && e.dim > 1; }
+
+std::vector<std::string> OwnVariables(ElementKind kind, int n) {
+  const std::string base = kind == ElementKind::kI ? "p" : "q";
+  if (n <= 1) return {base};
+  std::vector<std::string> out;
+  for (int k = 1; k <= n; ++k) out.push_back(base + std::to_string(k));
+  return out;
+}
+
+std::vector<std::string> OwnVariables(const Element& e) { return OwnVariables(e.kind, IsMultiportEnergy(e) ? e.dim : 1); }
+
 Eigen::MatrixXd Param::AsMatrix(int rows, int cols) const {
   if (is_scalar) return scalar * Eigen::MatrixXd::Identity(rows, cols);
   return matrix;

@@ -166,6 +166,15 @@ struct Element {
   std::vector<int> bonds;     ///< filled by BondGraph::Connect, in order of connection
 };
 
+/// The names of a storage element's own variables in its law or energy: "q" (C) or "p" (I); for
+/// a multiport, a vector bond (dim > 1) given one `energy:` formula, q1 ... qn (p1 ... pn), whose
+/// efforts (flows) are the energy's gradient (docs/model-format.md, "Multiport storage").
+std::vector<std::string> OwnVariables(const Element& e);
+/// The same for a C or I whose energy has n components (n <= 1: a scalar law).
+std::vector<std::string> OwnVariables(ElementKind kind, int n);
+/// A C or I of dim > 1 given by one energy function of its vector state.
+bool IsMultiportEnergy(const Element& e);
+
 struct Bond {
   std::string name;
   int from = -1;  ///< tail element

@@ -195,6 +195,12 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
     sink_.Error(where, name, fmt::format("{} needs '{}'", KindName(e.kind), key), hint);
     return false;
   };
+  // The dimension first: a multiport's energy names its own variables by it (q1 ... qn).
+  if (spec["dim"]) {
+    const double d = Number(spec["dim"], name, env);
+    if (d < 1 || d > 64 || d != std::floor(d)) sink_.Error(Loc(spec["dim"]), name, fmt::format("dim must be a whole number from 1 to 64 (got {:g})", d));
+    else e.dim = static_cast<int>(d);
+  }
   switch (e.kind) {
     case ElementKind::kSe:
     case ElementKind::kSf: {
@@ -228,7 +234,11 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
         law_key = spec["flow"] ? "flow" : "energy";
         e.param = Param::Scalar(1.0);  // not used: the law is
         if (spec["flow"]) ReadLaw(spec["flow"], name, scope({"p"}, "I's flow law (a formula of its momentum p)"), &e.law_effort, nullptr);
-        else ReadLaw(spec["energy"], name, scope({"p"}, "I's energy (a formula of its momentum p)"), &e.energy, nullptr);
+        else {
+          ReadLaw(spec["energy"], name,
+                  scope(OwnVariables(e.kind, e.dim), e.dim > 1 ? "multiport I's energy (a formula of its momenta p1 ... pn)" : "I's energy (a formula of its momentum p)"),
+                  &e.energy, nullptr);
+        }
       } else if (require("inertia", "e.g. inertia: 2.0 (kg, kg m^2, H, ...)")) {
         e.param = ReadParam(spec["inertia"], name, env);
       }
@@ -247,7 +257,11 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
         law_key = spec["effort"] ? "effort" : "energy";
         e.param = Param::Scalar(1.0);  // not used: the law is
         if (spec["effort"]) ReadLaw(spec["effort"], name, scope({"q"}, "C's effort law (a formula of its displacement q)"), &e.law_effort, nullptr);
-        else ReadLaw(spec["energy"], name, scope({"q"}, "C's energy (a formula of its displacement q)"), &e.energy, nullptr);
+        else {
+          ReadLaw(spec["energy"], name,
+                  scope(OwnVariables(e.kind, e.dim), e.dim > 1 ? "multiport C's energy (a formula of its displacements q1 ... qn)" : "C's energy (a formula of its displacement q)"),
+                  &e.energy, nullptr);
+        }
       } else if (spec["compliance"]) {
         Param c = ReadParam(spec["compliance"], name, env);
         // The stiffness is its inverse; a bad compliance is said once, here, and leaves a stiffness of 1.
@@ -317,25 +331,29 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
       break;
   }
   CheckKeys(spec, keys, name);
-  if (spec["dim"]) {
-    const double d = Number(spec["dim"], name, env);
-    if (d < 1 || d > 64 || d != std::floor(d)) sink_.Error(Loc(spec["dim"]), name, fmt::format("dim must be a whole number from 1 to 64 (got {:g})", d));
-    else e.dim = static_cast<int>(d);
-  }
   if (spec["domain"]) e.domain = Domain(spec["domain"], name);
   if (spec["components"])
     e.components = Components(spec["components"], name);
   // A law relates one effort and one flow: its bond is scalar (what fixes another dimension here is
   // said here; one inferred through a junction is said when the model is compiled).
-  if (law_key) {
+  if (law_key && std::string(law_key) == "energy" && e.dim > 1) {
+    // A multiport: one energy of the vector state, its gradient the efforts (flows); the sizes of
+    // its initial value and component names are checked with every element's (core/structure.cc).
+    if (!e.rotation.empty())
+      sink_.Error(codes::kStructureDimension, where, name, "a multiport energy does not turn with an orientation",
+                  "a rigid body's inertia is a constant 3 x 3 'inertia' with 'rotation'");
+  } else if (law_key) {
     std::string what;
     if (e.dim > 1) what = fmt::format("'dim' is {}", e.dim);
     else if (e.initial.size() > 1) what = fmt::format("its initial value has {} entries", e.initial.size());
     else if (e.components.size() > 1) what = fmt::format("it names {} components", e.components.size());
     else if (!e.rotation.empty()) what = "it turns with an orientation (a 3-dimensional bond)";
+    const bool storage = IsStorage(e.kind);
     if (!what.empty())
       sink_.Error(codes::kStructureDimension, where, name, fmt::format("a law ('{}') is for a scalar bond, but {}", law_key, what),
-                  "a formula law relates one effort and one flow: use one element per component, or a constant parameter for a vector bond");
+                  storage ? "a formula law relates one effort and one flow: give a multiport's stored energy instead (energy: of q1 ... qn, "
+                            "or p1 ... pn, with dim), use one element per component, or a constant parameter for a vector bond"
+                          : "a formula law relates one effort and one flow: use one element per component, or a constant parameter for a vector bond");
   }
   if (graph_.Find(name) >= 0 || graph_.FindAux(name) >= 0) {
     sink_.Error(where, name, "duplicate name", "give every element and state a unique name");
