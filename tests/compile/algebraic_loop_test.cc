@@ -1,13 +1,17 @@
 // Algebraic loops solved by tearing (CompileOptions::solve_algebraic_loops): the example's
 // resistor network against its closed form, Kirchhoff's laws at every evaluation, a loop of
-// 3-vector bonds, and what stays refused.
+// 3-vector bonds, a nonlinear loop solved by Newton's method (a cubic resistor in series, against
+// its root at every evaluation; one with no solution stops the run with the time and the loop),
+// and what stays refused.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <tuple>
 #include <utility>
+#include <vector>
 
 #include "multibond/compile/compiled_model.h"
 #include "multibond/compile/equations.h"
@@ -118,6 +122,88 @@ void AddNetwork(BondGraph& g, const std::string& p, Param r1, Param r2, int dim 
   g.Connect(p + "j1", p + "n0");
   g.Connect(p + "n0", p + "R2");
   g.Connect(p + "n0", p + "L");
+}
+
+/// A source of `volts` across a linear resistor (1 ohm) and a hardening one (e = f + f^3) in
+/// series, charging a capacitor (1 F) drained by a load (2 ohm): the two resistors share their
+/// current with no storage between them, a loop through a formula.
+std::string CubicSeries(const std::string& volts, const std::string& law = "f + f^3", const std::string& lin = "resistance: 1.0") {
+  return R"(model: cubic_series
+domain: electrical
+algebraic_loops: solve
+elements:
+  source: {type: Se, effort: )" + volts + R"(}
+  i:      {type: "1"}
+  lin:    {type: R, )" + lin + R"(}
+  cubic:  {type: R, effort: ")" + law + R"("}
+  out:    {type: "0"}
+  cap:    {type: C, compliance: 1.0}
+  load:   {type: R, resistance: 2.0}
+bonds: [source -> i, i -> lin, i -> cubic, i -> out, out -> cap, out -> load]
+outputs:
+  - {name: v_lin, variable: lin.e}
+  - {name: v_cubic, variable: cubic.e}
+)";
+}
+
+TEST(AlgebraicLoop, ANonlinearLoopIsSolvedByNewtonAtEveryEvaluation) {
+  const LoadedModel lm = LoadModelString(CubicSeries("{sine: {amplitude: 3.0, frequency: 0.5}}"));
+  const auto m = CompiledModel::Compile(lm.graph, lm.compile);
+  ASSERT_GT(m->num_loop_instructions(), 0);
+  // At a state: u = source - v = 2 f + f^3, one real root (monotonic), by bisection.
+  Workspace ws = m->MakeWorkspace();
+  Eigen::VectorXd x = m->MakeInitialState(), xdot(x.size());
+  const int q = static_cast<int>(std::find(m->state_names().begin(), m->state_names().end(), "cap.q") - m->state_names().begin());
+  for (const auto& [t, v] : std::vector<std::pair<double, double>>{{0.5, 0.3}, {0.9, -1.0}, {1.3, 2.5}, {0.0, 0.0}, {2.0, 40.0}}) {
+    x[q] = v;
+    m->CalcDerivatives(t, x.data(), xdot.data(), ws);
+    const double u = 3.0 * std::sin(M_PI * t) - v;
+    double lo = -1e3, hi = 1e3;
+    for (int k = 0; k < 200; ++k) (2.0 * (0.5 * (lo + hi)) + std::pow(0.5 * (lo + hi), 3) < u ? lo : hi) = 0.5 * (lo + hi);
+    const double f = 0.5 * (lo + hi);
+    EXPECT_NEAR(ReadScalar(*m, "lin.f", x.data(), ws), f, 1e-13 * std::max(1.0, std::abs(f))) << "t = " << t << ", v = " << v;
+    EXPECT_NEAR(ReadScalar(*m, "cubic.e", x.data(), ws), f + f * f * f, 1e-12 * std::max(1.0, std::abs(u))) << "t = " << t;
+    EXPECT_NEAR(xdot[q], f - v / 2.0, 1e-12 * std::max(1.0, std::abs(f))) << "t = " << t;  // dq/dt = i - v / RL
+  }
+  // A run: Kirchhoff's voltage law around the loop at every output, and the energy balance.
+  RunSummary summary;
+  const RecordingObserver rec = RunAccurately(*m, 4.0, 0.01, &summary);
+  const int ilin = rec.Index("v_lin"), icubic = rec.Index("v_cubic"), icap = rec.Index("cap.q");
+  for (const auto& row : rec.rows())
+    EXPECT_NEAR(row[ilin] + row[icubic] + row[icap], 3.0 * std::sin(M_PI * row[0]), 1e-12) << "t = " << row[0];
+  EXPECT_LT(std::abs(summary.energy_residual), 1e-8);
+}
+
+TEST(AlgebraicLoop, EquationsShowANonlinearLoopTornAtALaw) {
+  // examples/equations/diode_thermal.yaml tears its loop at the diode's voltage, the output of its
+  // inverted law (no sum to tear at): the loop's equation is the law (this once divided by zero).
+  const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/equations/diode_thermal.yaml");
+  const auto m = CompiledModel::Compile(lm.graph, lm.compile);
+  ASSERT_TRUE(m->has_nonlinear_loops());
+  for (const EquationFormat f : {EquationFormat::kText, EquationFormat::kLatex}) {
+    const std::string text = FormatEquations(*m, f);
+    EXPECT_THAT(text, HasSubstr("solved for diode.e by Newton's method at every evaluation"));
+    EXPECT_THAT(text, HasSubstr("exp(e/(1*8.617333e-05*Tj))"));
+  }
+}
+
+TEST(AlgebraicLoop, ANonlinearLoopWithoutASolutionStopsTheRunWithTheTimeAndTheLoop) {
+  // Two saturating resistors in series: u = tanh(f)/2 + tanh(f)/2 = tanh(f) lies in (-1, 1), so
+  // no current carries the 2 V the source steps to at 0.5 s.
+  const LoadedModel lm = LoadModelString(CubicSeries("\"if(t < 0.5, 0, 2)\"", "0.5*tanh(f)", R"y(effort: "0.5*tanh(f)")y"));
+  const auto m = CompiledModel::Compile(lm.graph, lm.compile);
+  RunOptions o;
+  o.t_end = 1.0;
+  o.dt = 0.01;
+  RecordingObserver rec;
+  const RunSummary s = Simulate(*m, o, rec);
+  EXPECT_EQ(s.status, RunStatus::kFailed);
+  EXPECT_THAT(s.message, HasSubstr("nonlinear algebraic loop"));
+  EXPECT_THAT(s.message, HasSubstr("does not converge at t = 0.5"));
+  EXPECT_THAT(s.message, HasSubstr("R 'cubic'"));
+  // What it computed before is kept: the rows up to the step.
+  ASSERT_FALSE(rec.rows().empty());
+  EXPECT_NEAR(rec.rows().back()[0], 0.5, 0.011);
 }
 
 TEST(AlgebraicLoop, TwoLoopsAreTornSeparately) {

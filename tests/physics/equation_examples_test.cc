@@ -13,6 +13,7 @@
 
 #include <gsl/gsl_errno.h>
 #include <gsl/gsl_odeiv2.h>
+#include <gsl/gsl_sf_lambert.h>
 #include <gtest/gtest.h>
 
 #include "support/example_runner.h"
@@ -411,6 +412,117 @@ TEST(ElectrostaticTransducerExample, FollowsTheHandWrittenEquationsAndSettlesAtT
   EXPECT_NEAR(stored, q_rest * q_rest * x_rest / (2.0 * c.eps_a) + c.k * (x_rest - x0) * (x_rest - x0) / 2.0, 1e-8 * work);
   EXPECT_NEAR(work, stored + r.rec.Last("series.dissipated") + r.rec.Last("damper.dissipated"), 1e-9 * work);
   EXPECT_LT(MaxAbs(r.rec, "energy.residual"), 1e-9);  // relative (docs/model-format.md, "Output files")
+}
+
+// --- diode_charger.yaml: a nonlinear algebraic loop (a resistor and a diode in series) ---
+
+/// The current of a resistor Rs and a diode (Is, n Vt) in series across u: Lambert's W.
+double SeriesDiodeCurrent(double u, double Rs, double Is, double nvt) {
+  return nvt / Rs * gsl_sf_lambert_W0(Rs * Is / nvt * std::exp((u + Rs * Is) / nvt)) - Is;
+}
+
+struct Rectifier {
+  double V, w, Rs, Is, nvt, C, RL;
+};
+
+int RectifierRate(double t, const double y[], double dy[], void* params) {
+  const Rectifier& c = *static_cast<const Rectifier*>(params);
+  dy[0] = (SeriesDiodeCurrent(c.V * std::sin(c.w * t) - y[0], c.Rs, c.Is, c.nvt) - y[0] / c.RL) / c.C;
+  return GSL_SUCCESS;
+}
+
+TEST(DiodeChargerExample, TheLoopsCurrentIsLambertsWAndTheCapacitorFollowsItsEquation) {
+  const ExampleRun r = RunEquationExample("diode_charger.yaml");
+  ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+  const Rectifier c{r.Param("V"), 2.0 * std::numbers::pi * r.Param("freq"), r.Param("Rs"), r.Param("Is"),
+                    r.Param("n") * r.Param("Vt"), r.Param("Cap"), r.Param("RL")};
+  const int iv = r.rec.Index("v_out"), ii = r.rec.Index("current"), iq = r.rec.Index("cap.q");
+  const double i_max = MaxAbs(r.rec, "current");
+  ASSERT_GT(i_max, 0.1);  // the diode conducts
+  gsl_odeiv2_system sys{RectifierRate, nullptr, 1, const_cast<Rectifier*>(&c)};
+  gsl_odeiv2_driver* d = gsl_odeiv2_driver_alloc_y_new(&sys, gsl_odeiv2_step_rk8pd, 1e-7, 1e-14, 1e-13);
+  double v = 0.0, t = 0.0, v_min = 1e9, v_max = -1e9;
+  for (const auto& row : r.rec.rows()) {
+    if (row[0] > t) {
+      ASSERT_EQ(gsl_odeiv2_driver_apply(d, &t, row[0], &v), GSL_SUCCESS) << "t = " << row[0];
+    }
+    // The loop solved at this state: its current is the closed form's at the capacitor's voltage.
+    const double u = c.V * std::sin(c.w * row[0]) - row[iv];
+    EXPECT_NEAR(row[ii], SeriesDiodeCurrent(u, c.Rs, c.Is, c.nvt), 1e-12 * i_max) << "t = " << row[0];
+    EXPECT_DOUBLE_EQ(row[iv], row[iq] / c.C);
+    EXPECT_NEAR(row[iv], v, 1e-8 * c.V) << "t = " << row[0];
+    if (row[0] >= 0.08) {
+      v_min = std::min(v_min, row[iv]);
+      v_max = std::max(v_max, row[iv]);
+    }
+  }
+  gsl_odeiv2_driver_free(d);
+  EXPECT_NEAR(v_min, 2.852, 0.0005);  // the file's comment
+  EXPECT_NEAR(v_max, 3.194, 0.0005);
+  // Work in = stored + dissipated, once energy has flowed (the residual is relative to it).
+  const double work = r.rec.Last("source.work");
+  EXPECT_NEAR(work, r.rec.Last("cap.energy") + r.rec.Last("series.dissipated") + r.rec.Last("diode.dissipated") + r.rec.Last("load.dissipated"),
+              1e-9 * work);
+  for (const auto& row : r.rec.rows()) {
+    if (row[0] >= 1e-3) {
+      EXPECT_LT(std::abs(row[r.rec.Index("energy.residual")]), 1e-9) << "t = " << row[0];
+    }
+  }
+}
+
+// --- diode_thermal.yaml: a nonlinear loop through a law and a signal (a self-heating diode) ---
+
+struct ThermalDiode {
+  double V, Rs, L, Is0, T0, Tc, nkq, Ta, Rth;
+  /// The diode's voltage at current i and junction temperature T.
+  double Voltage(double i, double T) const { return nkq * T * std::log1p(i / (Is0 * std::exp((T - T0) / Tc))); }
+  /// The loop's root at current i: T = Ta + Rth i e(i, T), increasing in T (|Rth i de/dT| < 1), by bisection.
+  double Junction(double i) const {
+    double lo = Ta - 1.0, hi = Ta + 1000.0;
+    for (int k = 0; k < 200; ++k) {
+      const double mid = 0.5 * (lo + hi);
+      (mid - Ta - Rth * i * Voltage(i, mid) < 0.0 ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+  }
+};
+
+int ThermalDiodeRate(double, const double y[], double dy[], void* params) {
+  const ThermalDiode& c = *static_cast<const ThermalDiode*>(params);
+  const double i = y[0];
+  dy[0] = (c.V - c.Rs * i - c.Voltage(i, c.Junction(i))) / c.L;
+  return GSL_SUCCESS;
+}
+
+TEST(DiodeThermalExample, TheLoopThroughTheJunctionTemperatureHoldsAtEveryOutput) {
+  const ExampleRun r = RunEquationExample("diode_thermal.yaml");
+  ASSERT_EQ(r.rec.summary().status, RunStatus::kOk);
+  const ThermalDiode c{r.Param("V"),  r.Param("Rs"), r.Param("L"),  r.Param("Is0"), r.Param("T0"),
+                       r.Param("Tc"), r.Param("n") * r.Param("kq"), r.Param("Ta"), r.Param("Rth")};
+  const int ii = r.rec.Index("current"), ie = r.rec.Index("v_diode"), iT = r.rec.Index("junction");
+  gsl_odeiv2_system sys{ThermalDiodeRate, nullptr, 1, const_cast<ThermalDiode*>(&c)};
+  gsl_odeiv2_driver* d = gsl_odeiv2_driver_alloc_y_new(&sys, gsl_odeiv2_step_rk8pd, 1e-7, 1e-14, 1e-13);
+  double i = 0.0, t = 0.0;
+  for (const auto& row : r.rec.rows()) {
+    if (row[0] > t) {
+      ASSERT_EQ(gsl_odeiv2_driver_apply(d, &t, row[0], &i), GSL_SUCCESS) << "t = " << row[0];
+    }
+    // The loop at the run's own current: the junction temperature and the voltage it gives.
+    const double T = c.Junction(row[ii]);
+    EXPECT_NEAR(row[iT], T, 1e-9 * T) << "t = " << row[0];
+    EXPECT_NEAR(row[ie], c.Voltage(row[ii], T), 1e-10) << "t = " << row[0];
+    EXPECT_NEAR(row[ii], i, 1e-9) << "t = " << row[0];
+  }
+  gsl_odeiv2_driver_free(d);
+  // The file's comment: the settled current, the junction's rise and its voltage against Ta's.
+  const double i_end = r.rec.Last("current");
+  EXPECT_NEAR(i_end, 1.304, 0.0005);
+  EXPECT_NEAR(r.rec.Last("junction") - c.Ta, 18.1, 0.05);
+  EXPECT_NEAR(r.rec.Last("v_diode"), 0.696, 0.0005);
+  EXPECT_NEAR(c.Voltage(i_end, c.Ta) - r.rec.Last("v_diode"), 0.025, 0.0005);
+  const double work = r.rec.Last("source.work");
+  EXPECT_NEAR(work, r.rec.Last("coil.energy") + r.rec.Last("series.dissipated") + r.rec.Last("diode.dissipated"), 1e-9 * work);
+  EXPECT_LT(std::abs(r.rec.Last("energy.residual")), 1e-9);
 }
 
 // --- generated code: the same bits ---

@@ -45,9 +45,9 @@ void CompiledModel::Build() {
                            }});  // each I's and C's stored energy
   const std::vector<int> modulus_of = PlanModuli();
   const PlanDeps deps = OrderPlan(EmitInstructions(modulus_of));  // plan_, tears_, tear_closure_
+  for (int at : tear_closure_) tear_nonlinear_ = tear_nonlinear_ || plan_[at].op == Op::kExpr || plan_[at].op == Op::kSolve;
   RefuseUnbookedModulation();  // modulated_storage.cc: after the order, so that a loop is reported as one
   needed_moduli_ = plan::Specialize(plan_, coef_, sum_terms_, sum_signs_, moduli_);
-  CheckFormulaUse();  // formulas.cc
   if (!tears_.empty() && !constraints_.empty()) {
     Diagnostic d;
     d.code = "causality.algebraic_loop";

@@ -101,11 +101,16 @@ struct Workspace {
     Eigen::VectorXd r0, r1, sigma;
     Eigen::MatrixXd b;
   } slide;
-  /// Algebraic loops only (empty otherwise): the affine map of the torn variables and its solve.
+  /// Algebraic loops only (empty otherwise): the affine map of the torn variables and its solve;
+  /// for a nonlinear loop, Newton's iterates (started from the last evaluation's solution) and the
+  /// tangent pass's scratch over the slots and moduli (a zero direction of the state).
   struct TearScratch {
-    Eigen::MatrixXd a;  ///< A, then I - A
+    Eigen::MatrixXd a;  ///< A, then I - A (a nonlinear loop: the Jacobian I - dc/dz)
     Eigen::VectorXd c0, z;
     Eigen::PartialPivLU<Eigen::MatrixXd> lu;
+    Eigen::VectorXd last, r, dz, trial;
+    double scale = 0.0;  ///< the largest |z| or |c(z)| solved in this run
+    std::vector<double> d, tmp, dx, dmod;
   } tear;
 };
 
@@ -247,6 +252,8 @@ class CompiledModel {
   /// How many of the plan's instructions depend on the loops' unknowns: each evaluation runs the
   /// plan once and these once more per unknown, plus once.
   int num_loop_instructions() const { return static_cast<int>(tear_closure_.size()); }
+  /// A solved loop runs through a formula: each evaluation solves it by Newton's method.
+  bool has_nonlinear_loops() const { return tear_nonlinear_; }
 
   /// Looks up "<element>.e|f|e1|f1|e2|f2|p|q" or an auxiliary state's name (StateLayout::FindVariable).
   std::optional<VariableRef> FindVariable(const std::string& name) const { return layout_.FindVariable(name); }
@@ -456,10 +463,6 @@ class CompiledModel {
   std::unordered_map<int, Modulation> modulation_;  ///< per modulated C or I
   std::unordered_map<int, int> modulation_class_;   ///< modulated C or I -> the slot class of its power
 
-  /// Refuses what formulas do not support yet: solved algebraic loops through them (the formulas that
-  /// ideal constraints cannot take are refused by ConstraintSolver::RefuseFormulas).
-  void CheckFormulaUse() const;
-
   // The plan's data and its operation table (operations.h).
   using Op = plan::Op;
   using Instr = plan::Instr;
@@ -479,6 +482,10 @@ class CompiledModel {
   /// d/dt of the sources (the constraints' own tangent pass), else a state and input direction.
   void TangentPass(double t, const double* x, const double* dx, bool time, const double* du, double* dxdot, const Workspace& ws,
                    std::vector<double>& d_slots, std::vector<double>& d_moduli, std::vector<double>* scratch = nullptr) const;
+  /// The tangent rule of one instruction of the plan (TangentPass's, shared with the Newton
+  /// iteration of a nonlinear algebraic loop, which takes the closure's derivative along each
+  /// torn variable): its output's derivative into a.d from its inputs'.
+  void TangentOf(const Instr& in, const plan::TangentArgs& a, bool time) const;
   /// One state block's derivative's derivative along dx, from the slots w and their derivatives d.
   static void TangentGather(const Gather& gt, const double* x, const double* dx, const double* w, const double* d, double* dxdot);
   /// The tables the plan's instructions refer to (coefficients, sum terms, source functions).
@@ -539,6 +546,9 @@ class CompiledModel {
   int num_tear_ = 0;
   std::vector<int> tear_closure_;  ///< plan indices that depend on an unknown, in order
   std::vector<AlgebraicLoop> algebraic_loops_;
+  /// A torn variable's closure runs through a formula (kExpr, kSolve): the loop is nonlinear, and
+  /// EvalTorn solves it by Newton's method instead of one linear solve.
+  bool tear_nonlinear_ = false;
   /// The plan with the torn variables solved for (EvalPlan on a model with algebraic loops).
   void EvalTorn(double t, const double* x, Workspace& ws) const;
 

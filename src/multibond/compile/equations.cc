@@ -558,7 +558,10 @@ class EquationWriter {
     std::set<int> refs;
     long long used = 0;
     Expr body;
-    if (d.kind == Definition::Kind::kLinear) {
+    if (d.kind == Definition::Kind::kFormula || d.terms.empty()) {
+      // A nonlinear loop torn at a formula's output (a law, a signal): the formula as written.
+      body = MakeLeaf(d.formula, "\\mathtt{" + LatexEscape(d.formula) + "}");
+    } else if (d.kind == Definition::Kind::kLinear) {
       body = Apply(d, d.terms.front(), Build(d.terms.front().slot_class, kBudget, true, &used, &refs));
     } else {
       body.kind = Expr::Kind::kSum;
@@ -567,9 +570,9 @@ class EquationWriter {
         body.children.push_back(Signed(t.sign, "", "", Build(t.slot_class, share, false, &used, &refs)));
     }
     std::string text = fmt::format(
-        "algebraic loop {}: {} = {}, solved for {} as a linear system at every evaluation (docs/design.md, "
+        "algebraic loop {}: {} = {}, solved for {} {} at every evaluation (docs/design.md, "
         "\"Algebraic loops\")",
-        loop.path, loop.torn, Render(body, false), loop.torn);
+        loop.path, loop.torn, Render(body, false), loop.torn, m_.has_nonlinear_loops() ? "by Newton's method" : "as a linear system");
     for (const auto& [c, e] : Intermediates(refs)) text += fmt::format("\n    where {} = {}", Ref(c).text, Render(e, false));
     return text;
   }

@@ -4,6 +4,7 @@
 /// code, algebraic loops solved around it, the state derivatives' gathers, the projection.
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 #include <fmt/format.h>
@@ -35,10 +36,21 @@ Workspace CompiledModel::MakeWorkspace() const {
   ws.slots.assign(num_slots_, 0.0);
   ws.moduli.assign(num_moduli_, 0.0);
   if (num_tear_ > 0) {
-    ws.tear.a.setZero(num_tear_, num_tear_);
-    ws.tear.c0.setZero(num_tear_);
-    ws.tear.z.setZero(num_tear_);
-    ws.tear.lu = Eigen::PartialPivLU<Eigen::MatrixXd>(num_tear_);
+    Workspace::TearScratch& s = ws.tear;
+    s.a.setZero(num_tear_, num_tear_);
+    s.c0.setZero(num_tear_);
+    s.z.setZero(num_tear_);
+    s.lu = Eigen::PartialPivLU<Eigen::MatrixXd>(num_tear_);
+    if (tear_nonlinear_) {
+      s.last.setZero(num_tear_);
+      s.r.setZero(num_tear_);
+      s.dz.setZero(num_tear_);
+      s.trial.setZero(num_tear_);
+      s.d.assign(ws.slots.size(), 0.0);
+      s.tmp.assign(ws.slots.size(), 0.0);
+      s.dx.assign(static_cast<size_t>(num_states()), 0.0);
+      s.dmod.assign(ws.moduli.size(), 0.0);
+    }
   }
   if (!constraints_.empty()) constraints_.SizeScratch(ws, num_slots_, num_moduli_, num_states());
   ws.modes.assign(switches_.size(), SwitchTable::kOpen);
@@ -212,6 +224,78 @@ void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
       for (int i = 0; i < tr.size; ++i) out[k++] = w[tr.shadow + i];
   };
   Workspace::TearScratch& s = ws.tear;
+  if (tear_nonlinear_) {
+    // A loop through a formula: Newton's method on r(z) = z - c(z), started from the last
+    // evaluation's solution, with the exact Jacobian I - dc/dz (the closure's tangent pass along
+    // each unknown) and a step halved while it does not lower |r|. Converged when |r| is below
+    // 1e-10 of the unknowns' scale and the step below 1e-13 of it (the iteration then sits at
+    // rounding, quadratically) or no step lowers |r| further, or when r is exactly 0.
+    const plan::TangentArgs args{t, x, s.dx.data(), w, s.d.data(), s.tmp.data(), ws.moduli.data(), s.dmod.data(), ws.lambda.data(),
+                                 tables(), moduli_.data(), /*source_rate=*/false};
+    s.z = s.last;
+    set_unknowns(s.z.data());
+    run();
+    computed(s.c0.data());
+    s.r = s.z - s.c0;
+    double norm = s.r.lpNorm<Eigen::Infinity>();
+    constexpr int kMaxIterations = 60;
+    int iteration = 0;
+    const char* why = "after 60 Newton iterations";
+    for (; iteration < kMaxIterations && std::isfinite(norm) && norm > 0.0; ++iteration) {
+      for (int j = 0; j < num_tear_; ++j) {
+        std::fill(s.d.begin(), s.d.end(), 0.0);
+        int k = 0;
+        for (const Tear& tr : tears_)
+          for (int i = 0; i < tr.size; ++i, ++k) s.d[static_cast<size_t>(tr.slot + i)] = k == j ? 1.0 : 0.0;
+        for (int at : tear_closure_) TangentOf(plan_[at], args, /*time=*/false);
+        k = 0;
+        for (const Tear& tr : tears_)
+          for (int i = 0; i < tr.size; ++i, ++k) s.a(k, j) = (k == j ? 1.0 : 0.0) - s.d[static_cast<size_t>(tr.shadow + i)];
+      }
+      s.lu.compute(s.a);
+      s.dz.noalias() = s.lu.solve(s.r);
+      if (!s.a.allFinite() || !s.dz.allFinite() || s.dz.lpNorm<Eigen::Infinity>() == 0.0) {  // r != 0 here
+        why = "its Jacobian is singular";
+        iteration = kMaxIterations;
+        break;
+      }
+      double step = 1.0, trial_norm = norm;
+      for (int halving = 0; halving <= 30; ++halving, step *= 0.5) {
+        s.trial = s.z - step * s.dz;
+        set_unknowns(s.trial.data());
+        run_closure();
+        computed(s.c0.data());
+        trial_norm = (s.trial - s.c0).lpNorm<Eigen::Infinity>();
+        if (trial_norm < norm) break;
+      }
+      const bool stalled = !(trial_norm < norm);  // no step lowers |r|: rounding, or no solution here
+      s.z = s.trial;
+      s.r = s.z - s.c0;
+      norm = trial_norm;
+      // The scale of the unknowns: this solution's and the largest solved so far in this run (a
+      // solution of 0 is then reached to rounding of the loop's usual size, not of 0).
+      const double size = std::max({s.z.lpNorm<Eigen::Infinity>(), s.c0.lpNorm<Eigen::Infinity>(), s.scale});
+      const double moved = step * s.dz.lpNorm<Eigen::Infinity>();
+      const bool small = norm <= 1e-10 * size;
+      if (norm == 0.0 || (small && (moved <= 1e-13 * size || stalled))) break;
+      if (stalled) {
+        why = "no Newton step lowers it";
+        iteration = kMaxIterations;
+      }
+    }
+    if (s.z.allFinite() && s.c0.allFinite() && iteration >= kMaxIterations) {
+      std::string names;
+      for (const AlgebraicLoop& loop : algebraic_loops_) names += (names.empty() ? "" : "; ") + loop.path;
+      throw std::runtime_error(fmt::format("the nonlinear algebraic loop {} does not converge at t = {}: |z - c(z)| = {:.3g} for the "
+                                           "torn {}, {} (the loop may have no solution there, or several)",
+                                           names, t, norm, algebraic_loops_.front().torn, why));
+    }
+    if (s.z.allFinite()) {
+      s.last = s.z;  // the next evaluation's start
+      s.scale = std::max({s.scale, s.z.lpNorm<Eigen::Infinity>(), s.c0.lpNorm<Eigen::Infinity>()});
+    }
+    return;
+  }
   set_unknowns(nullptr);
   run();
   computed(s.c0.data());

@@ -571,26 +571,6 @@ std::optional<EnergyAccount::FormulaEnergy> CompiledModel::StoredEnergyFormula(i
   return EnergyAccount::FormulaEnergy{CompileFormulaProgram(Replace(root, own, StateRef(0)), scope), true};  // of x[0]
 }
 
-void CompiledModel::CheckFormulaUse() const {
-  if (programs_.empty()) return;
-  auto refuse = [&](int element, const std::string& message, const std::string& hint) {
-    Diagnostic d;
-    d.code = "expr.unsupported";
-    if (element >= 0) {
-      d.where = graph_.element(element).where;
-      d.element = graph_.element(element).name;
-    }
-    d.message = message;
-    d.hint = hint;
-    throw ModelError(d);
-  };
-  // With ideal constraints, the formulas that the constraint solver would have to differentiate
-  // or run linearly are refused when it is built (ConstraintSolver::Build, RefuseFormulas).
-  for (int at : tear_closure_)
-    if (plan_[at].op == Op::kExpr || plan_[at].op == Op::kSolve)
-      refuse(plan_[at].element, "an algebraic loop runs through a formula; only linear loops are solved",
-             "add a storage element in the loop, or break it with a lag (states: {kind: lag})");
-}
 
 std::string CompiledModel::DiagnoseFormulas(double t, const double* x, Workspace& ws) const {
   double* w = ws.slots.data();

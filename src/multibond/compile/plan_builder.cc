@@ -419,13 +419,20 @@ CompiledModel::PlanDeps CompiledModel::OrderPlan(const Draft& draft) {
     std::reverse(cycle.begin(), cycle.end());
     std::vector<int> elements;
     std::string vars;
-    int tear = -1;  // the class to tear: a junction's sum if the loop has one (it joins most paths)
+    // The class to tear: a junction's sum if the loop has one (it joins most paths), else an
+    // effort or flow rather than a signal (a nonlinear loop's Newton iteration starts from 0 at
+    // first, natural for a power variable at rest, not for a signal such as a temperature).
+    auto rank = [&](int cls) {
+      if (instrs[writer[cls]].op == Op::kSum) return 2;
+      return signal_class_.count(class_names_[cls]) || internal_class_.count(class_names_[cls]) ? 0 : 1;
+    };
+    int tear = -1;
     for (int c : cycle) {
       elements.push_back(instrs[c].element);
       for (int cls = 0; cls < nclasses; ++cls)
         if (writer[cls] == c) {
           vars += (vars.empty() ? "" : ", ") + class_names_[cls];
-          if (tear < 0 || (instrs[c].op == Op::kSum && instrs[writer[tear]].op != Op::kSum)) tear = cls;
+          if (tear < 0 || rank(cls) > rank(tear)) tear = cls;
         }
     }
     elements.push_back(elements.front());

@@ -47,6 +47,31 @@ bool CompiledModel::can_linearize(std::string* why) const {
   return true;
 }
 
+void CompiledModel::TangentOf(const Instr& in, const plan::TangentArgs& a, bool time) const {
+  double* d = a.d;
+  const double rate_of_t = time ? 1.0 : 0.0;
+  switch (in.op) {
+    case Op::kExpr:
+      for (int k = 0; k < in.n; ++k) d[in.dst + k] = expr::RunTangent(programs_[in.coef + k], a.t, a.x, a.w, rate_of_t, a.xdot, d);
+      break;
+    case Op::kSolve: {
+      // law(u, rest) = target: du = (dtarget - dlaw/drest . drest) / law'(u), the scratch slot
+      // (which holds u since the plain pass) taken as fixed in the law's own derivative.
+      const double target_rate = in.transpose ? -d[in.src] : d[in.src];
+      d[in.count] = 0.0;
+      const double rest = expr::RunTangent(programs_[in.coef], a.t, a.x, a.w, rate_of_t, a.xdot, d);
+      const double slope = expr::Run(programs_[in.aux], a.t, a.x, a.w);
+      const double du_rate = (target_rate - rest) / slope;
+      d[in.count] = du_rate;
+      d[in.dst] = in.scale * du_rate;
+      break;
+    }
+    default:  // a multiplier's rule gives zero: the multipliers held at their values
+      plan::ExecTangent(in, a);
+      break;
+  }
+}
+
 void CompiledModel::TangentPass(double t, const double* x, const double* dx, bool time, const double* du, double* dxdot,
                                 const Workspace& ws, std::vector<double>& d_slots, std::vector<double>& d_moduli,
                                 std::vector<double>* scratch) const {
@@ -61,26 +86,7 @@ void CompiledModel::TangentPass(double t, const double* x, const double* dx, boo
                                /*source_rate=*/time};
   int input = 0;
   for (const Instr& in : plan_) {
-    switch (in.op) {
-      case Op::kExpr:
-        for (int k = 0; k < in.n; ++k) d[in.dst + k] = expr::RunTangent(programs_[in.coef + k], t, x, w, time ? 1.0 : 0.0, dx, d);
-        break;
-      case Op::kSolve: {
-        // law(u, rest) = target: du = (dtarget - dlaw/drest . drest) / law'(u), the scratch slot
-        // (which holds u since the plain pass) taken as fixed in the law's own derivative.
-        const double target_rate = in.transpose ? -d[in.src] : d[in.src];
-        d[in.count] = 0.0;
-        const double rest = expr::RunTangent(programs_[in.coef], t, x, w, time ? 1.0 : 0.0, dx, d);
-        const double slope = expr::Run(programs_[in.aux], t, x, w);
-        const double du_rate = (target_rate - rest) / slope;
-        d[in.count] = du_rate;
-        d[in.dst] = in.scale * du_rate;
-        break;
-      }
-      default:  // a multiplier's rule gives zero: the multipliers held at their values
-        plan::ExecTangent(in, args);
-        break;
-    }
+    TangentOf(in, args, time);
     if (IsSourceInstruction(in, graph_)) {
       for (int k = 0; k < in.n; ++k, ++input)
         if (du) d[in.dst + k] += du[input];
