@@ -71,6 +71,16 @@ TEST(RhsAllocation, CompliantDifferentialGenerated) { EXPECT_EQ(AllocationsOfEva
 TEST(RhsAllocation, IdealDifferential) { EXPECT_EQ(AllocationsOfEvaluations("differential_ideal.yaml", false), 0); }
 TEST(RhsAllocation, IdealDifferentialGenerated) { EXPECT_EQ(AllocationsOfEvaluations("differential_ideal.yaml", true), 0); }
 TEST(RhsAllocation, SolvedAlgebraicLoop) { EXPECT_EQ(AllocationsOfEvaluations("algebraic_loop.yaml", false, true), 0); }
+// Newton's method on a loop through a law (a diode in series) and one through a signal.
+TEST(RhsAllocation, NonlinearAlgebraicLoops) {
+  EXPECT_EQ(AllocationsOfEvaluations("equations/diode_charger.yaml", false, true), 0);
+  EXPECT_EQ(AllocationsOfEvaluations("equations/diode_thermal.yaml", false, true), 0);
+}
+// A multiport storage element's gradient.
+TEST(RhsAllocation, MultiportEnergy) {
+  EXPECT_EQ(AllocationsOfEvaluations("equations/electrostatic_transducer.yaml", false), 0);
+  EXPECT_EQ(AllocationsOfEvaluations("equations/electrostatic_transducer.yaml", true), 0);
+}
 
 }  // namespace
 }  // namespace multibond
