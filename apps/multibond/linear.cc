@@ -55,7 +55,7 @@ OperatingPoint FindOperatingPoint(const PreparedRun& p, const LinearArgs& a) {
   const CompiledModel& model = *p.model;
   OperatingPoint op;
   op.t = p.options.t_start;
-  op.x = model.MakeInitialState();
+  op.x = p.options.initial_state.size() > 0 ? p.options.initial_state : model.MakeInitialState();  // initial: steady
   if (a.at && *a.at != p.options.t_start) {
     RunOptions o;
     try {

@@ -34,6 +34,7 @@ struct RunCommand {
   std::string model, out;
   std::string format = "csv";
   bool quiet = false, compress = false;
+  bool steady = false;  ///< --steady: run.initial = "steady"
 };
 
 /// "560 kB", "1.2 GB": a size for a person.
@@ -52,7 +53,11 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   } catch (const std::invalid_argument& e) {
     throw CliExit{kExitUsage, e.what()};
   }
-  PreparedRun p = PrepareRun(a.model, a.run);
+  if (a.steady && a.run.initial && *a.run.initial != "steady")
+    throw CliExit{kExitUsage, fmt::format("--steady and --initial {} ask for two different starts: give one", *a.run.initial)};
+  RunArgs run_args = a.run;
+  if (a.steady) run_args.initial = "steady";
+  PreparedRun p = PrepareRun(a.model, run_args);
   const LoadedModel& lm = p.lm;
   const auto& model = p.model;
   RunOptions& o = p.options;
@@ -108,6 +113,14 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   record["states"] = model->num_states();
   record["options"]["jit"] = a.run.jit;
   record["options"]["coordinates"] = p.coordinates;
+  record["options"]["initial"] = p.initial;
+  if (p.initial == "steady") {
+    // The steady state the run started from, by state name (the model's own initial values are
+    // in the model file).
+    nlohmann::json start = nlohmann::json::object();
+    for (int i = 0; i < model->num_states(); ++i) start[model->state_names()[static_cast<size_t>(i)]] = o.initial_state[i];
+    record["initial_state"] = std::move(start);
+  }
   record["options"]["ideal_constraints"] = lm.compile.ideal_constraints;  // derivative causality solved by constraints
   record["options"]["algebraic_loops"] = lm.compile.solve_algebraic_loops ? "solve" : "error";
   // What the compiled model has, whichever way (rigid parts, Sf constraints, cut inertias).
@@ -189,6 +202,12 @@ Command AddRunCommand(CLI::App& app) {
                 "compress results.mat and results.h5 (zlib): smaller by a few percent for values with full mantissas, more for "
                 "constant columns, and several times slower to write");
   AddRunOptions(cmd, a->run);
+  cmd->add_flag("--steady", a->steady,
+                "start from a steady state: Newton's method (KINSOL) from the model's initial values, the sources held at their "
+                "values at the start (the same as --initial steady; run.json records the state it found)");
+  cmd->add_option("--initial", a->run.initial, "model: start from the model's initial values; steady: from a steady state (default: the "
+                                              "file's simulation: initial, else model)")
+      ->check(CLI::IsMember({"model", "steady"}));
   cmd->add_flag("-q,--quiet", a->quiet, "no progress and no summary");
   return {cmd, [a](const std::vector<std::string>& argv) { return Run(*a, argv); }, [] { return true; }};
 }

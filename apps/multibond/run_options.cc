@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "multibond/analysis/linearize.h"
 #include "multibond/core/interrupt.h"
 
 namespace multibond::cli {
@@ -57,7 +58,7 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a, const std::vec
     mark = now;
     return seconds;
   };
-  PreparedRun p{Load(path, a.load, extra_sets, extra_option), nullptr, {}, {}, {}, {}};
+  PreparedRun p{Load(path, a.load, extra_sets, extra_option), nullptr, {}, {}, {}, {}, {}};
   p.phase_seconds.emplace_back("load", lap());
   CompileOptions co = p.lm.compile;
   co.generate_code = a.jit != "off";
@@ -109,6 +110,19 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a, const std::vec
     std::cerr << fmt::format("warning: --jacobian {} has no effect with the explicit solver '{}' (only bdf and adams form a "
                              "Newton matrix)\n", a.jacobian, p.solver);
   o.stop = &StopFlag();
+  // A steady start: Newton's method (KINSOL) from the initial values at the start, the sources
+  // held at their values there (docs/linear-analysis.md, "Steady states").
+  p.initial = a.initial.value_or(d.initial.value_or("model"));
+  if (p.initial == "steady") {
+    try {
+      o.initial_state = linear::FindSteadyState(*p.model, o.t_start, p.model->MakeInitialState());
+    } catch (const std::runtime_error& e) {
+      throw CliExit{kExitSolver, fmt::format("the run starts from a steady state (initial: steady), and {}\n  hint: start from the model's "
+                                             "initial values (--initial model), or give initial values nearer to the steady state",
+                                             e.what())};
+    }
+    p.phase_seconds.emplace_back("steady_state", lap());
+  }
   (void)MakeColumns(*p.model, o.all_variables);  // a bad output is a model error: before any file is touched
   try {
     CheckRunOptions(*p.model, o);  // and so are options the run would refuse

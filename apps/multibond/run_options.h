@@ -18,6 +18,8 @@ struct RunArgs {
   std::optional<double> t_end, dt, rtol, atol, step, max_step;
   std::optional<double> event_rest_time, max_events_per_second;
   std::optional<std::string> solver, coordinates;
+  /// "model" or "steady" (SimulationDefaults::initial; `run --steady`, `run --initial`).
+  std::optional<std::string> initial;
   bool all_variables = false, no_projection = false;
   std::string jit = "auto";
   std::string jacobian = "auto";
@@ -32,6 +34,7 @@ struct PreparedRun {
   RunOptions options;
   std::string solver;
   std::string coordinates;  ///< "joint" or "inertial"
+  std::string initial;      ///< "model" or "steady" (then options.initial_state is the steady state)
   /// The wall time of each phase so far, in order [s]: load (read, parse, expand the model),
   /// the compile passes (CompiledModel::compile_seconds), setup (the run's options and columns).
   std::vector<std::pair<std::string, double>> phase_seconds;

@@ -77,6 +77,9 @@ int RunSweepCommand(const SweepArgs& a, const std::vector<std::string>& argv) {
   run.load.sets.clear();
   for (const auto& [n, v] : study.set) run.load.sets.push_back(n + "=" + v);
   const PreparedRun nominal = PrepareRun(study.model, run);
+  if (nominal.initial == "steady")
+    throw CliExit{kExitUsage, "the model starts its runs from a steady state (simulation: initial: steady), which a sweep does not yet find "
+                              "for each of its runs: remove it, or sweep from the initial values"};
   runner->set_run_options(nominal.options);
 
   std::unique_ptr<sweep::MpiSession> mpi;

@@ -232,6 +232,22 @@ TEST(Linearize, SteadyStateOfAMassSpringDamperUnderAConstantForce) {
   EXPECT_NEAR(x[0], 0.0, 1e-14);
 }
 
+TEST(Linearize, SteadyStateFarFromTheStart) {
+  // examples/equations/pi_steady.yaml from rest (its initial values set to zero): the steady
+  // state, 10 away in the sensor's reading, was beyond KINSOL's default step bound (1000 |z0|,
+  // and z0 = 0: a step of 1) and failed with KIN_MXNEWT_5X_EXCEEDED.
+  const auto model = Compiled("examples/equations/pi_steady.yaml", {{"w_meas0", "0"}});
+  Eigen::VectorXd start = model->MakeInitialState();
+  start.setZero();
+  const Eigen::VectorXd x = FindSteadyState(*model, 0.0, start);
+  auto at = [&](const char* name) {
+    return x[std::find(model->state_names().begin(), model->state_names().end(), name) - model->state_names().begin()];
+  };
+  EXPECT_NEAR(at("rotor.p"), 0.02 * 10.0, 1e-12);              // J w_ref
+  EXPECT_NEAR(at("speed_control.i"), 0.05 * 10.0 / 2.0, 1e-12);  // b w_ref / ki
+  EXPECT_NEAR(at("sensor"), 10.0, 1e-12);
+}
+
 TEST(Linearize, SteadyStateOfAPendulumFromNearTheTop) {
   // From 3 rad at rest Newton finds the nearest equilibrium: the inverted one at pi, unstable
   // (a real positive eigenvalue sqrt(g/L)).

@@ -11,6 +11,7 @@
 
 #include "multibond/analysis/linearize.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <stdexcept>
@@ -373,6 +374,10 @@ Eigen::VectorXd FindSteadyState(const CompiledModel& model, double t, const Eige
   if (flag == KIN_SUCCESS) flag = KINSetScaledStepTol(kin, 1e-14);
   if (flag == KIN_SUCCESS) flag = KINSetNumMaxIters(kin, 200);
   if (flag == KIN_SUCCESS) flag = KINSetMaxSetupCalls(kin, 1);  // a fresh exact Jacobian at every iteration
+  // KINSOL bounds a step by 1000 |z0|, and at least 1: z starts at 0 (the displacement from
+  // x_start), so a steady state more than 1 away (a loop started from rest) was out of reach.
+  // The bound is taken from the state's own size instead; the line search guards the step.
+  if (flag == KIN_SUCCESS) flag = KINSetMaxNewtonStep(kin, 1000.0 * std::max(1.0, x_start.norm()));
   if (flag == KIN_SUCCESS) flag = KINSol(kin, z, KIN_LINESEARCH, scale, scale);
   Eigen::VectorXd x = p.StateAt(N_VGetArrayPointer(z));
   long iterations = 0;

@@ -27,6 +27,9 @@ struct SimulationDefaults {
   std::optional<double> t_end, dt, rtol, atol, step, max_step;
   std::optional<std::string> solver;
   std::optional<std::string> coordinates;  ///< "joint" or "inertial" (RunOptions::joint_coordinates)
+  /// "model" (the elements' and states' initial values) or "steady" (the steady state found from
+  /// them at the start, the sources held: RunOptions::initial_state, `run --steady`).
+  std::optional<std::string> initial;
   /// Events: RunOptions::event_rest_time (>= 0) and RunOptions::max_events_per_second (> 0).
   std::optional<double> event_rest_time, max_events_per_second;
 };

@@ -34,7 +34,7 @@ void SettingsReader::ReadSimulation(const YAML::Node& n, SimulationDefaults& s, 
     sink_.Error(Loc(n), "simulation", "'simulation' is a mapping of settings", "write e.g. simulation: {t_end: 5, dt: 0.001}");
     return;
   }
-  CheckKeys(n, {"t_end", "dt", "solver", "rtol", "atol", "step", "max_step", "coordinates", "event_rest_time", "max_events_per_second"},
+  CheckKeys(n, {"t_end", "dt", "solver", "rtol", "atol", "step", "max_step", "coordinates", "event_rest_time", "max_events_per_second", "initial"},
             "simulation");
   const Env none;
   // `zero`: 0 is allowed (it means "the built-in choice").
@@ -75,6 +75,13 @@ void SettingsReader::ReadSimulation(const YAML::Node& n, SimulationDefaults& s, 
       sink_.Error(Loc(c), "simulation", "joint coordinates are for mechanisms: the model has no bodies", "remove 'coordinates'");
     else
       s.coordinates = c.Scalar();
+  }
+  if (const YAML::Node c = n["initial"]) {
+    if (!c.IsScalar() || (c.Scalar() != "model" && c.Scalar() != "steady"))
+      sink_.Error(Loc(c), "simulation", fmt::format("'initial' is model or steady (got {})", Describe(c)),
+                  "model: the initial values the elements and states give; steady: the steady state found from them at the start");
+    else
+      s.initial = c.Scalar();
   }
   if (n["solver"]) {
     s.solver = n["solver"].Scalar();

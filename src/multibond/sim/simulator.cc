@@ -322,6 +322,9 @@ void CheckFixedStep(double fixed_step, double dt) {
 
 void CheckRunOptions(const CompiledModel& model, const RunOptions& options) {
   CheckOutputGrid(options.t_start, options.t_end, options.dt);
+  if (options.initial_state.size() > 0 && (options.initial_state.size() != model.num_states() || !options.initial_state.allFinite()))
+    throw std::invalid_argument(fmt::format("the initial state has {} entries{}, the model {} states", options.initial_state.size(),
+                                            options.initial_state.allFinite() ? "" : " (not all finite)", model.num_states()));
   if (!model.switches().empty() && !options.joint_coordinates.empty())
     throw std::invalid_argument("a model with contacts or friction runs in inertial coordinates (their events are not mapped to joint coordinates)");
   if (!(options.event_rest_time >= 0.0) || !std::isfinite(options.event_rest_time))
@@ -362,7 +365,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   const Layout layout = MakeLayout(model, options.all_variables);
   ModelSystem system(model, options.stop);
   Workspace& ws = system.workspace();
-  Eigen::VectorXd x = model.MakeInitialState();
+  Eigen::VectorXd x = options.initial_state.size() > 0 ? options.initial_state : model.MakeInitialState();
   Eigen::VectorXd xdot(x.size());
   // Ideal constraints start satisfied: initial momenta are projected onto them (after the
   // switching elements' modes are known: only the constraints that hold).

@@ -83,6 +83,9 @@ class ModelSystem : public OdeSystem {
 
 struct RunOptions {
   double t_start = 0.0;
+  /// The state the run starts from (CompiledModel's state layout); empty: the model's initial
+  /// values (CompiledModel::MakeInitialState). A steady state (`run --steady`) comes here.
+  Eigen::VectorXd initial_state;
   double t_end = 1.0;
   double dt = 1e-3;  ///< output interval
   IntegratorOptions integrator;
