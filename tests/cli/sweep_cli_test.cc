@@ -2,8 +2,11 @@
 // mpirun with 1, 2 and 4 ranks gives one table, to the last bit, that matches the closed forms;
 // bad input is refused with exit 64 and a located message before any run.
 
+#include <sys/stat.h>
+
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -121,6 +124,24 @@ TEST(SweepCli, BadInputIsRefusedBeforeAnyRun) {
   const auto r = RunProgram({MULTIBOND_CLI, "sweep", study.string(), "-o", out});
   EXPECT_EQ(r.code, 64);
   EXPECT_NE(r.out.find(study.string() + ":5:12: error: x: 'spring.qq' names no result column"), std::string::npos) << r.out;
+}
+
+TEST(SweepCli, AJournalThatIsAFifoIsRefusedNotWaitedOn) {
+  // A FIFO at sweep.journal hung the sweep (opening it waited for a reader), with and without
+  // --resume: it is refused as not a regular file, at once.
+  TempDir dir;
+  const auto out = dir.path() / "out";
+  std::filesystem::create_directories(out);
+  ASSERT_EQ(::mkfifo((out / "sweep.journal").c_str(), 0600), 0);
+  for (const bool resume : {false, true}) {
+    std::vector<std::string> argv = {MULTIBOND_CLI, "sweep", kModel, "-o", out.string(), "--jit", "off", "--grid", "k=10:100:3", "--keep",
+                                     "x=final:spring.q"};
+    if (resume) argv.push_back("--resume");
+    const auto r = RunProgram(argv, 20);
+    EXPECT_FALSE(r.timed_out) << (resume ? "--resume: " : "") << r.out;
+    EXPECT_NE(r.code, 0) << r.out;
+    EXPECT_NE(r.out.find("is a FIFO (named pipe), not a regular file"), std::string::npos) << r.out;
+  }
 }
 
 TEST(SweepCli, ResumeGoesOnFromTheJournal) {

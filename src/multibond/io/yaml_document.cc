@@ -13,6 +13,7 @@
 
 #include <fmt/format.h>
 
+#include "multibond/core/regular_file.h"
 #include "multibond/core/utf8.h"
 #include "multibond/io/diagnostic_codes.h"
 #include "multibond/io/yaml_bounds.h"
@@ -54,8 +55,8 @@ std::string ReadModelText(const std::string& path, const InputLimits& limits) {
   if (::fstat(fd, &st) != 0)
     ThrowIo(path, codes::kIoUnreadable, fmt::format("cannot read the model file: {}", std::strerror(errno)), "check the path and the file's permissions");
   if (!S_ISREG(st.st_mode)) {
-    const char* kind = S_ISDIR(st.st_mode) ? "a directory" : S_ISFIFO(st.st_mode) ? "a FIFO (named pipe)" : S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) ? "a device" : S_ISSOCK(st.st_mode) ? "a socket" : "not a regular file";
-    ThrowIo(path, codes::kIoNotRegular, fmt::format("cannot read the model file: it is {}", kind), "give the path of a model file (.yaml)");
+    ThrowIo(path, codes::kIoNotRegular, fmt::format("cannot read the model file: it is {}", FileKindName(st.st_mode)),
+            "give the path of a model file (.yaml)");
   }
   if (static_cast<std::uint64_t>(st.st_size) > limits.file_bytes) throw ModelError(FileSizeError(path, static_cast<std::uint64_t>(st.st_size), limits));
   // The file may grow while it is read: no more than the limit and one byte is read.

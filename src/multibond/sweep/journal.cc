@@ -12,6 +12,7 @@
 
 #include <fmt/format.h>
 
+#include "multibond/core/regular_file.h"
 #include "multibond/io/results_writer.h"
 
 namespace multibond::sweep {
@@ -76,7 +77,8 @@ Journal::Journal(std::string path, std::string hash, size_t num_values, bool res
   const std::string header = kHeader + hash_;
   if (resume) {
     // Opened without following a link: a journal that is a link elsewhere is refused (ELOOP).
-    const int fd = ::open(path_.c_str(), O_RDWR | O_APPEND | O_CLOEXEC | O_NOFOLLOW);
+    // Nor a FIFO or a device, which could block the open or the read for ever (OpenRegularFile).
+    const int fd = OpenRegularFile(path_, O_RDWR | O_APPEND | O_NOFOLLOW);
     if (fd < 0 && errno == ENOENT) throw std::invalid_argument(fmt::format("--resume: there is no journal '{}' to resume from", path_));
     if (fd < 0) throw std::runtime_error(fmt::format("cannot read '{}': {}", path_, std::strerror(errno)));
     file_ = ::fdopen(fd, "a+b");
@@ -91,7 +93,7 @@ Journal::Journal(std::string path, std::string hash, size_t num_values, bool res
       throw;
     }
   } else {
-    const int fd = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0644);
+    const int fd = OpenRegularFile(path_, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW, 0644);
     if (fd >= 0) file_ = ::fdopen(fd, "wb");
     if (file_) std::fprintf(file_, "%s\n", header.c_str());
   }
