@@ -2,6 +2,7 @@
 
 #include "multibond/sweep/study.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "multibond/io/diagnostic_codes.h"
@@ -125,6 +126,31 @@ TEST(Study, CommandLineSpecs) {
   EXPECT_EQ(bad.diagnostics()[0].code, codes::kSweepRange);
   EXPECT_EQ(bad.diagnostics()[0].where.column, 14);  // "--grid k=1e3:" then the 'x'
   EXPECT_EQ(bad.diagnostics()[1].code, codes::kSweepKeep);
+}
+
+TEST(Study, AGridsNumbersAreRefusedOnceEach) {
+  // A count of 1e8 said "a grid of 0 point(s)"; NaN, inf or a subnormal in a range was said, then
+  // taken as 0 for a second, spurious error ("the range 1 to 0 is reversed"). One error each now,
+  // with what was asked for and the limit.
+  struct Case {
+    std::string spec, says;
+    int column;
+  };
+  for (const Case& c : std::vector<Case>{{"k=1:2:100000000", "a grid of 100000000 points asked for: more than the 10000000 runs", 14},
+                                         {"k=1:2:2.5", "the count '2.5' is not a whole number of points", 14},
+                                         {"k=1:nan:5", "'nan' is not a number", 12},
+                                         {"k=inf:2:5", "'inf' is not a number", 10},
+                                         {"k=1e-310:1:5", "'1e-310' is below the smallest normal double", 10}}) {
+    SCOPED_TRACE(c.spec);
+    Study st;
+    DiagnosticSink sink;
+    AddAxisSpec(st, "--grid", c.spec, sink);
+    AddKeepSpec(st, "x=max:spring.q", sink);
+    CheckStudy(st, sink);
+    ASSERT_EQ(sink.diagnostics().size(), 1u) << sink.diagnostics().back().message;
+    EXPECT_THAT(sink.diagnostics()[0].message, ::testing::HasSubstr(c.says));
+    EXPECT_EQ(sink.diagnostics()[0].where.column, c.column);  // "--grid " then the spec, 1-based
+  }
 }
 
 TEST(Study, RunSettingsMustBePositive) {

@@ -17,6 +17,7 @@
 #include "multibond/io/load_context.h"
 #include "multibond/io/yaml_document.h"
 #include "multibond/io/yaml_values.h"
+#include "multibond/sweep/samples.h"
 
 #include <algorithm>
 
@@ -53,6 +54,7 @@ std::string Hint(const std::string& word, const std::vector<std::string>& words)
 
 /// Checks an axis's numbers (grid range, list, distribution); problems to `sink`.
 void CheckAxis(const Axis& a, DiagnosticSink& sink) {
+  if (a.refused) return;  // said once, where it was read
   switch (a.kind) {
     case Axis::Kind::kGrid:
       if (a.count < 2)
@@ -158,6 +160,7 @@ class StudyReader : public ValueReader {
   }
 
   void ReadAxis(Study& s, const YAML::Node& key, const YAML::Node& v) {
+    const size_t said = sink_.diagnostics().size();
     Axis a;
     a.name = key.Scalar();
     a.where = Loc(key);
@@ -207,6 +210,7 @@ class StudyReader : public ValueReader {
           sink_.Error(codes::kSweepRange, Loc(v["scale"]), a.name, fmt::format("unknown scale '{}'", sc), Hint(sc, {"linear", "log"}));
       }
     }
+    a.refused = sink_.diagnostics().size() > said;
     s.axes.push_back(std::move(a));
   }
   static const char* kSweepDistribution() { return codes::kSweepDistribution; }
@@ -291,6 +295,11 @@ std::optional<double> OptionNumber(const std::string& text, const std::string& o
     sink.Error(code, {kCommandLine, 1, column}, name, fmt::format("{}: '{}' is not a number", option, text), "a number such as 1e3 or 0.5");
     return std::nullopt;
   }
+  if (std::fpclassify(v) == FP_SUBNORMAL) {
+    sink.Error(code, {kCommandLine, 1, column}, name, fmt::format("{}: '{}' is below the smallest normal double (2.2e-308)", option, text),
+               "a number such as 1e3 or 0.5, or 0");
+    return std::nullopt;
+  }
   return v;
 }
 
@@ -339,6 +348,7 @@ bool LooksLikeStudy(const std::string& text) {
 }
 
 void AddAxisSpec(Study& study, const std::string& option, const std::string& spec, DiagnosticSink& sink) {
+  const size_t said = sink.diagnostics().size();
   const size_t eq = spec.find('=');
   const int col0 = static_cast<int>(option.size()) + 2;  // "--grid " then the spec
   Axis a;
@@ -373,7 +383,15 @@ void AddAxisSpec(Study& study, const std::string& option, const std::string& spe
     a.from = num(0, codes::kSweepRange);
     a.to = num(1, codes::kSweepRange);
     const double n = num(2, codes::kSweepRange);
-    a.count = n >= 0 && n < 1e8 && n == std::floor(n) ? static_cast<int>(n) : 0;
+    if (sink.diagnostics().size() == said && !(n >= 0 && n == std::floor(n) && n <= static_cast<double>(kMaxRuns))) {
+      int c = col;
+      for (size_t j = 0; j < 2; ++j) c += static_cast<int>(f[j].size()) + 1;
+      sink.Error(codes::kSweepRange, {kCommandLine, 1, c}, a.name,
+                 n == std::floor(n) && n > 0 ? fmt::format("a grid of {:.0f} points asked for: more than the {} runs a sweep may have", n, kMaxRuns)
+                                             : fmt::format("the count '{}' is not a whole number of points", f[2]),
+                 fmt::format("give from 2 to {} points", kMaxRuns));
+    }
+    a.count = n >= 0 && n <= static_cast<double>(kMaxRuns) && n == std::floor(n) ? static_cast<int>(n) : 0;
   } else if (option == "--list") {
     a.kind = Axis::Kind::kList;
     for (size_t i = 0; i < f.size(); ++i) a.values.push_back(num(i, codes::kSweepRange));
@@ -391,6 +409,7 @@ void AddAxisSpec(Study& study, const std::string& option, const std::string& spe
     a.b = num(2, codes::kSweepDistribution);
     study.method = study.method == Study::Method::kGrid ? Study::Method::kMonteCarlo : study.method;
   }
+  a.refused = sink.diagnostics().size() > said;
   study.axes.push_back(std::move(a));
 }
 

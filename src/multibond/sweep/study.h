@@ -34,6 +34,9 @@ struct Axis {
   // (lognormal: of the logarithm).
   Distribution distribution = Distribution::kUniform;
   double a = 0.0, b = 0.0;
+  /// A number of the axis was refused as it was read (not a number, NaN, a count beyond the
+  /// limit): CheckAxis says nothing more of it (no "range 1 to 0" from a value taken as 0).
+  bool refused = false;
 };
 
 /// What is kept of each run: `take` of the expression `of` (core/expression's grammar) over the
