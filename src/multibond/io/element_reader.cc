@@ -193,6 +193,7 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
   auto require = [&](const char* key, const char* hint) {
     if (spec[key]) return true;
     sink_.Error(where, name, fmt::format("{} needs '{}'", KindName(e.kind), key), hint);
+    e.param = Param::Scalar(1.0);  // a placeholder that no later check reports again
     return false;
   };
   // The dimension first: a multiport's energy names its own variables by it (q1 ... qn).

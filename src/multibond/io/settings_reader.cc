@@ -41,7 +41,7 @@ void SettingsReader::ReadSimulation(const YAML::Node& n, SimulationDefaults& s, 
   auto number = [&](const char* key, std::optional<double>& out, bool zero) {
     if (!n[key]) return;
     bool ok = true;
-    const double v = Number(n[key], "simulation", none, &ok);
+    const double v = Number(n[key], fmt::format("simulation.{}", key), none, &ok);  // the key it is wrong in
     if (!ok) return;  // said by Number
     if (!(zero ? v >= 0 : v > 0))
       sink_.Error(codes::kParamRange, Loc(n[key]), "simulation", fmt::format("{} must be {} 0 (got {:g})", key, zero ? ">=" : ">", v));

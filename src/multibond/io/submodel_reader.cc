@@ -66,6 +66,12 @@ void SubmodelReader::ReadScope(const YAML::Node& scope, const std::string& prefi
   } else if (elements) {
     NameIndex seen;  // the names of this scope
     for (const auto& kv : elements) {
+      // A list or a mapping as a name ([a, b]: ...) has no text: said as what it is, not as empty.
+      if (!kv.first.IsScalar()) {
+        sink_.Error(codes::kNameInvalid, Loc(kv.first), "", fmt::format("an element's name is {}, not a word", Describe(kv.first)),
+                    "a name is a letter or '_', then letters, digits and '_' (at most 64 characters)");
+        continue;
+      }
       const std::string local = kv.first.Scalar();
       if (const SourceLocation* first = seen.Add(local, Loc(kv.first))) {
         Diagnostic d;

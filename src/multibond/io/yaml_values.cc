@@ -51,6 +51,9 @@ std::vector<std::string> ValueReader::Components(const YAML::Node& n, const std:
     if (const std::string problem = IdentifierProblem(out[i], true); !problem.empty())
       sink_.Error(codes::kNameInvalid, Loc(n[i]), element, fmt::format("component name '{}' {}", PrintableExcerpt(out[i]), problem),
                   "a component name is letters, digits and '_', e.g. x, y, z or 1, 2, 3");
+    else if (std::find(out.begin(), out.begin() + static_cast<long>(i), out[i]) != out.begin() + static_cast<long>(i))
+      sink_.Error(codes::kNameDuplicate, Loc(n[i]), element, fmt::format("component name '{}' is given twice", PrintableExcerpt(out[i])),
+                  "give each component its own name");
   return out;
 }
 
