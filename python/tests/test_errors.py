@@ -54,6 +54,16 @@ def test_model_error_attributes():
     assert e.diagnostics[0].text.startswith("spring.yaml:4:")
 
 
+def test_an_unknown_element_type_carries_its_code():
+    # It had an empty code (the file, line and column were right).
+    text = "model: m\nelements:\n  a: {type: Se, effort: 1}\n  b: {type: Ii, inertia: 1}\nbonds: [a -> b]\n"
+    with pytest.raises(multibond.ModelError) as caught:
+        multibond.loads(text, file="m.yaml").column_names()
+    e = caught.value
+    assert (e.file, e.line, e.code, e.element) == ("m.yaml", 4, "element.type", "b")
+    assert "did you mean 'I'?" in e.diagnostics[0].text
+
+
 def test_unreadable_file_is_a_model_error_with_an_io_code(tmp_path):
     with pytest.raises(multibond.ModelError) as caught:
         multibond.load(tmp_path / "missing.yaml")

@@ -51,6 +51,7 @@ enum class Outcome {
   X(kIoUnreadable, "io.unreadable", kFileError, "the model file cannot be opened or read")                                   \
   X(kStructureDangling, "structure.dangling", kModelError, "an element without bonds")                                       \
   X(kStructureDimension, "structure.dimension", kModelError, "bond dimensions that do not fit")                              \
+  X(kElementType, "element.type", kModelError, "an element type that does not exist (neither a kind of element nor a submodel)") \
   X(kParamRange, "param.range", kModelError,                                                                                   \
     "a parameter out of range: non-positive inertia or stiffness, negative resistance, wrong number of source components or " \
     "initial values, non-finite numbers, a rotation or lever that is no state")                                              \

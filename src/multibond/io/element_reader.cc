@@ -177,7 +177,7 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
     std::vector<std::string> names = {"Se", "Sf", "I", "C", "R", "TF", "MTF", "GY", "MGY", "0", "1"};
     for (const auto& [sm, def] : cx_.submodels) names.push_back(sm);
     const std::string guess = DidYouMean(type, names);
-    sink_.Error(Loc(spec["type"]), name, fmt::format("unknown element type '{}'", type),
+    sink_.Error(codes::kElementType, Loc(spec["type"]), name, fmt::format("unknown element type '{}'", type),
                 guess.empty() ? "use Se, Sf, I, C, R, TF, MTF, GY, MGY, 0, 1 or a submodel name" : fmt::format("did you mean '{}'?", guess));
     return;
   }
