@@ -175,6 +175,32 @@ TEST(LinearExamples, TransducerAtRestIsTheHandWrittenJacobianWithMaxwellsCrossTe
   EXPECT_NEAR(slow->damping_ratio, b / (2.0 * std::sqrt(k_eff * m)), 3e-3 * slow->damping_ratio);  // measured: 1.5e-3
 }
 
+TEST(LinearExamples, ANonlinearLoopLinearisesToItsSmallSignalModel) {
+  // examples/equations/diode_charger.yaml at a state where the diode conducts: the loop (Rs and
+  // the diode in series) linearises to Rs + rd, rd = n Vt / (i + Is) the diode's dynamic
+  // resistance at the loop's current, so d(dq/dt)/dq = -(1/(Rs + rd) + 1/RL) / Cap (the implicit
+  // function theorem through the torn loop; linearisation refused such models before).
+  const auto model = Compiled("examples/equations/diode_charger.yaml");
+  const double V = 5.0, w = 2.0 * M_PI * 50.0, Rs = 10.0, Is = 1e-12, nvt = 0.025852, C = 1e-3, RL = 200.0;
+  Eigen::VectorXd x = model->MakeInitialState();
+  const auto q = std::find(model->state_names().begin(), model->state_names().end(), "cap.q") - model->state_names().begin();
+  const double t = 0.005, v = 4.0;  // the source's crest (5 V), the capacitor at 4 V: the diode conducts
+  x[q] = v * C;
+  const LinearModel lm = Linearize(*model, t, x);
+  ASSERT_EQ(lm.states, std::vector<std::string>{"cap.q"});
+  // The loop's current at that state, from u = V sin(w t) - v = Rs i + n Vt ln(1 + i/Is), by bisection.
+  const double u = V * std::sin(w * t) - v;
+  double lo = 0.0, hi = u / Rs;
+  for (int k = 0; k < 200; ++k) (Rs * 0.5 * (lo + hi) + nvt * std::log1p(0.5 * (lo + hi) / Is) < u ? lo : hi) = 0.5 * (lo + hi);
+  const double i = 0.5 * (lo + hi), rd = nvt / (i + Is);
+  ASSERT_GT(i, 0.01);
+  const double expected = -(1.0 / (Rs + rd) + 1.0 / RL) / C;
+  EXPECT_NEAR(lm.A(0, 0), expected, 1e-9 * std::abs(expected));
+  // And against central differences of the right-hand side (the loop solved at each state).
+  const Eigen::MatrixXd fd = CentralDifferenceJacobian(*model, lm, 1e-9);
+  EXPECT_NEAR(lm.A(0, 0), fd(0, 0), 1e-6 * std::abs(expected));
+}
+
 TEST(LinearExamples, CompliantDifferentialMatchesAnIndependentJacobian) {
   const auto model = Compiled("examples/differential.yaml");
   const LinearModel lm = Linearize(*model, 0.0, model->MakeInitialState());

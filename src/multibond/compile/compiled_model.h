@@ -321,7 +321,8 @@ class CompiledModel {
   };
   /// Every source component, in plan order (the order of CalcTangent's du).
   std::vector<SourceInput> SourceInputs() const;
-  /// False (and why) for what CalcTangent does not derive yet: solved algebraic loops.
+  /// False (and why) for what CalcTangent does not derive yet; everything is derived now (solved
+  /// algebraic loops too, by the implicit function theorem), kept for the callers' messages.
   bool can_linearize(std::string* why) const;
   /// The derivative of every effort and flow (dws.slots) and of dx/dt (dxdot) along a direction
   /// dx of the state and du of the inputs (SourceInputs' order; null: zero), at (t, x), where

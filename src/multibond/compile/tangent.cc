@@ -39,13 +39,7 @@ std::vector<CompiledModel::SourceInput> CompiledModel::SourceInputs() const {
   return inputs;
 }
 
-bool CompiledModel::can_linearize(std::string* why) const {
-  if (!tears_.empty()) {
-    if (why) *why = "solved algebraic loops (the torn variables' derivatives are not derived yet)";
-    return false;
-  }
-  return true;
-}
+bool CompiledModel::can_linearize(std::string*) const { return true; }
 
 void CompiledModel::TangentOf(const Instr& in, const plan::TangentArgs& a, bool time) const {
   double* d = a.d;
@@ -92,12 +86,42 @@ void CompiledModel::TangentPass(double t, const double* x, const double* dx, boo
         if (du) d[in.dst + k] += du[input];
     }
   }
+  if (!tears_.empty()) {
+    // The pass took the torn variables' derivatives as 0, so each writer's own slot holds dc0, the
+    // derivative of c(z) along the direction at fixed z. The loop's solution z = c(z) moves by
+    // dz = (I - dc/dz)^-1 dc0 (the implicit function theorem; dc/dz column by column, as Newton's
+    // method takes it in EvalTorn), and the closure runs again with dz: every slot's derivative is
+    // then that of the solved loop. Not on the hot path (linearisation, sliding modes): it allocates.
+    const int n = num_tear_;
+    Eigen::VectorXd dc0(n);
+    int k = 0;
+    for (const Tear& tr : tears_)
+      for (int i = 0; i < tr.size; ++i) dc0[k++] = d[tr.shadow + i];
+    std::vector<double> dj(d_slots.size()), tj(d_slots.size(), 0.0), zero_x(static_cast<size_t>(num_states()), 0.0), zero_mod(d_moduli.size(), 0.0);
+    const plan::TangentArgs along_z{t, x, zero_x.data(), ws.slots.data(), dj.data(), tj.data(), ws.moduli.data(), zero_mod.data(),
+                                    ws.lambda.data(), tables(), moduli_.data(), /*source_rate=*/false};
+    Eigen::MatrixXd a(n, n);
+    for (int j = 0; j < n; ++j) {
+      std::fill(dj.begin(), dj.end(), 0.0);
+      k = 0;
+      for (const Tear& tr : tears_)
+        for (int i = 0; i < tr.size; ++i, ++k) dj[static_cast<size_t>(tr.slot + i)] = k == j ? 1.0 : 0.0;
+      for (int at : tear_closure_) TangentOf(plan_[at], along_z, /*time=*/false);
+      k = 0;
+      for (const Tear& tr : tears_)
+        for (int i = 0; i < tr.size; ++i, ++k) a(k, j) = (k == j ? 1.0 : 0.0) - dj[static_cast<size_t>(tr.shadow + i)];
+    }
+    const Eigen::VectorXd dz = a.partialPivLu().solve(dc0);
+    k = 0;
+    for (const Tear& tr : tears_)
+      for (int i = 0; i < tr.size; ++i) d[tr.slot + i] = dz[k++];
+    for (int at : tear_closure_) TangentOf(plan_[at], args, time);
+  }
   for (const Gather& gt : layout_.gathers()) TangentGather(gt, x, dx, w, d, dxdot);
 }
 
 void CompiledModel::CalcTangent(double t, const double* x, const double* dx, const double* du, double* dxdot, Workspace& ws,
                                 Workspace& dws) const {
-  MB_ASSERT(can_linearize(nullptr), "CalcTangent on a model with torn loops");
   TangentPass(t, x, dx, /*time=*/false, du, dxdot, ws, dws.slots, dws.moduli);
   if (constraints_.empty()) return;
   // Ideal constraints: dx/dt = P(x, lambda(x)), lambda from dg/dt = dv/dt, that is
