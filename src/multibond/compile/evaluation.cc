@@ -11,6 +11,7 @@
 
 #include "multibond/compile/compiled_model.h"
 #include "multibond/compile/exact_sum.h"
+#include "multibond/compile/torn_jacobian.h"
 
 namespace multibond {
 
@@ -242,16 +243,9 @@ void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
     int iteration = 0;
     const char* why = "after 60 Newton iterations";
     for (; iteration < kMaxIterations && std::isfinite(norm) && norm > 0.0; ++iteration) {
-      for (int j = 0; j < num_tear_; ++j) {
-        std::fill(s.d.begin(), s.d.end(), 0.0);
-        int k = 0;
-        for (const Tear& tr : tears_)
-          for (int i = 0; i < tr.size; ++i, ++k) s.d[static_cast<size_t>(tr.slot + i)] = k == j ? 1.0 : 0.0;
+      TornJacobian(tears_, s.d, s.a, [&] {
         for (int at : tear_closure_) TangentOf(plan_[at], args, /*time=*/false);
-        k = 0;
-        for (const Tear& tr : tears_)
-          for (int i = 0; i < tr.size; ++i, ++k) s.a(k, j) = (k == j ? 1.0 : 0.0) - s.d[static_cast<size_t>(tr.shadow + i)];
-      }
+      });
       s.lu.compute(s.a);
       s.dz.noalias() = s.lu.solve(s.r);
       if (!s.a.allFinite() || !s.dz.allFinite() || s.dz.lpNorm<Eigen::Infinity>() == 0.0) {  // r != 0 here

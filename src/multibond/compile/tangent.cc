@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/torn_jacobian.h"
 #include "multibond/core/error.h"
 
 namespace multibond {
@@ -101,16 +102,9 @@ void CompiledModel::TangentPass(double t, const double* x, const double* dx, boo
     const plan::TangentArgs along_z{t, x, zero_x.data(), ws.slots.data(), dj.data(), tj.data(), ws.moduli.data(), zero_mod.data(),
                                     ws.lambda.data(), tables(), moduli_.data(), /*source_rate=*/false};
     Eigen::MatrixXd a(n, n);
-    for (int j = 0; j < n; ++j) {
-      std::fill(dj.begin(), dj.end(), 0.0);
-      k = 0;
-      for (const Tear& tr : tears_)
-        for (int i = 0; i < tr.size; ++i, ++k) dj[static_cast<size_t>(tr.slot + i)] = k == j ? 1.0 : 0.0;
+    TornJacobian(tears_, dj, a, [&] {
       for (int at : tear_closure_) TangentOf(plan_[at], along_z, /*time=*/false);
-      k = 0;
-      for (const Tear& tr : tears_)
-        for (int i = 0; i < tr.size; ++i, ++k) a(k, j) = (k == j ? 1.0 : 0.0) - dj[static_cast<size_t>(tr.shadow + i)];
-    }
+    });
     const Eigen::VectorXd dz = a.partialPivLu().solve(dc0);
     k = 0;
     for (const Tear& tr : tears_)
