@@ -94,8 +94,8 @@ Prepared Prepare(const LinearArgs& a, const std::vector<std::string>& argv, cons
   Prepared r{PrepareRun(a.model, a.run), {}, {}, {}};
   std::string why;
   if (!r.p.model->can_linearize(&why))
-    throw CliExit{kExitModel, fmt::format("{}: cannot linearise a model with {}\n  hint: --algebraic-loops error shows the loops; "
-                                          "a compliance or an inertia on the loop removes it", a.model, why)};
+    throw CliExit{kExitModel, fmt::format("{}: cannot linearise a model with {}\n  hint: it runs; a variant with a compliant "
+                                          "coupling (a stiff C and an R in place of the rigid one) can be linearised", a.model, why)};
   r.op = FindOperatingPoint(r.p, a);
   r.lm = linear::Linearize(*r.p.model, r.op.t, r.op.x);
   r.lm.steady = a.steady;

@@ -769,7 +769,7 @@ TEST_F(CliTest, CheckWithIdealConstraintsAcceptsDerivativeCausality) {
 }
 
 // Derivative causality is said to be solved only once the model compiles: a C cut next to a
-// formula is refused (formulas are not solved with constraints yet), and check must not claim
+// nonlinear formula law is refused (the solver cannot differentiate it), and check must not claim
 // first that it is solved exactly.
 TEST_F(CliTest, CheckSaysDerivativeCausalityIsSolvedOnlyWhenItIs) {
   fs::create_directories(dir_);
@@ -782,8 +782,8 @@ TEST_F(CliTest, CheckSaysDerivativeCausalityIsSolvedOnlyWhenItIs) {
     if (formula) {
       EXPECT_EQ(r.code, 1) << r.out;
       EXPECT_THAT(r.out, Not(HasSubstr("solved exactly")));
-      EXPECT_THAT(r.out, HasSubstr("formulas that reach an ideal constraint are not supported yet: the formula of k1"));
-      EXPECT_THAT(r.out, HasSubstr("and C 'k2' is in derivative causality"));
+      EXPECT_THAT(r.out, HasSubstr("the formula of k1 for 'z.e' cannot reach an ideal constraint"));
+      EXPECT_THAT(r.out, HasSubstr("; C 'k2' is in derivative causality"));
     } else {
       EXPECT_EQ(r.code, 0) << r.out;
       EXPECT_THAT(r.out, HasSubstr("ideal constraints: 1 storage element in derivative causality, solved exactly: C 'k2'"));

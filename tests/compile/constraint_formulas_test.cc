@@ -1,9 +1,11 @@
-// Formulas in models with ideal constraints (compile/constraint_solver.cc, RefuseFormulas): a
+// Formulas in models with ideal constraints (compile/constraint_solver.cc, CheckFormulas): a
 // formula that only feeds outputs, signals or the efforts of storage is evaluated by the plan at
-// zero multipliers like any other instruction and is accepted; one that the constrained variables
-// depend on (the solver would differentiate it in time) or that reads a constraint's reaction
-// (the solver runs that part linearly in the multipliers) is refused with `expr.unsupported`,
-// located at the formula and naming the constraint.
+// zero multipliers like any other instruction; one that the constrained variables depend on is
+// differentiated in time by the solver (forward mode) when it is a modulated transformer's,
+// affine in the momenta and displacements, or reads none of them; one that reads a reaction is
+// accepted when it is a modulated transformer's (the reaction passes it linearly) or feeds
+// nothing of the motion. The rest is refused with `expr.unsupported`, located at the formula and
+// naming the constraint.
 
 #include <algorithm>
 #include <cmath>
@@ -105,38 +107,143 @@ TEST(ConstraintFormulas, TheLinearisationOfTheNonlinearSpringGivesItsSmallOscill
     EXPECT_NEAR(std::abs(l.imag()), std::sqrt(15.5 / 4 / 0.02), 1e-12 * std::sqrt(15.5 / 4 / 0.02));
 }
 
-TEST(ConstraintFormulas, AFormulaOnTheConstrainedFlowsIsRefused) {
-  // The gear's ratio as a formula: the wheel's flow, which the cut holds equal to J2's, is made
-  // by it (and its effort side carries the cut's reaction to the pinion).
-  const Diagnostic d = Refusal(Gears(kOutputSignals, "\"0.5 + 0.1*sin(t)\""));
+// A gear whose ratio is a formula of time, r(t) = 0.5 + 0.1 sin(3 t), the pair coasting freely
+// (no torque, no spring) from w1 = 2, w2 = r(0) w1 = 1: the cut holds w2 = r(t) w1, the TF conserves
+// power at every instant, so E = (J1 + r^2 J2) w1^2 / 2 is constant and
+// w1(t) = w1(0) sqrt((J1 + r(0)^2 J2) / (J1 + r(t)^2 J2)), J1 + r(0)^2 J2 = 0.02.
+std::string CoastingGears() {
+  return testing::Replaced(testing::Replaced(testing::RigidGearPair("modulated_gear", "constraints: ideal\n", "0.0",
+                                                                    "\"0.5 + 0.1*sin(3*t)\"", "", ""),
+                                             "inertia: 0.01}", "inertia: 0.01, p0: 0.02}"),
+                           "inertia: 0.04}", "inertia: 0.04, p0: 0.04}");
+}
+
+TEST(ConstraintFormulas, AGearRatioOfTimeKeepsTheEnergyOfTheCoastingPair) {
+  for (const bool generate_code : {false, true}) {
+    SCOPED_TRACE(generate_code ? "generated" : "interpreted");
+    const auto model = testing::CompileWith(LoadModelString(CoastingGears(), "<test>"), generate_code);
+    ASSERT_TRUE(model->has_constraints());
+    if (generate_code) {
+      ASSERT_TRUE(model->uses_generated_code()) << model->rhs_engine();
+    }
+    const RecordingObserver rec = testing::RunCompiled(*model, 4.0, 0.01, Method::kDormandPrince, 1e-11, 1e-13);
+    ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
+    const int p1 = rec.Index("J1.p"), p2 = rec.Index("J2.p");
+    double worst = 0.0, slip = 0.0, lowest = 2.0, highest = 0.0;
+    for (const auto& row : rec.rows()) {
+      const double t = row[0], r = 0.5 + 0.1 * std::sin(3 * t), w1 = row[p1] / 0.01, w2 = row[p2] / 0.04;
+      const double expected = 2.0 * std::sqrt(0.02 / (0.01 + r * r * 0.04));
+      worst = std::max(worst, std::abs(w1 - expected));
+      slip = std::max(slip, std::abs(w2 - r * w1));  // the constraint, as a kinematic identity
+      lowest = std::min(lowest, w1);
+      highest = std::max(highest, w1);
+    }
+    EXPECT_LT(worst, 1e-9);
+    EXPECT_LT(slip, 1e-10);
+    // The closed form's range is met: r from 0.4 to 0.6, w1 from 2 sqrt(0.02/0.0244) to 2 sqrt(0.02/0.0164).
+    EXPECT_NEAR(lowest, 2.0 * std::sqrt(0.02 / 0.0244), 1e-4);
+    EXPECT_NEAR(highest, 2.0 * std::sqrt(0.02 / 0.0164), 1e-4);
+    EXPECT_LT(testing::MaxEnergyResidual(rec), 1e-9);
+  }
+}
+
+TEST(ConstraintFormulas, TheModulatedGearGivesTheSameBitsWithAndWithoutGeneratedCode) {
+  const auto a = testing::CompileWith(LoadModelString(CoastingGears(), "<test>"), false);
+  const auto b = testing::CompileWith(LoadModelString(CoastingGears(), "<test>"), true);
+  ASSERT_TRUE(b->uses_generated_code()) << b->rhs_engine();
+  const RecordingObserver ra = testing::RunCompiled(*a, 1.0, 0.01, Method::kBdf, 1e-9, 1e-11);
+  const RecordingObserver rb = testing::RunCompiled(*b, 1.0, 0.01, Method::kBdf, 1e-9, 1e-11);
+  ASSERT_EQ(ra.rows().size(), rb.rows().size());
+  for (size_t i = 0; i < ra.rows().size(); ++i) ASSERT_EQ(ra.rows()[i], rb.rows()[i]) << "row " << i;
+}
+
+TEST(ConstraintFormulas, TheCoastingPairLinearisesToItsReducedEquation) {
+  // On the constraint p2 = J2 r(t) p1 / J1, and (J1 + r^2 J2) dw1/dt = -r r' J2 w1. The
+  // linearisation keeps one momentum as the coordinate (the other depends on it): in p1 its mode
+  // is -r r' J2 / (J1 + r^2 J2); in p2, whose relation to p1 moves with r(t), it is
+  // r' J1 / (r (J1 + r^2 J2)). Either needs the mixed second derivative of the constraint in the
+  // state and the time (r' w1).
+  LoadedModel lm = LoadModelString(CoastingGears(), "<test>");
+  const auto model = CompiledModel::Compile(std::move(lm.graph), lm.compile);
+  ASSERT_TRUE(model->can_linearize(nullptr));
+  for (const double t : {0.0, 0.4, 1.3}) {
+    SCOPED_TRACE(t);
+    const double r = 0.5 + 0.1 * std::sin(3 * t), rate = 0.3 * std::cos(3 * t), j1 = 0.01, j2 = 0.04;
+    Eigen::VectorXd x = model->MakeInitialState();
+    x[0] = j1 * 2.0, x[1] = j2 * r * 2.0;  // w1 = 2 on the constraint at t
+    const linear::LinearModel lin = linear::Linearize(*model, t, x);
+    ASSERT_EQ(lin.A.rows(), 1);
+    ASSERT_EQ(lin.states.size(), 1u);
+    const double expected = lin.states[0] == "J1.p" ? -r * rate * j2 / (j1 + r * r * j2) : rate * j1 / (r * (j1 + r * r * j2));
+    EXPECT_TRUE(lin.states[0] == "J1.p" || lin.states[0] == "J2.p") << lin.states[0];
+    EXPECT_NEAR(lin.A(0, 0), expected, 1e-12);
+  }
+}
+
+TEST(ConstraintFormulas, AGearRatioOfAMomentumIsRefused) {
+  // r(p) ω: not linear in the momenta, so g is not affine along B (nor its B the adjoint).
+  const Diagnostic d = Refusal(Gears(kOutputSignals, "\"0.5 + 0.1*J1.p\""));
   EXPECT_EQ(d.code, "expr.unsupported");
   EXPECT_EQ(d.element, "gear");
-  EXPECT_THAT(d.message, HasSubstr("formulas that reach an ideal constraint are not supported yet: the formula of gear"));
-  EXPECT_THAT(d.message, HasSubstr("the ideal constraint 'J2.cut'"));
+  EXPECT_THAT(d.message, HasSubstr("the formula of gear for 'gear.e1' cannot reach an ideal constraint"));
+  EXPECT_THAT(d.message, HasSubstr("reads the effort of the ideal constraint 'J2.cut' (its reaction, which is solved for) and is "
+                                   "not linear in it"));
   EXPECT_THAT(d.message, HasSubstr("I 'J2' is in derivative causality"));
-  EXPECT_THAT(d.hint, HasSubstr("join I 'J2' to what fixes its flow through a compliant coupling"));
+  EXPECT_THAT(d.hint, HasSubstr("a modulus (MTF, MGY, TF, GY) may read time, parameters, signal states"));
   EXPECT_GT(d.where.line, 0);
 }
 
-TEST(ConstraintFormulas, ASignalOfAReactionIsRefused) {
-  // The cut's reaction on the wheel is solved for at every evaluation: a formula of it is not
-  // run by the solver's linear pass.
-  const Diagnostic d = Refusal(Gears("signals:\n  load: \"abs(J2.cut.e)\"\noutputs: [load]"));
+TEST(ConstraintFormulas, AnOutputSignalOfAReactionIsItsFormula) {
+  // The cut's reaction on the wheel, read by an output signal: evaluated with the reaction solved.
+  const RecordingObserver rec = RunGears(Gears("signals:\n  load: \"abs(J2.cut.e)\"\noutputs: [load, J2.cut.e]"), false);
+  ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
+  const int load = rec.Index("load"), reaction = rec.Index("J2.cut.e");
+  double largest = 0.0;
+  for (const auto& row : rec.rows()) {
+    EXPECT_EQ(row[load], std::abs(row[reaction])) << "t = " << row[0];
+    largest = std::max(largest, row[load]);
+  }
+  EXPECT_GT(largest, 0.1);  // the spring's torque reaches the pinion through the reaction
+}
+
+TEST(ConstraintFormulas, AReactionFedBackIntoTheMotionIsRefused) {
+  // The pinion driven by a torque of the wheel's reaction: the multiplier would reach the
+  // momenta through a formula that is no part of the junction structure.
+  const std::string text = testing::RigidGearPair("reaction_feedback", "constraints: ideal\n", "\"-0.1*J2.cut.e\"", "0.5",
+                                                  "{type: C, stiffness: 2.0, q0: 0.3}", "");
+  const Diagnostic d = Refusal(text);
   EXPECT_EQ(d.code, "expr.unsupported");
-  EXPECT_EQ(d.element, "load");
-  EXPECT_THAT(d.message, HasSubstr("the formula of the signal 'load' reads the effort of the ideal constraint 'J2.cut'"));
+  EXPECT_EQ(d.element, "torque");
+  EXPECT_THAT(d.message, HasSubstr("reads the effort of the ideal constraint 'J2.cut' (its reaction, which is solved for) and "
+                                   "feeds back into the motion"));
+  EXPECT_GT(d.where.line, 0);
+}
+
+TEST(ConstraintFormulas, AModulusOfAStateThatAReactionDrivesIsRefused) {
+  // The ratio reads the integral of the wheel's reaction: dg/dt would have a term in the
+  // multiplier that W does not hold. The integral's rate formula, which reads the reaction and
+  // feeds the modulus, is where it is refused.
+  const std::string text = Gears("states:\n  impulse: {kind: integral, rate: \"J2.cut.e\"}\n", "\"0.5 + 0.01*impulse\"");
+  const Diagnostic d = Refusal(text);
+  EXPECT_EQ(d.code, "expr.unsupported");
+  EXPECT_EQ(d.element, "impulse");
+  EXPECT_THAT(d.message, HasSubstr("the rate formula of the state 'impulse' cannot reach an ideal constraint: it reads the effort "
+                                   "of the ideal constraint 'J2.cut' (its reaction, which is solved for) and feeds back into the "
+                                   "motion"));
   EXPECT_GT(d.where.line, 0);
 }
 
 TEST(ConstraintFormulas, AFormulaLawNextToACutCompliance) {
   // Two springs on one 0-junction: k2 is cut (a flow multiplier holds its effort equal to the
-  // junction's), and the junction's effort is k1's formula law: the constraint depends on it.
+  // junction's), and the junction's effort is k1's formula law of its displacement: the
+  // constraint depends on it nonlinearly (W = B^T H B would not be its Jacobian).
   const Diagnostic d = Refusal(testing::kNonlinearPair);
   EXPECT_EQ(d.code, "expr.unsupported");
   EXPECT_EQ(d.element, "k1");
   EXPECT_EQ(d.where.line, 9);
-  EXPECT_THAT(d.message, HasSubstr("the formula of k1 for 'z.e' feeds the efforts 'k2.e', 'z.e' that the ideal constraint"));
-  EXPECT_THAT(d.message, HasSubstr("that the ideal constraint 'k2.cut' holds (the constraint solver differentiates them in time)"));
+  EXPECT_THAT(d.message, HasSubstr("the formula of k1 for 'z.e' cannot reach an ideal constraint: it feeds the efforts 'k2.e', "
+                                   "'z.e' that the ideal constraint 'k2.cut' holds, and reads a momentum or a displacement"));
+  EXPECT_THAT(d.message, HasSubstr("without being a modulated transformer"));
   EXPECT_THAT(d.message, HasSubstr("C 'k2' is in derivative causality"));
   EXPECT_THAT(d.hint, HasSubstr("give C 'k2' a displacement of its own"));
 }

@@ -306,6 +306,8 @@ struct HandPlan {
   std::vector<plan::Instr> plan;
   std::vector<StateBlock> blocks;
   std::vector<StateGather> gathers;
+  std::vector<expr::Program> programs;                  // no formulas
+  std::vector<std::string> state_names = {"x0", "x1"};  // two states each
   std::vector<double> coef;
   std::vector<int> sum_terms;
   std::vector<double> sum_signs;
@@ -381,7 +383,8 @@ struct TwoMasses : HandPlan {
     // As the compiled model declares, numbers and builds it (bond 0, pointing away from the Sf).
     solver.Add("joint.rigid", joint, {{0, 1.0, 0}});
     solver.AssignMultipliers({1});
-    solver.Build({graph, plan, reads, writes, blocks, gathers, class_offset, class_size, class_names, flow_class, effort_class, num_slots});
+    solver.Build({graph, plan, reads, writes, blocks, gathers, class_offset, class_size, class_names, flow_class, effort_class, num_slots,
+                  programs, state_names, 2});
   }
 };
 
@@ -502,7 +505,8 @@ struct SpringPair : HandPlan {
     // Members as the graph pass declares them: the bond at each source, +1 when it leaves it.
     solver.Add("k2.cut", spring, {{2, k2_into ? 1.0 : -1.0, -1}, {3, -1.0, -1}}, /*imposes_flow=*/true);
     solver.AssignMultipliers({1, 1, 1, 1});
-    solver.Build({graph, plan, reads, writes, blocks, gathers, class_offset, class_size, class_names, flow_class, effort_class, num_slots});
+    solver.Build({graph, plan, reads, writes, blocks, gathers, class_offset, class_size, class_names, flow_class, effort_class, num_slots,
+                  programs, state_names, 2});
   }
   /// Compile-time set-up at x = 0, then a fresh workspace with the factor's arrays.
   Workspace Ready() {

@@ -16,6 +16,7 @@
 #include <gsl/gsl_sf_lambert.h>
 #include <gtest/gtest.h>
 
+#include "multibond/analysis/linearize.h"
 #include "support/example_runner.h"
 
 namespace multibond {
@@ -124,6 +125,68 @@ TEST(PendulumExample, GravitysWorkIsTheLossOfPotentialEnergy) {
     EXPECT_NEAR(row[kinetic], lost, 1e-8 * mgl) << "t = " << row[0];
   }
   EXPECT_LT(testing::MaxEnergyResidual(r.rec), 1e-8);
+}
+
+// --- mtf_pendulum.yaml: the pendulum of MTFs under ideal constraints ---
+// T = 4 sqrt((J0 + m L^2)/(m g L)) K(sin(theta0/2)); the rod's pull N = m (L w^2 + g cos(theta)),
+// its push across m g sin(theta) J0/(J0 + m L^2).
+
+TEST(MtfPendulumExample, PeriodIsTheEllipticIntegralUnderIdealConstraints) {
+  for (const char* theta0 : {"0.5", "2.0", "2.5"}) {
+    SCOPED_TRACE(std::string("theta0 = ") + theta0);
+    const ExampleRun r = RunEquationExample("mtf_pendulum.yaml", {{"theta0", theta0}});
+    ASSERT_EQ(r.rec.summary().status, RunStatus::kOk) << r.rec.summary().message;
+    const double L = r.Param("L"), g = r.Param("g"), m = r.Param("m"), j0 = r.Param("J0"), th0 = r.Param("theta0");
+    ASSERT_EQ(th0, std::stod(theta0));
+    const double inertia = j0 + m * L * L;
+    const double period = 4.0 * std::sqrt(inertia / (m * g * L)) * std::comp_ellint_1(std::sin(th0 / 2.0));
+    // theta integrates w = hub.p / J0.
+    const std::vector<double> crossings = ZeroCrossings(r.rec, "theta", "hub.p", 1.0 / j0);
+    ASSERT_GE(crossings.size(), 3u);
+    EXPECT_NEAR(crossings[0], period / 4.0, 1e-8 * period);
+    for (double measured : Periods(crossings)) EXPECT_NEAR(measured, period, 1e-8 * period);
+  }
+}
+
+TEST(MtfPendulumExample, TheRodsReactionIsItsClosedFormAndTheEnergyIsKept) {
+  const ExampleRun r = RunEquationExample("mtf_pendulum.yaml");
+  ASSERT_EQ(r.rec.summary().status, RunStatus::kOk) << r.rec.summary().message;
+  const double L = r.Param("L"), g = r.Param("g"), m = r.Param("m"), j0 = r.Param("J0"), th0 = r.Param("theta0");
+  const double inertia = j0 + m * L * L, mg = m * g;
+  const int theta = r.rec.Index("theta"), hub = r.rec.Index("hub.p"), tension = r.rec.Index("tension"), shear = r.rec.Index("shear");
+  const int work = r.rec.Index("gravity.work"), kinetic = r.rec.Index("energy.kinetic");
+  const int px = r.rec.Index("mass_x.p"), py = r.rec.Index("mass_y.p");
+  double largest = 0.0;
+  for (const auto& row : r.rec.rows()) {
+    const double th = row[theta], w = row[hub] / j0;
+    EXPECT_NEAR(row[tension], m * (L * w * w + g * std::cos(th)), 1e-9 * mg) << "t = " << row[0];
+    EXPECT_NEAR(row[shear], mg * std::sin(th) * j0 / inertia, 1e-9 * mg) << "t = " << row[0];
+    // The cut masses move with the rod's end: v = L w (cos(theta), sin(theta)).
+    EXPECT_NEAR(row[px], m * L * w * std::cos(th), 1e-10 * m * L) << "t = " << row[0];
+    EXPECT_NEAR(row[py], m * L * w * std::sin(th), 1e-10 * m * L) << "t = " << row[0];
+    const double lost = mg * L * (std::cos(th) - std::cos(th0));
+    EXPECT_NEAR(row[work], lost, 1e-9 * mg * L) << "t = " << row[0];
+    EXPECT_NEAR(row[kinetic], 0.5 * inertia * w * w, 1e-9 * mg * L) << "t = " << row[0];
+    largest = std::max(largest, row[tension]);
+  }
+  // Through the bottom: w^2 = 2 m g L (1 - cos(theta0)) / (J0 + m L^2).
+  EXPECT_NEAR(largest, m * (2 * mg * L * (1 - std::cos(th0)) / inertia + g), 1e-3 * mg);
+  EXPECT_LT(testing::MaxEnergyResidual(r.rec), 1e-9);
+}
+
+TEST(MtfPendulumExample, ItsLinearisationAtTheBottomSwingsAtTheSmallAngleFrequency) {
+  // w^2 = m g L / (J0 + m L^2), through the MTFs' second derivatives in the constraints.
+  ExampleRun r{LoadModelFile(testing::ExamplePath("equations/mtf_pendulum.yaml"), {}, {{"theta0", "0"}}), {}};
+  const auto model = CompiledModel::Compile(r.model.graph, r.model.compile);
+  const linear::LinearModel lin = linear::Linearize(*model, 0.0, model->MakeInitialState());
+  const double L = r.Param("L"), g = r.Param("g"), m = r.Param("m"), j0 = r.Param("J0");
+  const double omega = std::sqrt(m * g * L / (j0 + m * L * L));
+  double fastest = 0.0;
+  for (const auto& l : lin.A.eigenvalues()) {
+    EXPECT_NEAR(l.real(), 0.0, 1e-12);
+    fastest = std::max(fastest, std::abs(l.imag()));
+  }
+  EXPECT_NEAR(fastest, omega, 1e-12 * omega);
 }
 
 // --- duffing.yaml: T = 4 int_0^x0 dx / sqrt(2 (V(x0) - V(x)) / m) ---
@@ -529,7 +592,7 @@ TEST(DiodeThermalExample, TheLoopThroughTheJunctionTemperatureHoldsAtEveryOutput
 
 TEST(EquationExamples, GeneratedCodeGivesTheInterpretersBits) {
   for (const char* file : {"pendulum.yaml", "duffing.yaml", "tank.yaml", "motor_pi.yaml", "speed_dependent_load.yaml", "pi_steady.yaml",
-                           "switched_spring.yaml", "modulated_capacitor.yaml", "electrostatic_transducer.yaml"}) {
+                           "switched_spring.yaml", "modulated_capacitor.yaml", "electrostatic_transducer.yaml", "mtf_pendulum.yaml"}) {
     SCOPED_TRACE(file);
     const ExampleRun interpreted = RunEquationExample(file, {}, false), generated = RunEquationExample(file, {}, true);
     ASSERT_EQ(interpreted.rec.summary().status, RunStatus::kOk);

@@ -667,7 +667,7 @@ TEST(IdealConstraints, ACutNextToAFormulaIsRefusedWithoutContradiction) {
   const Diagnostic& d = ds.front();
   EXPECT_EQ(d.code, "causality.derivative");
   const std::string details = testing::DetailsOf(d);
-  EXPECT_THAT(details, ::testing::HasSubstr("--constraints ideal does not take this model either: formulas"));
+  EXPECT_THAT(details, ::testing::HasSubstr("--constraints ideal does not take this model either: the formula of k1"));
   EXPECT_THAT(details, ::testing::Not(::testing::HasSubstr("handled exactly")));
 }
 

@@ -1,7 +1,7 @@
 // The right-hand side allocates nothing (docs/design.md): counted by replacing the global
 // operator new and (outside AddressSanitizer builds) malloc in this test binary. Covers the plan
-// interpreter, generated code, the ideal constraints' solve and projection, and the solve of an
-// algebraic loop.
+// interpreter, generated code, the ideal constraints' solve and projection (with formulas that
+// their equations read), and the solve of an algebraic loop.
 
 #include <atomic>
 #include <cstdlib>
@@ -80,6 +80,11 @@ TEST(RhsAllocation, NonlinearAlgebraicLoops) {
 TEST(RhsAllocation, MultiportEnergy) {
   EXPECT_EQ(AllocationsOfEvaluations("equations/electrostatic_transducer.yaml", false), 0);
   EXPECT_EQ(AllocationsOfEvaluations("equations/electrostatic_transducer.yaml", true), 0);
+}
+// Formulas that ideal constraints read: their tangents in the solver's passes.
+TEST(RhsAllocation, FormulasReachingIdealConstraints) {
+  EXPECT_EQ(AllocationsOfEvaluations("equations/mtf_pendulum.yaml", false), 0);
+  EXPECT_EQ(AllocationsOfEvaluations("equations/mtf_pendulum.yaml", true), 0);
 }
 
 }  // namespace

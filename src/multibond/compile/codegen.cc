@@ -35,7 +35,8 @@ std::string UnitHeader(const std::string& model, bool with_programs) {
   if (with_programs) o += expr::ProgramPreamble();  // the formulas' functions (expr_program.h)
   o += "struct MbSources { const void* fns; double (*eval)(const void*, int, double); double (*deriv)(const void*, int, double);\n"
        "  const void* programs; double (*solve)(const void*, int, int, int, double, double, const double*, double*);\n"
-       "  const double* values; };\n";
+       "  const double* values;\n"
+       "  double (*tangent)(const void*, int, double, const double*, const double*, double, const double*, const double*); };\n";
   return o;
 }
 
@@ -279,16 +280,27 @@ std::string CompiledModel::GenerateColumnsSource() const {
   std::string calls;
   for (size_t g = 0; g < constraints_.groups().size(); ++g) {
     const ConstraintGroup& cg = constraints_.groups()[g];
-    o += fmt::format("static __attribute__((noinline)) void mb_bcols{}(const double* __restrict x, double* __restrict w,\n"
-                     "    const double* __restrict mod, double* __restrict b, double* __restrict v) {{\n  (void)mod;\n", g);
-    calls += fmt::format("  mb_bcols{}(x, w, mod, b, v);\n", g);
+    o += fmt::format("static __attribute__((noinline)) void mb_bcols{}(double t, const double* __restrict x, double* __restrict w,\n"
+                     "    const double* __restrict mod, double* __restrict b, double* __restrict v, const double* slots,\n"
+                     "    const double* zx, const MbSources* src) {{\n  (void)t; (void)mod; (void)slots; (void)zx; (void)src;\n", g);
+    calls += fmt::format("  mb_bcols{}(t, x, w, mod, b, v, slots, zx, src);\n", g);
     for (int k = 0; k < cg.size; ++k) {
       const int col = cg.lambda + k;
       line(fmt::format("{{  // {} [{}]", CommentText(cg.name), k));
       for (int st : cg.starts)
         for (int j = 0; j < cg.size; ++j) line(fmt::format("w[{}] = {};", plan_[st].dst + j, j == k ? "1.0" : "0.0"));
       std::set<std::string> levers_done;
-      for (int q : cg.closure) EmitInstr(plan_[q], o, levers_done);
+      for (int q : cg.closure) {
+        const Instr& in = plan_[q];
+        if (in.op != Op::kExpr) {
+          EmitInstr(in, o, levers_done);
+          continue;
+        }
+        // A formula (affine in the unit multiplier's response: ConstraintSolver::CheckFormulas): its
+        // derivative along the response at the point (slots), as the interpreter's column pass.
+        for (int k = 0; k < in.n; ++k)
+          line(fmt::format("w[{}] = src->tangent(src->programs, {}, t, x, slots, 0.0, zx, w);", in.dst + k, in.coef + k));
+      }
       int off = constraints_.column_offset()[col];
       for (int gi : cg.momenta) {
         const Gather& gt = layout_.gathers()[gi];
@@ -309,8 +321,9 @@ std::string CompiledModel::GenerateColumnsSource() const {
     }
     o += "}\n";
   }
-  o += "extern \"C\" void multibond_bcols(const double* __restrict x, double* __restrict w, const double* __restrict mod,\n"
-       "                                 double* __restrict b, double* __restrict v) {\n";
+  o += "extern \"C\" void multibond_bcols(double t, const double* __restrict x, double* __restrict w, const double* __restrict mod,\n"
+       "                                 double* __restrict b, double* __restrict v, const double* slots, const double* zx,\n"
+       "                                 const MbSources* src) {\n";
   o += calls + "}\n";
   return o;
 }
@@ -413,8 +426,13 @@ std::string CompiledModel::GenerateTangentSource() const {
       case plan::Tangent::kLinear:  // constant linear maps of slots: the same map of their derivatives
         EmitInstr(in, o, levers_done, same);
         break;
-      case plan::Tangent::kNone:  // formulas: refused in the tangent plan (ConstraintSolver::RefuseFormulas)
-        MB_ASSERT(false, "a formula in the constraints' tangent pass");
+      case plan::Tangent::kNone:
+        // A formula: the interpreter's very forward-mode derivative, called back (MbSources::tangent),
+        // so that both engines give the same bits. A law used backwards is not generated
+        // (ConstraintSolver::formulas_emittable: the constrained evaluation is then interpreted).
+        MB_ASSERT(in.op == Op::kExpr, "a law used backwards in the generated tangent pass");
+        for (int k = 0; k < in.n; ++k)
+          line(fmt::format("d[{}] = src->tangent(src->programs, {}, t, x, w, 1.0, xd, d);", in.dst + k, in.coef + k));
         break;
     }
   }

@@ -68,7 +68,10 @@ void CompiledModel::Build() {
 }
 
 void CompiledModel::GenerateCode() {
-  if (options_.generate_code && !constraints_.empty()) {
+  if (options_.generate_code && !constraints_.empty() && !constraints_.formulas_emittable()) {
+    rhs_engine_ = "interpreter (a resistor's law used backwards reaches the ideal constraints, which the generated code does not "
+                  "differentiate)";
+  } else if (options_.generate_code && !constraints_.empty()) {
     rhs_engine_ = "interpreter (ideal constraints are solved around the plan)";
     // Every part of a constrained evaluation as generated code, in one library: the plan at zero
     // multipliers (step 1 of CalcConstrained), its tangent (step 2), B's columns and W's

@@ -321,8 +321,9 @@ class CompiledModel {
   };
   /// Every source component, in plan order (the order of CalcTangent's du).
   std::vector<SourceInput> SourceInputs() const;
-  /// False (and why) for what CalcTangent does not derive yet; everything is derived now (solved
-  /// algebraic loops too, by the implicit function theorem), kept for the callers' messages.
+  /// False (and why) for what CalcTangent does not derive: ideal constraints whose equations read
+  /// a law used backwards (its second derivative). Everything else is derived (solved algebraic
+  /// loops too, by the implicit function theorem).
   bool can_linearize(std::string* why) const;
   /// The derivative of every effort and flow (dws.slots) and of dx/dt (dxdot) along a direction
   /// dx of the state and du of the inputs (SourceInputs' order; null: zero), at (t, x), where
@@ -483,10 +484,6 @@ class CompiledModel {
   /// d/dt of the sources (the constraints' own tangent pass), else a state and input direction.
   void TangentPass(double t, const double* x, const double* dx, bool time, const double* du, double* dxdot, const Workspace& ws,
                    std::vector<double>& d_slots, std::vector<double>& d_moduli, std::vector<double>* scratch = nullptr) const;
-  /// The tangent rule of one instruction of the plan (TangentPass's, shared with the Newton
-  /// iteration of a nonlinear algebraic loop, which takes the closure's derivative along each
-  /// torn variable): its output's derivative into a.d from its inputs'.
-  void TangentOf(const Instr& in, const plan::TangentArgs& a, bool time) const;
   /// One state block's derivative's derivative along dx, from the slots w and their derivatives d.
   static void TangentGather(const Gather& gt, const double* x, const double* dx, const double* w, const double* d, double* dxdot);
   /// The tables the plan's instructions refer to (coefficients, sum terms, source functions).
@@ -603,6 +600,8 @@ class CompiledModel {
     const void* programs;  ///< the formulas' programs and the solver of laws used backwards (kSolve)
     double (*solve)(const void*, int, int, int, double, double, const double*, double*);
     const double* values;  ///< the numbers of generated code (GenerateUnits)
+    /// A formula's forward-mode derivative (expr::RunTangentIndexed), for the constraints' passes.
+    double (*tangent)(const void*, int, double, const double*, const double*, double, const double*, const double*);
   };
   SourceTable Sources() const;
   std::string rhs_engine_ = "interpreter";

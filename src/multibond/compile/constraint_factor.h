@@ -27,6 +27,7 @@ struct ConstraintScratch {
   std::vector<double> dslots, dmoduli;  ///< time derivatives of slots and moduli (tangent pass)
   std::vector<double> lin;              ///< response of the slots to one unit multiplier
   std::vector<double> xdot;             ///< dx/dt with the multipliers at zero
+  std::vector<double> zero_x;           ///< zeros, one per state (formulas' directions in B's columns)
   std::vector<double> b;                ///< per multiplier: its momentum-rate response (compressed)
   std::vector<double> v;                ///< per multiplier: the flow response M^-1 b (compressed)
   std::vector<double> w, rhs, scale;    ///< the m x m system W lambda = rhs, and its scaling

@@ -117,8 +117,9 @@ void ConstraintSolver::Build(const BuildInput& in) {
   // What no multiplier may reach: a constrained variable (its value would depend on the
   // multipliers themselves: index 1), and an orientation's rate (the moduli and rotated inertias
   // depend on the orientation: dg/dt would have a term in lambda that W = B^T H B leaves out).
-  // An integral's rate may be reached: only formulas read integral states, and none of them is
-  // in the tangent plan (RefuseFormulas), so g does not depend on it; step 4 updates it.
+  // An integral's rate may be reached: only formulas read integral states, and none in the
+  // tangent plan reads one whose rate is reached (CheckFormulas), so g does not depend on it;
+  // step 4 updates it.
   std::vector<int> member_of(in.num_slots, -1);
   std::vector<int> orientation_of(in.num_slots, -1);
   for (int gi = 0; gi < static_cast<int>(groups_.size()); ++gi)
@@ -269,7 +270,7 @@ void ConstraintSolver::Build(const BuildInput& in) {
       for (int c : in.plan_reads[k]) feeds[c] = 1;
     }
   std::reverse(tangent_plan_.begin(), tangent_plan_.end());
-  RefuseFormulas(in);
+  CheckFormulas(in, reached_slot);
   reaction_gathers_.clear();
   for (size_t gi = 0; gi < gathers.size(); ++gi) {
     const StateGather& gt = gathers[gi];
@@ -285,17 +286,68 @@ void ConstraintSolver::Build(const BuildInput& in) {
   factor_ = ConstraintFactor(std::move(b_offset), std::move(b_rows), std::move(compliance));
 }
 
-void ConstraintSolver::RefuseFormulas(const BuildInput& in) const {
-  // A formula (kExpr, kSolve) is evaluated by the plan, never differentiated or run linearly by
-  // the solver: one in the tangent plan (the constrained variables depend on it: dg/dt needs its
-  // time derivative, and g would not be affine in the states along B) or in a multiplier's
-  // closure (it reads a constraint's reaction: B and the reaction pass take that closure for
-  // linear in the multipliers) is refused; anywhere else (outputs, signals, the efforts of
-  // springs and dampers) it is part of the plan at lambda = 0 that step 1 runs.
+void ConstraintSolver::CheckFormulas(const BuildInput& in, const std::vector<char>& reached_slot) {
+  // The solver differentiates what the constrained variables depend on (the tangent plan) and
+  // runs what the multipliers reach linearly (B's columns). A formula (kExpr, kSolve) there is
+  // differentiated by forward mode (plan::FormulaTangent): exact, but W = B^T H B, the one-solve
+  // projection and the columns hold only if g stays affine in the storage states along B with
+  // dg/dx = B^T H, and the reaction reaches the storage rates linearly. So, with "moving" the
+  // storage states and every slot that depends on them or on a multiplier:
+  //  - in the tangent plan, a formula of a modulated transformer or gyrator (MTF, MGY, TF, GY: power
+  //    conserving, its two equations the transposes of each other) is accepted when it is affine
+  //    in what moves (its modulus of time, parameters, signal states, orientations); any other
+  //    formula when it reads nothing that moves (a source's or a signal's formula of time or of
+  //    signal states). A formula there must not read a signal state whose rate a multiplier
+  //    reaches (dg/dt would have a term in lambda that W leaves out);
+  //  - in a multiplier's closure, a modulated transformer's formula affine in what moves; any
+  //    other formula (an output or a signal that reads a reaction) only if nothing it feeds is a
+  //    storage rate, a constrained variable or such a signal state's rate.
+  // Anything else is refused (expr.unsupported, located at the formula, naming the constraint).
   const BondGraph& g = in.graph;
   const std::vector<Instr>& plan = in.plan;
+  const int np = static_cast<int>(plan.size());
+  const int num_classes = static_cast<int>(in.class_offset.size());
   auto formula = [&](int k) { return plan[k].op == Op::kExpr || plan[k].op == Op::kSolve; };
-  auto refuse = [&](int k, const Group& cg, const std::string& reach) {
+  auto junction = [&](int k) {
+    if (plan[k].op != Op::kExpr || plan[k].element < 0) return false;
+    const ElementKind kind = g.element(plan[k].element).kind;
+    return kind == ElementKind::kMTF || kind == ElementKind::kMGY || kind == ElementKind::kTF || kind == ElementKind::kGY;
+  };
+  std::vector<int> class_of_slot(in.num_slots, -1);
+  for (int c = 0; c < num_classes; ++c)
+    for (int k = 0; k < in.class_size[c]; ++k) class_of_slot[in.class_offset[c] + k] = c;
+  std::vector<char> storage_state(static_cast<size_t>(in.num_states), 0);
+  std::vector<int> rate_slot_of_state(static_cast<size_t>(in.num_states), -1);  // a signal state's rate slot
+  for (size_t bi = 0; bi < in.blocks.size(); ++bi) {
+    const StateBlock& b = in.blocks[bi];
+    const bool storage = b.kind == StateBlock::Kind::kMomentum || b.kind == StateBlock::Kind::kDisplacement;
+    for (int k = 0; k < b.size; ++k) {
+      storage_state[b.offset + k] = storage;
+      if (b.kind == StateBlock::Kind::kIntegral) rate_slot_of_state[b.offset + k] = in.gathers[bi].flow + k;
+    }
+  }
+  // What moves, in plan order.
+  std::vector<char> moving(num_classes, 0);
+  auto moves = [&](const expr::Input& input) {
+    if (input.in == expr::Input::In::kState) return storage_state[input.offset] != 0;
+    return input.in == expr::Input::In::kSlot && class_of_slot[input.offset] >= 0 && moving[class_of_slot[input.offset]] != 0;
+  };
+  for (int k = 0; k < np; ++k) {
+    const Instr& f = plan[k];
+    bool m = f.op == Op::kMultiplier || plan::Traits(f.op).reads == plan::Reads::kState;
+    for (int c : in.plan_reads[k]) m = m || moving[c];
+    if (formula(k))
+      for (int p = f.coef; p < f.coef + (f.op == Op::kExpr ? f.n : 1); ++p)
+        for (const expr::Input& input : in.programs[p].inputs) m = m || moves(input);
+    if (m) moving[in.plan_writes[k]] = 1;
+  }
+  auto degree = [&](int k) {
+    int d = 0;
+    for (int p = plan[k].coef; p < plan[k].coef + (plan[k].op == Op::kExpr ? plan[k].n : 1); ++p)
+      d = std::max(d, expr::Degree(in.programs[p], moves));
+    return d;
+  };
+  auto refuse = [&](int k, const Group& cg, const std::string& reach, const std::string& hint) {
     const Instr& f = plan[k];
     const std::string& written = in.class_names[in.plan_writes[k]];
     Diagnostic d;
@@ -309,48 +361,126 @@ void ConstraintSolver::RefuseFormulas(const BuildInput& in) const {
       d.where = g.signals()[s].where;
       d.element = written;
       who = fmt::format("the formula of the signal '{}'", written);
+    } else {
+      for (const AuxState& a : g.aux_states())
+        if (written == a.name + ".rate" || written == a.name + ".input") {
+          d.where = a.where;
+          d.element = a.name;
+          who = fmt::format("the {} formula of the state '{}'", written == a.name + ".rate" ? "rate" : "input", a.name);
+        }
     }
     const Element& e = g.element(cg.element);
     const bool cut = IsStorage(e.kind);
-    d.message = fmt::format("formulas that reach an ideal constraint are not supported yet: {} {}", who, reach);
+    d.message = fmt::format("{} cannot reach an ideal constraint: it {}", who, reach);
     if (cut)
-      d.message += fmt::format(", and {} '{}' is in derivative causality (its bond is cut into an ideal constraint)",
+      d.message += fmt::format("; {} '{}' is in derivative causality (its bond is cut into an ideal constraint)",
                                e.kind == ElementKind::kI ? "I" : "C", e.name);
-    d.hint = !cut ? "keep the formula off what the constraint holds and transmits, or make the coupling compliant "
-                    "('constraints: compliant', or joints without 'rigid'), or use constant parameters"
-             : e.kind == ElementKind::kI
-                 ? fmt::format("join I '{}' to what fixes its flow through a compliant coupling ('check --suggest' proposes one), "
-                               "or use constant parameters", e.name)
-                 : fmt::format("give C '{}' a displacement of its own: put a resistor or an inertia between it and what fixes its "
-                               "effort; or use constant parameters", e.name);
+    if (!hint.empty())
+      d.hint = hint + "; or make the coupling compliant ('constraints: compliant', or joints without 'rigid')";
+    else if (!cut)
+      d.hint = "keep the formula off what the constraint holds and transmits, or make the coupling compliant "
+               "('constraints: compliant', or joints without 'rigid')";
+    else if (e.kind == ElementKind::kI)
+      d.hint = fmt::format("join I '{}' to what fixes its flow through a compliant coupling ('check --suggest' proposes one)",
+                           e.name);
+    else
+      d.hint = fmt::format("give C '{}' a displacement of its own: put a resistor or an inertia between it and what fixes its "
+                           "effort", e.name);
     throw ModelError(d);
   };
+  const std::string affine_hint =
+      "a modulus (MTF, MGY, TF, GY) may read time, parameters, signal states (an integral such as an angle) and "
+      "orientations, not a momentum, a displacement or a variable that depends on one";
+  // The signal states that formulas of the tangent plan read.
+  std::vector<char> read_by_tangent(static_cast<size_t>(in.num_states), 0);
+  for (int k : tangent_plan_)
+    if (formula(k))
+      for (int p = plan[k].coef; p < plan[k].coef + (plan[k].op == Op::kExpr ? plan[k].n : 1); ++p)
+        for (const expr::Input& input : in.programs[p].inputs)
+          if (input.in == expr::Input::In::kState) read_by_tangent[input.offset] = 1;
+  // The closures: a modulated transformer affine in what moves; any other formula an observer.
   for (const Group& cg : groups_)
-    for (int k : cg.closure)
-      if (formula(k))
-        refuse(k, cg, fmt::format("reads the {} of the ideal constraint '{}' (its reaction, which is solved for)",
-                                  cg.imposes_flow ? "flow" : "effort", cg.name));
+    for (int k : cg.closure) {
+      if (!formula(k)) continue;
+      formulas_ = true;
+      emittable_ = emittable_ && plan[k].op == Op::kExpr;
+      const std::string reads = fmt::format("reads the {} of the ideal constraint '{}' (its reaction, which is solved for)",
+                                            cg.imposes_flow ? "flow" : "effort", cg.name);
+      if (junction(k)) {
+        if (degree(k) > 1) refuse(k, cg, reads + " and is not linear in it", affine_hint);
+        continue;
+      }
+      // What it feeds, in plan order.
+      std::vector<char> fed(num_classes, 0);
+      fed[in.plan_writes[k]] = 1;
+      for (int j = k + 1; j < np; ++j)
+        for (int c : in.plan_reads[j])
+          if (fed[c]) {
+            fed[in.plan_writes[j]] = 1;
+            break;
+          }
+      bool dynamic = false;
+      for (const StateGather& gt : in.gathers) {
+        const bool storage = gt.kind == StateBlock::Kind::kMomentum || gt.kind == StateBlock::Kind::kDisplacement;
+        if (!storage && gt.kind != StateBlock::Kind::kIntegral) continue;
+        for (int r = 0; r < gt.size; ++r) {
+          const int rate = (storage ? gt.effort : gt.flow) + r;
+          if (class_of_slot[rate] < 0 || !fed[class_of_slot[rate]]) continue;
+          dynamic = dynamic || storage || read_by_tangent[gt.state + r];
+        }
+      }
+      for (const Group& other : groups_)
+        for (const auto& m : other.members) dynamic = dynamic || fed[class_of_slot[m.slot]];
+      if (dynamic)
+        refuse(k, cg, reads + " and feeds back into the motion",
+               "a reaction may be read by outputs and by signals that feed no storage element's rate; feed it back through "
+               "a compliant coupling");
+    }
+  // The tangent plan.
   for (int k : tangent_plan_) {
     if (!formula(k)) continue;
-    // The constraint whose variables depend on it (found on this error path only): the plan
-    // walked back from each constraint's members, as for the tangent plan.
-    const int num_classes = static_cast<int>(in.class_offset.size());
-    for (const Group& cg : groups_) {
-      std::vector<char> feeds(num_classes, 0);
+    formulas_ = true;
+    emittable_ = emittable_ && plan[k].op == Op::kExpr;
+    // The constraint whose variables depend on it, and what it holds (for the message).
+    auto held_by = [&](std::string& held) -> const Group& {
+      for (const Group& cg : groups_) {
+        std::vector<char> feeds(num_classes, 0);
+        held.clear();
+        for (const auto& m : cg.members) {
+          const int c = class_of_slot[m.slot];
+          if (c < 0 || feeds[c]) continue;
+          feeds[c] = 1;
+          held += (held.empty() ? "'" : ", '") + in.class_names[c] + "'";
+        }
+        for (int j = np - 1; j >= k; --j)
+          if (feeds[in.plan_writes[j]])
+            for (int c : in.plan_reads[j]) feeds[c] = 1;
+        if (feeds[in.plan_writes[k]]) return cg;
+      }
+      return groups_.front();
+    };
+    const int d = degree(k);
+    if (d > (junction(k) ? 1 : 0)) {
       std::string held;
-      for (const auto& m : cg.members)
-        for (int c = 0; c < num_classes; ++c)
-          if (m.slot >= in.class_offset[c] && m.slot < in.class_offset[c] + in.class_size[c] && !feeds[c]) {
-            feeds[c] = 1;
-            held += (held.empty() ? "'" : ", '") + in.class_names[c] + "'";
-          }
-      for (int j = static_cast<int>(plan.size()) - 1; j >= k; --j)
-        if (feeds[in.plan_writes[j]])
-          for (int c : in.plan_reads[j]) feeds[c] = 1;
-      if (feeds[in.plan_writes[k]])
-        refuse(k, cg, fmt::format("feeds the {} {} that the ideal constraint '{}' holds (the constraint solver differentiates "
-                                  "them in time)", cg.imposes_flow ? "efforts" : "flows", held, cg.name));
+      const Group& cg = held_by(held);
+      refuse(k, cg,
+             fmt::format("feeds the {} {} that the ideal constraint '{}' holds, and {} a momentum or a displacement (or a "
+                         "variable that depends on one){}", cg.imposes_flow ? "efforts" : "flows", held, cg.name,
+                         junction(k) ? "is not linear in" : "reads", junction(k) ? "" : " without being a modulated transformer"),
+             junction(k) ? affine_hint : "");
     }
+    for (int p = plan[k].coef; p < plan[k].coef + (plan[k].op == Op::kExpr ? plan[k].n : 1); ++p)
+      for (const expr::Input& input : in.programs[p].inputs) {
+        if (input.in != expr::Input::In::kState || rate_slot_of_state[input.offset] < 0) continue;
+        if (!reached_slot[rate_slot_of_state[input.offset]]) continue;
+        std::string held;
+        const Group& cg = held_by(held);
+        refuse(k, cg,
+               fmt::format("feeds the {} {} that the ideal constraint '{}' holds, and reads the state '{}', whose rate a "
+                           "constraint's reaction changes", cg.imposes_flow ? "efforts" : "flows", held, cg.name,
+                           in.state_names[input.offset]),
+               "let the modulus read a state whose rate is a flow or effort of the motion, not of a reaction");
+      }
   }
 }
 
@@ -366,6 +496,7 @@ void ConstraintSolver::SizeScratch(Workspace& ws, int num_slots, int num_moduli,
   ws.con.dmoduli.assign(num_moduli, 0.0);
   ws.con.lin.assign(num_slots, 0.0);
   ws.con.xdot.assign(num_states, 0.0);
+  ws.con.zero_x.assign(num_states, 0.0);
   factor_.SizeScratch(ws.con);
   ws.con.factored_at.assign(num_states, 0.0);
   ws.con.fixed.assign(num_lambda_, 0);
@@ -417,15 +548,28 @@ void ConstraintSolver::Respond(const PlanView& view, double t, const double* x, 
   SolveAt(view, t, x, ws, /*fixed_values=*/false);  // the prescribed multipliers do not move
   std::copy(ws.lambda.begin(), ws.lambda.end(), dlambda);
   ws.lambda = saved;
-  // What the multipliers reach is linear in them (index 1: no state kernel, no formula on the
-  // way), so the reaction plan run on zero slots with dlambda gives the response.
-  for (int q : reaction_plan_) plan::Exec(view.plan[q], plan::ExecArgs{t, x, lin, lin, ws.moduli.data(), dlambda, view.tables});
+  // What the multipliers reach is linear in them (index 1: no state kernel on the way, formulas
+  // affine in them), so the reaction plan run on zero slots with dlambda gives the response.
+  for (int q : reaction_plan_) ExecLinear(view, view.plan[q], t, x, lin, dlambda, ws);
   std::vector<double> rate(view.num_states, 0.0);
   for (int gi : reaction_gathers_) {
     const StateGather& gt = view.gathers[gi];
     view.gather(gt, x, lin, rate.data());
     for (int k = 0; k < gt.size; ++k) dxdot[gt.state + k] += rate[gt.state + k];
   }
+}
+
+void ConstraintSolver::ExecLinear(const PlanView& view, const Instr& in, double t, const double* x, double* lin, const double* lambda,
+                                  const Workspace& ws) const {
+  if (in.op != Op::kExpr && in.op != Op::kSolve) {
+    plan::Exec(in, plan::ExecArgs{t, x, lin, lin, ws.moduli.data(), lambda, view.tables});
+    return;
+  }
+  // A formula: its derivative along lin at the point (ws.slots), the state and time fixed; exact
+  // for what is affine in the multipliers (CheckFormulas).
+  const double* zero = ws.con.zero_x.data();
+  plan::FormulaTangent(in, plan::TangentArgs{t, x, zero, ws.slots.data(), lin, nullptr, ws.moduli.data(), nullptr, lambda, view.tables,
+                                             view.moduli.data(), /*source_rate=*/false});
 }
 
 void ConstraintSolver::AssembleConstraintMatrix(const PlanView& view, double t, const double* x, Workspace& ws) const {
@@ -435,14 +579,14 @@ void ConstraintSolver::AssembleConstraintMatrix(const PlanView& view, double t, 
       for (int r = 0; r < size; ++r) ws.con.v[offset + r] = -ws.con.v[offset + r];
   };
   if (generated_.columns) {
-    generated_.columns(x, ws.con.lin.data(), ws.moduli.data(), ws.con.b.data(), ws.con.v.data());
+    generated_.columns(t, x, ws.con.lin.data(), ws.moduli.data(), ws.con.b.data(), ws.con.v.data(), ws.slots.data(),
+                       ws.con.zero_x.data(), view.sources);
     negate();
     return;
   }
   double* lin = ws.con.lin.data();
   double* b = ws.con.b.data();
   double* v = ws.con.v.data();
-  const double* mod = ws.moduli.data();
   const double* c = view.tables.coef;
   const double* lam = ws.lambda.data();
   // B, column by column: a unit multiplier through its closure (everything else is zero in lin),
@@ -454,8 +598,7 @@ void ConstraintSolver::AssembleConstraintMatrix(const PlanView& view, double t, 
       const int col = cg.lambda + k;
       for (int st : cg.starts)
         for (int j = 0; j < cg.size; ++j) lin[plan[st].dst + j] = j == k ? 1.0 : 0.0;
-      for (int q : cg.closure)
-        plan::Exec(plan[q], plan::ExecArgs{t, x, lin, lin, mod, lam, view.tables});
+      for (int q : cg.closure) ExecLinear(view, plan[q], t, x, lin, lam, ws);
       double* bc = b + b_offset[col];
       double* vc = v + b_offset[col];
       for (int gi : cg.momenta) {

@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "multibond/compile/constraint_factor.h"
+#include "multibond/compile/expr_program.h"
 #include "multibond/compile/operations.h"
 #include "multibond/core/time_function.h"
 
@@ -90,6 +91,9 @@ class ConstraintSolver {
     const std::vector<int>& flow_class;               ///< per bond: its flow's slot class
     const std::vector<int>& effort_class;             ///< per bond: its effort's slot class
     int num_slots;
+    const std::vector<expr::Program>& programs;       ///< the formulas' programs (kExpr, kSolve)
+    const std::vector<std::string>& state_names;      ///< per state entry
+    int num_states;
   };
 
   /// What the run-time methods read of the compiled model (made per call: references only).
@@ -121,7 +125,7 @@ class ConstraintSolver {
   /// orientation's or integral's rate, or passes a resistor (its B would not be the adjoint of
   /// its constraint's dependence on the states); `param.shape`: compliances that do not match
   /// the constraint's components; `expr.unsupported`: a formula that the constrained variables
-  /// depend on or that a multiplier reaches, RefuseFormulas).
+  /// depend on or that a multiplier reaches and that the solver cannot take, CheckFormulas).
   void Build(const BuildInput& in);
   /// The constraints independent at the initial state x (the rest are redundant there), and the
   /// factor's pattern. `ws` holds the plan's evaluation at x with lambda = 0.
@@ -130,11 +134,13 @@ class ConstraintSolver {
   void SizeScratch(Workspace& ws, int num_slots, int num_moduli, int num_states) const;
   /// The generated code of steps 2-4 (null: interpreted), and the library that holds it.
   /// tangent: (t, x, xdot, slots, dslots, moduli, dmoduli, sources);
-  /// react: (t, x, xdot, slots, moduli, lambda, sources); columns: (x, lin, moduli, b, v).
+  /// react: (t, x, xdot, slots, moduli, lambda, sources); columns: (t, x, lin, moduli, b, v,
+  /// slots, a zero state, sources).
   using GeneratedTangent = void (*)(double, const double*, const double*, const double*, double*, const double*,
                                     const double*, const void*);
   using GeneratedReact = void (*)(double, const double*, double*, double*, const double*, const double*, const void*);
-  using GeneratedColumns = void (*)(const double*, double*, const double*, double*, double*);
+  using GeneratedColumns = void (*)(double, const double*, double*, const double*, double*, double*, const double*, const double*,
+                                    const void*);
   struct Generated {
     GeneratedTangent tangent = nullptr;
     GeneratedReact react = nullptr;
@@ -180,6 +186,10 @@ class ConstraintSolver {
 
   // --- what it holds ---
   bool empty() const { return groups_.empty(); }
+  /// Whether formulas reach the constraints (their tangent plan or closures: CheckFormulas), and
+  /// whether generated code can do their part (it calls the interpreter's RunTangent back).
+  bool reads_formulas() const { return formulas_; }
+  bool formulas_emittable() const { return emittable_; }
   int num_multipliers() const { return num_lambda_; }
   std::vector<std::string> names() const;  ///< one per constraint
   const std::vector<Group>& groups() const { return groups_; }
@@ -199,9 +209,11 @@ class ConstraintSolver {
   /// d/dt along (xdot, d/dt sources) of the slots the constraints' flows depend on
   /// (tangent_plan_), into ws.con.dslots; the other entries are not written.
   void Tangent(const PlanView& view, double t, const double* x, const double* xdot, Workspace& ws) const;
-  /// Build's last check: a formula in the tangent plan or in a multiplier's closure throws
-  /// ModelError (`expr.unsupported`, located at the formula, naming the constraint it reaches).
-  void RefuseFormulas(const BuildInput& in) const;
+  /// Build's last check, of the formulas in the tangent plan and in the multipliers' closures
+  /// (what is accepted: constraint_solver.cc); a formula refused throws ModelError
+  /// (`expr.unsupported`, located at the formula, naming the constraint it reaches). Sets
+  /// formulas_ and emittable_. `reached_slot`: per slot, whether a multiplier reaches it.
+  void CheckFormulas(const BuildInput& in, const std::vector<char>& reached_slot);
   /// B (storage-rate response to each unit multiplier) and V = H B at x, into ws.con.b, v.
   void AssembleConstraintMatrix(const PlanView& view, double t, const double* x, Workspace& ws) const;
   /// B's columns at (t, x) and lambda from W lambda = ws.con.rhs: the sparse L D L^T on the
@@ -214,6 +226,11 @@ class ConstraintSolver {
   void SolveWithFixed(const PlanView& view, double t, const double* x, Workspace& ws, bool fixed_values) const;
   /// g(x) - target(t) of every multiplier component, from filled slots, into `out`.
   void ConstraintValues(double t, const double* w, double* out) const;
+  /// One instruction of B's columns or of the linear response, on `lin` (the response of the
+  /// slots; zero outside what the multipliers reach): the instruction itself, or for a formula
+  /// its derivative along lin at the point ws.slots.
+  void ExecLinear(const PlanView& view, const plan::Instr& in, double t, const double* x, double* lin, const double* lambda,
+                  const Workspace& ws) const;
   /// x += B mu, mu = ws.lambda (B's columns in ws.con.b, as the last solve assembled them).
   void MoveAlongB(double* x, const Workspace& ws) const;
 
@@ -230,6 +247,10 @@ class ConstraintSolver {
   std::vector<std::pair<int, int>> negated_v_;
   ConstraintFactor factor_;            ///< B's sparsity, W and its solves
   Generated generated_;
+  /// Formulas in the tangent plan or a closure (differentiated by forward mode); all of them
+  /// kExpr, which generated code can call back for (a law used backwards, kSolve, cannot).
+  bool formulas_ = false;
+  bool emittable_ = true;
 };
 
 }  // namespace multibond

@@ -126,9 +126,9 @@ void CompiledModel::PrepareConstraintGraph() {
     }
     throw ModelError(causality_.diagnostics);
   }
-  // A formula that a constraint's variables depend on, or that reads its multiplier, is refused
-  // once the plan is known (ConstraintSolver::Build, RefuseFormulas: it names the formula, the
-  // constraint, and for a cut the storage element in derivative causality and how to do without).
+  // A formula that a constraint's variables depend on, or that reads its multiplier, is checked
+  // once the plan is known (ConstraintSolver::Build, CheckFormulas: what is refused names the
+  // formula, the constraint, and for a cut the storage element in derivative causality).
   for (const Pending& p : pending) {
     std::vector<ConstraintSolver::Group::Member> members;
     for (int m : p.members) {
@@ -145,7 +145,7 @@ ConstraintSolver::PlanView CompiledModel::ConstraintPlan(const SourceTable* sour
 
 void CompiledModel::BuildConstraints(const std::vector<std::vector<int>>& plan_reads, const std::vector<int>& plan_writes) {
   constraints_.Build({graph_, plan_, plan_reads, plan_writes, layout_.blocks(), layout_.gathers(), class_offset_, class_size_,
-                      class_names_, flow_class_, effort_class_, num_slots_});
+                      class_names_, flow_class_, effort_class_, num_slots_, programs_, layout_.state_names(), num_states()});
 }
 
 void CompiledModel::FindIndependentConstraints() {

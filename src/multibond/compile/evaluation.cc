@@ -132,7 +132,8 @@ double EvalSourceDerivative(const void* fns, int i, double t) { return static_ca
 }  // namespace
 
 CompiledModel::SourceTable CompiledModel::Sources() const {
-  return {source_fns_.data(), &EvalSource, &EvalSourceDerivative, programs_.data(), &expr::SolveForIndexed, jit_values_.data()};
+  return {source_fns_.data(), &EvalSource, &EvalSourceDerivative, programs_.data(), &expr::SolveForIndexed, jit_values_.data(),
+          &expr::RunTangentIndexed};
 }
 
 void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot, Workspace& ws) const {
@@ -244,7 +245,7 @@ void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
     const char* why = "after 60 Newton iterations";
     for (; iteration < kMaxIterations && std::isfinite(norm) && norm > 0.0; ++iteration) {
       TornJacobian(tears_, s.d, s.a, [&] {
-        for (int at : tear_closure_) TangentOf(plan_[at], args, /*time=*/false);
+        for (int at : tear_closure_) plan::ExecTangent(plan_[at], args);
       });
       s.lu.compute(s.a);
       s.dz.noalias() = s.lu.solve(s.r);

@@ -97,9 +97,33 @@ double Run(const Program& p, double t, const double* x, const double* w);
 
 /// The program's derivative along a direction: `dt` of the time, `dx` of the state, `dw` of the
 /// slots (forward-mode differentiation of its steps, exact). Writes the value to *value if given.
-/// For the linearisation; not the hot path.
+/// No allocation (the constraint solver runs it at every evaluation).
 double RunTangent(const Program& p, double t, const double* x, const double* w, double dt, const double* dx, const double* dw,
                   double* value = nullptr);
+
+/// The degree of the program's value in the inputs `moving` selects (by the steps, not by
+/// simplification): 0 if it reads none of them, 1 if it is affine in them (a sum of terms each
+/// linear in one of them, with coefficients that read none), 2 otherwise. A select `if(c, a, b)`
+/// whose condition does not move has the larger of its branches' degrees.
+int Degree(const Program& p, const std::function<bool(const Input&)>& moving);
+
+/// A direction of the inputs: `dt` of the time, `dx` of the state, `dw` of the slots.
+struct Direction {
+  double dt;
+  const double* dx;
+  const double* dw;
+};
+/// The program's mixed second derivative along two directions v and f (constant directions of
+/// the time and the state; the slots' mixed second derivatives `ddw`), by hyper-dual numbers
+/// (each step's value, its two derivatives and their mixed one). Kinks contribute no second
+/// derivative (min, max, clamp, abs, sign, comparisons); `if` takes its branch's. For the
+/// linearisation of ideal constraints whose equations read the formula.
+double RunSecondTangent(const Program& p, double t, const double* x, const double* w, const Direction& v, const Direction& f,
+                        const double* ddw);
+
+/// RunTangent of program `index` in an array of programs: the form generated code calls.
+double RunTangentIndexed(const void* programs, int index, double t, const double* x, const double* w, double dt, const double* dx,
+                         const double* dw);
 
 /// Solves law(u) = target for u, where the law's program reads u from the scratch slot
 /// w[unknown] (and `slope`, its derivative, likewise): a resistor whose causality needs the

@@ -5,6 +5,7 @@
 // second-order rule (ExecSecondTangent) that differentiates the constraint equations once more.
 
 #include "multibond/compile/exact_sum.h"
+#include "multibond/compile/expr_program.h"
 #include "multibond/compile/operations.h"
 #include "multibond/core/error.h"
 
@@ -114,10 +115,30 @@ void ExecTangent(const Instr& in, const TangentArgs& a) {
     case Tangent::kLinear:  // constant linear maps of slots: the same map of their derivatives
       exec(x, d, d, a.mod);
       break;
-    case Tangent::kNone:  // formulas: their programs' own tangents (CompiledModel::CalcTangent)
-      MB_ASSERT(false, "ExecTangent on a formula");
+    case Tangent::kNone:  // formulas: forward-mode differentiation of their programs
+      FormulaTangent(in, a);
       break;
   }
+}
+
+void FormulaTangent(const Instr& in, const TangentArgs& a) {
+  double* d = a.d;
+  const expr::Program* programs = a.tables.programs;
+  const double rate_of_t = a.source_rate ? 1.0 : 0.0;
+  if (in.op == Op::kExpr) {
+    for (int k = 0; k < in.n; ++k) d[in.dst + k] = expr::RunTangent(programs[in.coef + k], a.t, a.x, a.w, rate_of_t, a.xdot, d);
+    return;
+  }
+  MB_ASSERT(in.op == Op::kSolve, "FormulaTangent on an instruction without a program");
+  // law(u, rest) = target: du = (dtarget - dlaw/drest . drest) / law'(u), the scratch slot (which
+  // holds u since the plain pass) taken as fixed in the law's own derivative.
+  const double target_rate = in.transpose ? -d[in.src] : d[in.src];
+  d[in.count] = 0.0;
+  const double rest = expr::RunTangent(programs[in.coef], a.t, a.x, a.w, rate_of_t, a.xdot, d);
+  const double slope = expr::Run(programs[in.aux], a.t, a.x, a.w);
+  const double du_rate = (target_rate - rest) / slope;
+  d[in.count] = du_rate;
+  d[in.dst] = in.scale * du_rate;
 }
 
 void ExecSecondTangent(const Instr& in, const SecondTangentArgs& a) {
@@ -189,9 +210,15 @@ void ExecSecondTangent(const Instr& in, const SecondTangentArgs& a) {
     case Tangent::kLinear:
       exec(a.x, dd, dd, a.mod);
       break;
-    case Tangent::kNone:
-      MB_ASSERT(false, "ExecSecondTangent on a formula");
+    case Tangent::kNone: {
+      // A formula: hyper-dual numbers through its program (v a direction of the state, F the
+      // motion, along which the time moves at rate 1). A law used backwards is not linearised
+      // here (CompiledModel::can_linearize refuses it).
+      MB_ASSERT(in.op == Op::kExpr, "ExecSecondTangent on a law used backwards");
+      const expr::Direction v{0.0, a.xv, a.dv}, f{1.0, a.xf, a.df};
+      for (int k = 0; k < in.n; ++k) dd[in.dst + k] = expr::RunSecondTangent(a.tables.programs[in.coef + k], a.t, a.x, a.w, v, f, dd);
       break;
+    }
   }
 }
 

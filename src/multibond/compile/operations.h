@@ -202,8 +202,12 @@ struct TangentArgs {
   /// the state only; the caller adds an input's direction).
   bool source_rate = true;
 };
-/// Applies the tangent rule of `in` (its row's Tangent; not kNone, whose programs have their own).
+/// Applies the tangent rule of `in` (its row's Tangent; a formula's, kNone, is FormulaTangent).
 void ExecTangent(const Instr& in, const TangentArgs& a);
+/// The tangent of a formula (kExpr, kSolve) by forward-mode differentiation of its programs
+/// (tables.programs; expr::RunTangent): the time enters at rate 1 when source_rate, else 0; a
+/// law used backwards (kSolve) by the implicit function theorem.
+void FormulaTangent(const Instr& in, const TangentArgs& a);
 
 /// What the second-order rule of an instruction reads and writes (the linearisation of ideal
 /// constraints, compile/tangent.cc): the mixed second derivative of its output along two
@@ -227,7 +231,8 @@ struct SecondTangentArgs {
   Tables tables;
   const ModulusEval* moduli;
 };
-/// Applies the second-order rule of `in` (not kNone).
+/// Applies the second-order rule of `in` (a formula's: expr::RunSecondTangent, the time moving
+/// along F at rate 1; not a law used backwards).
 void ExecSecondTangent(const Instr& in, const SecondTangentArgs& a);
 
 /// Appends m to a coefficient table, row-major (the layout every kernel reads).

@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <vector>
 
+#include <fmt/format.h>
+
 #include "multibond/compile/compiled_model.h"
 #include "multibond/compile/torn_jacobian.h"
 #include "multibond/core/error.h"
@@ -40,31 +42,19 @@ std::vector<CompiledModel::SourceInput> CompiledModel::SourceInputs() const {
   return inputs;
 }
 
-bool CompiledModel::can_linearize(std::string*) const { return true; }
-
-void CompiledModel::TangentOf(const Instr& in, const plan::TangentArgs& a, bool time) const {
-  double* d = a.d;
-  const double rate_of_t = time ? 1.0 : 0.0;
-  switch (in.op) {
-    case Op::kExpr:
-      for (int k = 0; k < in.n; ++k) d[in.dst + k] = expr::RunTangent(programs_[in.coef + k], a.t, a.x, a.w, rate_of_t, a.xdot, d);
-      break;
-    case Op::kSolve: {
-      // law(u, rest) = target: du = (dtarget - dlaw/drest . drest) / law'(u), the scratch slot
-      // (which holds u since the plain pass) taken as fixed in the law's own derivative.
-      const double target_rate = in.transpose ? -d[in.src] : d[in.src];
-      d[in.count] = 0.0;
-      const double rest = expr::RunTangent(programs_[in.coef], a.t, a.x, a.w, rate_of_t, a.xdot, d);
-      const double slope = expr::Run(programs_[in.aux], a.t, a.x, a.w);
-      const double du_rate = (target_rate - rest) / slope;
-      d[in.count] = du_rate;
-      d[in.dst] = in.scale * du_rate;
-      break;
+bool CompiledModel::can_linearize(std::string* why) const {
+  // The linearisation of ideal constraints differentiates the constraint equations twice
+  // (ExecSecondTangent): a formula's by hyper-dual numbers, but not a law used backwards.
+  for (int k : constraints_.tangent_plan())
+    if (plan_[k].op == Op::kSolve) {
+      const std::string& name = plan_[k].element >= 0 ? graph_.element(plan_[k].element).name : class_names_[class_of_slot_[plan_[k].dst]];
+      if (why)
+        *why = fmt::format("ideal constraints whose equations read a law used backwards (that of '{}'): the "
+                           "linearisation of such a constraint needs the inverse law's second derivatives, which are not derived",
+                           name);
+      return false;
     }
-    default:  // a multiplier's rule gives zero: the multipliers held at their values
-      plan::ExecTangent(in, a);
-      break;
-  }
+  return true;
 }
 
 void CompiledModel::TangentPass(double t, const double* x, const double* dx, bool time, const double* du, double* dxdot,
@@ -81,7 +71,7 @@ void CompiledModel::TangentPass(double t, const double* x, const double* dx, boo
                                /*source_rate=*/time};
   int input = 0;
   for (const Instr& in : plan_) {
-    TangentOf(in, args, time);
+    plan::ExecTangent(in, args);
     if (IsSourceInstruction(in, graph_)) {
       for (int k = 0; k < in.n; ++k, ++input)
         if (du) d[in.dst + k] += du[input];
@@ -103,13 +93,13 @@ void CompiledModel::TangentPass(double t, const double* x, const double* dx, boo
                                     ws.lambda.data(), tables(), moduli_.data(), /*source_rate=*/false};
     Eigen::MatrixXd a(n, n);
     TornJacobian(tears_, dj, a, [&] {
-      for (int at : tear_closure_) TangentOf(plan_[at], along_z, /*time=*/false);
+      for (int at : tear_closure_) plan::ExecTangent(plan_[at], along_z);
     });
     const Eigen::VectorXd dz = a.partialPivLu().solve(dc0);
     k = 0;
     for (const Tear& tr : tears_)
       for (int i = 0; i < tr.size; ++i) d[tr.slot + i] = dz[k++];
-    for (int at : tear_closure_) TangentOf(plan_[at], args, time);
+    for (int at : tear_closure_) plan::ExecTangent(plan_[at], args);
   }
   for (const Gather& gt : layout_.gathers()) TangentGather(gt, x, dx, w, d, dxdot);
 }
