@@ -100,7 +100,8 @@ TEST(EquationExamplesCli, SetReachesTheInitialValuesOfAPidAndALag) {
 TEST(EquationExamplesCli, GeneratedCodeWritesTheInterpretersResults) {
   TempDir tmp("multibond-equations");
   for (const char* file : {"pendulum.yaml", "duffing.yaml", "tank.yaml", "motor_pi.yaml", "speed_dependent_load.yaml", "pi_steady.yaml",
-                           "switched_spring.yaml", "modulated_capacitor.yaml", "electrostatic_transducer.yaml"}) {
+                           "switched_spring.yaml", "modulated_capacitor.yaml", "electrostatic_transducer.yaml",
+                           "mtf_pendulum.yaml"}) {
     SCOPED_TRACE(file);
     std::vector<std::string> sha;
     for (const char* jit : {"off", "on"}) {
