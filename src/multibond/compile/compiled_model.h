@@ -204,8 +204,7 @@ class CompiledModel {
   }
   /// True when the generated code evaluates, or is being compiled in the background to do so.
   bool uses_generated_code() const {
-    return generated_ != nullptr || jit_ready_.load(std::memory_order_acquire) != nullptr ||
-           jit_state_.load(std::memory_order_acquire) == JitState::kCompiling;
+    return jit_ready_.load(std::memory_order_acquire) != nullptr || jit_state_.load(std::memory_order_acquire) == JitState::kCompiling;
   }
   /// Waits for a background compile to end; then true when the generated code evaluates.
   bool WaitForGeneratedCode() const;
@@ -215,7 +214,7 @@ class CompiledModel {
   /// in rhs_engine() from then on), "" when no compile was running.
   std::string HandOverCompile(const std::string& program) const;
   /// True when the generated code evaluates now (not still compiling in the background).
-  bool generated_code_ready() const { return generated_ != nullptr || jit_ready_.load(std::memory_order_acquire) != nullptr; }
+  bool generated_code_ready() const { return jit_ready_.load(std::memory_order_acquire) != nullptr; }
   ~CompiledModel();
   CompiledModel(const CompiledModel&) = delete;
   CompiledModel& operator=(const CompiledModel&) = delete;
@@ -550,14 +549,15 @@ class CompiledModel {
   /// The plan with the torn variables solved for (EvalPlan on a model with algebraic loops).
   void EvalTorn(double t, const double* x, Workspace& ws) const;
 
-  /// The generated plan at zero multipliers of a model with ideal constraints (null: none).
   using GeneratedRhs = void (*)();  ///< cast to its real signature at the call (see codegen.cc)
-  GeneratedRhs generated_ = nullptr;
-  /// The generated right-hand side of a model without constraints: one unit's functions, or the
-  /// parts of a split one; published once (jit_ready_), never changed after.
+  /// The generated right-hand side: one unit's functions, or the parts of a split one; with ideal
+  /// constraints the plan at zero multipliers (rhs) and the constraint solver's steps 2-4 and
+  /// factor (constrained). Published once (jit_ready_), never changed after.
   struct JitCode {
     GeneratedRhs rhs = nullptr, fast = nullptr;
     std::vector<GeneratedRhs> parts;
+    bool has_constrained = false;
+    ConstraintSolver::Generated constrained;
     std::vector<std::shared_ptr<void>> libraries;  ///< keep the shared objects loaded
   };
   std::vector<double> jit_values_;  ///< the numbers the generated code reads (GenerateUnits)
@@ -568,6 +568,7 @@ class CompiledModel {
   std::string pending_engine_;       ///< rhs_engine() while compiling in the background
   mutable std::atomic<bool> jit_cancel_{false};
   std::vector<std::string> jit_units_;   ///< the texts being compiled in the background
+  bool jit_light_ = false;               ///< they are compiled at -O1 (JitControl::light)
   mutable std::string jit_handed_over_;  ///< HandOverCompile's note, written before the cancel
   std::thread jit_thread_;
   mutable std::mutex jit_mutex_;

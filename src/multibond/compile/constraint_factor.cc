@@ -101,13 +101,13 @@ double ConstraintFactor::WEntry(const WPair& pr, const double* b, const double* 
   return sum;
 }
 
-bool ConstraintFactor::Factor(ConstraintScratch& s) const {
+bool ConstraintFactor::Factor(ConstraintScratch& s, GeneratedFactor generated) const {
   // The constraints found independent at t = 0 (redundant ones get zero effort): W restricted to
   // them is positive definite, and L D L^T solves it without pivoting, in the sparse pattern fixed
   // at compile time (FindIndependent). A configuration where they stop being independent (a
   // pivot below 1e-10 of W's diagonal entry: the square of the 1e-5 that Cholesky's diagonal
   // would be checked against) falls back to the pivoted solve.
-  if (generated_factor_) return generated_factor_(s.b.data(), s.v.data(), s.factor.data()) != 0;
+  if (generated) return generated(s.b.data(), s.v.data(), s.factor.data()) != 0;
   const IndependentFactor& f = pattern_;
   const int n = f.size(), ne = f.entries();
   const double* b = s.b.data();
@@ -145,9 +145,9 @@ bool ConstraintFactor::Factor(ConstraintScratch& s) const {
   return true;
 }
 
-void ConstraintFactor::Solve(const double* rhs, double* out, ConstraintScratch& s) const {
-  if (generated_solve_) {
-    generated_solve_(rhs, out, s.factor.data(), s.y.data());
+void ConstraintFactor::Solve(const double* rhs, double* out, ConstraintScratch& s, GeneratedSolve generated) const {
+  if (generated) {
+    generated(rhs, out, s.factor.data(), s.y.data());
     return;
   }
   // L D L^T y = rhs (in the factor's order), then back to the multipliers.

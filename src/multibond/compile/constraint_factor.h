@@ -82,13 +82,17 @@ class ConstraintFactor {
   int factor_entries() const { return pattern_.entries(); }
   int factor_values() const { return pattern_.values(); }
 
+  /// Factor and Solve as generated code (GenerateSource; null: interpreted), passed per call: the
+  /// same operations on the same arrays, so that either may follow the other.
+  using GeneratedFactor = int (*)(const double*, const double*, double*);
+  using GeneratedSolve = void (*)(const double*, double*, double*, double*);
   /// L D L^T of W on the independent set, from s.b and s.v into s.factor, in the fixed pattern;
   /// false when W is not positive definite there (or the set nearly dependent: a pivot below
   /// 1e-10 of W's diagonal entry), for the pivoted fallback.
-  bool Factor(ConstraintScratch& s) const;
+  bool Factor(ConstraintScratch& s, GeneratedFactor generated = nullptr) const;
   /// out (m, zero off the independent set) from the factor in s and rhs (m; read on the
   /// independent set).
-  void Solve(const double* rhs, double* out, ConstraintScratch& s) const;
+  void Solve(const double* rhs, double* out, ConstraintScratch& s, GeneratedSolve generated = nullptr) const;
   /// W (m x m, dense) from s.b and s.v into s.w.
   void FormFull(ConstraintScratch& s) const;
   /// W lambda = s.rhs by a Jacobi-scaled, pivoted L D L^T of s.w (overwritten): pivots below a
@@ -105,13 +109,6 @@ class ConstraintFactor {
   /// success, and `multibond_ldlt_solve(rhs, lambda, factor, y)`): the same operations in the
   /// same order, every index a literal.
   std::string GenerateSource(const std::string& model_name) const;
-  /// Factor and Solve as generated code (null: interpreted).
-  using GeneratedFactor = int (*)(const double*, const double*, double*);
-  using GeneratedSolve = void (*)(const double*, double*, double*, double*);
-  void UseGenerated(GeneratedFactor factor, GeneratedSolve solve) {
-    generated_factor_ = factor;
-    generated_solve_ = solve;
-  }
 
  private:
   struct WPair {
@@ -169,8 +166,6 @@ class ConstraintFactor {
     int entries() const { return static_cast<int>(cols.size()); }
     int values() const { return size() + 2 * entries(); }  ///< length of ConstraintScratch::factor
   } pattern_;
-  GeneratedFactor generated_factor_ = nullptr;
-  GeneratedSolve generated_solve_ = nullptr;
 };
 
 }  // namespace multibond

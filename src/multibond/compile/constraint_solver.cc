@@ -504,11 +504,6 @@ void ConstraintSolver::SizeScratch(Workspace& ws, int num_slots, int num_moduli,
   ws.con.any_fixed = false;
 }
 
-void ConstraintSolver::UseGenerated(Generated generated) {
-  generated_ = std::move(generated);
-  factor_.UseGenerated(generated_.factor, generated_.solve);
-}
-
 void ConstraintSolver::ConstraintValues(double t, const double* w, double* out) const {
   for (const Group& cg : groups_)
     for (int k = 0; k < cg.size; ++k) {
@@ -524,8 +519,8 @@ void ConstraintSolver::Tangent(const PlanView& view, double t, const double* x, 
   double* tmp = ws.con.lin.data();  // scratch for second terms; restored to zero below
   const double* mod = ws.moduli.data();
   const double* dmod = ws.con.dmoduli.data();  // the model's step 1 made dM/dt
-  if (generated_.tangent) {
-    generated_.tangent(t, x, xdot, w, d, mod, dmod, view.sources);
+  if (view.generated) {
+    view.generated->tangent(t, x, xdot, w, d, mod, dmod, view.sources);
     return;
   }
   const plan::TangentArgs args{t, x, xdot, w, d, tmp, mod, dmod, ws.lambda.data(), view.tables, view.moduli.data()};
@@ -578,8 +573,8 @@ void ConstraintSolver::AssembleConstraintMatrix(const PlanView& view, double t, 
     for (const auto& [offset, size] : negated_v_)
       for (int r = 0; r < size; ++r) ws.con.v[offset + r] = -ws.con.v[offset + r];
   };
-  if (generated_.columns) {
-    generated_.columns(t, x, ws.con.lin.data(), ws.moduli.data(), ws.con.b.data(), ws.con.v.data(), ws.slots.data(),
+  if (view.generated) {
+    view.generated->columns(t, x, ws.con.lin.data(), ws.moduli.data(), ws.con.b.data(), ws.con.v.data(), ws.slots.data(),
                        ws.con.zero_x.data(), view.sources);
     negate();
     return;
@@ -623,13 +618,13 @@ void ConstraintSolver::SolveAt(const PlanView& view, double t, const double* x, 
     return;
   }
   if (ws.con.factored && t == ws.con.factored_t && std::equal(x, x + n, ws.con.factored_at.begin())) {
-    factor_.Solve(ws.con.rhs.data(), ws.lambda.data(), ws.con);
+    factor_.Solve(ws.con.rhs.data(), ws.lambda.data(), ws.con, view.generated ? view.generated->solve : nullptr);
     return;
   }
   AssembleConstraintMatrix(view, t, x, ws);
-  ws.con.factored = factor_.factor_size() > 0 && factor_.Factor(ws.con);
+  ws.con.factored = factor_.factor_size() > 0 && factor_.Factor(ws.con, view.generated ? view.generated->factor : nullptr);
   if (ws.con.factored) {
-    factor_.Solve(ws.con.rhs.data(), ws.lambda.data(), ws.con);
+    factor_.Solve(ws.con.rhs.data(), ws.lambda.data(), ws.con, view.generated ? view.generated->solve : nullptr);
     std::copy(x, x + n, ws.con.factored_at.begin());
     ws.con.factored_t = t;
     return;
@@ -683,8 +678,8 @@ void ConstraintSolver::Solve(const PlanView& view, double t, const double* x, do
   // Step 4: only what the multipliers reach changes (Build, reaction_plan_).
   double* w = ws.slots.data();
   const double* mod = ws.moduli.data();
-  if (generated_.react) {
-    generated_.react(t, x, xdot, w, mod, ws.lambda.data(), view.sources);
+  if (view.generated) {
+    view.generated->react(t, x, xdot, w, mod, ws.lambda.data(), view.sources);
     return;
   }
   for (int k : reaction_plan_)

@@ -96,6 +96,24 @@ class ConstraintSolver {
     int num_states;
   };
 
+  /// The generated code of steps 2-4 and of the factor (compiled and owned by the model, which
+  /// passes it per call in PlanView::generated; null: interpreted).
+  /// tangent: (t, x, xdot, slots, dslots, moduli, dmoduli, sources);
+  /// react: (t, x, xdot, slots, moduli, lambda, sources); columns: (t, x, lin, moduli, b, v,
+  /// slots, a zero state, sources).
+  using GeneratedTangent = void (*)(double, const double*, const double*, const double*, double*, const double*,
+                                    const double*, const void*);
+  using GeneratedReact = void (*)(double, const double*, double*, double*, const double*, const double*, const void*);
+  using GeneratedColumns = void (*)(double, const double*, double*, const double*, double*, double*, const double*, const double*,
+                                    const void*);
+  struct Generated {
+    GeneratedTangent tangent = nullptr;
+    GeneratedReact react = nullptr;
+    GeneratedColumns columns = nullptr;
+    ConstraintFactor::GeneratedFactor factor = nullptr;
+    ConstraintFactor::GeneratedSolve solve = nullptr;
+  };
+
   /// What the run-time methods read of the compiled model (made per call: references only).
   struct PlanView {
     const std::vector<plan::Instr>& plan;
@@ -106,6 +124,7 @@ class ConstraintSolver {
     void (*gather)(const StateGather& gt, const double* x, const double* w, double* xdot);
     const void* sources;  ///< the source functions as the generated code calls them
     int num_states;
+    const Generated* generated = nullptr;  ///< steps 2-4 and the factor as generated code, or null
   };
 
   // --- declared before the plan ---
@@ -132,24 +151,6 @@ class ConstraintSolver {
   void FindIndependent(const PlanView& view, const double* x, Workspace& ws);
   /// Sizes Workspace::lambda and Workspace::con (MakeWorkspace).
   void SizeScratch(Workspace& ws, int num_slots, int num_moduli, int num_states) const;
-  /// The generated code of steps 2-4 (null: interpreted), and the library that holds it.
-  /// tangent: (t, x, xdot, slots, dslots, moduli, dmoduli, sources);
-  /// react: (t, x, xdot, slots, moduli, lambda, sources); columns: (t, x, lin, moduli, b, v,
-  /// slots, a zero state, sources).
-  using GeneratedTangent = void (*)(double, const double*, const double*, const double*, double*, const double*,
-                                    const double*, const void*);
-  using GeneratedReact = void (*)(double, const double*, double*, double*, const double*, const double*, const void*);
-  using GeneratedColumns = void (*)(double, const double*, double*, const double*, double*, double*, const double*, const double*,
-                                    const void*);
-  struct Generated {
-    GeneratedTangent tangent = nullptr;
-    GeneratedReact react = nullptr;
-    GeneratedColumns columns = nullptr;
-    ConstraintFactor::GeneratedFactor factor = nullptr;
-    ConstraintFactor::GeneratedSolve solve = nullptr;
-    std::shared_ptr<void> library;  ///< keeps the shared object loaded
-  };
-  void UseGenerated(Generated generated);
 
   // --- run time (no allocation) ---
   /// Steps 2-4, after the model's step 1: ws holds the plan at (t, x) with lambda = 0, xdot its
@@ -246,7 +247,6 @@ class ConstraintSolver {
   /// the rows of compliances whose bond points away from them.
   std::vector<std::pair<int, int>> negated_v_;
   ConstraintFactor factor_;            ///< B's sparsity, W and its solves
-  Generated generated_;
   /// Formulas in the tangent plan or a closure (differentiated by forward mode); all of them
   /// kExpr, which generated code can call back for (a law used backwards, kSolve, cannot).
   bool formulas_ = false;

@@ -140,7 +140,10 @@ void CompiledModel::PrepareConstraintGraph() {
 }
 
 ConstraintSolver::PlanView CompiledModel::ConstraintPlan(const SourceTable* sources) const {
-  return {plan_, tables(), moduli_, layout_.gathers(), &CompiledModel::EvalGather, sources, num_states()};
+  // The generated steps once the (background) compile has published them: the same bits.
+  const JitCode* g = jit_ready_.load(std::memory_order_acquire);
+  return {plan_, tables(), moduli_, layout_.gathers(), &CompiledModel::EvalGather, sources, num_states(),
+          g && g->has_constrained ? &g->constrained : nullptr};
 }
 
 void CompiledModel::BuildConstraints(const std::vector<std::vector<int>>& plan_reads, const std::vector<int>& plan_writes) {

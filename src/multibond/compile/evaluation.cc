@@ -185,12 +185,6 @@ void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace&
     for (const Gather& gt : layout_.gathers()) EvalGather(gt, x, w, xdot);
     return;
   }
-  if (generated_) {
-    const SourceTable sources = Sources();
-    reinterpret_cast<void (*)(double, const double*, double*, double*, const double*, const SourceTable*)>(generated_)(
-        t, x, xdot, w, mod, &sources);
-    return;
-  }
   if (const JitCode* g = jit_ready_.load(std::memory_order_acquire)) {
     RunGenerated(*g, /*fast=*/false, t, x, xdot, ws);
     return;
