@@ -8,6 +8,8 @@
 //   # absent: a text the output must not hold (repeatable)
 //   # jit: same   (optional) the run succeeds, and again with --jit on instead of --jit off: from
 //           generated code, with results.csv the same to the byte
+//   # within: S   (optional) the command ends within S seconds, not the 60 of a hang (a run that
+//           must not wait for its generated code to compile)
 // Whatever the case, the command must not crash (no signal), hang (60 s), end in an uncaught
 // exception, create /tmp/multibond_pwned (the files' attempts at a shell all touch it), or, when
 // it fails, leave results.csv or run.json behind. Inputs that cannot be kept
@@ -47,6 +49,7 @@ struct Case {
   int exit = -1;
   std::vector<std::string> expect, absent;
   bool jit_same = false;
+  double within = 60;
 };
 
 Case ReadCase(const fs::path& file) {
@@ -58,6 +61,7 @@ Case ReadCase(const fs::path& file) {
     else if (key == "expect") c.expect.push_back(value);
     else if (key == "absent") c.absent.push_back(value);
     else if (key == "jit") c.jit_same = value == "same";
+    else if (key == "within") c.within = std::stod(value);
   }
   return c;
 }
@@ -109,8 +113,9 @@ TEST_P(Hostile, IsAnsweredAsTheHeaderSays) {
       args.push_back(Replace(Replace(Replace(w, "{model}", file.string()), "{out}", folder.string()), "{dir}", tmp.path().string()));
     return args;
   };
-  const CliResult r = RunCli(make_args(c.args, out));
+  const CliResult r = RunCli(make_args(c.args, out), c.within);
   SCOPED_TRACE(c.hostile);
+  EXPECT_FALSE(r.timed_out) << "not ended within " << c.within << " s";
   ExpectContained(r, out);
   EXPECT_EQ(r.code, c.exit) << r.out;
   for (const std::string& e : c.expect) EXPECT_THAT(r.out, HasSubstr(e));
