@@ -1,6 +1,10 @@
 // multibond plot DIR: figures from a results folder, and a page that shows them.
 
+#include <sys/stat.h>
+
+#include <cerrno>
 #include <cstddef>
+#include <cstring>
 #include <iostream>
 #include <memory>
 
@@ -21,6 +25,14 @@ struct PlotArgs {
 };
 
 int Plot(const PlotArgs& a, const std::vector<std::string>& argv) {
+  // DIR is read first (its results), then written into (figures, the page): a folder that is not
+  // there is said as a read.
+  struct stat st {};
+  if (stat(a.dir.c_str(), &st) != 0)
+    throw CliExit{kExitIo, fmt::format("cannot read the results folder '{}': {}; nothing was written\n  hint: 'multibond run MODEL -o "
+                                       "{}' writes one", a.dir, std::strerror(errno), a.dir)};
+  if (!S_ISDIR(st.st_mode))
+    throw CliExit{kExitIo, fmt::format("cannot read the results folder '{}': it is not a folder; nothing was written", a.dir)};
   const OutputFolder folder(a.dir, CommandLine(argv), /*create=*/false);  // one command at a time
   ReportRemovedTemporaries(folder);
   PlotOptions po;

@@ -967,6 +967,22 @@ TEST_F(CliTest, SigtermWhileTheGeneratedCodeCompilesEndsTheCompilerAndExits143) 
   for (const auto& entry : fs::directory_iterator(cache)) EXPECT_EQ(entry.path().extension(), ".cc") << entry.path();
 }
 
+// plot reads its folder before it writes into it: a folder that is not there, or a file, is said as
+// a read (it said "cannot write into").
+TEST_F(CliTest, PlotOfAMissingFolderSaysItCannotReadIt) {
+  fs::create_directories(dir_);
+  const Result missing = Cli("plot " + (dir_ / "nowhere").string());
+  EXPECT_EQ(missing.code, 74) << missing.out;
+  EXPECT_THAT(missing.out, HasSubstr("error: cannot read the results folder '" + (dir_ / "nowhere").string() + "': No such file or directory"));
+  EXPECT_THAT(missing.out, HasSubstr("hint: 'multibond run MODEL -o"));
+  EXPECT_THAT(missing.out, Not(HasSubstr("cannot write")));
+  EXPECT_FALSE(fs::exists(dir_ / "nowhere"));
+  std::ofstream(dir_ / "a_file") << "x\n";
+  const Result file = Cli("plot " + (dir_ / "a_file").string());
+  EXPECT_EQ(file.code, 74) << file.out;
+  EXPECT_THAT(file.out, HasSubstr("cannot read the results folder '" + (dir_ / "a_file").string() + "': it is not a folder"));
+}
+
 // --jit auto: a run that ends before its background compile hands the compile over to
 // `multibond jit-finish`, which fills the cache; the next run of the model compiles nothing.
 // (The other tests run with MULTIBOND_JIT_KEEP=0, tests/CMakeLists.txt.) The stand-in compiler

@@ -65,7 +65,16 @@ void SettingsReader::ReadSimulation(const YAML::Node& n, SimulationDefaults& s, 
     }
   };
   if (s.rtol && *s.rtol > 0) check_together("rtol", [&] { CheckRelativeTolerance(*s.rtol); });
-  if (s.t_end && s.dt && *s.t_end > 0 && *s.dt > 0) check_together("dt", [&] { CheckOutputGrid(0.0, *s.t_end, *s.dt); });
+  bool span_ok = true;
+  if (s.t_end && *s.t_end > 0) {
+    try {
+      CheckEndTime(0.0, *s.t_end);
+    } catch (const std::invalid_argument& e) {
+      sink_.Error(Loc(n["t_end"]), "simulation.t_end", e.what());
+      span_ok = false;
+    }
+  }
+  if (span_ok && s.t_end && s.dt && *s.t_end > 0 && *s.dt > 0) check_together("dt", [&] { CheckOutputGrid(0.0, *s.t_end, *s.dt); });
   if (s.step && s.dt) check_together("step", [&] { CheckFixedStep(*s.step, *s.dt); });
   if (const YAML::Node c = n["coordinates"]) {
     if (!c.IsScalar() || (c.Scalar() != "joint" && c.Scalar() != "inertial"))

@@ -278,21 +278,6 @@ long NumOutputIntervals(const RunOptions& options) {
   return std::max(1L, static_cast<long>(std::ceil(ratio - 1e-9 * ratio)));
 }
 
-void CheckOutputGrid(double t_start, double t_end, double dt) {
-  if (!(std::isfinite(dt) && dt > 0.0))
-    throw std::invalid_argument(fmt::format("the output interval must be a finite number > 0 (got {})", dt));
-  if (!std::isfinite(t_start) || !std::isfinite(t_end) || !(t_end > t_start))
-    throw std::invalid_argument(fmt::format("the end time ({}) must be a finite time after the start time ({})", t_end, t_start));
-  // Beyond this many rows the grid is a mistake (a billion 8-byte numbers per column), and the
-  // count itself would overflow a long further on.
-  constexpr double kMaxOutputIntervals = 1e8;
-  const double ratio = (t_end - t_start) / dt;
-  if (!(ratio <= kMaxOutputIntervals))
-    throw std::invalid_argument(fmt::format("{:g} s of run at an output interval of {:g} s is {:.3g} output rows, more than {:g}; "
-                                            "use a larger output interval (--dt)", t_end - t_start, dt, ratio, kMaxOutputIntervals));
-  CheckResolvableStep(dt, t_start, t_end, "the output interval (dt)");
-}
-
 namespace {
 
 /// "3.2 hours", "12 days": how long a number of seconds is, for a person.
@@ -305,6 +290,34 @@ std::string HumanDuration(double seconds) {
 }
 
 }  // namespace
+
+void CheckEndTime(double t_start, double t_end) {
+  // Time is in seconds and a double's spacing grows with it: beyond 1e15 s (31.7 million years)
+  // no step below 0.125 s can be told from the next, and a run's states (a work, an angle) grow
+  // past what they can hold; the integrator then fails at t = 0 with nothing said of the span.
+  constexpr double kLatestTime = 1e15;
+  if (std::max(std::abs(t_start), std::abs(t_end)) > kLatestTime)
+    throw std::invalid_argument(fmt::format("a run to {:g} s goes beyond {:g} s ({}), where time in seconds resolves no step below "
+                                            "{:g} s; run a shorter span, or write the model in a slower time unit (scale its "
+                                            "parameters)", std::max(std::abs(t_start), std::abs(t_end)), kLatestTime,
+                                            HumanDuration(kLatestTime), std::nextafter(kLatestTime, HUGE_VAL) - kLatestTime));
+}
+
+void CheckOutputGrid(double t_start, double t_end, double dt) {
+  if (!(std::isfinite(dt) && dt > 0.0))
+    throw std::invalid_argument(fmt::format("the output interval must be a finite number > 0 (got {})", dt));
+  if (!std::isfinite(t_start) || !std::isfinite(t_end) || !(t_end > t_start))
+    throw std::invalid_argument(fmt::format("the end time ({}) must be a finite time after the start time ({})", t_end, t_start));
+  CheckEndTime(t_start, t_end);
+  // Beyond this many rows the grid is a mistake (a billion 8-byte numbers per column), and the
+  // count itself would overflow a long further on.
+  constexpr double kMaxOutputIntervals = 1e8;
+  const double ratio = (t_end - t_start) / dt;
+  if (!(ratio <= kMaxOutputIntervals))
+    throw std::invalid_argument(fmt::format("{:g} s of run at an output interval of {:g} s is {:.3g} output rows, more than {:g}; "
+                                            "use a larger output interval (--dt)", t_end - t_start, dt, ratio, kMaxOutputIntervals));
+  CheckResolvableStep(dt, t_start, t_end, "the output interval (dt)");
+}
 
 void CheckResolvableStep(double h, double t_start, double t_end, const char* what) {
   const double t = std::max(std::abs(t_start), std::abs(t_end));

@@ -212,6 +212,9 @@ long NumOutputIntervals(const RunOptions& options);
 /// the output grid (a finite end after the start, a positive interval, at most 1e8 rows) and a
 /// fixed step no longer than the output interval (0: none). Throw std::invalid_argument.
 void CheckOutputGrid(double t_start, double t_end, double dt);
+/// Throws std::invalid_argument for a run that reaches beyond 1e15 s (time in seconds then
+/// resolves no step below 0.125 s). CheckOutputGrid calls it.
+void CheckEndTime(double t_start, double t_end);
 void CheckFixedStep(double fixed_step, double dt);
 /// A step or interval `h` that time near `t` can resolve: a normal number (no denormal) of at least
 /// 64 roundings of t. Throws std::invalid_argument naming `what` ("the output interval (--dt)").
