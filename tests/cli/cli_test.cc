@@ -967,6 +967,45 @@ TEST_F(CliTest, SigtermWhileTheGeneratedCodeCompilesEndsTheCompilerAndExits143) 
   for (const auto& entry : fs::directory_iterator(cache)) EXPECT_EQ(entry.path().extension(), ".cc") << entry.path();
 }
 
+// A stop asked for while a large model file loads ends the command at once (#44: SIGTERM waited for
+// the end of the load, 45 s and more): the parser checks the flag as it goes, and the check of
+// duplicate keys walks a collection once however many aliases name it (a billion laughs took 78 s).
+TEST_F(CliTest, AStopIsHonouredWhileALargeModelLoads) {
+  fs::create_directories(dir_);
+  const fs::path big = dir_ / "big.yaml";
+  {
+    std::ofstream f(big);
+    f << "model: big\nelements:\n  m: {type: I, inertia: 1.0}\n  f: {type: Se, effort: 1.0}\nbonds: [f -> m]\nnotes:\n";
+    for (int i = 0; i < 1500000; ++i) f << "  - [1, 2, 3, 4]\n";  // 7.5 million nodes, 24 MB
+  }
+  const std::string cmd = std::string(MULTIBOND_CLI) + " check " + big.string() +
+                          " --limit file-size=64M --limit yaml-nodes=20M > /dev/null 2>&1 & pid=$!; sleep 0.5; kill -TERM $pid; "
+                          "start=$(date +%s%N); wait $pid; code=$?; end=$(date +%s%N); echo $code $(( (end - start) / 1000000 ))";
+  const Result r = Shell(cmd);
+  int code = -1, ms = -1;
+  ASSERT_EQ(std::sscanf(r.out.c_str(), "%d %d", &code, &ms), 2) << r.out;
+  EXPECT_EQ(code, 143) << "the load was not stopped by SIGTERM (or ended before it)";
+  EXPECT_LT(ms, 5000) << "the load went on " << ms << " ms after SIGTERM";
+  // A billion laughs under a raised node limit: checked as fast as its text is read.
+  const fs::path laughs = dir_ / "laughs.yaml";
+  {
+    std::ofstream f(laughs);
+    f << "model: laughs\na0: &a0 [x, x, x, x, x, x, x, x, x, x]\n";
+    for (int i = 1; i < 8; ++i) {
+      f << "a" << i << ": &a" << i << " [";
+      for (int k = 0; k < 10; ++k) f << (k ? ", " : "") << "*a" << i - 1;
+      f << "]\n";
+    }
+    f << "elements:\n  m: {type: I, inertia: 1.0}\nbonds: []\n";
+  }
+  const std::string timed = "start=$(date +%s%N); " + std::string(MULTIBOND_CLI) + " check " + laughs.string() +
+                            " --limit yaml-nodes=2G > /dev/null 2>&1; code=$?; end=$(date +%s%N); echo $code $(( (end - start) / 1000000 ))";
+  const Result l = Shell(timed);
+  ASSERT_EQ(std::sscanf(l.out.c_str(), "%d %d", &code, &ms), 2) << l.out;
+  EXPECT_EQ(code, 1);  // its unknown keys
+  EXPECT_LT(ms, 5000) << "the aliases were walked one by one";
+}
+
 // plot reads its folder before it writes into it: a folder that is not there, or a file, is said as
 // a read (it said "cannot write into").
 TEST_F(CliTest, PlotOfAMissingFolderSaysItCannotReadIt) {

@@ -11,6 +11,7 @@
 #include <yaml-cpp/node/detail/node.h>
 #include <yaml-cpp/yaml.h>
 
+#include "multibond/core/interrupt.h"
 #include "multibond/io/diagnostic_codes.h"
 
 namespace multibond {
@@ -163,6 +164,9 @@ class BoundsHandler : public YAML::EventHandler {
   }
 
   void Count(const YAML::Mark& mark, std::uint64_t n) {
+    // A large file takes seconds to parse: a stop asked for meanwhile ends it (Interrupted goes
+    // through the parser as Stop does).
+    if ((++events_ & 4095) == 0) ThrowIfStopRequested("loading the model");
     nodes_ += n;
     if (nodes_ <= limits_.yaml_nodes) return;
     Diagnostic d;
@@ -229,6 +233,7 @@ class BoundsHandler : public YAML::EventHandler {
   std::vector<Frame> open_;
   std::string pending_name_;
   std::uint64_t nodes_ = 0;
+  std::uint64_t events_ = 0;  ///< events seen (for the stop check)
   std::uint64_t written_ = 0;  ///< nodes written in the file (aliases not counted)
   std::uint64_t max_written_;
   YAML::detail::shared_memory_holder memory_;  ///< the nodes of the document's tree; null: check only

@@ -13,6 +13,7 @@
 
 #include <fmt/format.h>
 
+#include "multibond/core/interrupt.h"
 #include "multibond/core/regular_file.h"
 #include "multibond/core/utf8.h"
 #include "multibond/io/diagnostic_codes.h"
@@ -201,6 +202,11 @@ void YamlDocument::CheckDuplicateKeys(const YAML::Node& node, const std::string&
   // Only lists and mappings are walked into, and a place's path is formatted only for them (or
   // for a diagnostic): a large model has hundreds of thousands of scalars.
   auto collection = [](const YAML::Node& n) { return n.IsSequence() || n.IsMap(); };
+  if (collection(node)) {
+    if ((++visits_ & 1023) == 0) ThrowIfStopRequested("loading the model");
+    const YAML::Mark m = node.Mark();
+    if (m.pos >= 0 && !walked_.insert(2 * static_cast<std::int64_t>(m.pos) + (element_names ? 1 : 0)).second) return;  // an alias of one checked
+  }
   if (node.IsSequence()) {
     size_t i = 0;
     for (const auto& item : node) {

@@ -6,7 +6,9 @@
 /// document, a mapping, without duplicate or merge keys; a syntax error is explained where its
 /// cause can be told from the text.
 
+#include <cstdint>
 #include <string>
+#include <unordered_set>
 
 #include "multibond/io/yaml_values.h"
 
@@ -29,10 +31,14 @@ class YamlDocument : public ValueReader {
   Diagnostic ExplainSyntaxError(const YAML::Exception& e) const;
   /// Whether the '{' or '[' at text_[i] opens a flow collection.
   bool OpensFlow(size_t i) const;
-  /// Reports every key given twice in one mapping, and every merge key, below `node`.
+  /// Reports every key given twice in one mapping, and every merge key, below `node`. Each
+  /// collection of the text is walked once, however many aliases name it (a billion laughs is
+  /// then as long to check as its text), and a stop asked for ends the walk (Interrupted).
   void CheckDuplicateKeys(const YAML::Node& node, const std::string& path, bool element_names = false);
 
   const std::string& text_ = cx_.text;
+  std::unordered_set<std::int64_t> walked_;  ///< collections checked: 2 x their offset in the text (+1 under elements)
+  std::uint64_t visits_ = 0;
 };
 
 }  // namespace multibond
