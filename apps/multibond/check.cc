@@ -10,6 +10,7 @@
 
 #include "cli.h"
 #include "multibond/causality/repair.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/io/atomic_file.h"
 #include "multibond/io/model_repair.h"
 #include "multibond/sim/simulator.h"
@@ -202,13 +203,13 @@ int Check(const CheckArgs& a) {
   // storage exactly. Any other causality problem is still an error.
   bool only_derivative = !c.derivative.empty();
   for (const auto& d : c.diagnostics)
-    if (d.severity == Diagnostic::Severity::kError && d.code != "causality.derivative") only_derivative = false;
+    if (d.severity == Diagnostic::Severity::kError && d.code != codes::kCausalityDerivative) only_derivative = false;
   const bool accepted = lm.compile.ideal_constraints && only_derivative;
   std::string solved;  // said once the model has compiled: it may still refuse them (constraint.unsupported)
   if (accepted) {
     std::vector<Diagnostic> rest;
     for (const auto& d : c.diagnostics)
-      if (d.code != "causality.derivative") rest.push_back(d);
+      if (d.code != codes::kCausalityDerivative) rest.push_back(d);
     PrintDiagnostics(rest);
     std::string names;
     for (int e : c.derivative) names += (names.empty() ? "" : ", ") + Describe(g, e);

@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 
 namespace multibond::sweep {
 namespace {

@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/io/output_folder.h"
 #include "multibond/io/yaml_document.h"
 #include "multibond/sweep/samples.h"

@@ -1,4 +1,5 @@
 #include "multibond/causality/causality.h"
+#include "multibond/core/diagnostic_codes.h"
 
 #include <algorithm>
 #include <deque>
@@ -55,7 +56,7 @@ class Scap {
       const Bond& bond = g_.bond(b);
       Diagnostic d;
       d.severity = Diagnostic::Severity::kWarning;
-      d.code = "causality.arbitrary";
+      d.code = codes::kCausalityArbitrary;
       d.where = bond.where;
       d.element = bond.name;
       d.message = "causality of this bond is not fixed by any source, storage or resistor; chosen arbitrarily";
@@ -139,7 +140,7 @@ class Scap {
       Diagnostic d;
       d.where = e.where;
       d.element = e.name;
-      d.code = "causality.undetermined";
+      d.code = codes::kCausalityUndetermined;
       d.message = fmt::format("causal conflict: no bond of {} determines its common {}", Describe(g_, j),
                               e.kind == ElementKind::kZero ? "effort" : "flow");
       for (int b : e.bonds) d.details.push_back("path: " + FormatPath(g_, r_.PathTo(b)));
@@ -166,7 +167,7 @@ class Scap {
         Diagnostic d;
         d.where = e.where;
         d.element = e.name;
-        d.code = "causality.conflict";
+        d.code = codes::kCausalityConflict;
         d.message = fmt::format("causal conflict at {}: both ports are given the {}", Describe(g_, i), a ? "effort" : "flow");
         d.details.push_back("port 1: " + FormatPath(g_, r_.PathTo(in)));
         d.details.push_back("port 2: " + FormatPath(g_, r_.PathTo(out)));
@@ -187,7 +188,7 @@ class Scap {
     Diagnostic d;
     d.where = g_.element(why.element).where;
     d.element = g_.element(why.element).name;
-    d.code = "causality.conflict";
+    d.code = codes::kCausalityConflict;
     d.message = fmt::format("causal conflict: {} and {} both impose the {} on {}", Describe(g_, why.element),
                             Describe(g_, other.front()), var, Describe(g_, g_.Other(b, why.element)));
     d.details.push_back("already imposed by: " + FormatPath(g_, other));
@@ -200,7 +201,7 @@ class Scap {
     Diagnostic d;
     d.where = e.where;
     d.element = e.name;
-    d.code = "causality.conflict";
+    d.code = codes::kCausalityConflict;
     d.message = fmt::format("causal conflict at {}: {} bonds impose its common {}", Describe(g_, j), strong.size(), zero ? "effort" : "flow");
     for (int b : strong) d.details.push_back("path: " + FormatPath(g_, r_.PathTo(b)));
     d.hint = zero ? "two effort sources (or an effort source and a C) on one 0-junction: put an R or a C between them"
@@ -221,7 +222,7 @@ class Scap {
     Diagnostic d;
     d.where = e.where;
     d.element = e.name;
-    d.code = "causality.derivative";
+    d.code = codes::kCausalityDerivative;
     const char* var = e.kind == ElementKind::kI ? "flow" : "effort";
     if (via >= 0)
       d.message = fmt::format("derivative causality at {}: its {} is fixed by {} from {}", Describe(g_, i), var,

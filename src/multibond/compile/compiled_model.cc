@@ -11,6 +11,7 @@
 #include <chrono>
 
 #include "multibond/compile/jit.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/core/interrupt.h"
 
 namespace multibond {
@@ -50,7 +51,7 @@ void CompiledModel::Build() {
   needed_moduli_ = plan::Specialize(plan_, coef_, sum_terms_, sum_signs_, moduli_);
   if (!tears_.empty() && !constraints_.empty()) {
     Diagnostic d;
-    d.code = "causality.algebraic_loop";
+    d.code = codes::kCausalityAlgebraicLoop;
     d.where = graph_.element(algebraic_loops_.front().element).where;
     d.element = graph_.element(algebraic_loops_.front().element).name;
     d.message = "algebraic loops are not solved in a model with ideal constraints (yet)";

@@ -24,6 +24,7 @@
 
 #include "multibond/compile/compiled_model.h"
 #include "multibond/compile/exact_sum.h"
+#include "multibond/core/diagnostic_codes.h"
 
 namespace multibond {
 
@@ -92,7 +93,7 @@ void ConstraintSolver::Build(const BuildInput& in) {
       if (e.compliance.size() != 1 && e.compliance.size() != cg.size)
         throw ModelError(Diagnostic{Diagnostic::Severity::kError, e.where, e.name,
                                     fmt::format("the constraint has {} components but {} compliances", cg.size, e.compliance.size()),
-                                    "give one compliance, or one per component", {}, "param.shape"});
+                                    "give one compliance, or one per component", {}, codes::kParamShape});
       for (int k = 0; k < cg.size; ++k) compliance.push_back(e.compliance[e.compliance.size() == 1 ? 0 : k]);
     }
   // The storage gathers and the instruction that computes each one's co-energy variable from its
@@ -195,7 +196,7 @@ void ConstraintSolver::Build(const BuildInput& in) {
                           "effort; 'constraints: compliant' shows the causal path", e.name);
     const char* own = cg.imposes_flow ? "flow" : "effort";
     auto refuse = [&](const std::string& what) {
-      throw ModelError(Diagnostic{Diagnostic::Severity::kError, e.where, e.name, what, hint, {}, "constraint.unsupported"});
+      throw ModelError(Diagnostic{Diagnostic::Severity::kError, e.where, e.name, what, hint, {}, codes::kConstraintUnsupported});
     };
     std::sort(reached.begin(), reached.end());
     for (int c : reached) {
@@ -351,7 +352,7 @@ void ConstraintSolver::CheckFormulas(const BuildInput& in, const std::vector<cha
     const Instr& f = plan[k];
     const std::string& written = in.class_names[in.plan_writes[k]];
     Diagnostic d;
-    d.code = "expr.unsupported";
+    d.code = codes::kExprUnsupported;
     std::string who = written;
     if (f.element >= 0) {
       d.where = g.element(f.element).where;

@@ -23,6 +23,7 @@
 
 #include "multibond/causality/repair.h"
 #include "multibond/compile/compiled_model.h"
+#include "multibond/core/diagnostic_codes.h"
 
 namespace multibond {
 
@@ -100,7 +101,7 @@ void CompiledModel::PrepareConstraintGraph() {
     // which would send the reader back here, is no help).
     bool only_derivative = true;  // conflicts are reported as they are: no option resolves them
     for (const Diagnostic& dg : causality_.diagnostics)
-      only_derivative &= dg.severity != Diagnostic::Severity::kError || dg.code == "causality.derivative";
+      only_derivative &= dg.severity != Diagnostic::Severity::kError || dg.code == codes::kCausalityDerivative;
     if (!causality_.derivative.empty() && !options_.ideal_constraints && only_derivative) {
       CompileOptions ideal = options_;
       ideal.ideal_constraints = true;
@@ -112,7 +113,7 @@ void CompiledModel::PrepareConstraintGraph() {
         refused = e.diagnostics().empty() ? "it is refused" : e.diagnostics().front().message;
       }
       for (Diagnostic& dg : causality_.diagnostics)
-        if (dg.code == "causality.derivative") {
+        if (dg.code == codes::kCausalityDerivative) {
           const int el = g.Find(dg.element);
           const bool compliance = el >= 0 && g.element(el).kind == ElementKind::kC;
           if (refused.empty())

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/code_text.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/core/error.h"
 
 namespace multibond::expr {
@@ -75,7 +76,7 @@ class Compiler {
       Diagnostic d;
       d.message = fmt::format("the formula '{}' needs more than {} intermediate values at once", Format(root_), kMaxRegs);
       d.hint = "split it into parameters, or sum its terms from the left";
-      d.code = "expr.too_large";
+      d.code = codes::kExprTooLarge;
       throw ModelError(std::move(d));
     }
     busy_.push_back(true);

@@ -16,6 +16,7 @@
 #include "multibond/compile/formula_trees.h"
 #include "multibond/compile/multiport_energy.h"
 #include "multibond/compile/symbolic.h"
+#include "multibond/core/diagnostic_codes.h"
 
 namespace multibond {
 namespace {
@@ -127,7 +128,7 @@ expr::Program CompiledModel::CompileFormulaProgram(const NodePtr& root, const Fo
     };
     if (const auto v = FindVariable(name)) {
       if (v->size == 1) return read(*v, 0);
-      fail(n, "expr.unknown_variable", fmt::format("'{}' has {} components; a formula reads one", name, v->size),
+      fail(n, codes::kExprUnknownVariable, fmt::format("'{}' has {} components; a formula reads one", name, v->size),
            fmt::format("name a component: {}.{}", name, v->components.empty() ? "1" : v->components.front()));
     }
     if (const auto dot = name.rfind('.'); dot != std::string::npos) {
@@ -137,11 +138,11 @@ expr::Program CompiledModel::CompileFormulaProgram(const NodePtr& root, const Fo
           if (v->components[k] == comp) return read(*v, k);
         std::string list;
         for (const std::string& c : v->components) list += (list.empty() ? "" : ", ") + c;
-        fail(n, "expr.unknown_variable", fmt::format("'{}' has no component '{}'", name.substr(0, dot), comp),
+        fail(n, codes::kExprUnknownVariable, fmt::format("'{}' has no component '{}'", name.substr(0, dot), comp),
              list.empty() ? "it is a scalar: leave the component out" : "its components are " + list);
       }
     }
-    fail(n, "expr.unknown_variable", fmt::format("unknown name '{}' in {}", name, scope.what),
+    fail(n, codes::kExprUnknownVariable, fmt::format("unknown name '{}' in {}", name, scope.what),
          "a formula reads parameters, signals, t, pi and model variables such as spring.q, j.f or gear.e2 "
          "(`multibond check` lists them); in a law, the element's own variable is q (C), p (I), f or e (R)");
     return {};
@@ -252,7 +253,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
   auto scalar_only = [&](int b, const Formula& f) {
     if (dim[b] == 1) return;
     Diagnostic d;
-    d.code = "expr.vector_law";
+    d.code = codes::kExprVectorLaw;
     d.where = f.where;
     d.element = e.name;
     d.message = fmt::format("a law given by a formula needs a scalar bond; this one has {} components", dim[b]);
@@ -277,7 +278,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
         const TimeFunction& tf = e.source.components[e.source.components.size() == 1 ? 0 : at];
         if (tf.kind != TimeFunction::Kind::kConstant) {
           Diagnostic d;
-          d.code = "expr.unsupported";
+          d.code = codes::kExprUnsupported;
           d.where = e.where;
           d.element = e.name;
           d.message = "a source mixes formulas with a step, ramp, sine or table in one list";
@@ -318,7 +319,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
         // depend on.
         if (!expr::DependsOn(*root, own)) {
           Diagnostic d;
-          d.code = "law.energy";
+          d.code = codes::kLawEnergy;
           d.where = e.energy.where;
           d.element = e.name;
           d.message = fmt::format("the stored energy '{}' is not a function of {}", e.energy.text, own);
@@ -474,7 +475,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
     }
     default: {
       Diagnostic d;
-      d.code = "expr.unsupported";
+      d.code = codes::kExprUnsupported;
       d.where = e.where;
       d.element = e.name;
       d.message = fmt::format("a {} cannot be given by a formula", KindName(e.kind));

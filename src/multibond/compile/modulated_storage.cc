@@ -25,6 +25,7 @@
 #include "multibond/compile/compiled_model.h"
 #include "multibond/compile/formula_trees.h"
 #include "multibond/compile/symbolic.h"
+#include "multibond/core/diagnostic_codes.h"
 
 namespace multibond {
 namespace {
@@ -234,7 +235,7 @@ void CompiledModel::AnalyzeModulatedStorage() {
     const FormulaScope scope{&given, i, "the stored energy of " + e.name};
     auto refuse = [&](SourceLocation where, std::string message, std::string hint) {
       Diagnostic d;
-      d.code = "law.energy";
+      d.code = codes::kLawEnergy;
       d.where = std::move(where);
       d.element = e.name;
       d.message = std::move(message);

@@ -6,6 +6,7 @@
 
 #include "multibond/compile/formula_trees.h"
 #include "multibond/compile/symbolic.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/core/error.h"
 
 namespace multibond {
@@ -13,7 +14,7 @@ namespace {
 
 [[noreturn]] void Refuse(const Element& e, std::string message, std::string hint, int column_offset = -1) {
   Diagnostic d;
-  d.code = "law.energy";
+  d.code = codes::kLawEnergy;
   d.where = e.energy.where;
   if (column_offset >= 0 && d.where.known()) d.where.column += column_offset;
   d.element = e.name;

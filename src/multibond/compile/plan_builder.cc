@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/core/union_find.h"
 
 namespace multibond {
@@ -157,7 +158,7 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
                                   fmt::format("variable '{}' is computed twice (by {} and {})", class_names_[out_class],
                                               Describe(g, instrs[writer[out_class]].element), Describe(g, in.element)),
                                   "this is a causality conflict the analysis did not catch; please report it", {},
-                                  "internal.double_writer"});
+                                  codes::kInternalDoubleWriter});
     }
     in.dst = class_offset_[out_class];
     writer[out_class] = static_cast<int>(instrs.size());
@@ -282,7 +283,7 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
             throw ModelError(Diagnostic{Diagnostic::Severity::kError, e.where, e.name,
                                         "resistor in conductance causality (effort in, flow out) has a singular resistance",
                                         "give it a non-zero resistance, or change the structure so that its flow is imposed", {},
-                                        "param.singular"});
+                                        codes::kParamSingular});
           emit_linear(i, flow_class_[b], effort_class_[b], sigma, Eigen::MatrixXd(lu.inverse()),
                       e.param.is_scalar ? "1/" + e.name + ".R" : e.name + ".R^-1");
         }
@@ -456,7 +457,7 @@ CompiledModel::PlanDeps CompiledModel::OrderPlan(const Draft& draft) {
       else if (const int aux = g.FindAux(name.substr(0, name.find('.'))); aux >= 0) d.where = g.aux_states()[aux].where;
       d.element = name;
     }
-    d.code = "causality.algebraic_loop";
+    d.code = codes::kCausalityAlgebraicLoop;
     d.message = "algebraic loop: these variables depend on themselves with no storage element in between";
     d.details.push_back("loop: " + (first >= 0 ? FormatPath(g, elements) : "signals " + vars));
     d.details.push_back("variables: " + vars);

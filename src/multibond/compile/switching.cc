@@ -12,6 +12,7 @@
 
 #include "multibond/compile/compiled_model.h"
 #include "multibond/compile/constraint_factor.h"
+#include "multibond/core/diagnostic_codes.h"
 
 namespace multibond {
 
@@ -35,7 +36,7 @@ void SwitchTable::Build(const BuildInput& in) {
     if (sw.kind == Switching::Kind::kNone) continue;
     const SourceLocation where = sw.where.line > 0 ? sw.where : e.where;
     if (in.constraint_sizes[c] != 1) {
-      sink.Error("event.unsupported", where, e.name,
+      sink.Error(codes::kEventUnsupported, where, e.name,
                  fmt::format("a {} acts on one relative flow; this one has {} components",
                              sw.kind == Switching::Kind::kContact ? "contact" : "friction", in.constraint_sizes[c]),
                  "put it on a scalar bond: one contact or friction per direction");
@@ -44,7 +45,7 @@ void SwitchTable::Build(const BuildInput& in) {
     bool zero_target = e.value.empty();
     for (const TimeFunction& f : e.source.components) zero_target = zero_target && f.is_constant() && f.value == 0.0;
     if (!zero_target) {
-      sink.Error("event.unsupported", where, e.name, "a contact or friction holds a relative flow at zero: its flow must be 0",
+      sink.Error(codes::kEventUnsupported, where, e.name, "a contact or friction holds a relative flow at zero: its flow must be 0",
                  "a moving surface is a flow source of its own, joined to the body through a 0-junction (docs/events.md)");
       continue;
     }
@@ -62,13 +63,13 @@ void SwitchTable::Build(const BuildInput& in) {
     if (!sw.normal_signal.empty()) {
       en.normal_slot = in.signal_slot(sw.normal_signal);
       if (en.normal_slot < 0)
-        sink.Error("event.unknown_variable", where, e.name, fmt::format("'{}' is no signal of the model", sw.normal_signal),
+        sink.Error(codes::kEventUnknownVariable, where, e.name, fmt::format("'{}' is no signal of the model", sw.normal_signal),
                    "the normal force or capacity is a number, a time function or a signal's name");
     }
     if (sw.kind == Switching::Kind::kContact) {
       const auto gap = in.find_variable(sw.gap);
       if (!gap || gap->size != 1) {
-        sink.Error("event.unknown_variable", where, e.name, fmt::format("the contact's gap '{}' is no scalar variable of the model", sw.gap),
+        sink.Error(codes::kEventUnknownVariable, where, e.name, fmt::format("the contact's gap '{}' is no scalar variable of the model", sw.gap),
                    "name a state that measures the gap (an integral of the separation velocity), or a signal");
         continue;
       }
@@ -175,7 +176,7 @@ void CompiledModel::BuildSwitches() {
                                       fmt::format("the contact's gap '{}' grows with the flow its bond says is the approach: it would "
                                                   "close while separating", graph_.element(e.element).switching.gap),
                                       fmt::format("turn the contact's bond so that it points from '{}' to the junction", e.name), {},
-                                      "event.direction"});
+                                      codes::kEventDirection});
     }
   }
 }

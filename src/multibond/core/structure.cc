@@ -1,3 +1,4 @@
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/core/structure.h"
 
 #include "multibond/core/union_find.h"
@@ -68,7 +69,7 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
   ValueUnion<std::string> domains(nb);
 
   auto dim_conflict = [&](const Element& e, const std::string& what) {
-    sink.Error("structure.dimension", e.where, e.name, "bond dimension mismatch: " + what,
+    sink.Error(codes::kStructureDimension, e.where, e.name, "bond dimension mismatch: " + what,
                "check the sizes of the matrices and vectors given for the connected elements");
   };
 
@@ -80,7 +81,7 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
     const int n = static_cast<int>(e.bonds.size());
     // Ports.
     if (n == 0) {
-      sink.Error("structure.dangling", e.where, e.name, fmt::format("dangling element: {} '{}' has no bond", KindName(e.kind), e.name),
+      sink.Error(codes::kStructureDangling, e.where, e.name, fmt::format("dangling element: {} '{}' has no bond", KindName(e.kind), e.name),
                  "connect it with a bond, or remove it");
       continue;
     }
@@ -155,7 +156,7 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
     const int n = s.dim_of(g, i);
     const Eigen::MatrixXd* m = e.param.is_scalar ? nullptr : &e.param.matrix;
     const double v = e.param.scalar;
-    auto bad = [&](const std::string& what, const std::string& hint) { sink.Error("param.range", e.where, e.name, what, hint); };
+    auto bad = [&](const std::string& what, const std::string& hint) { sink.Error(codes::kParamRange, e.where, e.name, what, hint); };
     // An empty list or matrix (`inertia: []`, `ratio: [[]]`) reached the range checks below and
     // the compiler as a 0x0 matrix: Eigen asserts on it (minCoeff of no eigenvalues), LLT calls
     // it positive definite, and the plan read its missing entries (found by fuzzing).
@@ -230,7 +231,7 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
     // An integral's `initial` needs one entry per component; the compiler silently replaced a
     // list of another length by zeros (as the storage elements' check above does for p0/q0).
     if (a.kind == AuxState::Kind::kIntegral && a.initial.size() > 0 && a.initial.size() != n)
-      sink.Error("param.range", a.where, a.name, fmt::format("initial value has {} components, the flow of '{}' {}", a.initial.size(), a.of, n),
+      sink.Error(codes::kParamRange, a.where, a.name, fmt::format("initial value has {} components, the flow of '{}' {}", a.initial.size(), a.of, n),
                  "give one initial value per component");
   }
   return s;

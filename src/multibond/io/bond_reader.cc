@@ -5,7 +5,7 @@
 
 #include <fmt/format.h>
 
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/io/did_you_mean.h"
 
 namespace multibond {

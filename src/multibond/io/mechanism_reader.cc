@@ -12,7 +12,7 @@
 #include <fmt/format.h>
 
 #include "multibond/core/identifier.h"
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/io/did_you_mean.h"
 #include "multibond/mech/assembly.h"
 

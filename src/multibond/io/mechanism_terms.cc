@@ -2,7 +2,7 @@
 
 #include <fmt/format.h>
 
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/io/model_loader.h"
 
 namespace multibond {

@@ -16,7 +16,7 @@
 #include <fmt/format.h>
 
 #include "multibond/core/structure.h"
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/io/element_reader.h"
 #include "multibond/io/load_context.h"
 #include "multibond/io/mechanism_reader.h"

@@ -1,4 +1,4 @@
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/io/plot_figures.h"
 
 #include <fcntl.h>
@@ -327,7 +327,7 @@ bool IsFigureName(const std::string& name) {
 FigureList ParseFigureList(const std::string& text, const std::string& file, const InputLimits& limits) {
   DiagnosticSink sink;
   if (text.size() > limits.file_bytes) {
-    sink.Error("limit.file-size", {file, 0, 0}, "", fmt::format("the figure list has {} bytes, more than {}", text.size(), limits.file_bytes),
+    sink.Error(codes::kLimitFileSize, {file, 0, 0}, "", fmt::format("the figure list has {} bytes, more than {}", text.size(), limits.file_bytes),
                RaiseLimitHint("file-size", limits.file_bytes));
     sink.ThrowIfErrors();
   }
@@ -336,7 +336,7 @@ FigureList ParseFigureList(const std::string& text, const std::string& file, con
     const int line = 1 + static_cast<int>(std::count(before.begin(), before.end(), '\n'));
     const size_t nl = before.rfind('\n');
     const int column = 1 + static_cast<int>(nl == std::string::npos ? t.offset : t.offset - nl - 1);
-    sink.Error("text.encoding", {file, line, column}, "", fmt::format("the figure list is not UTF-8 text: {}", t.what), "save the file as UTF-8");
+    sink.Error(codes::kTextEncoding, {file, line, column}, "", fmt::format("the figure list is not UTF-8 text: {}", t.what), "save the file as UTF-8");
     sink.ThrowIfErrors();
   }
   YAML::Node root;
@@ -353,7 +353,7 @@ FigureList ParseFigureList(const std::string& text, const std::string& file, con
     }
     if (!documents.empty()) root = documents.front();
   } catch (const YAML::Exception& e) {
-    sink.Error("yaml.syntax", {file, e.mark.line + 1, e.mark.column + 1}, "", "YAML syntax error: " + e.msg,
+    sink.Error(codes::kYamlSyntax, {file, e.mark.line + 1, e.mark.column + 1}, "", "YAML syntax error: " + e.msg,
                "check indentation, colons and brackets near this place");
     sink.ThrowIfErrors();
   }
@@ -388,10 +388,10 @@ FigureList ReadFigureList(const std::string& path, const InputLimits& limits) {
   }
   ::close(fd);
   if (regular && static_cast<std::uint64_t>(st.st_size) > limits.file_bytes)
-    FileError(path, "limit.file-size", fmt::format("the figure list has {} bytes, more than {}", st.st_size, limits.file_bytes),
+    FileError(path, codes::kLimitFileSize, fmt::format("the figure list has {} bytes, more than {}", st.st_size, limits.file_bytes),
               RaiseLimitHint("file-size", limits.file_bytes));
   if (!regular)
-    FileError(path, "io.not_regular", "the figure list is not a regular file", "give a YAML file");
+    FileError(path, codes::kIoNotRegular, "the figure list is not a regular file", "give a YAML file");
   return ParseFigureList(text, path, limits);
 }
 

@@ -4,7 +4,7 @@
 
 #include <fmt/format.h>
 
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/sim/simulator.h"
 
 namespace multibond {

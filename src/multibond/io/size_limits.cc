@@ -7,7 +7,7 @@
 
 #include <fmt/format.h>
 
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 
 namespace multibond {
 

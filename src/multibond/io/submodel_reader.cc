@@ -5,7 +5,7 @@
 #include <fmt/format.h>
 
 #include "multibond/io/bond_reader.h"
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/io/did_you_mean.h"
 #include "multibond/io/element_reader.h"
 #include "multibond/io/states_outputs_reader.h"

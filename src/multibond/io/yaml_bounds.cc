@@ -12,7 +12,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "multibond/core/interrupt.h"
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 
 namespace multibond {
 namespace {

@@ -16,7 +16,7 @@
 #include "multibond/core/interrupt.h"
 #include "multibond/core/regular_file.h"
 #include "multibond/core/utf8.h"
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/io/yaml_bounds.h"
 
 namespace multibond {

@@ -11,7 +11,7 @@
 #include "multibond/core/expression.h"
 #include "multibond/core/identifier.h"
 #include "multibond/core/structure.h"
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/io/did_you_mean.h"
 
 namespace multibond {

@@ -1,3 +1,4 @@
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/mech/assembly.h"
 
 #include <algorithm>
@@ -387,7 +388,7 @@ bool Refused(DiagnosticSink& sink, const AssemblySpec& spec, const std::string& 
   size_t worst = 0;
   std::vector<std::string> details = Violations(v, labels, spec.tolerance, &worst);
   Diagnostic d;
-  d.code = "mech.assembly";
+  d.code = codes::kMechAssembly;
   d.where = labels.empty() || !labels[worst].where.known() ? spec.where : labels[worst].where;
   d.element = labels.empty() ? "assembly" : labels[worst].element;
   d.message = fmt::format("{}: {}", message, details.empty() ? "" : details.front());
@@ -543,7 +544,7 @@ AssemblyReport Assemble(Mechanism& m, const AssemblySpec& spec, DiagnosticSink& 
   report.ok = true;
   Diagnostic d;
   d.severity = Diagnostic::Severity::kWarning;
-  d.code = "mech.assembled";
+  d.code = codes::kMechAssembled;
   d.where = spec.where;
   d.element = "assembly";
   d.message = fmt::format("assembled in {} iteration{} (largest violation left {:.2g} m or rad, {:.2g} m/s or rad/s): {}", report.iterations,

@@ -1,6 +1,7 @@
 /// \file
 /// A joint's expansion: its translation and rotation couplings and its sensors.
 
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/mech/expander.h"
 
 #include <algorithm>
@@ -211,12 +212,12 @@ void Expander::AddHelix(const Joint& j) {
 void Expander::CheckJointKind(const Joint& j) {
   if (j.kind == "universal") {
     if (j.axis.norm() < 1e-12 || j.child_axis.norm() < 1e-12) {
-      sink_.Error("mech.joint_axis", j.where, j.name, "a universal joint needs two non-zero yoke axes",
+      sink_.Error(codes::kMechJointAxis, j.where, j.name, "a universal joint needs two non-zero yoke axes",
                   "give 'axis' (on the parent, its frame) and 'child_axis' (on the child, its frame)");
       return;
     }
     if (j.rotation && j.rotation->directions.rows() != 1)
-      sink_.Error("mech.coupling", j.where, j.name, "a universal joint's rotation coupling has one direction, the spider's third axis",
+      sink_.Error(codes::kMechCoupling, j.where, j.name, "a universal joint's rotation coupling has one direction, the spider's third axis",
                   "give one stiffness and damping (MakeUniversal)");
     auto orientation = [&](const std::string& n) -> Eigen::Matrix3d {
       const Body* b = IsGround(n) ? nullptr : FindBody(n);
@@ -224,24 +225,24 @@ void Expander::CheckJointKind(const Joint& j) {
     };
     const Eigen::Vector3d a1 = orientation(j.parent) * j.axis.normalized(), a2 = orientation(j.child) * j.child_axis.normalized();
     if (std::abs(a1.dot(a2)) > 1e-6)
-      sink_.Error("mech.joint_axis", j.where, j.name,
+      sink_.Error(codes::kMechJointAxis, j.where, j.name,
                   fmt::format("the yoke axes of a universal joint are perpendicular, but 'axis' and 'child_axis' are {:.6g} degrees "
                               "apart at t = 0",
                               std::acos(std::clamp(a1.dot(a2), -1.0, 1.0)) * 180.0 / std::numbers::pi),
                   "give 'child_axis' in the child's frame, perpendicular to the parent's 'axis' as the bodies start");
   }
   if ((j.kind == "screw" || j.helix) && (!j.translation || !j.rotation || j.axis.isZero()))
-    sink_.Error("mech.coupling", j.where, j.name, "a screw joint is a cylindrical joint with a helix: it needs its axis, translation and rotation",
+    sink_.Error(codes::kMechCoupling, j.where, j.name, "a screw joint is a cylindrical joint with a helix: it needs its axis, translation and rotation",
                 "use MakeScrew, or type: screw with 'axis'");
   if (j.kind == "screw" || j.helix) {
     if (!(std::isfinite(j.lead) && j.lead != 0.0))
-      sink_.Error("param.range", j.where, j.name, fmt::format("a screw's lead must be a non-zero length per turn (got {:g})", j.lead),
+      sink_.Error(codes::kParamRange, j.where, j.name, fmt::format("a screw's lead must be a non-zero length per turn (got {:g})", j.lead),
                   "give 'pitch' (or 'lead'), the advance per turn [m]; negative for a left-hand thread");
     if (!j.helix) {
-      sink_.Error("mech.coupling", j.where, j.name, "a screw joint needs its helix coupling", "give 'helix: {K: ..., R: ...}' or 'rigid: true'");
+      sink_.Error(codes::kMechCoupling, j.where, j.name, "a screw joint needs its helix coupling", "give 'helix: {K: ..., R: ...}' or 'rigid: true'");
     } else if (!j.helix->rigid && (j.helix->stiffness.size() != 1 || !(j.helix->stiffness[0] > 0) || j.helix->damping.size() != 1 ||
                                    !(j.helix->damping[0] >= 0))) {
-      sink_.Error("param.range", j.where, j.name, "the helix coupling needs a stiffness > 0 and a damping >= 0",
+      sink_.Error(codes::kParamRange, j.where, j.name, "the helix coupling needs a stiffness > 0 and a damping >= 0",
                   "give 'helix: {K: ..., R: ...}' (N/m and N s/m along the axis), or 'rigid: true'");
     }
   }

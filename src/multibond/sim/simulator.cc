@@ -1,3 +1,4 @@
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/sim/simulator.h"
 
 #include <algorithm>
@@ -72,7 +73,7 @@ Layout MakeLayout(const CompiledModel& model, bool all_variables) {
   auto find = [&](const OutputDecl& o, const std::string& var) -> std::optional<VariableRef> {
     auto v = model.FindVariable(var);
     if (!v)
-      sink.Error("output.unknown_variable", o.where, o.name, fmt::format("output refers to '{}', which is no variable of the model", var),
+      sink.Error(codes::kOutputUnknownVariable, o.where, o.name, fmt::format("output refers to '{}', which is no variable of the model", var),
                  "name '<element>.e' or '.f' (two-ports: .e1 .f1 .e2 .f2), '<bond>.e', '<I>.p', '<C>.q' or a state");
     return v;
   };
@@ -89,7 +90,7 @@ Layout MakeLayout(const CompiledModel& model, bool all_variables) {
         bool same = true;
         for (const auto& [v, c] : vars) same = same && v.size == vars.front().first.size;
         if (!same) {
-          sink.Error("output.size", o.where, o.name, "the terms of a sum output have different sizes");
+          sink.Error(codes::kOutputSize, o.where, o.name, "the terms of a sum output have different sizes");
           break;
         }
         l.AddLinear(o.name, vars, o.unit, o.components);
@@ -99,7 +100,7 @@ Layout MakeLayout(const CompiledModel& model, bool all_variables) {
         const auto r = find(o, o.position), rot = find(o, o.rotation);
         if (!r || !rot) break;
         if (r->size != 3 || rot->size != 9) {
-          sink.Error("output.size", o.where, o.name, "a point needs a 3-component position and an orientation");
+          sink.Error(codes::kOutputSize, o.where, o.name, "a point needs a 3-component position and an orientation");
           break;
         }
         static const char* kXyz[] = {"x", "y", "z"};
@@ -137,7 +138,7 @@ Layout MakeLayout(const CompiledModel& model, bool all_variables) {
     const OutputDecl* o = nullptr;
     for (const OutputDecl& d : model.graph().outputs())
       if (l.columns[c].name.rfind(d.name, 0) == 0) o = &d;
-    sink.Error("output.duplicate", o ? o->where : SourceLocation{}, o ? o->name : "",
+    sink.Error(codes::kOutputDuplicate, o ? o->where : SourceLocation{}, o ? o->name : "",
                fmt::format("two output columns would both be called '{}'", l.columns[c].name),
                "rename the output (a state or variable of that name is already a column)");
   }

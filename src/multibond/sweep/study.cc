@@ -12,7 +12,7 @@
 #include <fmt/ranges.h>
 
 #include "multibond/core/identifier.h"
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/io/did_you_mean.h"
 #include "multibond/io/load_context.h"
 #include "multibond/io/yaml_document.h"

@@ -4,7 +4,7 @@
 /// a list, or distributions sampled by Monte Carlo or a Latin hypercube, from a seed), what to
 /// keep of each run, and the run's settings. Read from a study file (ReadStudyFile) or built from
 /// the command line (AddAxisSpec, AddKeepSpec); every problem is a located diagnostic with a
-/// `sweep.*` code (io/diagnostic_codes.h), all of them thrown together as one ModelError before
+/// `sweep.*` code (core/diagnostic_codes.h), all of them thrown together as one ModelError before
 /// any run starts.
 
 #include <cstdint>

@@ -2,11 +2,11 @@
 /// \file
 /// The catalogue of diagnostic codes: every code a diagnostic of multibond can carry, what it
 /// means and how `multibond` exits for it. The loader names its codes by these constants; the table
-/// of codes in docs/model-format.md is checked against this one (tests/io/diagnostic_codes_test.cc),
+/// of codes in docs/model-format.md is checked against this one (tests/core/diagnostic_codes_test.cc),
 /// as are the codes the bad-model corpus and the documentation's examples expect.
 ///
-/// Codes given by layers below io/ (core, causality, compile, mech, sim) are listed here too: they
-/// spell them out, since they cannot include io/; the test above keeps the two spellings equal.
+/// Every layer names its codes by these constants (core is below them all); a test fails on a
+/// code spelt as a string literal anywhere else in the sources.
 
 #include <string_view>
 

@@ -1,4 +1,4 @@
-#include "multibond/io/diagnostic_codes.h"
+#include "multibond/core/diagnostic_codes.h"
 
 namespace multibond::codes {
 
