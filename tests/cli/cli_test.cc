@@ -246,7 +246,8 @@ TEST_F(CliTest, RefusedOptionsCreateNothingAndSayWhatIsExpected) {
            {" --solver rk4", "rk4 needs a fixed step"},
            {" --solver rk4 --step 0.01 --dt 0.001", "longer than the output interval"},
            {" --solver bdf --step 0.01", "chooses its own steps"},
-           {" --t-end 1e16", "output rows"},
+           {" --t-end 1e14", "output rows"},
+           {" --t-end 1e16 --dt 1e10", "a run to 1e+16 s goes beyond 1e+15 s"},
            {" --t-end 0", "must be > 0 (got 0)"},
            {" --t-end 1s", "'1s' is not a number"},
            {" --rtol 1", "rtol is a relative tolerance and must be below 1"}}) {
