@@ -44,6 +44,34 @@ def test_bad_model_raises_model_error_with_its_code(path):
     assert str(e)  # the message as the command line prints it
 
 
+def catalogue():
+    """The codes of the catalogue, as docs/model-format.md's table shows them (checked row for row
+    against core/diagnostic_codes.h by tests/core/diagnostic_codes_test.cc)."""
+    text = (SOURCE / "docs/model-format.md").read_text(encoding="utf-8")
+    rows = text.split("| code | exit | problem |", 1)[1].splitlines()
+    return {r.split("`")[1] for r in rows if r.startswith("| `")}
+
+
+ALL_BAD = sorted((SOURCE / "tests/models/bad").glob("*.yaml"))
+
+
+@pytest.mark.parametrize("path", ALL_BAD, ids=lambda p: p.name)
+def test_every_diagnostic_of_a_bad_model_carries_its_catalogue_code(path):
+    # Every error the loader and the compiler raise to Python has its code (#44: an unknown
+    # element type, a missing key, a bad bond had none), and the code is the catalogue's.
+    known = catalogue()
+    try:
+        multibond.load(path, jit="off").column_names()
+    except multibond.ModelError as e:
+        assert e.diagnostics
+        for d in e.diagnostics:
+            assert d.code, f"no code: {d.text}"
+            assert d.code in known, f"{d.code!r} is not in the catalogue: {d.text}"
+        assert e.code == e.diagnostics[0].code
+    else:
+        pytest.skip("loads (a model refused only by a command, such as run)")
+
+
 def test_model_error_attributes():
     text = "model: m\nelements:\n  a: {type: Se, effort: 1}\n  b: {type: C, stiffness: -5}\nbonds: [a -> b]\n"
     with pytest.raises(multibond.ModelError) as caught:

@@ -2,7 +2,7 @@
 // Each opens with a header saying what multibond must report:
 //   # expect: <substring of the diagnostic, as Diagnostic::ToString() prints it>
 //   # line: <line the diagnostic points at, 0 = any/none>
-//   # code: <diagnostic code>          (optional; only when the diagnostic has one)
+//   # code: <diagnostic code>          (optional; every diagnostic has one, the header checks which)
 //   # errors: <how many errors in all> (optional; for mistakes that used to bring follow-on errors)
 // Loading, compiling and laying out the outputs (as `multibond run` does) must throw a
 // ModelError, one of whose diagnostics contains the text, at that line, with that code.
@@ -86,6 +86,9 @@ TEST_P(BadModel, IsRejectedWithTheExpectedDiagnostic) {
   if (!x.code.empty()) {
     EXPECT_EQ(it->code, x.code) << it->ToString();
   }
+  // Every diagnostic carries a code of the catalogue (docs/model-format.md#diagnostic-codes): a
+  // script or an editor can act on it without reading the words.
+  for (const Diagnostic& d : diagnostics) EXPECT_FALSE(d.code.empty()) << "a diagnostic without a code: " << d.ToString();
   // One mistake, one error: no follow-on errors from what the first one refused.
   if (x.errors >= 0) {
     const auto errors = std::count_if(diagnostics.begin(), diagnostics.end(), [](const Diagnostic& d) { return d.severity == Diagnostic::Severity::kError; });

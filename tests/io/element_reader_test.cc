@@ -140,9 +140,9 @@ bonds: [force -> j, j -> a, j -> b, j -> c, j -> d, j -> e]
 )y");
   std::vector<std::string> messages;
   for (const Diagnostic& d : ds) messages.push_back(d.element + ": " + d.message + (d.code.empty() ? "" : " [" + d.code + "]"));
-  EXPECT_THAT(messages, ElementsAre("a: give one of 'stiffness', 'compliance', 'effort' and 'energy'",
-                                    "b: give one of 'inertia', 'flow' and 'energy'",
-                                    "c: give either 'resistance' or a law ('effort' and/or 'flow'), not both",
+  EXPECT_THAT(messages, ElementsAre("a: give one of 'stiffness', 'compliance', 'effort' and 'energy' [key.conflict]",
+                                    "b: give one of 'inertia', 'flow' and 'energy' [key.conflict]",
+                                    "c: give either 'resistance' or a law ('effort' and/or 'flow'), not both [key.conflict]",
                                     "d: a law ('effort') is for a scalar bond, but 'dim' is 2 [structure.dimension]",
                                     "e: a law ('flow') is for a scalar bond, but its initial value has 2 entries [structure.dimension]"));
   const auto turning = LoadErrors(R"y(model: m

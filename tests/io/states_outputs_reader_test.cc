@@ -117,11 +117,11 @@ TEST(StatesOutputsReader, SignalStatesAreChecked) {
                                    "  m: {kind: lagg, input: 1}\n"
                                    "  n: {kind: pid, input: 1, kp: 1, of: shaft}\n"));
   EXPECT_THAT(Said(ds),
-              ElementsAre("a: give 'of' (a flow to integrate) or 'rate' (a formula), not both",
-                          "b: state needs 'of': the 1-junction or one-port whose flow it integrates (or 'rate': a formula)",
-                          "c: a lag needs 'time_constant' [s]",
+              ElementsAre("a: give 'of' (a flow to integrate) or 'rate' (a formula), not both [key.conflict]",
+                          "b: state needs 'of': the 1-junction or one-port whose flow it integrates (or 'rate': a formula) [state.of]",
+                          "c: a lag needs 'time_constant' [s] [key.missing]",
                           "d: time_constant must be > 0 (got -0.1) [param.range]",
-                          "e2: a pid state needs 'input': the formula of the signal it controls (the error)",
+                          "e2: a pid state needs 'input': the formula of the signal it controls (the error) [key.missing]",
                           "f2: kp must be >= 0 (got -1) [param.range]",
                           "g: a PID needs a gain: kp, ki or kd > 0 [param.range]",
                           "h: a derivative part (kd > 0) needs its filter time constant tf > 0 [param.range]",
@@ -129,8 +129,8 @@ TEST(StatesOutputsReader, SignalStatesAreChecked) {
                           "k: tf must be >= 0 (got -1) [param.range]",
                           "k: tt must be >= 0 (got -2) [param.range]",
                           "l: the state is scalar: its initial value is one number (got 2) [param.range]",
-                          "m: unknown state kind 'lagg'",
-                          "n: unknown key 'of'"));
+                          "m: unknown state kind 'lagg' [value.unknown]",
+                          "n: unknown key 'of' [key.unknown]"));
   EXPECT_EQ(ds[12].hint, "did you mean 'lag'?");
 }
 
@@ -221,7 +221,7 @@ TEST(StatesOutputsReader, ASignalsFormulaIsReadLikeALaw) {
   EXPECT_THAT(Said(ds), ElementsAre("x: the formula 'sinn(t)' does not read: unknown function 'sinn' [expr.unknown_function]",
                                     "y: the unit 'furlong' is refused: 'furlong' is not a unit symbol (with an optional SI prefix) [unit.invalid]",
                                     "y: unknown parameter 'kk' [param.unknown]",
-                                    "z: a signal given as a mapping needs 'value': its formula"));
+                                    "z: a signal given as a mapping needs 'value': its formula [key.missing]"));
   EXPECT_EQ(ds[0].where.line, 9);
   EXPECT_EQ(ds[0].where.column, 7);
   EXPECT_EQ(ds[0].hint, "did you mean 'sin'?");

@@ -26,11 +26,18 @@ enum class Outcome {
   X(kYamlStructure, "yaml.structure", kModelError, "a YAML node of a shape the format does not expect there")               \
   X(kYamlDuplicateKey, "yaml.duplicate_key", kModelError, "a key given twice in one mapping")                                 \
   X(kYamlSelfAlias, "yaml.self_alias", kModelError, "an alias inside the node of its own anchor")                             \
+  X(kKeyUnknown, "key.unknown", kModelError, "a key the format does not know there (the hint names the nearest known one)") \
+  X(kKeyMissing, "key.missing", kModelError, "a key or section that an element, body, joint, state, output or the model needs and does not have") \
+  X(kKeyConflict, "key.conflict", kModelError, "keys that exclude each other given together, or a key that goes with another one that is not given") \
+  X(kValueUnknown, "value.unknown", kModelError, "a word the format does not know there: a domain, time function, state kind, axis, frame, shape, drive type, solver or setting") \
   X(kTextEncoding, "text.encoding", kModelError, "a byte that is not UTF-8, or a control character, in the file")            \
   X(kNameInvalid, "name.invalid", kModelError, "a name outside the identifier grammar, or a reserved one")                   \
   X(kNameDuplicate, "name.duplicate", kModelError, "a bond named twice, or named like an element; a parameter, signal or state named like another")                           \
   X(kUnitInvalid, "unit.invalid", kModelError, "a unit outside the unit grammar")                                            \
   X(kSubmodelRecursive, "submodel.recursive", kModelError, "a submodel that contains itself, directly or through others")     \
+  X(kBondSyntax, "bond.syntax", kModelError, "a bond not written 'from -> to', [from, to] or {from: ..., to: ...}, or with an end missing") \
+  X(kBondUnknownEnd, "bond.unknown_end", kModelError, "a bond end, or a submodel's port, that names no element (or no port of the instance)") \
+  X(kBondSelf, "bond.self", kModelError, "a bond from an element to itself") \
   X(kParamUnknown, "param.unknown", kModelError,                                                                               \
     "a name in a formula that is no parameter (nor, where a formula may change in time, a variable, signal or state)")          \
   X(kParamCycle, "param.cycle", kModelError, "parameters whose formulas depend on each other in a cycle")                      \
@@ -51,11 +58,14 @@ enum class Outcome {
   X(kIoUnreadable, "io.unreadable", kFileError, "the model file cannot be opened or read")                                   \
   X(kStructureDangling, "structure.dangling", kModelError, "an element without bonds")                                       \
   X(kStructureDimension, "structure.dimension", kModelError, "bond dimensions that do not fit")                              \
+  X(kStructurePorts, "structure.ports", kModelError, "an element with a number of bonds its kind does not take, or a two-port whose bonds do not run one in and one out") \
+  X(kDomainConflict, "domain.conflict", kModelError, "bonds of different domains that meet at a junction or an element") \
+  X(kStateOf, "state.of", kModelError, "a state whose 'of' names no element, a 0-junction (no single flow), or a flow of the wrong size") \
   X(kElementType, "element.type", kModelError, "an element type that does not exist (neither a kind of element nor a submodel)") \
   X(kParamRange, "param.range", kModelError,                                                                                   \
     "a parameter out of range: non-positive inertia or stiffness, negative resistance, wrong number of source components or " \
     "initial values, non-finite numbers, a rotation or lever that is no state")                                              \
-  X(kParamShape, "param.shape", kModelError, "a constraint with a number of compliances that fits none of its components")   \
+  X(kParamShape, "param.shape", kModelError, "a value of the wrong size: a ragged matrix, a vector or table row of the wrong length, a table of one row, matrices that do not fit together, a constraint whose compliances fit none of its components")   \
   X(kParamSingular, "param.singular", kModelError, "a resistor in conductance causality with a singular resistance")         \
   X(kExprTooLarge, "expr.too_large", kModelError, "a formula that needs more than 256 intermediate values at once")       \
   X(kExprUnknownVariable, "expr.unknown_variable", kModelError,                                                               \

@@ -36,20 +36,15 @@ ModelError::ModelError(std::vector<Diagnostic> diagnostics)
 
 ModelError::ModelError(Diagnostic diagnostic) : ModelError(std::vector<Diagnostic>{std::move(diagnostic)}) {}
 
-void DiagnosticSink::Error(SourceLocation where, std::string element, std::string message,
+void DiagnosticSink::Error(std::string code, SourceLocation where, std::string element, std::string message,
                            std::string hint) {
   Diagnostic d;
   d.where = std::move(where);
   d.element = std::move(element);
   d.message = std::move(message);
   d.hint = std::move(hint);
+  d.code = std::move(code);
   diagnostics_.push_back(std::move(d));
-}
-
-void DiagnosticSink::Error(std::string code, SourceLocation where, std::string element, std::string message,
-                           std::string hint) {
-  Error(std::move(where), std::move(element), std::move(message), std::move(hint));
-  diagnostics_.back().code = std::move(code);
 }
 
 bool DiagnosticSink::has_errors() const {

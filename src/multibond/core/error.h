@@ -49,8 +49,8 @@ class ModelError : public std::runtime_error {
 /// Collects diagnostics and throws them together as one ModelError.
 class DiagnosticSink {
  public:
-  void Error(SourceLocation where, std::string element, std::string message, std::string hint = {});
-  /// The same with a diagnostic code.
+  /// An error of `code` (core/diagnostic_codes.h: every error has one, which Python's ModelError
+  /// and the command line's exit code read).
   void Error(std::string code, SourceLocation where, std::string element, std::string message, std::string hint = {});
   void Add(Diagnostic d) { diagnostics_.push_back(std::move(d)); }
   bool has_errors() const;

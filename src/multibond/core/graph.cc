@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include "multibond/core/diagnostic_codes.h"
+
 namespace multibond {
 
 namespace {
@@ -95,6 +97,7 @@ int BondGraph::Add(Element e) {
     d.where = e.where;
     d.element = e.name;
     d.message = "duplicate element name";
+    d.code = codes::kNameDuplicate;
     if (first.where.known()) d.details.push_back("first defined at " + first.where.ToString());
     d.hint = "give every element a unique name";
     throw ModelError(d);
@@ -165,9 +168,9 @@ int BondGraph::Connect(const std::string& from, const std::string& to, int dim, 
                        SourceLocation where) {
   DiagnosticSink sink;
   const int a = Find(from), b = Find(to);
-  if (a < 0) sink.Error(where, from, "bond refers to an element that does not exist", "define '" + from + "' under elements");
-  if (b < 0) sink.Error(where, to, "bond refers to an element that does not exist", "define '" + to + "' under elements");
-  if (a >= 0 && a == b) sink.Error(where, from, "bond connects an element to itself");
+  if (a < 0) sink.Error(codes::kBondUnknownEnd, where, from, "bond refers to an element that does not exist", "define '" + from + "' under elements");
+  if (b < 0) sink.Error(codes::kBondUnknownEnd, where, to, "bond refers to an element that does not exist", "define '" + to + "' under elements");
+  if (a >= 0 && a == b) sink.Error(codes::kBondSelf, where, from, "bond connects an element to itself");
   sink.ThrowIfErrors();
   Bond bond;
   bond.name = bond_name.empty() ? fmt::format("{}->{}", from, to) : std::move(bond_name);
@@ -194,6 +197,7 @@ int BondGraph::AddAux(AuxState a) {
     d.where = a.where;
     d.element = a.name;
     d.message = "duplicate name (an element or state of that name exists already)";
+    d.code = codes::kNameDuplicate;
     d.hint = "give every element and state a unique name";
     throw ModelError(d);
   }
@@ -209,6 +213,7 @@ int BondGraph::AddSignal(Signal s) {
     d.where = s.where;
     d.element = s.name;
     d.message = "duplicate name (an element, state or signal of that name exists already)";
+    d.code = codes::kNameDuplicate;
     d.hint = "give every element, state and signal a unique name";
     throw ModelError(d);
   }

@@ -86,22 +86,22 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
       continue;
     }
     if (IsOnePort(e.kind) && n != 1) {
-      sink.Error(e.where, e.name, fmt::format("{} is a one-port element but has {} bonds", KindName(e.kind), n),
+      sink.Error(codes::kStructurePorts, e.where, e.name, fmt::format("{} is a one-port element but has {} bonds", KindName(e.kind), n),
                  "connect several bonds through a 0- or 1-junction");
       continue;
     }
     if (IsTwoPort(e.kind)) {
       for (int b : e.bonds) {
         if (g.bond(b).to == i) {
-          if (s.port_in[i] >= 0) sink.Error(e.where, e.name, "two-port element has more than one bond pointing in", "a two-port has one bond in (port 1) and one out (port 2)");
+          if (s.port_in[i] >= 0) sink.Error(codes::kStructurePorts, e.where, e.name, "two-port element has more than one bond pointing in", "a two-port has one bond in (port 1) and one out (port 2)");
           s.port_in[i] = b;
         } else {
-          if (s.port_out[i] >= 0) sink.Error(e.where, e.name, "two-port element has more than one bond pointing out", "a two-port has one bond in (port 1) and one out (port 2)");
+          if (s.port_out[i] >= 0) sink.Error(codes::kStructurePorts, e.where, e.name, "two-port element has more than one bond pointing out", "a two-port has one bond in (port 1) and one out (port 2)");
           s.port_out[i] = b;
         }
       }
       if (n != 2 || s.port_in[i] < 0 || s.port_out[i] < 0) {
-        sink.Error(e.where, e.name, fmt::format("{} needs exactly one bond in (port 1) and one bond out (port 2), has {}", KindName(e.kind), n),
+        sink.Error(codes::kStructurePorts, e.where, e.name, fmt::format("{} needs exactly one bond in (port 1) and one bond out (port 2), has {}", KindName(e.kind), n),
                    "orient the bonds through the transformer or gyrator: in on one side, out on the other");
         continue;
       }
@@ -134,10 +134,10 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
     if (!IsTwoPort(e.kind)) {
       for (int b : e.bonds) {
         if (!e.domain.empty() && !domains.Set(b, e.domain))
-          sink.Error(e.where, e.name, fmt::format("domain '{}' conflicts with '{}' of bond '{}'", e.domain, domains.Get(b), g.bond(b).name),
+          sink.Error(codes::kDomainConflict, e.where, e.name, fmt::format("domain '{}' conflicts with '{}' of bond '{}'", e.domain, domains.Get(b), g.bond(b).name),
                      "elements joined by junctions share one physical domain");
         if (b != e.bonds.front() && !domains.Merge(e.bonds.front(), b))
-          sink.Error(e.where, e.name, "bonds of different domains meet here", "change domains only through a TF or GY");
+          sink.Error(codes::kDomainConflict, e.where, e.name, "bonds of different domains meet here", "change domains only through a TF or GY");
       }
     }
   }
@@ -216,18 +216,18 @@ Structure AnalyzeStructure(const BondGraph& g, const std::string& default_domain
     if (a.kind == AuxState::Kind::kLag || a.kind == AuxState::Kind::kPid || a.rate.given()) continue;  // signal states integrate formulas
     const int of = g.Find(a.of);
     if (of < 0) {
-      sink.Error(a.where, a.name, fmt::format("state integrates the flow of '{}', which does not exist", a.of), "name a 1-junction or a one-port element");
+      sink.Error(codes::kStateOf, a.where, a.name, fmt::format("state integrates the flow of '{}', which does not exist", a.of), "name a 1-junction or a one-port element");
       continue;
     }
     const Element& e = g.element(of);
     if (e.kind == ElementKind::kZero || IsTwoPort(e.kind)) {
-      sink.Error(a.where, a.name, fmt::format("'{}' is a {}: it has no single flow to integrate", a.of, KindName(e.kind)), "name a 1-junction or a one-port element");
+      sink.Error(codes::kStateOf, a.where, a.name, fmt::format("'{}' is a {}: it has no single flow to integrate", a.of, KindName(e.kind)), "name a 1-junction or a one-port element");
       continue;
     }
     if (e.bonds.empty()) continue;
     const int n = s.dim_of(g, of);
     if (a.kind == AuxState::Kind::kOrientation && n != 3)
-      sink.Error(a.where, a.name, fmt::format("an orientation integrates a 3-dimensional angular velocity; '{}' is {}-dimensional", a.of, n));
+      sink.Error(codes::kStateOf, a.where, a.name, fmt::format("an orientation integrates a 3-dimensional angular velocity; '{}' is {}-dimensional", a.of, n));
     // An integral's `initial` needs one entry per component; the compiler silently replaced a
     // list of another length by zeros (as the storage elements' check above does for p0/q0).
     if (a.kind == AuxState::Kind::kIntegral && a.initial.size() > 0 && a.initial.size() != n)

@@ -21,7 +21,7 @@ std::string BondReader::Endpoint(const std::string& local, const std::string& pr
     if (!inside && it != cx_.instance_ports.end() && !it->second.count(full.substr(dot + 1)) && graph_.Find(full) >= 0) {
       std::string ports;
       for (const auto& p : it->second) ports += (ports.empty() ? "" : ", ") + p;
-      sink_.Error(Loc(at), full, fmt::format("'{}' is not a port of submodel instance '{}'", full.substr(dot + 1), inst),
+      sink_.Error(codes::kBondUnknownEnd, Loc(at), full, fmt::format("'{}' is not a port of submodel instance '{}'", full.substr(dot + 1), inst),
                   ports.empty() ? "the submodel exposes no ports" : "its ports are: " + ports);
     }
   }
@@ -35,7 +35,7 @@ void BondReader::ReadBond(const YAML::Node& b, const std::string& prefix, const 
     const std::string s = b.Scalar();
     const auto arrow = s.find("->");
     if (arrow == std::string::npos) {
-      sink_.Error(Loc(b), s, "a bond is written 'from -> to'", "e.g. '- force -> j1' (the half-arrow points to 'to')");
+      sink_.Error(codes::kBondSyntax, Loc(b), s, "a bond is written 'from -> to'", "e.g. '- force -> j1' (the half-arrow points to 'to')");
       return;
     }
     auto trim = [](std::string x) {
@@ -45,7 +45,7 @@ void BondReader::ReadBond(const YAML::Node& b, const std::string& prefix, const 
     from = trim(s.substr(0, arrow));
     to = trim(s.substr(arrow + 2));
     if (from.empty() || to.empty()) {
-      sink_.Error(Loc(b), s, fmt::format("the bond has no '{}' end", from.empty() ? "from" : "to"),
+      sink_.Error(codes::kBondSyntax, Loc(b), s, fmt::format("the bond has no '{}' end", from.empty() ? "from" : "to"),
                   "write it 'from -> to', e.g. '- force -> j1'");
       return;
     }
@@ -55,7 +55,7 @@ void BondReader::ReadBond(const YAML::Node& b, const std::string& prefix, const 
   } else if (b.IsMap()) {
     CheckKeys(b, {"from", "to", "name", "dim"}, "bond");
     if (!b["from"] || !b["to"]) {
-      sink_.Error(Loc(b), "bond", "a bond needs 'from' and 'to'");
+      sink_.Error(codes::kBondSyntax, Loc(b), "bond", "a bond needs 'from' and 'to'");
       return;
     }
     from = b["from"].Scalar();
@@ -90,7 +90,7 @@ void BondReader::ReadBond(const YAML::Node& b, const std::string& prefix, const 
         dim = static_cast<int>(d);
     }
   } else {
-    sink_.Error(Loc(b), "bond", "a bond is 'from -> to', [from, to] or {from: ..., to: ...}");
+    sink_.Error(codes::kBondSyntax, Loc(b), "bond", "a bond is 'from -> to', [from, to] or {from: ..., to: ...}");
     return;
   }
   const std::string f = Endpoint(from, prefix, b), t = Endpoint(to, prefix, b);
@@ -102,12 +102,12 @@ void BondReader::ReadBond(const YAML::Node& b, const std::string& prefix, const 
     std::vector<std::string> names;
     for (const auto& e : graph_.elements()) names.push_back(e.name);
     const std::string guess = DidYouMean(end, names);
-    sink_.Error(Loc(b), end, "bond refers to an element that does not exist",
+    sink_.Error(codes::kBondUnknownEnd, Loc(b), end, "bond refers to an element that does not exist",
                 guess.empty() ? "define it under 'elements'" : fmt::format("did you mean '{}'?", guess));
   }
   if (!ok) return;
   if (f == t) {
-    sink_.Error(Loc(b), f, "bond connects an element to itself");
+    sink_.Error(codes::kBondSelf, Loc(b), f, "bond connects an element to itself");
     return;
   }
   graph_.Connect(f, t, dim, name, Loc(b));

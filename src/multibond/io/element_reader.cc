@@ -86,11 +86,11 @@ void ElementReader::ReadSwitching(const YAML::Node& spec, Element& e, const Form
   Switching& sw = e.switching;
   const std::string& name = e.name;
   if (spec["contact"] && spec["friction"]) {
-    sink_.Error(Loc(spec["friction"]), name, "an Sf is a contact or a friction, not both", "use two elements, each on its own relative flow");
+    sink_.Error(codes::kKeyConflict, Loc(spec["friction"]), name, "an Sf is a contact or a friction, not both", "use two elements, each on its own relative flow");
     return;
   }
   if (spec["constraint"] && !Bool(spec["constraint"], name)) {
-    sink_.Error(Loc(spec["constraint"]), name, "a contact or friction is an ideal constraint", "remove 'constraint: false'");
+    sink_.Error(codes::kKeyConflict, Loc(spec["constraint"]), name, "a contact or friction is an ideal constraint", "remove 'constraint: false'");
     return;
   }
   e.constraint = true;
@@ -98,14 +98,14 @@ void ElementReader::ReadSwitching(const YAML::Node& spec, Element& e, const Form
   const YAML::Node n = contact ? spec["contact"] : spec["friction"];
   sw.where = Loc(n);
   if (!n.IsMap()) {
-    sink_.Error(Loc(n), name, fmt::format("'{}' is a mapping", contact ? "contact" : "friction"),
+    sink_.Error(codes::kYamlStructure, Loc(n), name, fmt::format("'{}' is a mapping", contact ? "contact" : "friction"),
                 contact ? "e.g. contact: {gap: height, restitution: 0.8}" : "e.g. friction: {normal: 19.62, static: 0.5, kinetic: 0.4} or friction: {capacity: 50}");
     return;
   }
   if (contact) {
     sw.kind = Switching::Kind::kContact;
     CheckKeys(n, {"gap", "restitution"}, name);
-    if (!n["gap"]) sink_.Error(Loc(n), name, "a contact needs 'gap': the variable that measures it (> 0 while open)", "e.g. gap: height");
+    if (!n["gap"]) sink_.Error(codes::kKeyMissing, Loc(n), name, "a contact needs 'gap': the variable that measures it (> 0 while open)", "e.g. gap: height");
     else sw.gap = Qualify(scope.prefix, Str(n["gap"], name));
     if (n["restitution"]) {
       sw.restitution = Number(n["restitution"], name, env);
@@ -119,14 +119,14 @@ void ElementReader::ReadSwitching(const YAML::Node& spec, Element& e, const Form
   CheckKeys(n, {"normal", "static", "kinetic", "capacity"}, name);
   if (n["capacity"]) {
     if (n["normal"] || n["static"] || n["kinetic"])
-      sink_.Error(Loc(n["capacity"]), name, "a clutch or brake gives 'capacity' alone", "or a friction: 'normal', 'static' and 'kinetic'");
+      sink_.Error(codes::kKeyConflict, Loc(n["capacity"]), name, "a clutch or brake gives 'capacity' alone", "or a friction: 'normal', 'static' and 'kinetic'");
     sw.capacity = true;
     sw.mu_s = sw.mu_k = 1.0;
     ReadNormal(n["capacity"], e, scope, env);
     return;
   }
   if (!n["normal"] || !n["static"] || !n["kinetic"]) {
-    sink_.Error(Loc(n), name, "a friction needs 'normal', 'static' and 'kinetic' (or a clutch's 'capacity')",
+    sink_.Error(codes::kKeyMissing, Loc(n), name, "a friction needs 'normal', 'static' and 'kinetic' (or a clutch's 'capacity')",
                 "e.g. friction: {normal: 19.62, static: 0.5, kinetic: 0.4}");
     return;
   }
@@ -152,7 +152,7 @@ void ElementReader::ReadNormal(const YAML::Node& n, Element& e, const FormulaSco
     } else if (f->root->kind == expr::Node::Kind::kName) {
       sw.normal_signal = f->root->name;
     } else {
-      sink_.Error(Loc(n), e.name, "a normal force or capacity is a number, a time function or a signal's name",
+      sink_.Error(codes::kYamlStructure, Loc(n), e.name, "a normal force or capacity is a number, a time function or a signal's name",
                   "declare the formula as a signal under 'signals:' and name it here");
       return;
     }
@@ -164,11 +164,11 @@ void ElementReader::ReadNormal(const YAML::Node& n, Element& e, const FormulaSco
 void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec, const SourceLocation& where, const std::string& prefix,
                                 const Env& env) {
   if (!spec.IsMap()) {
-    sink_.Error(where, name, "an element is a mapping with at least a 'type'", "write e.g. '{type: C, stiffness: 100}'");
+    sink_.Error(codes::kYamlStructure, where, name, "an element is a mapping with at least a 'type'", "write e.g. '{type: C, stiffness: 100}'");
     return;
   }
   if (!spec["type"]) {
-    sink_.Error(where, name, "element has no 'type'", "add type: Se, Sf, I, C, R, TF, MTF, GY, MGY, 0, 1 or a submodel name");
+    sink_.Error(codes::kKeyMissing, where, name, "element has no 'type'", "add type: Se, Sf, I, C, R, TF, MTF, GY, MGY, 0, 1 or a submodel name");
     return;
   }
   const std::string type = spec["type"].Scalar();
@@ -192,14 +192,14 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
   if (IsTwoPort(e.kind)) keys = {"type", "description"};  // dimensions come from the ratio; domains may differ per port
   auto require = [&](const char* key, const char* hint) {
     if (spec[key]) return true;
-    sink_.Error(where, name, fmt::format("{} needs '{}'", KindName(e.kind), key), hint);
+    sink_.Error(codes::kKeyMissing, where, name, fmt::format("{} needs '{}'", KindName(e.kind), key), hint);
     e.param = Param::Scalar(1.0);  // a placeholder that no later check reports again
     return false;
   };
   // The dimension first: a multiport's energy names its own variables by it (q1 ... qn).
   if (spec["dim"]) {
     const double d = Number(spec["dim"], name, env);
-    if (d < 1 || d > 64 || d != std::floor(d)) sink_.Error(Loc(spec["dim"]), name, fmt::format("dim must be a whole number from 1 to 64 (got {:g})", d));
+    if (d < 1 || d > 64 || d != std::floor(d)) sink_.Error(codes::kParamRange, Loc(spec["dim"]), name, fmt::format("dim must be a whole number from 1 to 64 (got {:g})", d));
     else e.dim = static_cast<int>(d);
   }
   switch (e.kind) {
@@ -213,7 +213,7 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
         if (spec["contact"] || spec["friction"]) ReadSwitching(spec, e, scope({}, "friction's normal force"), env);
         if (spec["compliance"]) {
           if (!e.constraint)
-            sink_.Error(Loc(spec["compliance"]), name, "'compliance' belongs to an ideal constraint",
+            sink_.Error(codes::kKeyConflict, Loc(spec["compliance"]), name, "'compliance' belongs to an ideal constraint",
                         "add 'constraint: true', or model the coupling as a C");
           e.compliance = Vector(spec["compliance"], name, env);
           for (Eigen::Index k = 0; k < e.compliance.size(); ++k)
@@ -230,7 +230,7 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
     case ElementKind::kI: {
       keys.insert(keys.end(), {"inertia", "p0", "rotation", "flow", "energy"});
       const int given = (spec["inertia"] ? 1 : 0) + (spec["flow"] ? 1 : 0) + (spec["energy"] ? 1 : 0);
-      if (given > 1) sink_.Error(where, name, "give one of 'inertia', 'flow' and 'energy'", "'flow' and 'energy' are laws: a formula of p instead of a constant inertia");
+      if (given > 1) sink_.Error(codes::kKeyConflict, where, name, "give one of 'inertia', 'flow' and 'energy'", "'flow' and 'energy' are laws: a formula of p instead of a constant inertia");
       if (spec["flow"] || spec["energy"]) {
         law_key = spec["flow"] ? "flow" : "energy";
         e.param = Param::Scalar(1.0);  // not used: the law is
@@ -249,10 +249,10 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
     }
     case ElementKind::kC:
       keys.insert(keys.end(), {"stiffness", "compliance", "q0", "effort", "energy"});
-      if (spec["stiffness"] && spec["compliance"]) sink_.Error(where, name, "give either 'stiffness' or 'compliance', not both");
+      if (spec["stiffness"] && spec["compliance"]) sink_.Error(codes::kKeyConflict, where, name, "give either 'stiffness' or 'compliance', not both");
       if ((spec["effort"] || spec["energy"]) &&
           (spec["stiffness"] ? 1 : 0) + (spec["compliance"] ? 1 : 0) + (spec["effort"] ? 1 : 0) + (spec["energy"] ? 1 : 0) > 1)
-        sink_.Error(where, name, "give one of 'stiffness', 'compliance', 'effort' and 'energy'",
+        sink_.Error(codes::kKeyConflict, where, name, "give one of 'stiffness', 'compliance', 'effort' and 'energy'",
                     "'effort' and 'energy' are laws: a formula of q instead of a constant stiffness");
       if (spec["effort"] || spec["energy"]) {
         law_key = spec["effort"] ? "effort" : "energy";
@@ -291,7 +291,7 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
       keys.insert(keys.end(), {"resistance", "effort", "flow", "active"});
       if (spec["active"]) e.active = Bool(spec["active"], name);
       if (spec["resistance"] && (spec["effort"] || spec["flow"]))
-        sink_.Error(where, name, "give either 'resistance' or a law ('effort' and/or 'flow'), not both",
+        sink_.Error(codes::kKeyConflict, where, name, "give either 'resistance' or a law ('effort' and/or 'flow'), not both",
                     "'effort' is a formula of f, 'flow' a formula of e: a resistor that is not linear");
       if (spec["effort"] || spec["flow"]) {
         law_key = spec["effort"] ? "effort" : "flow";
@@ -319,7 +319,7 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
         } else {
           e.param = ReadParam(r, name, env);
         }
-        if (e.param.is_scalar && e.param.scalar == 0.0) sink_.Error(Loc(r), name, "ratio must not be 0");
+        if (e.param.is_scalar && e.param.scalar == 0.0) sink_.Error(codes::kParamRange, Loc(r), name, "ratio must not be 0");
       }
       break;
     case ElementKind::kMTF:
@@ -357,7 +357,7 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
                           : "a formula law relates one effort and one flow: use one element per component, or a constant parameter for a vector bond");
   }
   if (graph_.Find(name) >= 0 || graph_.FindAux(name) >= 0) {
-    sink_.Error(where, name, "duplicate name", "give every element and state a unique name");
+    sink_.Error(codes::kNameDuplicate, where, name, "duplicate name", "give every element and state a unique name");
     return;
   }
   graph_.Add(std::move(e));

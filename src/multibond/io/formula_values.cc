@@ -229,7 +229,7 @@ double ValueReader::Constant(const YAML::Node& n, const std::string& text, const
 
 std::optional<Formula> ValueReader::ReadFormula(const YAML::Node& n, const std::string& element, const FormulaScope& scope) {
   if (!n.IsScalar() || n.Scalar().empty()) {
-    sink_.Error(Loc(n), element, fmt::format("expected a formula, got {}", Describe(n)),
+    sink_.Error(codes::kYamlStructure, Loc(n), element, fmt::format("expected a formula, got {}", Describe(n)),
                 "write a formula in quotes, e.g. \"k*q + k3*q^3\" (docs/model-format.md, 'Expressions')");
     return std::nullopt;
   }

@@ -89,7 +89,7 @@ std::optional<mech::AssemblySpec> ReadAssembly(MechanismValues& v, DiagnosticSin
         v.CheckKeys(g, keys, name);
       }
       if (turns) {
-        if (g["angle"] && g["degrees"]) sink.Error(v.Loc(g["degrees"]), name, "give the angle once: 'angle' (rad) or 'degrees'");
+        if (g["angle"] && g["degrees"]) sink.Error(codes::kKeyConflict, v.Loc(g["degrees"]), name, "give the angle once: 'angle' (rad) or 'degrees'");
         if (g["angle"]) add(Kind::kJointAngle, "angle").value = v.Number(g["angle"], name, Env{});
         else if (g["degrees"]) add(Kind::kJointAngle, "degrees").value = v.Number(g["degrees"], name, Env{}) * std::numbers::pi / 180.0;
         if (g["rate"]) add(Kind::kJointRate, "rate").value = v.Number(g["rate"], name, Env{});
@@ -168,7 +168,7 @@ void MechanismReader::ReadPartList(const YAML::Node& root, PartList& list) {
         list.set.insert(n.Scalar());
       }
     } else {
-      sink_.Error(Loc(r), list.key, fmt::format("'{}' is 'all' or a list of joint and gear mesh names", list.key),
+      sink_.Error(codes::kYamlStructure, Loc(r), list.key, fmt::format("'{}' is 'all' or a list of joint and gear mesh names", list.key),
                   fmt::format("write e.g. '{0}: all' or '{0}: [G_bearing, mesh_GA]'", list.key));
     }
   }
@@ -194,7 +194,7 @@ void MechanismReader::CheckPartNames(const mech::Mechanism& m, const PartList& l
 bool MechanismReader::ReadBodies(const YAML::Node& root, mech::Mechanism& m) {
   const YAML::Node bodies = root["bodies"];
   if (!bodies.IsMap()) {
-    sink_.Error(Loc(bodies), "bodies", "'bodies' is a mapping of names to bodies");
+    sink_.Error(codes::kYamlStructure, Loc(bodies), "bodies", "'bodies' is a mapping of names to bodies");
     return false;
   }
   // Positions may be given relative to another body: resolve in dependency order.
@@ -223,7 +223,7 @@ bool MechanismReader::ReadBodies(const YAML::Node& root, mech::Mechanism& m) {
     body.name = name;
     body.where = Loc(b);
     if (!b.IsMap()) {
-      sink_.Error(Loc(b), name, "a body is a mapping with shape/density or mass/inertia, position, ...");
+      sink_.Error(codes::kYamlStructure, Loc(b), name, "a body is a mapping with shape/density or mass/inertia, position, ...");
       made_[name] = body;
       return &made_[name];
     }
@@ -236,7 +236,7 @@ bool MechanismReader::ReadBodies(const YAML::Node& root, mech::Mechanism& m) {
         const mech::Body* ref = p["relative_to"] ? make(p["relative_to"].Scalar(), p["relative_to"]) : nullptr;
         const Eigen::Vector3d off = p["offset"] ? Vec3(p["offset"], name) : Eigen::Vector3d::Zero();
         if (ref) body.position = ref->position + ref->orientation * off;
-        else if (!p["relative_to"]) sink_.Error(Loc(p), name, "a relative position needs 'relative_to' (a body) and 'offset' (in its frame)");
+        else if (!p["relative_to"]) sink_.Error(codes::kKeyMissing, Loc(p), name, "a relative position needs 'relative_to' (a body) and 'offset' (in its frame)");
       } else {
         body.position = Vec3(p, name);
       }
@@ -268,7 +268,7 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
     joint.name = name;
     joint.where = Loc(kv.first);
     if (!j.IsMap()) {
-      sink_.Error(joint.where, name, "a joint is a mapping with type, parent, child, ...");
+      sink_.Error(codes::kYamlStructure, joint.where, name, "a joint is a mapping with type, parent, child, ...");
       continue;
     }
     const std::string type = j["type"] ? j["type"].Scalar() : "coupling";
@@ -291,9 +291,9 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
     rigid_joint_ = (j["rigid"] && Bool(j["rigid"], name)) || RigidByModel(name);
           joint.kind = type;
     joint.parent = j["parent"] ? j["parent"].Scalar() : std::string(mech::kGround);
-    if (type == "held" && joint.parent != mech::kGround) sink_.Error(Loc(j["parent"]), name, "a 'held' joint holds its child to the ground", "remove 'parent'");
+    if (type == "held" && joint.parent != mech::kGround) sink_.Error(codes::kKeyConflict, Loc(j["parent"]), name, "a 'held' joint holds its child to the ground", "remove 'parent'");
     if (!j["child"]) {
-      sink_.Error(joint.where, name, "a joint needs a 'child' body");
+      sink_.Error(codes::kKeyMissing, joint.where, name, "a joint needs a 'child' body");
       continue;
     }
     joint.child = j["child"].Scalar();
@@ -308,7 +308,7 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
       joint.parent_point = parent ? Eigen::Vector3d(parent->orientation.transpose() * (p - parent->position)) : p;
     }
     const bool needs_axis = type == "revolute" || type == "prismatic";
-    if (needs_axis && !j["axis"]) sink_.Error(joint.where, name, fmt::format("a {} joint needs an 'axis' (in the parent's frame)", type));
+    if (needs_axis && !j["axis"]) sink_.Error(codes::kKeyMissing, joint.where, name, fmt::format("a {} joint needs an 'axis' (in the parent's frame)", type));
     const YAML::Node axis_node = type == "planar" && j["normal"] ? j["normal"] : j["axis"];
     const Eigen::Vector3d axis = axis_node ? Axis(axis_node, name) : Eigen::Vector3d::UnitZ();
     if (needs_axis) joint.axis = axis;  // the joint sensor's axis (docs/mechanisms.md, "Joint sensors")
@@ -331,13 +331,13 @@ void MechanismReader::ReadJoints(const YAML::Node& joints, mech::Mechanism& m) {
       if (j["translation"] || rigid_joint_)
         joint.translation = ReadCoupling(j["translation"] ? j["translation"] : rigid_section_, name, "translation",
                                          trans ? &all : &perp, trans ? F::kWorld : F::kParent);
-      else sink_.Error(joint.where, name, fmt::format("a {} joint needs 'translation: {{K: ..., R: ...}}' (or 'rigid: true')", type));
+      else sink_.Error(codes::kKeyMissing, joint.where, name, fmt::format("a {} joint needs 'translation: {{K: ..., R: ...}}' (or 'rigid: true')", type));
       if (type != "spherical") {
         if (j["rotation"] || rigid_joint_)
           joint.rotation = ReadCoupling(j["rotation"] ? j["rotation"] : rigid_section_, name, "rotation", rot_all ? &all : &perp, F::kParent);
-        else sink_.Error(joint.where, name, fmt::format("a {} joint needs 'rotation: {{K: ..., R: ...}}' (or 'rigid: true')", type));
+        else sink_.Error(codes::kKeyMissing, joint.where, name, fmt::format("a {} joint needs 'rotation: {{K: ..., R: ...}}' (or 'rigid: true')", type));
       } else if (j["rotation"]) {
-        sink_.Error(Loc(j["rotation"]), name, "a spherical joint leaves every rotation free", "remove 'rotation', or use type: coupling");
+        sink_.Error(codes::kKeyConflict, Loc(j["rotation"]), name, "a spherical joint leaves every rotation free", "remove 'rotation', or use type: coupling");
       }
     }
     rigid_joint_ = false;
@@ -380,7 +380,7 @@ void MechanismReader::ReadJointKind(const YAML::Node& j, const std::string& name
     lead = Number(l, name, Env{});
   }
   if (!rigid_joint_ && (!j["translation"] || !j["rotation"] || (type == "screw" && !j["helix"]))) {
-    sink_.Error(joint.where, name,
+    sink_.Error(codes::kKeyMissing, joint.where, name,
                 fmt::format("a {} joint needs 'translation: {{K: ..., R: ...}}' and 'rotation: {{K: ..., R: ...}}'{} (or 'rigid: true')", type,
                             type == "screw" ? " and 'helix: {K: ..., R: ...}' (N/m along the axis)" : ""));
     return;
@@ -434,7 +434,7 @@ void MechanismReader::ReadAxialSwitches(const YAML::Node& j, const std::string& 
     mech::Joint::Stops stops;
     stops.where = Loc(l);
     if (!l["lower"] || !l["upper"]) {
-      sink_.Error(Loc(l), name, fmt::format("end stops need 'lower' and 'upper' ({}, from the assembled position)", unit),
+      sink_.Error(codes::kKeyMissing, Loc(l), name, fmt::format("end stops need 'lower' and 'upper' ({}, from the assembled position)", unit),
                   slide ? "e.g. limits: {lower: -0.05, upper: 0.05}" : "e.g. limits: {lower: -0.5, upper: 0.5}");
       return;
     }
@@ -488,7 +488,7 @@ void MechanismReader::ReadGears(const YAML::Node& gears, mech::Mechanism& m) {
       const std::string v = c.Scalar();
       if (v == "pitch") gm.contact = mech::GearMesh::Contact::kPitch;
       else if (v != "spin")
-        sink_.Error(Loc(c), name, fmt::format("'contact' is 'spin' or 'pitch' (got '{}')", v),
+        sink_.Error(codes::kValueUnknown, Loc(c), name, fmt::format("'contact' is 'spin' or 'pitch' (got '{}')", v),
                     "spin: a torque between the spins (the paper's model); pitch: a force at the pitch point that the bearings carry");
     }
     if (g["pressure_angle_deg"]) gm.pressure_angle = Number(g["pressure_angle_deg"], name, Env{}) * std::numbers::pi / 180;
@@ -497,7 +497,7 @@ void MechanismReader::ReadGears(const YAML::Node& gears, mech::Mechanism& m) {
     if (const YAML::Node f = g["flank"]) {
       gm.coast_flank = f.Scalar() == "coast";
       if (f.Scalar() != "coast" && f.Scalar() != "drive")
-        sink_.Error(Loc(f), name, fmt::format("'flank' is 'drive' or 'coast' (got '{}')", f.Scalar()),
+        sink_.Error(codes::kValueUnknown, Loc(f), name, fmt::format("'flank' is 'drive' or 'coast' (got '{}')", f.Scalar()),
                     "drive: the flank that carries F_t > 0 (gear a pushing b along t); coast: the other");
     }
     if (g["pitch_point"]) gm.pitch_point = Vec3(g["pitch_point"], name);
@@ -505,29 +505,29 @@ void MechanismReader::ReadGears(const YAML::Node& gears, mech::Mechanism& m) {
     gm.rack_b = rack;
     if (gm.contact != mech::GearMesh::Contact::kPitch)
       for (const char* key : {"pressure_angle_deg", "helix_angle_deg", "flank", "internal", "pitch_point"})
-        if (g[key]) sink_.Error(Loc(g[key]), name, fmt::format("'{}' belongs to a mesh through its pitch point", key), "add 'contact: pitch'");
+        if (g[key]) sink_.Error(codes::kKeyConflict, Loc(g[key]), name, fmt::format("'{}' belongs to a mesh through its pitch point", key), "add 'contact: pitch'");
     auto side = [&](const char* key, std::string* body, Eigen::Vector3d* axis, double* teeth) {
       const YAML::Node s = g[key];
       if (!s || !s.IsMap()) {
-        sink_.Error(gm.where, name, fmt::format("a gear mesh needs '{}: {{body: ..., axis: ..., teeth: ...}}'", key));
+        sink_.Error(codes::kKeyMissing, gm.where, name, fmt::format("a gear mesh needs '{}: {{body: ..., axis: ..., teeth: ...}}'", key));
         return;
       }
       CheckKeys(s, {"body", "axis", "teeth", "radius", "rack"}, name);
       if (s["radius"]) {
-        if (std::string(key) != "a") sink_.Error(Loc(s["radius"]), name, "'radius' is given for gear a (the pinion of a rack)");
+        if (std::string(key) != "a") sink_.Error(codes::kKeyConflict, Loc(s["radius"]), name, "'radius' is given for gear a (the pinion of a rack)");
         else gm.radius_a = Number(s["radius"], name, Env{});
       }
-      if (s["rack"] && std::string(key) != "b") sink_.Error(Loc(s["rack"]), name, "the rack is gear b");
+      if (s["rack"] && std::string(key) != "b") sink_.Error(codes::kKeyConflict, Loc(s["rack"]), name, "the rack is gear b");
       if (s["body"]) *body = s["body"].Scalar();
-      else sink_.Error(Loc(s), name, fmt::format("gear '{}' needs a 'body'", key));
+      else sink_.Error(codes::kKeyMissing, Loc(s), name, fmt::format("gear '{}' needs a 'body'", key));
       if (rack && std::string(key) == "b") {
-        if (s["axis"] || s["teeth"]) sink_.Error(Loc(s), name, "a rack has no axis or teeth (it translates)", "remove them");
+        if (s["axis"] || s["teeth"]) sink_.Error(codes::kKeyConflict, Loc(s), name, "a rack has no axis or teeth (it translates)", "remove them");
         return;
       }
       if (s["axis"]) *axis = Axis(s["axis"], name);
-      else sink_.Error(Loc(s), name, fmt::format("gear '{}' needs an 'axis' (in the carrier's frame)", key));
+      else sink_.Error(codes::kKeyMissing, Loc(s), name, fmt::format("gear '{}' needs an 'axis' (in the carrier's frame)", key));
       if (s["teeth"]) *teeth = Number(s["teeth"], name, Env{});  // a whole number in range: mech::Mechanism
-      else sink_.Error(Loc(s), name, fmt::format("gear '{}' needs 'teeth'", key));
+      else sink_.Error(codes::kKeyMissing, Loc(s), name, fmt::format("gear '{}' needs 'teeth'", key));
     };
     side("a", &gm.body_a, &gm.axis_a, &gm.teeth_a);
     side("b", &gm.body_b, &gm.axis_b, &gm.teeth_b);
@@ -549,7 +549,7 @@ void MechanismReader::ReadGears(const YAML::Node& gears, mech::Mechanism& m) {
         sink_.Error(codes::kParamRange, Loc(g["restitution"]), name, fmt::format("restitution must be in [0, 1] (got {:g})", gm.restitution),
                     "0: plastic tooth impacts, 1: elastic");
       if (!gm.rigid || !(gm.backlash > 0.0))
-        sink_.Error(Loc(g["restitution"]), name, "'restitution' belongs to a rigid mesh with backlash (its tooth impacts)",
+        sink_.Error(codes::kKeyConflict, Loc(g["restitution"]), name, "'restitution' belongs to a rigid mesh with backlash (its tooth impacts)",
                     "add 'rigid: true' and 'backlash', or remove it");
     }
     m.AddGear(gm);
@@ -585,7 +585,7 @@ void MechanismReader::ReadDrives(const YAML::Node& drives, mech::Mechanism& m) {
                                                             {"torque", mech::Drive::Kind::kTorque},
                                                             {"force", mech::Drive::Kind::kForce}};
     if (!kinds.count(type)) {
-      sink_.Error(d["type"] ? Loc(d["type"]) : drive.where, name, fmt::format("unknown drive type '{}'", type),
+      sink_.Error(codes::kValueUnknown, d["type"] ? Loc(d["type"]) : drive.where, name, fmt::format("unknown drive type '{}'", type),
                   "use angular_velocity, velocity, torque or force");
       continue;
     }
@@ -596,12 +596,12 @@ void MechanismReader::ReadDrives(const YAML::Node& drives, mech::Mechanism& m) {
     if (drive.kind == mech::Drive::Kind::kForce) keys.push_back("at");
     CheckKeys(d, keys, name);
     if (d["body"]) drive.body = d["body"].Scalar();
-    else sink_.Error(drive.where, name, "a drive needs a 'body'");
+    else sink_.Error(codes::kKeyMissing, drive.where, name, "a drive needs a 'body'");
     if (d["reference"]) drive.reference = d["reference"].Scalar();
     if (d["axis"]) drive.axis = Axis(d["axis"], name);
-    else sink_.Error(drive.where, name, "a drive needs an 'axis'");
+    else sink_.Error(codes::kKeyMissing, drive.where, name, "a drive needs an 'axis'");
     if (d["value"]) drive.value = read_value(d["value"], name, &drive.formula);
-    else sink_.Error(drive.where, name, "a drive needs a 'value' (a number, a time function or a formula)");
+    else sink_.Error(codes::kKeyMissing, drive.where, name, "a drive needs a 'value' (a number, a time function or a formula)");
     if (d["at"]) drive.point = Vec3(d["at"], name);
     if (velocity && d["rigid"]) drive.rigid = Bool(d["rigid"], name);
     if (velocity && !drive.rigid) {
@@ -622,7 +622,7 @@ void MechanismReader::ReadPoints(const YAML::Node& points, mech::Mechanism& m) {
     if (!CheckName(p.name, p.where, "a point's")) continue;
     CheckKeys(kv.second, {"body", "at", "description"}, p.name);
     if (kv.second["body"]) p.body = kv.second["body"].Scalar();
-    else sink_.Error(p.where, p.name, "a point needs a 'body'");
+    else sink_.Error(codes::kKeyMissing, p.where, p.name, "a point needs a 'body'");
     if (kv.second["at"]) p.at = Vec3(kv.second["at"], p.name);
     m.AddPoint(p);
   }

@@ -14,7 +14,7 @@ namespace multibond {
 Eigen::Vector3d MechanismValues::Vec3(const YAML::Node& n, const std::string& element) {
   const Eigen::VectorXd v = Vector(n, element, Env{});
   if (v.size() != 3) {
-    sink_.Error(Loc(n), element, fmt::format("expected 3 numbers, got {}", v.size()), "write e.g. [0, 0, 1]");
+    sink_.Error(codes::kYamlStructure, Loc(n), element, fmt::format("expected 3 numbers, got {}", v.size()), "write e.g. [0, 0, 1]");
     return Eigen::Vector3d::Zero();
   }
   return v;
@@ -32,12 +32,12 @@ Eigen::Vector3d MechanismValues::Axis(const YAML::Node& n, const std::string& el
     if (s == "x") return sign * Eigen::Vector3d::UnitX();
     if (s == "y") return sign * Eigen::Vector3d::UnitY();
     if (s == "z") return sign * Eigen::Vector3d::UnitZ();
-    sink_.Error(Loc(n), element, fmt::format("unknown axis '{}'", n.Scalar()), "write x, y, z, -x, ... or a vector [ax, ay, az]");
+    sink_.Error(codes::kValueUnknown, Loc(n), element, fmt::format("unknown axis '{}'", n.Scalar()), "write x, y, z, -x, ... or a vector [ax, ay, az]");
     return Eigen::Vector3d::UnitX();
   }
   const Eigen::Vector3d v = Vec3(n, element);
   if (v.norm() < 1e-12) {
-    sink_.Error(Loc(n), element, "an axis must be a non-zero vector");
+    sink_.Error(codes::kParamRange, Loc(n), element, "an axis must be a non-zero vector");
     return Eigen::Vector3d::UnitX();
   }
   return v.normalized();
@@ -50,7 +50,7 @@ Eigen::MatrixXd MechanismValues::Directions(const YAML::Node& n, const std::stri
     return Eigen::Matrix3d::Identity();
   }
   if (!n.IsSequence() || n.size() == 0 || n.size() > 3) {
-    sink_.Error(Loc(n), element, "directions are 'all' or a list of 1 to 3 axes", "write e.g. axes: [y, z]");
+    sink_.Error(codes::kYamlStructure, Loc(n), element, "directions are 'all' or a list of 1 to 3 axes", "write e.g. axes: [y, z]");
     return Eigen::Matrix3d::Identity();
   }
   Eigen::MatrixXd rows(static_cast<Eigen::Index>(n.size()), 3);
@@ -68,7 +68,7 @@ Eigen::Matrix3d MechanismValues::Orientation(const YAML::Node& n, const std::str
   if (n.IsMap()) {
     CheckKeys(n, {"axis", "angle", "degrees"}, element);
     if (!n["axis"] || (!n["angle"] && !n["degrees"])) {
-      sink_.Error(Loc(n), element, "an orientation is a 3x3 matrix or {axis: ..., angle: radians | degrees: ...}");
+      sink_.Error(codes::kYamlStructure, Loc(n), element, "an orientation is a 3x3 matrix or {axis: ..., angle: radians | degrees: ...}");
       return Eigen::Matrix3d::Identity();
     }
     const double angle = n["angle"] ? Number(n["angle"], element, Env{}) : Number(n["degrees"], element, Env{}) * std::numbers::pi / 180.0;
@@ -76,7 +76,7 @@ Eigen::Matrix3d MechanismValues::Orientation(const YAML::Node& n, const std::str
   }
   const Eigen::MatrixXd m = Matrix(n, element, Env{});
   if (m.rows() != 3 || m.cols() != 3) {
-    sink_.Error(Loc(n), element, "an orientation matrix is 3x3");
+    sink_.Error(codes::kYamlStructure, Loc(n), element, "an orientation matrix is 3x3");
     return Eigen::Matrix3d::Identity();
   }
   return m;
@@ -88,7 +88,7 @@ void MechanismValues::Gains(const YAML::Node& n, const std::string& element, int
   auto read = [&](const char* a, const char* b, Eigen::VectorXd* out, bool required) {
     const YAML::Node v = n[a] ? n[a] : n[b];
     if (!v) {
-      if (required) sink_.Error(Loc(n), element, fmt::format("coupling needs '{}' (or '{}')", a, b), "e.g. {K: 1.0e6, R: 20}");
+      if (required) sink_.Error(codes::kKeyMissing, Loc(n), element, fmt::format("coupling needs '{}' (or '{}')", a, b), "e.g. {K: 1.0e6, R: 20}");
       *out = Eigen::VectorXd::Zero(k);
       return;
     }
@@ -96,7 +96,7 @@ void MechanismValues::Gains(const YAML::Node& n, const std::string& element, int
     if (x.size() == 1) *out = Eigen::VectorXd::Constant(k, x[0]);
     else if (x.size() == k) *out = x;
     else {
-      sink_.Error(Loc(v), element, fmt::format("give one value or {} (one per direction), got {}", k, x.size()));
+      sink_.Error(codes::kParamShape, Loc(v), element, fmt::format("give one value or {} (one per direction), got {}", k, x.size()));
       *out = Eigen::VectorXd::Constant(k, 1.0);
     }
   };
@@ -110,7 +110,7 @@ mech::Coupling::Frame MechanismValues::Frame(const YAML::Node& n, const std::str
   if (f == "world") return mech::Coupling::Frame::kWorld;
   if (f == "parent") return mech::Coupling::Frame::kParent;
   if (f == "child") return mech::Coupling::Frame::kChild;
-  sink_.Error(Loc(n), element, fmt::format("unknown frame '{}'", f), "use world, parent or child");
+  sink_.Error(codes::kValueUnknown, Loc(n), element, fmt::format("unknown frame '{}'", f), "use world, parent or child");
   return dflt;
 }
 
@@ -120,7 +120,7 @@ std::optional<mech::Coupling> MechanismValues::ReadCoupling(const YAML::Node& n,
                                                             const Eigen::MatrixXd* fixed_rows, mech::Coupling::Frame frame) {
   if (!n) return std::nullopt;
   if (!n.IsMap()) {
-    sink_.Error(Loc(n), element, fmt::format("'{}' is a mapping like {{K: 1.0e6, R: 20}}", what));
+    sink_.Error(codes::kYamlStructure, Loc(n), element, fmt::format("'{}' is a mapping like {{K: 1.0e6, R: 20}}", what));
     return std::nullopt;
   }
   mech::Coupling c;
@@ -151,25 +151,25 @@ mech::MassProperties MechanismValues::Mass(const YAML::Node& b, const std::strin
     const YAML::Node sh = b["shape"];
     for (const char* key : {"mass", "inertia"})
       if (b[key])
-        sink_.Error(Loc(b[key]), name, fmt::format("a body with a shape takes its {} from the shape and density", key),
+        sink_.Error(codes::kKeyConflict, Loc(b[key]), name, fmt::format("a body with a shape takes its {} from the shape and density", key),
                     fmt::format("give either shape and density, or mass and inertia: remove '{}' or 'shape'", key));
-    if (!b["density"]) sink_.Error(Loc(sh), name, "a shape needs a 'density' [kg/m^3]");
+    if (!b["density"]) sink_.Error(codes::kKeyMissing, Loc(sh), name, "a shape needs a 'density' [kg/m^3]");
     const double rho = b["density"] ? Number(b["density"], name, Env{}) : 1.0;
     if (!(rho > 0)) sink_.Error(codes::kParamRange, Loc(b["density"]), name, fmt::format("density must be > 0 (got {:g})", rho));
     if (!sh.IsMap() || sh.size() != 1) {
-      sink_.Error(Loc(sh), name, "shape is one of {disc: ...}, {cylinder: ...}, {box: ...}, {sphere: ...}");
+      sink_.Error(codes::kYamlStructure, Loc(sh), name, "shape is one of {disc: ...}, {cylinder: ...}, {box: ...}, {sphere: ...}");
       return mech::MassProperties::PointMass(1.0);
     }
     const std::string kind = sh.begin()->first.Scalar();
     const YAML::Node p = sh.begin()->second;
     if (!p.IsMap()) {
-      sink_.Error(Loc(p), name, fmt::format("the {} needs its dimensions as a mapping", kind),
+      sink_.Error(codes::kYamlStructure, Loc(p), name, fmt::format("the {} needs its dimensions as a mapping", kind),
                   "write e.g. shape: {disc: {diameter: 0.1, thickness: 0.01, axis: z}}");
       return mech::MassProperties::PointMass(1.0);
     }
     auto num = [&](const char* key) {
       if (!p[key]) {
-        sink_.Error(Loc(p), name, fmt::format("{} needs '{}'", kind, key));
+        sink_.Error(codes::kKeyMissing, Loc(p), name, fmt::format("{} needs '{}'", kind, key));
         return 1.0;
       }
       const double v = Number(p[key], name, Env{});
@@ -182,7 +182,7 @@ mech::MassProperties MechanismValues::Mass(const YAML::Node& b, const std::strin
       int k = 0;
       for (int i = 1; i < 3; ++i)
         if (std::abs(a[i]) > std::abs(a[k])) k = i;
-      if (std::abs(std::abs(a[k]) - 1.0) > 1e-12) sink_.Error(Loc(p["axis"]), name, "a shape's axis is x, y or z");
+      if (std::abs(std::abs(a[k]) - 1.0) > 1e-12) sink_.Error(codes::kValueUnknown, Loc(p["axis"]), name, "a shape's axis is x, y or z");
       return k;
     };
     if (kind == "disc" || kind == "cylinder") {
@@ -199,12 +199,12 @@ mech::MassProperties MechanismValues::Mass(const YAML::Node& b, const std::strin
       return mech::MassProperties::Sphere(rho, num("diameter"));
     }
     const std::string guess = DidYouMean(kind, {"disc", "cylinder", "box", "sphere"});
-    sink_.Error(Loc(sh.begin()->first), name, fmt::format("unknown shape '{}'", kind),
+    sink_.Error(codes::kValueUnknown, Loc(sh.begin()->first), name, fmt::format("unknown shape '{}'", kind),
                 guess.empty() ? "use disc, cylinder, box or sphere" : fmt::format("did you mean '{}'?", guess));
     return mech::MassProperties::PointMass(1.0);
   }
   if (!b["mass"]) {
-    sink_.Error(Loc(b), name, "a body needs a 'shape' and 'density', or a 'mass' (and 'inertia')");
+    sink_.Error(codes::kKeyMissing, Loc(b), name, "a body needs a 'shape' and 'density', or a 'mass' (and 'inertia')");
     return mech::MassProperties::PointMass(1.0);
   }
   const double m = Number(b["mass"], name, Env{});
@@ -213,7 +213,7 @@ mech::MassProperties MechanismValues::Mass(const YAML::Node& b, const std::strin
   Eigen::Matrix3d inertia = Eigen::Matrix3d::Identity();
   if (ip.is_scalar) inertia *= ip.scalar;
   else if (ip.matrix.rows() == 3 && ip.matrix.cols() == 3) inertia = ip.matrix;
-  else sink_.Error(Loc(b["inertia"]), name, "inertia is a number, 3 principal moments or a 3x3 matrix");
+  else sink_.Error(codes::kYamlStructure, Loc(b["inertia"]), name, "inertia is a number, 3 principal moments or a 3x3 matrix");
   // A zero tensor would make a point mass and drop the body's rotation (and its omega columns) silently.
   if (inertia.isZero(0.0))
     sink_.Error(codes::kParamRange, Loc(b["inertia"]), name, "inertia must be positive definite (got 0)", "leave 'inertia' out for a point mass");

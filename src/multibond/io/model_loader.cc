@@ -57,11 +57,11 @@ LoadedModel Load(LoadContext& cx, const YAML::Node& root, const std::vector<Para
   std::shared_ptr<const mech::Mechanism> parts;
   if (mechanism) parts = MechanismReader(cx).ReadMechanism(root);
   if (!root["elements"] && !mechanism)
-    sink.Error({cx.file, 1, 1}, "", "the model has no 'elements' section (nor 'bodies')", "list the elements under 'elements:'");
+    sink.Error(codes::kKeyMissing, {cx.file, 1, 1}, "", "the model has no 'elements' section (nor 'bodies')", "list the elements under 'elements:'");
   if (!root["bonds"] && !mechanism)
-    sink.Error({cx.file, 1, 1}, "", "the model has no 'bonds' section", "list the bonds under 'bonds:', e.g. '- force -> mass'");
+    sink.Error(codes::kKeyMissing, {cx.file, 1, 1}, "", "the model has no 'bonds' section", "list the bonds under 'bonds:', e.g. '- force -> mass'");
   for (const char* key : {"joints", "gears", "drives", "points", "gravity", "assembly"})
-    if (root[key] && !mechanism) sink.Error(values.Loc(root[key]), key, fmt::format("'{}' needs a 'bodies' section", key), "declare the bodies first");
+    if (root[key] && !mechanism) sink.Error(codes::kKeyMissing, values.Loc(root[key]), key, fmt::format("'{}' needs a 'bodies' section", key), "declare the bodies first");
   // Submodel instances, their depth and the elements and bonds they expand to are counted
   // before anything is expanded: an exponential nest is refused in microseconds.
   SizeLimits sizes(cx);

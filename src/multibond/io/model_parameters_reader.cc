@@ -51,7 +51,7 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
   std::vector<Entry> entries;
   std::unordered_map<std::string, std::size_t> index;
   if (n && !n.IsMap()) {
-    sink_.Error(Loc(n), "parameters", "'parameters' maps each name to its value",
+    sink_.Error(codes::kYamlStructure, Loc(n), "parameters", "'parameters' maps each name to its value",
                 "write e.g. parameters: {L: 0.5, k: \"4*L\", m: {value: 2.0, unit: kg}}");
   } else if (n) {
     for (const auto& kv : n) {
@@ -84,7 +84,7 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
         }
         if (v["description"]) e.p.description = Str(v["description"], name);
         if (!v["value"]) {
-          sink_.Error(where, name, "a parameter given as a mapping needs 'value'", "write e.g. {value: 0.5, unit: m}");
+          sink_.Error(codes::kKeyMissing, where, name, "a parameter given as a mapping needs 'value'", "write e.g. {value: 0.5, unit: m}");
           e.failed = true;
         } else {
           e.value = v["value"];
@@ -93,7 +93,7 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
         e.value = v;
       }
       if (!e.failed && !e.value.IsScalar()) {
-        sink_.Error(Loc(e.value), name, fmt::format("a parameter is a number or a formula, not {}", Describe(e.value)),
+        sink_.Error(codes::kYamlStructure, Loc(e.value), name, fmt::format("a parameter is a number or a formula, not {}", Describe(e.value)),
                     "write e.g. L: 0.5 or k: \"4*L\"");
         e.failed = true;
       }

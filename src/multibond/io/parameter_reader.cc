@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include "multibond/core/diagnostic_codes.h"
 #include "multibond/io/did_you_mean.h"
 
 namespace multibond {
@@ -11,7 +12,7 @@ namespace multibond {
 TimeFunction ParameterReader::ReadTimeFunction(const YAML::Node& n, const std::string& element, const Env& env) {
   if (n.IsScalar()) return TimeFunction::Constant(Number(n, element, env));
   if (!n.IsMap() || n.size() != 1) {
-    sink_.Error(Loc(n), element, "expected a number or one of {step: ...}, {ramp: ...}, {sine: ...}, {table: ...}",
+    sink_.Error(codes::kYamlStructure, Loc(n), element, "expected a number or one of {step: ...}, {ramp: ...}, {sine: ...}, {table: ...}",
                 "e.g. effort: {step: {value: 1, at: 0}}");
     return {};
   }
@@ -21,7 +22,7 @@ TimeFunction ParameterReader::ReadTimeFunction(const YAML::Node& n, const std::s
   // step, ramp and sine take a mapping of settings ({} keeps every default); step also a number.
   auto settings = [&](const char* example) {
     if (v.IsMap()) return true;
-    sink_.Error(Loc(v), element, fmt::format("'{}' takes a mapping of settings, not {}", kind, Describe(v)),
+    sink_.Error(codes::kYamlStructure, Loc(v), element, fmt::format("'{}' takes a mapping of settings, not {}", kind, Describe(v)),
                 fmt::format("write e.g. {{{}: {}}}", kind, example));
     return false;
   };
@@ -44,22 +45,22 @@ TimeFunction ParameterReader::ReadTimeFunction(const YAML::Node& n, const std::s
   if (kind == "table") {
     std::vector<double> t, val;
     if (!v.IsSequence() || v.size() < 2) {
-      sink_.Error(Loc(v), element, "a table needs at least two [time, value] rows", "write e.g. table: [[0, 0], [1, 5]]");
+      sink_.Error(codes::kParamShape, Loc(v), element, "a table needs at least two [time, value] rows", "write e.g. table: [[0, 0], [1, 5]]");
       return {};
     }
     for (const auto& row : v) {
       if (!row.IsSequence() || row.size() != 2) {
-        sink_.Error(Loc(row), element, "a table row is [time, value]");
+        sink_.Error(codes::kParamShape, Loc(row), element, "a table row is [time, value]");
         return {};
       }
       t.push_back(Number(row[0], element, env));
       val.push_back(Number(row[1], element, env));
-      if (t.size() > 1 && !(t.back() > t[t.size() - 2])) sink_.Error(Loc(row), element, "table times must increase strictly");
+      if (t.size() > 1 && !(t.back() > t[t.size() - 2])) sink_.Error(codes::kParamRange, Loc(row), element, "table times must increase strictly");
     }
     return TimeFunction::Table(std::move(t), std::move(val));
   }
   const std::string guess = DidYouMean(kind, {"step", "ramp", "sine", "table"});
-  sink_.Error(Loc(n.begin()->first), element, fmt::format("unknown time function '{}'", kind),
+  sink_.Error(codes::kValueUnknown, Loc(n.begin()->first), element, fmt::format("unknown time function '{}'", kind),
               guess.empty() ? "use step, ramp, sine or table" : fmt::format("did you mean '{}'?", guess));
   return {};
 }
@@ -76,14 +77,14 @@ SourceValue ParameterReader::ReadSource(const YAML::Node& n, const std::string& 
 Eigen::MatrixXd ParameterReader::Selection(const YAML::Node& n, const std::string& element) {
   static const std::map<std::string, int> kAxes = {{"x", 0}, {"y", 1}, {"z", 2}, {"0", 0}, {"1", 1}, {"2", 2}};
   if (!n.IsSequence() || n.size() == 0 || n.size() > 3) {
-    sink_.Error(Loc(n), element, "rows must be a list of axes", "write e.g. rows: [y, z]");
+    sink_.Error(codes::kYamlStructure, Loc(n), element, "rows must be a list of axes", "write e.g. rows: [y, z]");
     return {};
   }
   Eigen::MatrixXd s = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(n.size()), 3);
   for (size_t i = 0; i < n.size(); ++i) {
     const auto it = kAxes.find(n[i].Scalar());
     if (it == kAxes.end()) {
-      sink_.Error(Loc(n[i]), element, fmt::format("unknown axis '{}'", n[i].Scalar()), "axes are x, y, z");
+      sink_.Error(codes::kValueUnknown, Loc(n[i]), element, fmt::format("unknown axis '{}'", n[i].Scalar()), "axes are x, y, z");
       continue;
     }
     s(static_cast<Eigen::Index>(i), it->second) = 1.0;
@@ -126,30 +127,30 @@ Eigen::MatrixXd ParameterReader::ModulusMatrix(const YAML::Node& n, const std::s
 Modulus ParameterReader::ReadModulus(const YAML::Node& n, const std::string& element, const std::string& prefix, const Env& env) {
   Modulus m;
   if (!n.IsMap()) {
-    sink_.Error(Loc(n), element, "modulus must be a mapping",
+    sink_.Error(codes::kYamlStructure, Loc(n), element, "modulus must be a mapping",
                 "e.g. {rotation: A.R, transpose: true}, {lever: A.R, r: [0.1, 0, 0]} or {matrix: [[...]]}");
     return m;
   }
   CheckKeys(n, {"rotation", "transpose", "lever", "r", "matrix", "rows", "left", "right", "scale"}, element);
   const int forms = (n["matrix"] ? 1 : 0) + (n["rotation"] ? 1 : 0) + (n["lever"] ? 1 : 0);
-  if (forms > 1) sink_.Error(Loc(n), element, "give exactly one of 'matrix', 'rotation' and 'lever'");
-  if (n["rows"] && n["left"]) sink_.Error(Loc(n), element, "give either 'rows' or 'left', not both");
-  if (n["transpose"] && !n["rotation"]) sink_.Error(Loc(n["transpose"]), element, "'transpose' goes with 'rotation'");
-  if (n["r"] && !n["lever"]) sink_.Error(Loc(n["r"]), element, "'r' goes with 'lever'");
-  if (n["right"] && !n["rotation"]) sink_.Error(Loc(n["right"]), element, "'right' goes with 'rotation'");
+  if (forms > 1) sink_.Error(codes::kKeyConflict, Loc(n), element, "give exactly one of 'matrix', 'rotation' and 'lever'");
+  if (n["rows"] && n["left"]) sink_.Error(codes::kKeyConflict, Loc(n), element, "give either 'rows' or 'left', not both");
+  if (n["transpose"] && !n["rotation"]) sink_.Error(codes::kKeyConflict, Loc(n["transpose"]), element, "'transpose' goes with 'rotation'");
+  if (n["r"] && !n["lever"]) sink_.Error(codes::kKeyConflict, Loc(n["r"]), element, "'r' goes with 'lever'");
+  if (n["right"] && !n["rotation"]) sink_.Error(codes::kKeyConflict, Loc(n["right"]), element, "'right' goes with 'rotation'");
   if (n["scale"]) m.scale = Number(n["scale"], element, env);
   if (n["rows"]) m.left = Selection(n["rows"], element);
   if (n["left"]) m.left = Matrix(n["left"], element, env);
   if (n["right"]) {
     m.right = Matrix(n["right"], element, env);
     if (m.right.size() > 0 && (m.right.rows() != 3 || m.right.cols() > 3))
-      sink_.Error(Loc(n["right"]), element, "'right' must be a 3 x n matrix with n <= 3");
+      sink_.Error(codes::kParamShape, Loc(n["right"]), element, "'right' must be a 3 x n matrix with n <= 3");
   }
   if (n["matrix"]) {
     m.kind = Modulus::Kind::kConstant;
     m.constant = ModulusMatrix(n["matrix"], element, prefix, env, &m.entries);
     if (!m.entries.empty() && (n["left"] || n["rows"]))
-      sink_.Error(Loc(n["left"] ? n["left"] : n["rows"]), element, "a modulus whose entries are formulas takes no 'left' or 'rows'",
+      sink_.Error(codes::kKeyConflict, Loc(n["left"] ? n["left"] : n["rows"]), element, "a modulus whose entries are formulas takes no 'left' or 'rows'",
                   "put the selection into the matrix itself");
   } else if (n["rotation"]) {
     m.kind = Modulus::Kind::kRotation;
@@ -158,19 +159,19 @@ Modulus ParameterReader::ReadModulus(const YAML::Node& n, const std::string& ele
   } else if (n["lever"]) {
     m.kind = Modulus::Kind::kLever;
     m.rotation = Qualify(prefix, Str(n["lever"], element));
-    if (!n["r"]) sink_.Error(Loc(n), element, "a lever modulus needs 'r', the point in the body frame", "add r: [x, y, z]");
+    if (!n["r"]) sink_.Error(codes::kKeyMissing, Loc(n), element, "a lever modulus needs 'r', the point in the body frame", "add r: [x, y, z]");
     else {
       const Eigen::VectorXd r = Vector(n["r"], element, env);
       if (r.size() == 3) m.lever = r;
-      else sink_.Error(Loc(n["r"]), element, "r must have 3 components");
+      else sink_.Error(codes::kParamShape, Loc(n["r"]), element, "r must have 3 components");
     }
   } else {
-    sink_.Error(Loc(n), element, "modulus needs one of 'rotation', 'lever' or 'matrix'");
+    sink_.Error(codes::kKeyMissing, Loc(n), element, "modulus needs one of 'rotation', 'lever' or 'matrix'");
   }
   if (m.left.size() > 0 && m.kind == Modulus::Kind::kConstant && m.left.cols() != m.constant.rows())
-    sink_.Error(Loc(n), element, "left matrix and modulus matrix do not fit together");
+    sink_.Error(codes::kParamShape, Loc(n), element, "left matrix and modulus matrix do not fit together");
   if (m.left.size() > 0 && m.kind != Modulus::Kind::kConstant && m.left.cols() != 3)
-    sink_.Error(Loc(n), element, fmt::format("'left' must have 3 columns here (got {})", m.left.cols()));
+    sink_.Error(codes::kParamShape, Loc(n), element, fmt::format("'left' must have 3 columns here (got {})", m.left.cols()));
   return m;
 }
 

@@ -15,14 +15,14 @@ void SettingsReader::ReadCompileSettings(const YAML::Node& root, CompileOptions&
     const std::string c = root["constraints"].IsScalar() ? root["constraints"].Scalar() : "";
     if (c == "ideal") options.ideal_constraints = true;
     else if (c != "compliant")
-      sink_.Error(Loc(root["constraints"]), "constraints", fmt::format("unknown constraints '{}'", c),
+      sink_.Error(codes::kValueUnknown, Loc(root["constraints"]), "constraints", fmt::format("unknown constraints '{}'", c),
                   "write 'constraints: ideal' (derivative causality solved exactly) or 'constraints: compliant' (the default)");
   }
   if (root["algebraic_loops"]) {
     const std::string c = root["algebraic_loops"].IsScalar() ? root["algebraic_loops"].Scalar() : "";
     if (c == "solve") options.solve_algebraic_loops = true;
     else if (c != "error")
-      sink_.Error(Loc(root["algebraic_loops"]), "algebraic_loops", fmt::format("unknown algebraic_loops '{}'", c),
+      sink_.Error(codes::kValueUnknown, Loc(root["algebraic_loops"]), "algebraic_loops", fmt::format("unknown algebraic_loops '{}'", c),
                   "write 'algebraic_loops: solve' (each loop solved as a linear system at every evaluation) or "
                   "'algebraic_loops: error' (the default: a loop is reported and the model refused)");
   }
@@ -31,7 +31,7 @@ void SettingsReader::ReadCompileSettings(const YAML::Node& root, CompileOptions&
 /// `mechanism`: the model has bodies (joint coordinates need them).
 void SettingsReader::ReadSimulation(const YAML::Node& n, SimulationDefaults& s, bool mechanism) {
   if (!n.IsMap()) {
-    sink_.Error(Loc(n), "simulation", "'simulation' is a mapping of settings", "write e.g. simulation: {t_end: 5, dt: 0.001}");
+    sink_.Error(codes::kYamlStructure, Loc(n), "simulation", "'simulation' is a mapping of settings", "write e.g. simulation: {t_end: 5, dt: 0.001}");
     return;
   }
   CheckKeys(n, {"t_end", "dt", "solver", "rtol", "atol", "step", "max_step", "coordinates", "event_rest_time", "max_events_per_second", "initial"},
@@ -61,7 +61,7 @@ void SettingsReader::ReadSimulation(const YAML::Node& n, SimulationDefaults& s, 
     try {
       check();
     } catch (const std::invalid_argument& e) {
-      sink_.Error(Loc(n[key]), "simulation", e.what());
+      sink_.Error(codes::kParamRange, Loc(n[key]), "simulation", e.what());
     }
   };
   if (s.rtol && *s.rtol > 0) check_together("rtol", [&] { CheckRelativeTolerance(*s.rtol); });
@@ -70,7 +70,7 @@ void SettingsReader::ReadSimulation(const YAML::Node& n, SimulationDefaults& s, 
     try {
       CheckEndTime(0.0, *s.t_end);
     } catch (const std::invalid_argument& e) {
-      sink_.Error(Loc(n["t_end"]), "simulation.t_end", e.what());
+      sink_.Error(codes::kParamRange, Loc(n["t_end"]), "simulation.t_end", e.what());
       span_ok = false;
     }
   }
@@ -78,16 +78,16 @@ void SettingsReader::ReadSimulation(const YAML::Node& n, SimulationDefaults& s, 
   if (s.step && s.dt) check_together("step", [&] { CheckFixedStep(*s.step, *s.dt); });
   if (const YAML::Node c = n["coordinates"]) {
     if (!c.IsScalar() || (c.Scalar() != "joint" && c.Scalar() != "inertial"))
-      sink_.Error(Loc(c), "simulation", "'coordinates' is joint or inertial",
+      sink_.Error(codes::kValueUnknown, Loc(c), "simulation", "'coordinates' is joint or inertial",
                   "joint: the integrator advances each body relative to its tree joint; inertial: the model's own states");
     else if (c.Scalar() == "joint" && !mechanism)
-      sink_.Error(Loc(c), "simulation", "joint coordinates are for mechanisms: the model has no bodies", "remove 'coordinates'");
+      sink_.Error(codes::kKeyMissing, Loc(c), "simulation", "joint coordinates are for mechanisms: the model has no bodies", "remove 'coordinates'");
     else
       s.coordinates = c.Scalar();
   }
   if (const YAML::Node c = n["initial"]) {
     if (!c.IsScalar() || (c.Scalar() != "model" && c.Scalar() != "steady"))
-      sink_.Error(Loc(c), "simulation", fmt::format("'initial' is model or steady (got {})", Describe(c)),
+      sink_.Error(codes::kValueUnknown, Loc(c), "simulation", fmt::format("'initial' is model or steady (got {})", Describe(c)),
                   "model: the initial values the elements and states give; steady: the steady state found from them at the start");
     else
       s.initial = c.Scalar();
@@ -97,12 +97,12 @@ void SettingsReader::ReadSimulation(const YAML::Node& n, SimulationDefaults& s, 
     try {
       const Method method = ParseMethod(*s.solver);
       if (method == Method::kRk4 && !s.step)
-        sink_.Error(Loc(n["solver"]), "simulation", "rk4 is a fixed-step method and needs 'step'", "add step: 1.0e-4 (or use dopri5)");
+        sink_.Error(codes::kKeyConflict, Loc(n["solver"]), "simulation", "rk4 is a fixed-step method and needs 'step'", "add step: 1.0e-4 (or use dopri5)");
       if (UsesNewtonMatrix(method) && s.step)
-        sink_.Error(Loc(n["step"]), "simulation", fmt::format("{} chooses its own steps: a fixed 'step' is for {}", *s.solver, kFixedStepMethodNames),
+        sink_.Error(codes::kKeyConflict, Loc(n["step"]), "simulation", fmt::format("{} chooses its own steps: a fixed 'step' is for {}", *s.solver, kFixedStepMethodNames),
                     "bound its steps with max_step instead");
     } catch (const std::invalid_argument& e) {
-      sink_.Error(Loc(n["solver"]), "simulation", e.what());
+      sink_.Error(codes::kValueUnknown, Loc(n["solver"]), "simulation", e.what());
     }
   }
 }

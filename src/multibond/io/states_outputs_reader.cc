@@ -37,7 +37,7 @@ bool StatesOutputsReader::NameIsFree(const std::string& name, const SourceLocati
 
 void StatesOutputsReader::ReadStates(const YAML::Node& n, const std::string& prefix, const Env& env) {
   if (!n.IsMap()) {
-    sink_.Error(Loc(n), "states", "'states' must be a mapping of names to {kind: orientation|integral|lag|pid, ...}");
+    sink_.Error(codes::kYamlStructure, Loc(n), "states", "'states' must be a mapping of names to {kind: orientation|integral|lag|pid, ...}");
     return;
   }
   for (const auto& kv : n) {
@@ -48,7 +48,7 @@ void StatesOutputsReader::ReadStates(const YAML::Node& n, const std::string& pre
     a.name = name;
     a.where = Loc(kv.first);
     if (!s.IsMap()) {
-      sink_.Error(a.where, name, "a state is a mapping {kind: ..., of: ...}");
+      sink_.Error(codes::kYamlStructure, a.where, name, "a state is a mapping {kind: ..., of: ...}");
       continue;
     }
     const std::string kind = s["kind"] ? s["kind"].Scalar() : "";
@@ -65,7 +65,7 @@ void StatesOutputsReader::ReadStates(const YAML::Node& n, const std::string& pre
       keys = {"kind", "input", "kp", "ki", "kd", "tf", "tt", "min", "max", "initial", "unit", "description"};
     } else {
       const std::string guess = DidYouMean(kind, {"orientation", "integral", "lag", "pid"});
-      sink_.Error(s["kind"] ? Loc(s["kind"]) : a.where, name, fmt::format("unknown state kind '{}'", kind),
+      sink_.Error(codes::kValueUnknown, s["kind"] ? Loc(s["kind"]) : a.where, name, fmt::format("unknown state kind '{}'", kind),
                   guess.empty() ? "use kind: orientation, integral, lag or pid" : fmt::format("did you mean '{}'?", guess));
       continue;
     }
@@ -90,12 +90,12 @@ void StatesOutputsReader::ReadStates(const YAML::Node& n, const std::string& pre
     };
     if (a.kind == AuxState::Kind::kIntegral && s["rate"]) {
       // A signal state: dx/dt = rate, a formula.
-      if (s["of"]) sink_.Error(Loc(s["of"]), name, "give 'of' (a flow to integrate) or 'rate' (a formula), not both");
+      if (s["of"]) sink_.Error(codes::kKeyConflict, Loc(s["of"]), name, "give 'of' (a flow to integrate) or 'rate' (a formula), not both");
       formula("rate", a.rate);
-      if (s["components"]) sink_.Error(Loc(s["components"]), name, "a state with a 'rate' is scalar: it has no components");
+      if (s["components"]) sink_.Error(codes::kKeyConflict, Loc(s["components"]), name, "a state with a 'rate' is scalar: it has no components");
     } else if (a.kind == AuxState::Kind::kIntegral || a.kind == AuxState::Kind::kOrientation) {
       if (!s["of"]) {
-        sink_.Error(a.where, name,
+        sink_.Error(codes::kStateOf, a.where, name,
                     a.kind == AuxState::Kind::kIntegral
                         ? "state needs 'of': the 1-junction or one-port whose flow it integrates (or 'rate': a formula)"
                         : "state needs 'of': the 1-junction or one-port whose flow it integrates");
@@ -104,7 +104,7 @@ void StatesOutputsReader::ReadStates(const YAML::Node& n, const std::string& pre
       a.of = Qualify(prefix, s["of"].Scalar());
     } else {
       if (!s["input"]) {
-        sink_.Error(a.where, name, fmt::format("a {} state needs 'input': the formula of the signal it {}", kind,
+        sink_.Error(codes::kKeyMissing, a.where, name, fmt::format("a {} state needs 'input': the formula of the signal it {}", kind,
                                                a.kind == AuxState::Kind::kLag ? "follows" : "controls (the error)"),
                     "e.g. input: \"setpoint - shaft.f\"");
         continue;
@@ -113,7 +113,7 @@ void StatesOutputsReader::ReadStates(const YAML::Node& n, const std::string& pre
     }
     if (a.kind == AuxState::Kind::kLag) {
       if (!s["time_constant"]) {
-        sink_.Error(a.where, name, "a lag needs 'time_constant' [s]", "e.g. time_constant: 0.1");
+        sink_.Error(codes::kKeyMissing, a.where, name, "a lag needs 'time_constant' [s]", "e.g. time_constant: 0.1");
         good = false;
       }
       a.time_constant = number("time_constant", 0.0);
@@ -147,9 +147,9 @@ void StatesOutputsReader::ReadStates(const YAML::Node& n, const std::string& pre
       constant_rule_ = "an initial value is a constant: a number or a formula of parameters";
       if (a.kind == AuxState::Kind::kOrientation) {
         a.initial = Matrix(s["initial"], name, env);
-        if (a.initial.rows() != 3 || a.initial.cols() != 3) sink_.Error(Loc(s["initial"]), name, "an orientation's initial value is a 3x3 matrix");
+        if (a.initial.rows() != 3 || a.initial.cols() != 3) sink_.Error(codes::kYamlStructure, Loc(s["initial"]), name, "an orientation's initial value is a 3x3 matrix");
         else if (!(a.initial.transpose() * a.initial).isApprox(Eigen::Matrix3d::Identity(), 1e-9) || a.initial.determinant() < 0)
-          sink_.Error(Loc(s["initial"]), name, "the initial orientation is not a rotation matrix (R^T R = I, det R = +1)");
+          sink_.Error(codes::kParamRange, Loc(s["initial"]), name, "the initial orientation is not a rotation matrix (R^T R = I, det R = +1)");
       } else {
         a.initial = Vector(s["initial"], name, env);
         if (a.kind == AuxState::Kind::kPid && a.initial.size() > 1)
@@ -179,7 +179,7 @@ void StatesOutputsReader::ReadStates(const YAML::Node& n, const std::string& pre
     }
     if (!good) continue;
     if (graph_.Find(name) >= 0 || graph_.FindAux(name) >= 0) {
-      sink_.Error(a.where, name, "duplicate name", "give every element and state a unique name");
+      sink_.Error(codes::kNameDuplicate, a.where, name, "duplicate name", "give every element and state a unique name");
       continue;
     }
     if (!NameIsFree(name, a.where, "a state")) continue;
@@ -189,7 +189,7 @@ void StatesOutputsReader::ReadStates(const YAML::Node& n, const std::string& pre
 
 void StatesOutputsReader::ReadSignals(const YAML::Node& n) {
   if (!n.IsMap()) {
-    sink_.Error(Loc(n), "signals", "'signals' maps each name to its formula",
+    sink_.Error(codes::kYamlStructure, Loc(n), "signals", "'signals' maps each name to its formula",
                 "write e.g. signals: {error: \"setpoint - shaft.f\", torque: {value: \"k*error\", unit: N m}}");
     return;
   }
@@ -219,7 +219,7 @@ void StatesOutputsReader::ReadSignals(const YAML::Node& n) {
         }
       }
       if (!v["value"]) {
-        sink_.Error(where, name, "a signal given as a mapping needs 'value': its formula", "write e.g. {value: \"k*error\", unit: N m}");
+        sink_.Error(codes::kKeyMissing, where, name, "a signal given as a mapping needs 'value': its formula", "write e.g. {value: \"k*error\", unit: N m}");
         continue;
       }
       v = v["value"];
@@ -233,7 +233,7 @@ void StatesOutputsReader::ReadSignals(const YAML::Node& n) {
 
 void StatesOutputsReader::ReadOutputs(const YAML::Node& n) {
   if (!n.IsSequence()) {
-    sink_.Error(Loc(n), "outputs", "'outputs' must be a list", "e.g. '- spring.e' or '- {name: position, variable: spring.q}'");
+    sink_.Error(codes::kYamlStructure, Loc(n), "outputs", "'outputs' must be a list", "e.g. '- spring.e' or '- {name: position, variable: spring.q}'");
     return;
   }
   for (const auto& o : n) {
@@ -244,14 +244,14 @@ void StatesOutputsReader::ReadOutputs(const YAML::Node& n) {
     } else if (o.IsMap()) {
       CheckKeys(o, {"name", "variable"}, "output");
       if (!o["variable"]) {
-        sink_.Error(d.where, "output", "an output needs 'variable'");
+        sink_.Error(codes::kKeyMissing, d.where, "output", "an output needs 'variable'");
         continue;
       }
       d.variable = o["variable"].Scalar();
       d.name = o["name"] ? o["name"].Scalar() : d.variable;
       if (o["name"] && !CheckName(d.name, Loc(o["name"]), "an output's")) continue;
     } else {
-      sink_.Error(d.where, "output", "an output is a variable name or {name: ..., variable: ...}");
+      sink_.Error(codes::kYamlStructure, d.where, "output", "an output is a variable name or {name: ..., variable: ...}");
       continue;
     }
     graph_.AddOutput(d);

@@ -14,7 +14,7 @@ namespace multibond {
 
 void SubmodelReader::ReadSubmodelDefs(const YAML::Node& n) {
   if (!n.IsMap()) {
-    sink_.Error(Loc(n), "submodels", "expected a mapping of submodel names to definitions");
+    sink_.Error(codes::kYamlStructure, Loc(n), "submodels", "expected a mapping of submodel names to definitions");
     return;
   }
   for (const auto& kv : n) {
@@ -22,15 +22,15 @@ void SubmodelReader::ReadSubmodelDefs(const YAML::Node& n) {
     const YAML::Node def = kv.second;
     if (!CheckName(name, Loc(kv.first), "a submodel's")) continue;
     if (!def.IsMap()) {
-      sink_.Error(Loc(def), name, "a submodel definition is a mapping with parameters, ports, elements and bonds");
+      sink_.Error(codes::kYamlStructure, Loc(def), name, "a submodel definition is a mapping with parameters, ports, elements and bonds");
       continue;
     }
     CheckKeys(def, {"description", "parameters", "ports", "elements", "bonds", "states"}, name);
-    if (ParseKind(name)) sink_.Error(Loc(kv.first), name, "a submodel cannot be named like an element kind");
+    if (ParseKind(name)) sink_.Error(codes::kKeyConflict, Loc(kv.first), name, "a submodel cannot be named like an element kind");
     SubmodelDef sd{def, {}, {}};
     if (def["parameters"]) {
       if (!def["parameters"].IsMap())
-        sink_.Error(Loc(def["parameters"]), name, "'parameters' maps each name to its default value", "write e.g. parameters: {m: 1.0}");
+        sink_.Error(codes::kYamlStructure, Loc(def["parameters"]), name, "'parameters' maps each name to its default value", "write e.g. parameters: {m: 1.0}");
       else
         for (const auto& p : def["parameters"])
           if (CheckName(p.first.Scalar(), Loc(p.first), "a parameter's", false)) sd.defaults[p.first.Scalar()] = Number(p.second, name, Env{});
@@ -45,7 +45,7 @@ void SubmodelReader::ReadSubmodelDefs(const YAML::Node& n) {
         if (!p.IsScalar() || std::find(locals.begin(), locals.end(), p.Scalar()) != locals.end()) continue;
         sd.ports_in_error = true;
         const std::string guess = DidYouMean(p.Scalar(), locals);
-        sink_.Error(Loc(p), name, fmt::format("port '{}' is not one of the submodel's elements", p.Scalar()),
+        sink_.Error(codes::kBondUnknownEnd, Loc(p), name, fmt::format("port '{}' is not one of the submodel's elements", p.Scalar()),
                     guess.empty() ? "a port names an element under the submodel's 'elements'" : fmt::format("did you mean '{}'?", guess));
       }
     }
@@ -61,7 +61,7 @@ void SubmodelReader::ReadScope(const YAML::Node& scope, const std::string& prefi
     for (const auto& kv : states) cx_.state_names.insert(Qualify(prefix, kv.first.Scalar()));
   const YAML::Node elements = scope["elements"];
   if (elements && !elements.IsMap()) {
-    sink_.Error(Loc(elements), "elements", "'elements' must be a mapping of names to element specifications",
+    sink_.Error(codes::kYamlStructure, Loc(elements), "elements", "'elements' must be a mapping of names to element specifications",
                 "write e.g. 'mass: {type: I, inertia: 1.0}'");
   } else if (elements) {
     NameIndex seen;  // the names of this scope
@@ -78,6 +78,7 @@ void SubmodelReader::ReadScope(const YAML::Node& scope, const std::string& prefi
         d.where = Loc(kv.first);
         d.element = local;
         d.message = "duplicate element name";
+        d.code = codes::kNameDuplicate;
         d.details.push_back("first defined at " + first->ToString());
         d.hint = "give every element a unique name";
         sink_.Add(d);
@@ -100,7 +101,7 @@ void SubmodelReader::ReadScope(const YAML::Node& scope, const std::string& prefi
   if (scope["states"]) StatesOutputsReader(cx_).ReadStates(scope["states"], prefix, env);
   const YAML::Node bonds = scope["bonds"];
   if (bonds && !bonds.IsSequence()) {
-    sink_.Error(Loc(bonds), "bonds", "'bonds' must be a list", "write e.g. '- force -> mass'");
+    sink_.Error(codes::kYamlStructure, Loc(bonds), "bonds", "'bonds' must be a list", "write e.g. '- force -> mass'");
   } else if (bonds) {
     BondReader reader(cx_);
     for (const auto& b : bonds) reader.ReadBond(b, prefix, env);

@@ -91,7 +91,7 @@ YAML::Node YamlDocument::Parse() {
     // A second document (after '---') would be ignored by YAML::Load: a model file holds one.
     if (documents.size() > 1) {
       const YAML::Mark m = documents[1].Mark();
-      sink_.Error({cx_.file, m.line >= 0 ? m.line + 1 : 0, m.column >= 0 ? m.column + 1 : 0}, "",
+      sink_.Error(codes::kYamlStructure, {cx_.file, m.line >= 0 ? m.line + 1 : 0, m.column >= 0 ? m.column + 1 : 0}, "",
                   fmt::format("the file holds {} YAML documents; a model file is one", documents.size()),
                   "remove the '---' line (and what follows it, or merge it into the first document)");
       sink_.ThrowIfErrors();
@@ -102,7 +102,7 @@ YAML::Node YamlDocument::Parse() {
     sink_.ThrowIfErrors();
   }
   if (!root.IsMap()) {
-    sink_.Error({cx_.file, 1, 1}, "", "a model file must be a YAML mapping with at least 'elements' and 'bonds'",
+    sink_.Error(codes::kYamlStructure, {cx_.file, 1, 1}, "", "a model file must be a YAML mapping with at least 'elements' and 'bonds'",
                 "start from an example in examples/");
     sink_.ThrowIfErrors();
   }
@@ -224,7 +224,7 @@ void YamlDocument::CheckDuplicateKeys(const YAML::Node& node, const std::string&
     const std::string& key = kv.first.Scalar();
     auto where = [&] { return path.empty() ? key : path + "." + key; };
     if (key == "<<") {  // yaml-cpp reads a merge key as an ordinary key
-      sink_.Error(Loc(kv.first), path, "YAML merge keys ('<<: *anchor') are not supported",
+      sink_.Error(codes::kYamlStructure, Loc(kv.first), path, "YAML merge keys ('<<: *anchor') are not supported",
                   "write the keys out (an anchor and alias of a whole value, '&a' and '*a', do work)");
       continue;
     }

@@ -66,7 +66,7 @@ void ValueReader::CheckKeys(const YAML::Node& map, const std::vector<std::string
     const std::string guess = DidYouMean(key, allowed);
     std::string allowed_list;
     for (const auto& a : allowed) allowed_list += (allowed_list.empty() ? "" : ", ") + a;
-    sink_.Error(Loc(kv.first), element, fmt::format("unknown key '{}'", key),
+    sink_.Error(codes::kKeyUnknown, Loc(kv.first), element, fmt::format("unknown key '{}'", key),
                 guess.empty() ? "known keys here: " + allowed_list : fmt::format("did you mean '{}'?", guess));
   }
 }
@@ -83,12 +83,12 @@ std::string ValueReader::Describe(const YAML::Node& n) {
 std::vector<std::string> ValueReader::Words(const YAML::Node& n, const std::string& element, const char* what) {
   std::vector<std::string> out;
   if (!n.IsSequence()) {
-    sink_.Error(Loc(n), element, fmt::format("'{}' must be a list", what), fmt::format("write e.g. {}: [x, y]", what));
+    sink_.Error(codes::kYamlStructure, Loc(n), element, fmt::format("'{}' must be a list", what), fmt::format("write e.g. {}: [x, y]", what));
     return out;
   }
   for (const auto& w : n) {
     if (!w.IsScalar()) {
-      sink_.Error(Loc(w), element, fmt::format("each entry of '{}' is a single word", what));
+      sink_.Error(codes::kYamlStructure, Loc(w), element, fmt::format("each entry of '{}' is a single word", what));
       continue;
     }
     out.push_back(w.Scalar());
@@ -98,7 +98,7 @@ std::vector<std::string> ValueReader::Words(const YAML::Node& n, const std::stri
 
 std::string ValueReader::Str(const YAML::Node& n, const std::string& element) {
   if (!n.IsScalar()) {
-    sink_.Error(Loc(n), element, "expected a text value", "write a single word or a quoted string");
+    sink_.Error(codes::kYamlStructure, Loc(n), element, "expected a text value", "write a single word or a quoted string");
     return {};
   }
   return n.Scalar();
@@ -109,7 +109,7 @@ std::string ValueReader::Domain(const YAML::Node& n, const std::string& element)
   const auto& known = KnownDomains();
   if (!d.empty() && std::find(known.begin(), known.end(), d) == known.end()) {
     const std::string guess = DidYouMean(d, known);
-    sink_.Error(Loc(n), element, fmt::format("unknown domain '{}'", d),
+    sink_.Error(codes::kValueUnknown, Loc(n), element, fmt::format("unknown domain '{}'", d),
                 guess.empty() ? "use translation, rotation, electrical, hydraulic or generic" : fmt::format("did you mean '{}'?", guess));
   }
   return d == "generic" ? "" : d;
@@ -117,31 +117,31 @@ std::string ValueReader::Domain(const YAML::Node& n, const std::string& element)
 
 /// A finite number, a $parameter of the enclosing submodel, or a formula of parameters.
 double ValueReader::Number(const YAML::Node& n, const std::string& element, const Env& env, bool* ok) {
-  auto fail = [&](const std::string& msg, const std::string& hint) {
-    sink_.Error(Loc(n), element, msg, hint);
+  auto fail = [&](const char* code, const std::string& msg, const std::string& hint) {
+    sink_.Error(code, Loc(n), element, msg, hint);
     cx_.unread_numbers.insert(element);
     if (ok) *ok = false;
     return 0.0;
   };
-  if (!n.IsScalar()) return fail("expected a number", "write a plain number such as 1.5 or 2e-3");
+  if (!n.IsScalar()) return fail(codes::kYamlStructure, "expected a number", "write a plain number such as 1.5 or 2e-3");
   const std::string s = n.Scalar();
   if (!s.empty() && s[0] == '$') {
     const auto it = env.find(s.substr(1));
-    if (it == env.end()) return fail(fmt::format("unknown parameter '{}'", s), "declare it under the submodel's 'parameters'");
+    if (it == env.end()) return fail(codes::kParamUnknown, fmt::format("unknown parameter '{}'", s), "declare it under the submodel's 'parameters'");
     return it->second;
   }
   if (s == ".nan" || s == ".NaN" || s == ".NAN" || s == ".inf" || s == ".Inf" || s == "-.inf" || s == "+.inf" || s == "-.Inf")
-    return fail(fmt::format("'{}' is not a finite number", s), "NaN and infinities are not allowed in a model");
+    return fail(codes::kParamRange, fmt::format("'{}' is not a finite number", s), "NaN and infinities are not allowed in a model");
   const char* begin = s.c_str();
   char* end = nullptr;
   const double v = std::strtod(begin, &end);
-  if (s.empty()) return fail("expected a number, got ''", "write a plain number such as 1.5 or 2e-3");
+  if (s.empty()) return fail(codes::kYamlStructure, "expected a number, got ''", "write a plain number such as 1.5 or 2e-3");
   if (end != begin + s.size()) return Constant(n, s, element, env, ok);  // a formula of parameters
-  if (!std::isfinite(v)) return fail(fmt::format("'{}' is not a finite number", s), "NaN and infinities are not allowed in a model");
+  if (!std::isfinite(v)) return fail(codes::kParamRange, fmt::format("'{}' is not a finite number", s), "NaN and infinities are not allowed in a model");
   // A subnormal number (0 < |v| < 2.2e-308) is no physical quantity: its inverse is infinite,
   // and arithmetic on it loses its digits.
   if (v != 0.0 && std::abs(v) < DBL_MIN)
-    return fail(fmt::format("'{}' is too small to compute with (a subnormal number, below {:g} in magnitude)", s, DBL_MIN),
+    return fail(codes::kParamRange, fmt::format("'{}' is too small to compute with (a subnormal number, below {:g} in magnitude)", s, DBL_MIN),
                 "write 0, or a value of a sensible size in SI units");
   return v;
 }
@@ -149,7 +149,7 @@ double ValueReader::Number(const YAML::Node& n, const std::string& element, cons
 Eigen::VectorXd ValueReader::Vector(const YAML::Node& n, const std::string& element, const Env& env) {
   if (n.IsScalar()) return Eigen::VectorXd::Constant(1, Number(n, element, env));
   if (!n.IsSequence()) {
-    sink_.Error(Loc(n), element, "expected a list of numbers", "write e.g. [0, 0, 1]");
+    sink_.Error(codes::kYamlStructure, Loc(n), element, "expected a list of numbers", "write e.g. [0, 0, 1]");
     return {};
   }
   Eigen::VectorXd v(static_cast<Eigen::Index>(n.size()));
@@ -159,14 +159,14 @@ Eigen::VectorXd ValueReader::Vector(const YAML::Node& n, const std::string& elem
 
 Eigen::MatrixXd ValueReader::Matrix(const YAML::Node& n, const std::string& element, const Env& env) {
   if (!n.IsSequence() || n.size() == 0 || !n[0].IsSequence()) {
-    sink_.Error(Loc(n), element, "expected a matrix (a list of rows)", "write e.g. [[1, 0], [0, 1]]");
+    sink_.Error(codes::kYamlStructure, Loc(n), element, "expected a matrix (a list of rows)", "write e.g. [[1, 0], [0, 1]]");
     return {};
   }
   const size_t rows = n.size(), cols = n[0].size();
   Eigen::MatrixXd m(rows, cols);
   for (size_t r = 0; r < rows; ++r) {
     if (!n[r].IsSequence() || n[r].size() != cols) {
-      sink_.Error(Loc(n[r]), element, fmt::format("matrix row {} has {} entries, the first row {}", r + 1, n[r].IsSequence() ? n[r].size() : 1, cols),
+      sink_.Error(codes::kParamShape, Loc(n[r]), element, fmt::format("matrix row {} has {} entries, the first row {}", r + 1, n[r].IsSequence() ? n[r].size() : 1, cols),
                   "every row of a matrix has the same length");
       return {};
     }
@@ -183,7 +183,7 @@ Param ValueReader::ReadParam(const YAML::Node& n, const std::string& element, co
     const Eigen::VectorXd d = Vector(n, element, env);
     return Param::Matrix(d.asDiagonal());
   }
-  sink_.Error(Loc(n), element, "expected a number, a list (diagonal) or a matrix", "write e.g. 2.0, [1, 2, 3] or [[1, 0], [0, 1]]");
+  sink_.Error(codes::kYamlStructure, Loc(n), element, "expected a number, a list (diagonal) or a matrix", "write e.g. 2.0, [1, 2, 3] or [[1, 0], [0, 1]]");
   return Param::Scalar(1.0);
 }
 
@@ -191,7 +191,7 @@ bool ValueReader::Bool(const YAML::Node& n, const std::string& element) {
   const std::string s = n.IsScalar() ? n.Scalar() : "";
   if (s == "true" || s == "True" || s == "TRUE" || s == "yes") return true;
   if (s == "false" || s == "False" || s == "FALSE" || s == "no") return false;
-  sink_.Error(Loc(n), element, "expected true or false");
+  sink_.Error(codes::kYamlStructure, Loc(n), element, "expected true or false");
   return false;
 }
 

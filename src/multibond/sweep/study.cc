@@ -31,12 +31,15 @@ const std::vector<std::string> kTakes = {"final", "max", "min", "mean", "rms", "
 const std::vector<std::string> kDistributions = {"uniform", "loguniform", "normal", "lognormal"};
 const std::vector<std::string> kMethods = {"grid", "monte_carlo", "latin_hypercube"};
 
-/// Gives the study's code to the reader's diagnostics that have none (unknown keys, types).
+/// Gives the study's code (a usage error, exit 64) to what the model readers' helpers say in the
+/// words of a model file (an unknown, missing or conflicting key, an unknown word).
 void CodeUncoded(DiagnosticSink& sink) {
   std::vector<Diagnostic> ds = sink.diagnostics();
   sink = DiagnosticSink();
   for (Diagnostic& d : ds) {
-    if (d.code.empty()) d.code = codes::kSweepStudy;
+    if (d.code.empty() || d.code == codes::kKeyUnknown || d.code == codes::kKeyMissing || d.code == codes::kKeyConflict ||
+        d.code == codes::kValueUnknown)
+      d.code = codes::kSweepStudy;
     sink.Add(std::move(d));
   }
 }
