@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -214,6 +215,43 @@ TEST_F(EventsCliTest, AnEventStormStopsTheRunKeepingItsResults) {
   EXPECT_EQ(run_ok["status"], "ok");
   // Two switches per period of 0.800844 s.
   EXPECT_NEAR(run_ok["events"]["count"].get<double>(), 2 * 1000 / 0.800844, 3.0);
+}
+
+// A table of a million rows (#44: every documented raise led to the next wall, the last an event
+// storm of a restart per row): the size limits' hints name the raise that is needed, one after the
+// other, and with both raises it runs, restarting only where the sampled sine turns.
+TEST_F(EventsCliTest, AMillionRowTableRunsWithTheRaisesItsHintsName) {
+  const fs::path model = dir_ / "dense.yaml";
+  constexpr int n = 1000001;
+  constexpr double w = 2 * 3.14159265358979323846;
+  {
+    std::ofstream f(model);
+    f << "model: dense_table\ndomain: electrical\nelements:\n  src: {type: Se, effort: {table: [";
+    for (int i = 0; i < n; ++i) {
+      const double t = 10.0 * i / (n - 1);
+      f << (i ? "," : "") << "[" << fmt::format("{:.8g}", t) << "," << fmt::format("{:.8g}", std::sin(w * t)) << "]";
+    }
+    f << "]}}\n  L: {type: I, inertia: 1.0}\n  R: {type: R, resistance: 1.0}\n  j: {type: \"1\"}\n"
+         "bonds: [src -> j, j -> L, j -> R]\nsimulation: {t_end: 10, dt: 0.01}\n";
+  }
+  ASSERT_GT(fs::file_size(model), 16u << 20);  // above the default file-size limit
+  const Result big = RunModel(model.string(), "-q", "big");
+  EXPECT_EQ(big.code, 1) << big.err;
+  EXPECT_THAT(big.err, HasSubstr("--limit file-size="));
+  const Result nodes = RunModel(model.string(), "-q --limit file-size=32M", "nodes");
+  EXPECT_EQ(nodes.code, 1) << nodes.err;
+  EXPECT_THAT(nodes.err, HasSubstr("--limit yaml-nodes="));
+  const Result ok = RunModel(model.string(), "-q --limit file-size=32M --limit yaml-nodes=4M", "ok");
+  ASSERT_EQ(ok.code, 0) << ok.err;
+  const auto run = RunJson("ok");
+  EXPECT_EQ(run["status"], "ok");
+  EXPECT_GE(run["events"]["count"].get<int>(), 20);  // two turning points a period, and no more than a few each
+  EXPECT_LE(run["events"]["count"].get<int>(), 100);
+  // i = (sin(w t) - w cos(w t) + w e^-t) / (1 + w^2) at t = 10 s.
+  const std::string csv = ReadFile(dir_ / "ok" / "results.csv");
+  const std::string last = csv.substr(csv.rfind('\n', csv.size() - 2) + 1);
+  const double p = std::stod(last.substr(last.find(',') + 1));
+  EXPECT_NEAR(p, (std::sin(w * 10) - w * std::cos(w * 10) + w * std::exp(-10.0)) / (1 + w * w), 5e-8) << last;
 }
 
 // A run without events writes no events.csv, and removes the one an earlier run left in the folder.

@@ -7,12 +7,15 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <random>
 #include <string>
 #include <vector>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/core/time_function.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
 
@@ -170,6 +173,91 @@ simulation: {{t_end: 2, dt: 0.1}}
   EXPECT_EQ(run->summary.t_reached, 2.0);
   EXPECT_NEAR(run->rec.Last("store.q"), area, 20 * 1e-8);  // rtol 1e-8 on each of 20 segments (6e-8 at worst, srk3)
   EXPECT_EQ(OfKind(run->rec, "time").size(), 19u);  // the corners inside (0, 2)
+}
+
+/// An effort source into a series L = 1 H, R = 1 Ohm, its value replaced by `table` after loading
+/// (a million rows from the test, not 27 MB of model text).
+LoadedModel SeriesRlDrivenBy(const TimeFunction& table, double t_end, double dt) {
+  LoadedModel lm = LoadModelString(fmt::format(R"yaml(model: dense_table
+domain: electrical
+elements:
+  src: {{type: Se, effort: {{table: [[0, 0], [1, 1]]}}}}
+  L:   {{type: I, inertia: 1.0}}
+  R:   {{type: R, resistance: 1.0}}
+  j:   {{type: "1"}}
+bonds: [src -> j, j -> L, j -> R]
+simulation: {{t_end: {}, dt: {}}}
+)yaml", t_end, dt));
+  lm.graph.element(lm.graph.Find("src")).source.components = {table};
+  return lm;
+}
+
+TEST_P(EverySolver, ADenseTableOfASineRunsAsTheSineWithAFewRestartsPerBend) {
+  // sin(2 pi t) sampled a million times over 10 s (a row every 1e-5 s, a thousand per output
+  // interval). i' = sin(w t) - i: i = (sin(w t) - w cos(w t) + w e^-t) / (1 + w^2). A restart at
+  // each row was an event storm at t = 1 s, and a restart at each of the thousand vertices a
+  // period left BDF 1.25e-6 from the closed form (each restart starts again at first order);
+  // restarts at its turning points only: 1.35e-8, as the sine itself (2.4e-8).
+  constexpr int n = 1000001;
+  constexpr double w = 2 * std::numbers::pi;
+  std::vector<double> t(n), v(n);
+  for (int i = 0; i < n; ++i) t[i] = 10.0 * i / (n - 1), v[i] = std::sin(w * t[i]);
+  const auto run = RunWithDefaults(SeriesRlDrivenBy(TimeFunction::Table(t, v), 10.0, 0.01), solver(), step());
+  ASSERT_EQ(run->summary.status, RunStatus::kOk) << run->summary.message;
+  const size_t restarts = OfKind(run->rec, "time").size();
+  EXPECT_GE(restarts, 20u);   // two turning points a period
+  EXPECT_LE(restarts, 100u);
+  for (double at : {0.25, 2.5, 7.3, 10.0}) {
+    const double closed = (std::sin(w * at) - w * std::cos(w * at) + w * std::exp(-at)) / (1 + w * w);
+    // The table is the sine to (w h)^2 / 8 = 5e-9.
+    EXPECT_NEAR(run->rec.At("L.p", at), closed, 5e-8) << at;
+  }
+  // Work in = stored + dissipated through every restart.
+  EXPECT_LT(std::abs(run->rec.Last("energy.residual")), 1e-4);
+}
+
+TEST_P(EverySolver, AJaggedTablesRestartsAreNoEventStorm) {
+  // 20,000 rows of noise over 1 s: nearly every row a sharp corner, 17,768 restarts, above the storm
+  // limit (10,000 a second) that guards events the motion triggers; a table's corners are known
+  // before the run and cannot chatter. i' = u - i with u linear on each row's interval is exact:
+  // i(t0 + h) = u0 - s + s h + (i0 - u0 + s) e^-h.
+  constexpr int n = 20001;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> noise(-1.0, 1.0);
+  std::vector<double> t(n), v(n);
+  for (int i = 0; i < n; ++i) t[i] = i / double(n - 1), v[i] = noise(rng);
+  double exact = 0.0;
+  for (int i = 0; i + 1 < n; ++i) {
+    const double h = t[i + 1] - t[i], s = (v[i + 1] - v[i]) / h;
+    exact = v[i] - s + s * h + (exact - v[i] + s) * std::exp(-h);
+  }
+  const auto run = RunWithDefaults(SeriesRlDrivenBy(TimeFunction::Table(t, v), 1.0, 0.01), solver(), step() > 0 ? 5e-5 : 0.0);
+  ASSERT_EQ(run->summary.status, RunStatus::kOk) << run->summary.message;
+  EXPECT_GT(OfKind(run->rec, "time").size(), 15000u);  // 17,768: a turn between two rows of similar slope is gentle
+  EXPECT_NEAR(run->rec.Last("L.p"), exact, 1e-7);
+}
+
+TEST_P(EverySolver, APulseInADenseTableIsNeverSteppedOver) {
+  // 10 s of zeros a row every 1e-4 s but for a trapezoid of 1 s of height 1 (ramps of 0.01 s)
+  // at t = 5: the charge through the circuit from rest is the impulse's response; without the
+  // corners as events BDF grows its step over the zeros and can step over the pulse.
+  constexpr int n = 100001;
+  std::vector<double> t(n), v(n, 0.0);
+  double area = 0.0;
+  for (int i = 0; i < n; ++i) {
+    t[i] = 1e-4 * i;
+    v[i] = std::clamp((t[i] - 5.0) / 0.01, 0.0, 1.0) - std::clamp((t[i] - 6.0) / 0.01, 0.0, 1.0);
+  }
+  for (int i = 1; i < n; ++i) area += 0.5 * (v[i] + v[i - 1]) * (t[i] - t[i - 1]);
+  const auto run = RunWithDefaults(SeriesRlDrivenBy(TimeFunction::Table(t, v), 10.0, 0.5), solver(), solver() == "rk4" ? 1e-3 : 0.0);
+  ASSERT_EQ(run->summary.status, RunStatus::kOk) << run->summary.message;
+  // i' = u - i, so the charge q = integral of i satisfies q(10) = area - i(10) exactly, and i
+  // decays from the pulse's end as e^-(t - 6.01) (1 - e^-1) to first order in the ramps.
+  EXPECT_NEAR(area, 1.0, 1e-9);
+  const double i_end = run->rec.Last("L.p");
+  EXPECT_NEAR(i_end, (1 - std::exp(-1.0)) * std::exp(-(10.0 - 6.0)), 2e-3);
+  EXPECT_NEAR(run->rec.Last("R.dissipated") + run->rec.Last("L.energy"), run->rec.Last("src.work"), 1e-7);
+  EXPECT_GE(OfKind(run->rec, "time").size(), 4u);
 }
 
 /// A 1 kg mass at 1 m/s, 0.1 m from a one-sided spring of 100 N/m whose effort law is `law`: it

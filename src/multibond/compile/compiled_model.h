@@ -308,6 +308,10 @@ class CompiledModel {
   /// formula's switching function of time alone changes sign (sampled at most `resolution`
   /// apart, KinkTable::TimeEvents): the time events, ascending.
   std::vector<TimeEvent> TimeEvents(double t0, double t1, double resolution) const;
+  /// The times in (t0, t1] of the sources' gentle table corners (TimeFunction::Waypoints), and
+  /// t1 itself if a source has a corner there, ascending and once each: a step ends there and the
+  /// integration goes on, no restart.
+  std::vector<double> Waypoints(double t0, double t1) const;
 
   // --- directional derivatives (compile/tangent.cc), for the linearisation ---
   /// One component of a source (Se, Sf, a mechanism's drive): an input of the linear model.

@@ -395,6 +395,24 @@ std::vector<std::string> CompiledModel::KinksAt(double t, const double* x, Works
   return out;
 }
 
+std::vector<double> CompiledModel::Waypoints(double t0, double t1) const {
+  std::vector<double> out;
+  for (const Instr& in : plan_) {
+    if (in.op != Op::kSource) continue;
+    for (int k = 0; k < in.n; ++k) {
+      const TimeFunction& f = source_fns_[in.coef + k];
+      for (const double b : f.Waypoints())
+        if (b > t0 && b <= t1) out.push_back(b);
+      // A corner at the very end of the run: a step past it and back would interpolate across it.
+      for (const double b : f.Breakpoints())
+        if (b == t1) out.push_back(b);
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
 std::vector<TimeEvent> CompiledModel::TimeEvents(double t0, double t1, double resolution) const {
   std::vector<std::pair<double, std::string>> jumps = switches_.TimeEvents(t0, t1);
   for (const Instr& in : plan_) {

@@ -113,15 +113,73 @@ std::string TimeFunction::ToString() const {
   return "?";
 }
 
+namespace {
+
+/// The vertices of a table (indices into it): its first and last rows, and the vertices of a
+/// polyline through its own points that stays within `tolerance` of every point (the "swinging
+/// door" of process historians, one pass): from each vertex, the cone of slopes whose line from
+/// it passes within the tolerance of every point after it narrows point by point; where it
+/// closes, the point before becomes the next vertex. Between two vertices the table is within
+/// the tolerance of a straight line from the first, so a step between them misses no feature
+/// larger than that, and a sharp corner is a vertex (the point after it leaves the cone).
+std::vector<size_t> TableVertices(const std::vector<double>& t, const std::vector<double>& v, double tolerance) {
+  std::vector<size_t> out;
+  const size_t n = t.size();
+  if (n == 0) return out;
+  out.push_back(0);
+  size_t a = 0;
+  double lo = -HUGE_VAL, hi = HUGE_VAL;
+  for (size_t i = 1; i < n; ++i) {
+    const double dt = t[i] - t[a];
+    const double l = (v[i] - tolerance - v[a]) / dt, h = (v[i] + tolerance - v[a]) / dt;
+    if (std::max(lo, l) > std::min(hi, h)) {  // the cone closed at i: the vertex is i - 1
+      a = i - 1;
+      out.push_back(a);
+      const double da = t[i] - t[a];
+      lo = (v[i] - tolerance - v[a]) / da;
+      hi = (v[i] + tolerance - v[a]) / da;
+    } else {
+      lo = std::max(lo, l);
+      hi = std::min(hi, h);
+    }
+  }
+  if (out.back() != n - 1) out.push_back(n - 1);
+  return out;
+}
+
+}  // namespace
+
+TimeFunction::Corners TimeFunction::TableCorners() const {
+  Corners out;
+  if (kind != Kind::kTable || table_t.empty()) return out;
+  const auto [lo, hi] = std::minmax_element(table_v.begin(), table_v.end());
+  const std::vector<size_t> vertex = TableVertices(table_t, table_v, kTableCornerTolerance * (*hi - *lo));
+  // The polyline's slope on each side of a vertex (0 before the first row and after the last,
+  // where the table holds its end values): a turn sharper than kSharpTurn of the steeper side
+  // restarts the integration, a gentler one only ends a step.
+  auto slope = [&](size_t k) {  // of the segment from vertex k - 1 to vertex k; 0 outside
+    if (k == 0 || k >= vertex.size()) return 0.0;
+    return (table_v[vertex[k]] - table_v[vertex[k - 1]]) / (table_t[vertex[k]] - table_t[vertex[k - 1]]);
+  };
+  for (size_t k = 0; k < vertex.size(); ++k) {
+    const double left = slope(k), right = slope(k + 1);
+    const bool sharp = std::abs(right - left) > kSharpTurn * std::max(std::abs(left), std::abs(right));
+    (sharp ? out.restarts : out.waypoints).push_back(table_t[vertex[k]]);
+  }
+  return out;
+}
+
 std::vector<double> TimeFunction::Breakpoints() const {
   switch (kind) {
     case Kind::kStep: return before != value ? std::vector<double>{start} : std::vector<double>{};
     case Kind::kRamp: return {start};
-    case Kind::kTable: return table_t;
+    case Kind::kTable: return TableCorners().restarts;
     case Kind::kConstant:
     case Kind::kSine: return {};
   }
   return {};
 }
+
+std::vector<double> TimeFunction::Waypoints() const { return kind == Kind::kTable ? TableCorners().waypoints : std::vector<double>{}; }
 
 }  // namespace multibond

@@ -498,6 +498,9 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   // interval (KinkTable::TimeEvents).
   const std::vector<TimeEvent> time_events = model.TimeEvents(options.t_start, options.t_end, options.dt / 4);
   size_t next_time_event = 0;
+  // A table's gentle corners: no step crosses one, and the integration goes on from it.
+  const std::vector<double> waypoints = model.Waypoints(options.t_start, options.t_end);
+  size_t next_waypoint = 0;
   std::vector<int> roots(chart ? 0 : model.num_event_functions());
   const double span = options.t_end - options.t_start;
   const double rest_time = options.event_rest_time > 0.0 ? options.event_rest_time : 1e-6 * span;
@@ -505,32 +508,33 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   long num_events = 0;
   std::map<std::string, std::pair<double, long>> rested;  // contact -> (time it came to rest, impacts before)
   std::map<std::string, long> impacts;
-  auto record = [&](const EventRecord& r) {
+  // The time events listed before the run (`scheduled`: a table's corners, a step, a formula of
+  // time's sampled kinks) are as many as the model and the output grid make them and cannot
+  // chatter: they do not count towards a storm, which guards the events the motion triggers.
+  auto record = [&](const EventRecord& r, bool scheduled = false) {
     ++summary.event_counts[r.kind];
     if (r.rebound) ++impacts[r.element];
     if (r.accumulated) rested.emplace(r.element, std::pair{r.time, impacts[r.element]});
     observer.OnEvent(r);
-    if (++num_events > max_events)
+    if (!scheduled && ++num_events > max_events)
       throw EventStorm(fmt::format("event storm: more than {:.0f} events ({:g} per second of run); the last at t = {:.9g} s, "
                                            "{} '{}'; raise the limit with --max-events-per-second, or look for chattering",
                                            max_events, options.max_events_per_second, r.time, r.kind, r.element));
   };
   std::vector<EventRecord> log;
   auto advance = [&](double tout) {
-    if (time_events.empty() && roots.empty()) {
+    if (time_events.empty() && waypoints.empty() && roots.empty()) {
       integrator->AdvanceTo(tout, advanced.data());
       return;
     }
     while (true) {
       // Never a step past the next time event: up to it, or to tout and no further than it.
-      double target = tout, stop_time = std::numeric_limits<double>::infinity();
-      bool stop = false;
-      if (next_time_event < time_events.size()) {
-        stop_time = time_events[next_time_event].time;
-        stop = stop_time <= tout;
-        if (stop) target = stop_time;
-      }
-      system.set_time_event(stop_time);
+      double target = tout;
+      const double event_time = next_time_event < time_events.size() ? time_events[next_time_event].time : std::numeric_limits<double>::infinity();
+      const double stop_time = std::min(event_time, next_waypoint < waypoints.size() ? waypoints[next_waypoint] : event_time);
+      const bool stop = stop_time <= tout;
+      if (stop) target = stop_time;
+      system.set_time_event(event_time);
       const double reached = integrator->AdvanceUntil(target, stop_time, advanced.data(), roots.empty() ? nullptr : roots.data());
       if (std::any_of(roots.begin(), roots.end(), [](int r) { return r != 0; })) {
         const auto switched = roots.begin() + model.num_switch_event_functions();
@@ -556,10 +560,16 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
         integrator->Reset(reached, advanced.data());
         continue;
       }
+      if (stop && target < event_time) {  // a waypoint: the step ended there, nothing restarts
+        while (next_waypoint < waypoints.size() && waypoints[next_waypoint] <= target) ++next_waypoint;
+        if (target < tout) continue;
+        return;
+      }
       if (stop) {
+        while (next_waypoint < waypoints.size() && waypoints[next_waypoint] <= target) ++next_waypoint;
         for (; next_time_event < time_events.size() && time_events[next_time_event].time == target; ++next_time_event) {
           const TimeEvent& e = time_events[next_time_event];
-          record({target, e.kind, e.element, e.description});
+          record({target, e.kind, e.element, e.description}, /*scheduled=*/true);
         }
         if (chart) chart->ToModel(y.data(), x.data());
         model.BookModulationJumps(target, x.data());  // a modulated storage's energy that jumps here: work
