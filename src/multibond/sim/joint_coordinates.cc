@@ -38,14 +38,6 @@ Mat3 MixTarget() {
   return to;
 }
 
-/// (e1.u, e2.u, n.u) from the stored S u, whatever the axis: the rows of S^T reordered.
-Mat3 AxisComponents() {
-  const Mat3 to = MixTarget();
-  Mat3 rows;
-  rows << to.col(1).transpose(), to.col(2).transpose(), to.col(0).transpose();
-  return rows;
-}
-
 }  // namespace
 
 /// I v and I^-1 v in the body's frame: three products where the inertia is diagonal (a disc, a
@@ -104,7 +96,7 @@ Vec3 NearPrincipalAxis(const Mat3& inertia, const Vec3& a) {
 }  // namespace
 
 JointCoordinateSystem::JointCoordinateSystem(const CompiledModel& model, const JointTree& tree, ModelSystem* system)
-    : model_(model), system_(system), axis_components_(AxisComponents()) {
+    : model_(model), system_(system) {
   const int nx = model.num_states();
   std::vector<bool> covered(nx, false);
   std::map<std::string, int> index;
@@ -146,10 +138,13 @@ JointCoordinateSystem::JointCoordinateSystem(const CompiledModel& model, const J
       b.diagonal = b.inertia.isDiagonal(0.0);
       b.anchor = tb.anchor;
       b.anchored = !b.anchor.isZero(0.0);
+
       b.bearing = tb.bearing;
       const double norm = tb.axis.norm();
       if (!(norm > 0.0)) throw std::invalid_argument(fmt::format("joint coordinates: body '{}' has a zero axis", tb.name));
       SetAxis(b, tb.axis / norm);
+      b.nb = b.n;  // until the first chart (FromModel) fixes it in the body
+      SetWeight(b);
     }
     b.y = n_;
     const std::string& nm = tb.name;
@@ -157,8 +152,8 @@ JointCoordinateSystem::JointCoordinateSystem(const CompiledModel& model, const J
       for (const char* s : {".tilt.1", ".tilt.2", ".angle"}) names_.push_back(nm + s);
     }
     for (const char* c : {".x", ".y", ".z"}) names_.push_back(nm + ".offset" + c);
-    if (b.rotates())  // S u: its components on the basis S maps to, not on x, y, z
-      for (const char* c : {".1", ".2", ".3"}) names_.push_back(nm + ".omega_rel" + c);
+    if (b.rotates())  // S k: its components on the basis S maps to, not on x, y, z
+      for (const char* c : {".1", ".2", ".3"}) names_.push_back(nm + ".momentum_rel" + c);
     for (const char* c : {".x", ".y", ".z"}) names_.push_back(nm + ".offset_rate" + c);
     n_ += b.rotates() ? 12 : 6;
     index[tb.name] = static_cast<int>(bodies_.size());
@@ -280,6 +275,20 @@ void JointCoordinateSystem::BuildPattern(const JacobianPattern& mp) {
   }
 }
 
+void JointCoordinateSystem::SetWeight(Body& b) {
+  // The inertia about the anchor, I + m (|a|^2 1 - a a^T), averaged over turns about the axis n_b:
+  // (n^T A n) n n^T + (tr A - n^T A n) / 2 (1 - n n^T). The spin about the axis leaves it as it
+  // is, so that a body spinning steadily in its bearing keeps k = M u constant whatever its
+  // principal axes; for a body symmetric about its axis (a top, a gyroscope), whose anchor is on
+  // it, it is that inertia itself and k the angular momentum about the anchor.
+  const Mat3 about_anchor = b.inertia + b.mass * (b.anchor.squaredNorm() * Mat3::Identity() - b.anchor * b.anchor.transpose());
+  const Vec3 n = b.nb.normalized();
+  const double axial = n.dot(about_anchor * n);
+  const Mat3 along = n * n.transpose();
+  b.weight = axial * along + 0.5 * (about_anchor.trace() - axial) * (Mat3::Identity() - along);
+  b.weight_inv = b.weight.inverse();
+}
+
 void JointCoordinateSystem::SetAxis(Body& b, const Vec3& n) {
   b.n = n;
   // e1, e2: completing n to a right-handed orthonormal basis.
@@ -313,6 +322,7 @@ void JointCoordinateSystem::FromModel(const double* x, double* y) {
       if (!b.axis_in_body) {
         b.nb = b.bearing ? Vec3(q.transpose() * b.n) : NearPrincipalAxis(b.inertia, q.transpose() * b.n);
         b.axis_in_body = true;
+        SetWeight(b);
       }
       b.chart = q;
       SetAxis(b, (q * b.nb).normalized());
@@ -351,7 +361,13 @@ void JointCoordinateSystem::ToModel(const double* y, double* x) {
           -c2 * bt, c2 * a, 1.0 - c2 * (a * a + bt * bt);
       b.rates_from_u = m.inverse();  // of (e1.u, e2.u, n.u)
       yb += 3;
-      b.ww = wp + Rp * (b.mix.transpose() * Eigen::Map<const Vec3>(yb + 3));
+      // The stored rates are S k, k = M u, M = Q W Q^T (Q = R_P^T R; W the inertia about the
+      // anchor averaged about the axis, SetWeight): the body's angular momentum about its anchor
+      // relative to P, in P's frame, for a body symmetric about its axis.
+      const Mat3 q = Rp.transpose() * b.Rw;
+      b.k = b.mix.transpose() * Eigen::Map<const Vec3>(yb + 3);
+      b.u = q * (b.weight_inv * (q.transpose() * b.k));
+      b.ww = wp + Rp * b.u;
       Eigen::Map<RowMajor3>(x + b.R) = b.Rw;
       Out(x + b.h) = b.Rw * Inertia(b, b.Rw.transpose() * b.ww);
     } else {
@@ -387,11 +403,14 @@ void JointCoordinateSystem::CalcDerivatives(double t, const double* y, double* y
     if (b.rotates()) {
       const Vec3 h = Eigen::Map<const Vec3>(x_.data() + b.h);
       b.wdot = b.Rw * InverseInertia(b, b.Rw.transpose() * (Eigen::Map<const Vec3>(xdot_.data() + b.h) - b.ww.cross(h)));
-      Out(yd) = b.rates_from_u * (axis_components_ * Eigen::Map<const Vec3>(yb + 6));
+      Out(yd) = b.rates_from_u * Vec3(b.e1.dot(b.u), b.e2.dot(b.u), b.n.dot(b.u));
       yb += 3;
       yd += 3;
-      // u = R_P^T (w - w_P):  u' = R_P^T (w' - w_P' - w_P x (w - w_P)).
-      Out(yd + 3) = b.mix * (Rp.transpose() * (b.wdot - wdp - wp.cross(b.ww - wp)));
+      // u = R_P^T (w - w_P):  u' = R_P^T (w' - w_P' - w_P x (w - w_P)); k = M u with Q' = [u x] Q,
+      // so M' u = u x M u and k' = M u' + u x k.
+      const Mat3 q = Rp.transpose() * b.Rw;
+      const Vec3 u_dot = Rp.transpose() * (b.wdot - wdp - wp.cross(b.ww - wp));
+      Out(yd + 3) = b.mix * (q * (b.weight * (q.transpose() * u_dot)) + b.u.cross(b.k));
     } else {
       b.wdot = Vec3::Zero();
     }
@@ -428,7 +447,10 @@ void JointCoordinateSystem::VelocitiesFromModel(const double* x, double* y) {
       b.ww = b.Rw * InverseInertia(b, b.Rw.transpose() * Eigen::Map<const Vec3>(x + b.h));
       arm = b.Rw * b.anchor;
       yb += 3;
-      Out(yb + 3) = b.mix * (Rp.transpose() * (b.ww - wp));
+      const Mat3 q = Rp.transpose() * b.Rw;
+      b.u = Rp.transpose() * (b.ww - wp);
+      b.k = q * (b.weight * (q.transpose() * b.u));
+      Out(yb + 3) = b.mix * b.k;
     }
     const Vec3 rel = b.rw + arm - rp;
     const Vec3 rel_dot = b.vw + b.ww.cross(arm) - vp;

@@ -10,10 +10,15 @@
 /// Q = R_P^T R = Exp(psi) Rot(n, theta) C (C the relative orientation where the chart was made,
 /// n the body's axis in P's frame, psi = a e1 + b e2 a rotation off n), the anchor's position in
 /// P's frame d = R_P^T (r + R anchor - r_P), the relative angular velocity in P's frame
-/// u = R_P^T (w - w_P), stored as S u (S a fixed rotation that takes n to the diagonal
-/// (1, 1, 1)/sqrt(3): every stored component carries a third of the spin, so that the error test
-/// holds the rates off the axis to rtol times the spin, as the inertial momenta's components are,
-/// and not to atol), and the anchor's relative velocity in P's frame d'. The axis is fixed in the
+/// u = R_P^T (w - w_P), stored as S k with k = M u, M = Q W Q^T and W the body's inertia about its
+/// anchor averaged about its axis (for a body symmetric about its axis: k is its angular momentum
+/// about the anchor relative to P, so that a top on a fixed pivot keeps the vertical one to
+/// rounding, and an error in the axis's direction does not carry the spin's momentum into it; a
+/// body spinning in its bearing keeps k constant whatever its principal axes), S a fixed rotation
+/// that takes n to the diagonal (1, 1, 1)/sqrt(3) (every stored component carries a third of the
+/// spin, so that the error test holds the rates off the axis to rtol times the spin's momentum, as
+/// the inertial momenta's components are, and not to atol), and the anchor's relative velocity in
+/// P's frame d'. The axis is fixed in the
 /// body (n_b = C^T n), so theta is the spin about it, whichever way a body without a bearing has
 /// turned it; a body with no bearing takes the principal axis of inertia next to its initial spin.
 /// A body turning steadily in its bearing has theta growing linearly and every other state
@@ -87,10 +92,15 @@ class JointCoordinateSystem : public OdeSystem {
     bool axis_in_body = false;
     bool bearing = false;  ///< TreeBody::bearing: the axis is kept, not moved to a principal axis
     Eigen::Matrix3d mix = Eigen::Matrix3d::Identity();  ///< S (SetAxis)
+    /// W, the inertia about the anchor averaged about the axis n_b (body frame), and its inverse
+    /// (SetWeight): the stored rates are S Q W Q^T u.
+    Eigen::Matrix3d weight = Eigen::Matrix3d::Identity(), weight_inv = Eigen::Matrix3d::Identity();
     // Kinematics at the current y (ToModel), inertial frame.
     Eigen::Matrix3d Rw = Eigen::Matrix3d::Identity();
     Eigen::Vector3d rw = Eigen::Vector3d::Zero(), vw = Eigen::Vector3d::Zero(), ww = Eigen::Vector3d::Zero();
     Eigen::Vector3d vdot = Eigen::Vector3d::Zero(), wdot = Eigen::Vector3d::Zero();
+    /// The relative angular velocity u and momentum k = M u about the anchor, in P's frame.
+    Eigen::Vector3d u = Eigen::Vector3d::Zero(), k = Eigen::Vector3d::Zero();
     /// [J_l(psi) e1, J_l(psi) e2, Exp(psi) n]^-1 on the basis (e1, e2, n) at the current y:
     /// (a', b', theta') from (e1.u, e2.u, n.u).
     Eigen::Matrix3d rates_from_u = Eigen::Matrix3d::Identity();
@@ -98,6 +108,8 @@ class JointCoordinateSystem : public OdeSystem {
   };
   /// n, the basis e1, e2 that completes it, S, and [n x] C, [n x]^2 C (C already set).
   static void SetAxis(Body& b, const Eigen::Vector3d& n);
+  /// W from the inertia, the anchor and n_b.
+  static void SetWeight(Body& b);
   static Eigen::Vector3d Inertia(const Body& b, const Eigen::Vector3d& v);
   static Eigen::Vector3d InverseInertia(const Body& b, const Eigen::Vector3d& v);
   /// pattern_ from the model's Jacobian pattern and the tree (the constructor's last step).
@@ -111,8 +123,6 @@ class JointCoordinateSystem : public OdeSystem {
   ModelSystem* system_;
   std::vector<Body> bodies_;
   Body ground_;  ///< identity orientation, at rest at the origin
-  /// (e1.u, e2.u, n.u) from S u: the same for every body (S takes every axis to one place).
-  Eigen::Matrix3d axis_components_;
   std::vector<std::pair<int, int>> others_;  ///< (offset in x, offset in y) of the other states
   std::vector<std::string> names_;
   int n_ = 0;
