@@ -12,10 +12,28 @@ models in parallel; Ctrl-C stops a run on the main thread and raises KeyboardInt
 ``results`` attribute holds the rows computed).
 """
 
-import numpy as _np
+import sys as _sys
+
+try:
+    import numpy as _np
+except ImportError as _e:  # an interpreter without NumPy (a pyenv or venv one, often first on PATH)
+    raise ImportError(
+        f"multibond needs NumPy, which this Python ({_sys.executable}, {_sys.version.split()[0]}) does not have: "
+        "run it with Debian's /usr/bin/python3 (apt-get install python3-numpy; scripts/install-deps does), "
+        "or install NumPy into this interpreter") from _e
 
 from ._errors import Diagnostic, ModelError, SimulationError
-from ._multibond import Model, Results, __version__, _sweep
+
+try:
+    from ._multibond import Model, Results, __version__, _sweep
+except ImportError as _e:  # the extension was built for another interpreter
+    import pathlib as _pathlib
+    _built = sorted(p.name for p in _pathlib.Path(__file__).parent.glob("_multibond*.so"))
+    raise ImportError(
+        f"multibond's compiled module {', '.join(_built) or '(none found)'} does not load into this Python "
+        f"({_sys.executable}, {_sys.version.split()[0]}): it is built for the interpreter CMake found "
+        "(Debian's /usr/bin/python3 when there is one); run that interpreter, "
+        f"e.g. PYTHONPATH={_pathlib.Path(__file__).parent.parent} /usr/bin/python3 ({_e})") from _e
 
 __all__ = ["load", "loads", "sweep", "Model", "Results", "LinearModel", "ModelError", "SimulationError", "Diagnostic", "__version__"]
 
