@@ -1,8 +1,10 @@
 // multibond plot DIR: figures from a results folder, and a page that shows them.
 
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstddef>
 #include <cstring>
 #include <iostream>
@@ -40,7 +42,10 @@ int Plot(const PlotArgs& a, const std::vector<std::string>& argv) {
   po.figures_path = a.figures;
   po.max_figures = a.max_figures;
   po.limits = ParseLimits(a.limits);
+  const bool tty = ::isatty(STDERR_FILENO) != 0;
+  if (tty) po.progress = [](std::size_t done, std::size_t total) { std::fprintf(stderr, "\r  figure %zu of %zu", done, total); };
   const PlotReport report = MakeFigures(a.dir, po);
+  if (tty) std::fprintf(stderr, "\r%*s\r", 40, "");  // the progress line goes
   for (const auto& w : report.warnings) std::cerr << "warning: " << w << '\n';
   if (report.files.empty()) {
     std::cerr << fmt::format("error: no figure drawn from '{}' (see the warnings above); nothing was written\n", a.dir);

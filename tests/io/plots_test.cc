@@ -329,6 +329,25 @@ TEST(PlotsTest, EveryFigureFromTheRightColumns) {
   }
 }
 
+// Progress (#43: plot ran for seconds with nothing on the terminal): one call as each figure's
+// gnuplot run ends, counting up to the figures drawn (the paper's 31 time and 3D figures; the bond
+// graph is Graphviz's, left out here).
+TEST(PlotsTest, ProgressCountsTheFiguresAsTheyEnd) {
+  TempDir dir;
+  const SyntheticRun run;
+  run.Write(dir.path());
+  PlotOptions o = NoBondGraph();
+  std::vector<std::pair<size_t, size_t>> calls;
+  o.progress = [&](size_t done, size_t total) { calls.emplace_back(done, total); };
+  MakeFigures(dir.path().string(), o);
+  const size_t figures = PaperFigureNames().size() - 1;
+  ASSERT_EQ(calls.size(), figures);
+  for (size_t k = 0; k < calls.size(); ++k) {
+    EXPECT_EQ(calls[k].first, k + 1);
+    EXPECT_EQ(calls[k].second, figures);
+  }
+}
+
 TEST(PlotsTest, MissingColumnsLeaveTheFigureOutWithAWarning) {
   TempDir dir;
   SyntheticRun().Write(dir.path(), "S2.F.y");

@@ -280,7 +280,8 @@ std::string GnuplotScript(const PlotTable& table, const Figure& figure, const Sc
 }
 
 std::map<std::string, std::string> RunGnuplot(const WorkFolder& work, int plots_dir, const std::vector<std::string>& names,
-                                              const std::string& program, int jobs) {
+                                              const std::string& program, int jobs,
+                                              const std::function<void(std::size_t, std::size_t)>& progress) {
   struct Job {
     pid_t pid;
     std::string name, log;
@@ -302,10 +303,12 @@ std::map<std::string, std::string> RunGnuplot(const WorkFolder& work, int plots_
     // The log is kept only when gnuplot said something (an older one goes).
     if (log.empty() || !work.Publish(j.log, plots_dir, j.name + ".log")) ::unlinkat(plots_dir, (j.name + ".log").c_str(), 0);
   };
+  std::size_t ended = 0;
   auto reap_front = [&] {
     const Job j = running.front();
     reap(j);
     running.pop_front();
+    if (progress) progress(++ended, names.size());
   };
   for (const std::string& name : names) {
     if (static_cast<int>(running.size()) >= std::max(1, jobs)) reap_front();

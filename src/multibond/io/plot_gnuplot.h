@@ -10,6 +10,7 @@
 /// events (plot_events.h) are marked on every time panel: a vertical line at each event's time
 /// (`set arrow ... nohead back`), and a key entry per kind.
 
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -37,8 +38,10 @@ std::string GnuplotScript(const PlotTable& table, const Figure& figure, const Sc
 /// time. A log with text is published as plots/<name>.log in `plots_dir` (an older one is
 /// removed). Returns the figures whose run failed, with the reason. Throws std::runtime_error
 /// when the program cannot be started at all (after waiting for those running); when a stop is
-/// asked for, ends every running gnuplot (EndProcess) and rethrows Interrupted.
+/// asked for, ends every running gnuplot (EndProcess) and rethrows Interrupted. `progress`, if
+/// any, is called with the number of runs ended and of all after each one ends.
 std::map<std::string, std::string> RunGnuplot(const WorkFolder& work, int plots_dir, const std::vector<std::string>& names,
-                                              const std::string& program, int jobs);
+                                              const std::string& program, int jobs,
+                                              const std::function<void(std::size_t, std::size_t)>& progress = {});
 
 }  // namespace multibond

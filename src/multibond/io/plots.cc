@@ -191,7 +191,7 @@ PlotReport MakeFigures(const std::string& results_dir, const PlotOptions& option
   const int jobs = options.jobs > 0 ? options.jobs : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   std::map<std::string, std::string> failures;
   try {
-    failures = RunGnuplot(work, plots_fd, names, options.gnuplot, jobs);
+    failures = RunGnuplot(work, plots_fd, names, options.gnuplot, jobs, options.progress);
   } catch (const Interrupted&) {
     throw;
   } catch (const std::runtime_error& e) {

@@ -18,6 +18,7 @@
 /// WriteResultsPage then writes DIR/index.html (plot_page.h).
 
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,8 @@ struct PlotOptions {
   /// Bounds on what is read (results_bytes: the largest results.csv; file_bytes, yaml_nodes and
   /// depth: the figure list).
   InputLimits limits;
+  /// Called as each figure's drawing ends (done of total), from the calling thread; none: quiet.
+  std::function<void(std::size_t done, std::size_t total)> progress;
 };
 
 /// What MakeFigures did.
