@@ -433,7 +433,17 @@ TEST_F(CliTest, EquationsTextAndLatex) {
   r = Cli("equations " + Example("mass_spring_damper.yaml") + " --format latex");
   EXPECT_EQ(r.code, 0);
   EXPECT_THAT(r.out, HasSubstr("\\dot{p}_{\\mathrm{mass}}"));
+  EXPECT_THAT(r.out, HasSubstr("\\mathrm{force}(t)"));  // a step: a function of time
   EXPECT_EQ(Cli("equations " + Example("rigid_gear_pair.yaml")).code, 1);
+  // A nonlinear law typeset as mathematics (#43: it was verbatim in \mathtt{}), at the variable it
+  // is evaluated at; a constant force as a constant.
+  r = Cli("equations " + Example("linear/bilinear_damper.yaml") + " --format latex");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("\\mathrm{c\\_bump} \\, \\max\\left(f, 0\\right) + \\mathrm{c\\_reb} \\, \\min\\left(f, 0\\right)\\right|_{f = \\mathrm{j.f}}"));
+  EXPECT_THAT(r.out, HasSubstr("&= \\mathrm{force} - K_{\\mathrm{spring}}"));
+  EXPECT_THAT(r.out, Not(HasSubstr("\\mathtt")));
+  r = Cli("equations " + Example("linear/bilinear_damper.yaml"));
+  EXPECT_THAT(r.out, HasSubstr("force(t)"));  // the text keeps its form
 }
 
 TEST_F(CliTest, GraphWritesDotAndSvg) {

@@ -10,6 +10,8 @@
 
 #include <fmt/format.h>
 
+#include "multibond/compile/formula_latex.h"
+
 namespace multibond {
 
 namespace {
@@ -298,7 +300,8 @@ class EquationWriter {
     if (d.kind == Definition::Kind::kFormula) {
       // In brackets when it starts with a sign, which the sum it stands in may double ("- -a").
       const std::string f = !d.formula.empty() && (d.formula[0] == '-' || d.formula[0] == '+') ? "(" + d.formula + ")" : d.formula;
-      return MakeLeaf(f, "\\mathtt{" + LatexEscape(f) + "}");
+      const std::optional<std::string> math = FormulaLatex(f);
+      return MakeLeaf(f, math ? "\\left(" + *math + "\\right)" : "\\mathtt{" + LatexEscape(f) + "}");
     }
     const Element& el = g_.element(d.element);
     const std::string& n = el.name;
@@ -311,7 +314,13 @@ class EquationWriter {
           if (group.size() > 5 && group.compare(group.size() - 5, 5, ".rest") == 0) group.resize(group.size() - 5);
           return MakeLeaf("lambda[" + group + "]", "\\lambda_{" + Rm(group) + "}");
         }
-        return MakeLeaf(n + "(t)", Rm(n) + "(t)");
+        {
+          // A constant source is a constant in the mathematics (the text keeps its "(t)").
+          bool constant = !el.source.components.empty();
+          for (const TimeFunction& f : el.source.components) constant = constant && f.is_constant();
+          for (const Formula& f : el.value) constant = constant && !f.given();
+          return MakeLeaf(n + "(t)", Rm(n) + (constant ? "" : "(t)"));
+        }
       case Definition::Kind::kMomentumFlow:
         if (!el.rotation.empty()) {
           // f = R Ib^-1 R^T h: the body-frame inertia turned into the inertial frame.
@@ -560,7 +569,8 @@ class EquationWriter {
     Expr body;
     if (d.kind == Definition::Kind::kFormula || d.terms.empty()) {
       // A nonlinear loop torn at a formula's output (a law, a signal): the formula as written.
-      body = MakeLeaf(d.formula, "\\mathtt{" + LatexEscape(d.formula) + "}");
+      const std::optional<std::string> math = FormulaLatex(d.formula);
+      body = MakeLeaf(d.formula, math ? *math : "\\mathtt{" + LatexEscape(d.formula) + "}");
     } else if (d.kind == Definition::Kind::kLinear) {
       body = Apply(d, d.terms.front(), Build(d.terms.front().slot_class, kBudget, true, &used, &refs));
     } else {
