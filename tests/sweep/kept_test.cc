@@ -61,6 +61,42 @@ TEST(Kept, ReductionsOfASine) {
   EXPECT_TRUE(std::isnan(o.Values()[6]));
 }
 
+TEST(Kept, AWindowTakesTheSamplesAndEventsInIt) {
+  // #43: a response that starts at its maximum (a spring released from x0) has its maximum at
+  // t = 0; over a window after the release the maximum is its later peak. x = x0 e^(-s t) (cos
+  // wd t + s/wd sin wd t) has its extrema at t = k pi / wd, x0 e^(-s k pi / wd) (-1)^k: the
+  // maximum over [0.5 T, 1.5 T] (T = 2 pi / wd) is the one at T.
+  const double s = 0.5, wd = 2 * M_PI, T = 1.0;
+  std::vector<Keep> keep = {K("peak", Keep::Take::kMax, "y"), K("whole", Keep::Take::kMax, "y"), K("low", Keep::Take::kMin, "y"),
+                            K("mean", Keep::Take::kMean, "t"), K("last", Keep::Take::kFinal, "t"), K("cross", Keep::Take::kCrossingTime, "y"),
+                            K("event", Keep::Take::kEventTime, "impact"), K("none", Keep::Take::kMax, "y")};
+  for (size_t k : {0u, 2u, 3u, 4u, 5u, 6u}) keep[k].from = 0.5 * T, keep[k].to = 1.5 * T;
+  keep[5].level = 0.0;
+  keep[7].from = 20.0;  // after the run's end: no sample
+  DiagnosticSink sink;
+  KeptQuantities q(keep, {"time", "y"}, {"time", "y"}, sink);
+  ASSERT_FALSE(sink.has_errors());
+  KeptObserver o(q);
+  o.OnStart({{"time", "s"}, {"y", "m"}});
+  o.OnEvent({0.25, "impact", "ball", "", false, true});  // before the window
+  for (int i = 0; i <= 20000; ++i) {
+    const double t = 10.0 * i / 20000;
+    o.OnSample({t, std::exp(-s * t) * (std::cos(wd * t) + s / wd * std::sin(wd * t))});
+    if (i == 12000) o.OnEvent({t, "impact", "ball", "", false, true});  // t = 6: after it
+    if (i == 2000) o.OnEvent({t, "impact", "ball", "", false, true});   // t = 1: in it
+  }
+  const auto v = o.Values();
+  EXPECT_NEAR(v[0], std::exp(-s * T), 1e-6);        // the peak at T, not the release
+  EXPECT_EQ(v[1], 1.0);                             // over the whole run: the release
+  EXPECT_NEAR(v[2], -std::exp(-s * T / 2), 1e-6);   // the trough at T/2, the window's first sample
+  EXPECT_NEAR(v[3], T, 1e-12);                      // the mean of t over [T/2, 3T/2]
+  EXPECT_EQ(v[4], 1.5 * T);                         // the window's last sample
+  // The zeros of x: tan(wd t) = -wd/s, t = (pi - atan(wd/s))/wd + k T/2; the first in the window is k = 1.
+  EXPECT_NEAR(v[5], (M_PI - std::atan(wd / s)) / wd + 0.5 * T, 1e-6);
+  EXPECT_EQ(v[6], 1.0);                             // the event in the window
+  EXPECT_TRUE(std::isnan(v[7]));                    // no sample in its window
+}
+
 TEST(Kept, SettlingTimeOfADecayingExponential) {
   // y = 1 - exp(-t): within 2% of its final value (~1) once exp(-t) < 0.02 (t = ln 50).
   std::vector<double> t, y;

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 namespace multibond::sweep {
 namespace {
@@ -45,6 +46,18 @@ TEST(Outputs, TheParameterThatMovesAQuantityMostRanksFirst) {
   EXPECT_EQ(ranking[0].rank, 1);
   EXPECT_EQ(ranking[1].parameter, "a");
   EXPECT_LT(std::abs(ranking[1].spearman), 0.5);
+}
+
+TEST(Outputs, SweepJsonRecordsAKeptQuantitysWindow) {
+  Study s = TwoParameters();
+  DiagnosticSink sink;
+  AddKeepSpec(s, "late=max[0.5,]:x", sink);
+  ASSERT_FALSE(sink.has_errors());
+  const nlohmann::json j = nlohmann::json::parse(SweepJson(s, SweepFacts{}, {}));
+  ASSERT_EQ(j["keep"].size(), 2u);
+  EXPECT_FALSE(j["keep"][0].contains("from"));  // the whole run: no window
+  EXPECT_EQ(j["keep"][1]["from"], 0.5);
+  EXPECT_FALSE(j["keep"][1].contains("to"));
 }
 
 TEST(Outputs, SweepCsvRowsInRunOrderWithExactNumbers) {

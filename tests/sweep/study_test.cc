@@ -78,6 +78,21 @@ TEST(Study, EachProblemIsLocatedWithItsCode) {
   EXPECT_EQ(key->hint, "did you mean 'max'?");
 }
 
+TEST(Study, AKeptQuantityOverAWindow) {
+  const Study s = ReadStudyString("model: m.yaml\nsweep:\n  k: [1, 2]\nkeep:\n  late: {max: spring.q, from: 0.5, to: 2}\n  after: {min: spring.q, from: 1}\n",
+                                  "s.yaml");
+  ASSERT_EQ(s.keep.size(), 2u);
+  EXPECT_EQ(s.keep[0].from, 0.5);
+  EXPECT_EQ(s.keep[0].to, 2.0);
+  EXPECT_EQ(s.keep[1].from, 1.0);
+  EXPECT_EQ(s.keep[1].to, HUGE_VAL);
+  const auto ds = Problems("model: m.yaml\nsweep:\n  k: [1, 2]\nkeep:\n  late: {max: spring.q, from: 2, to: 0.5}\n");
+  const Diagnostic* empty = Find(ds, codes::kSweepKeep);
+  ASSERT_NE(empty, nullptr);
+  EXPECT_EQ(empty->where.line, 5);
+  EXPECT_NE(empty->message.find("is empty"), std::string::npos) << empty->message;
+}
+
 TEST(Study, BadDistributionsAndSeeds) {
   const auto ds = Problems(
       "model: m.yaml\nsamples: 0\nseed: -1\nsweep:\n  k: {distribution: gaussian, mean: 1, sd: 1}\n"
@@ -117,6 +132,36 @@ TEST(Study, CommandLineSpecs) {
   EXPECT_EQ(s.keep[1].take, Keep::Take::kCrossingTime);
   EXPECT_EQ(s.keep[1].level, 0.5);
   EXPECT_EQ(s.keep[1].of, "spring.q");
+
+  // A window after the take (and its @ARG): [FROM,TO], either bound left out.
+  AddKeepSpec(s, "late=max[0.5,2]:spring.q", sink);
+  AddKeepSpec(s, "ts=settling_time@0.05[1,]:spring.q", sink);
+  AddKeepSpec(s, "early=min[,0.25]:spring.q", sink);
+  ASSERT_FALSE(sink.has_errors());
+  EXPECT_EQ(s.keep[2].take, Keep::Take::kMax);
+  EXPECT_EQ(s.keep[2].from, 0.5);
+  EXPECT_EQ(s.keep[2].to, 2.0);
+  EXPECT_EQ(s.keep[2].of, "spring.q");
+  EXPECT_EQ(s.keep[3].take, Keep::Take::kSettlingTime);
+  EXPECT_EQ(s.keep[3].band, 0.05);
+  EXPECT_EQ(s.keep[3].from, 1.0);
+  EXPECT_EQ(s.keep[3].to, HUGE_VAL);
+  EXPECT_EQ(s.keep[4].from, -HUGE_VAL);
+  EXPECT_EQ(s.keep[4].to, 0.25);
+  EXPECT_FALSE(s.keep[0].windowed());
+  // A window changes what a run keeps, so the study's text (its journal's hash); none leaves it as it was.
+  EXPECT_NE(CanonicalText(s).find("keep late max spring.q 0.02 0  window 0.5 2\n"), std::string::npos) << CanonicalText(s);
+  EXPECT_NE(CanonicalText(s).find("keep x max spring.q 0.02 0 \n"), std::string::npos) << CanonicalText(s);
+  // Located at the '[' ("--keep w=max" then it: column 13), or at a bound that is no number.
+  for (const auto& [spec, column] : {std::pair{"w=max[2,1]:spring.q", 13}, std::pair{"w=max[a,1]:spring.q", 14},
+                                     std::pair{"w=max[1:spring.q", 13}, std::pair{"w=max[1]:spring.q", 13}}) {
+    DiagnosticSink one;
+    Study u;
+    AddKeepSpec(u, spec, one);
+    ASSERT_EQ(one.diagnostics().size(), 1u) << spec;
+    EXPECT_EQ(one.diagnostics()[0].code, codes::kSweepKeep) << spec;
+    EXPECT_EQ(one.diagnostics()[0].where.column, column) << spec;
+  }
 
   DiagnosticSink bad;
   Study t;

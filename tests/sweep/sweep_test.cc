@@ -104,6 +104,35 @@ TEST(Sweep, AFailedRunIsRecordedAndTheOthersGoOn) {
   EXPECT_NE(last.find("," + ExactText(out.results[2].values[0])), std::string::npos) << last;
 }
 
+// A kept quantity over a window (#43): the mass driven from rest by a force step overshoots first,
+// so its maximum after 0.5 s is below its maximum over the run; a window past the end keeps NaN in
+// every run, and its plot is left out with one sentence (gnuplot said "all points y value
+// undefined" for each parameter).
+TEST(Sweep, AWindowedQuantityAndOneThatNoRunHas) {
+  Study s = ListStudy("100,400");
+  DiagnosticSink sink;
+  AddKeepSpec(s, "x_max=max:spring.q", sink);
+  AddKeepSpec(s, "x_late=max[0.5,]:spring.q", sink);
+  AddKeepSpec(s, "x_never=max[20,]:spring.q", sink);
+  ASSERT_FALSE(sink.has_errors());
+  Fixture f(std::move(s));
+  testing::TempDir dir;
+  SweepOptions o;
+  o.dir = dir.path().string();
+  o.threads = 1;
+  const SweepOutcome out = RunSweep(f.s, f.runner, f.text, o, nullptr);
+  ASSERT_EQ(out.results.size(), 2u);
+  for (const RunResult& r : out.results) {
+    ASSERT_TRUE(r.ok) << r.reason;
+    EXPECT_LT(r.values[2], r.values[1]);  // the overshoot is over by t = 0.5 s: a lower maximum after it
+    EXPECT_TRUE(std::isnan(r.values[3]));
+  }
+  ASSERT_EQ(out.plot_problems.size(), 1u);
+  EXPECT_NE(out.plot_problems[0].find("x_never: not drawn"), std::string::npos) << out.plot_problems[0];
+  EXPECT_FALSE(std::filesystem::exists(dir.path() / "plots" / "x_never_vs_k.gp"));
+  EXPECT_TRUE(std::filesystem::exists(dir.path() / "plots" / "x_late_vs_k.svg"));
+}
+
 TEST(Sweep, ResumeRunsOnlyWhatTheJournalLacks) {
   Fixture f(ListStudy("100,200,400"));
   testing::TempDir dir;

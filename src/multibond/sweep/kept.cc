@@ -76,7 +76,7 @@ void KeptObserver::Reset() {
     a.event = kNaN;
     a.crossing = kNaN;
   }
-  samples_ = 0;
+  for (Accumulator& a : acc_) a.samples = 0;
   summary_ = RunSummary{};
   column_problem_.clear();
 }
@@ -93,10 +93,10 @@ void KeptObserver::OnSample(const std::vector<double>& row) {
   const double t = row[0];
   const std::vector<Keep>& keep = q_.keep();
   for (size_t k = 0; k < acc_.size(); ++k) {
-    if (keep[k].take == Keep::Take::kEventTime) continue;
+    if (keep[k].take == Keep::Take::kEventTime || t < keep[k].from || t > keep[k].to) continue;
     Accumulator& a = acc_[k];
     const double v = expr::Run(q_.programs()[k], t, nullptr, row.data());
-    if (samples_ == 0) {
+    if (a.samples == 0) {
       a.max = a.min = v;
       a.integral = a.integral_sq = 0.0;
     } else {
@@ -109,7 +109,10 @@ void KeptObserver::OnSample(const std::vector<double>& row) {
       if (std::isnan(a.crossing) && (a.prev_v - level) * (v - level) <= 0.0 && a.prev_v != level)
         a.crossing = v == a.prev_v ? t : a.prev_t + h * (level - a.prev_v) / (v - a.prev_v);
     }
-    if (samples_ == 0 && v == keep[k].level) a.crossing = t;
+    if (a.samples == 0) {
+      a.first_t = t;
+      if (v == keep[k].level) a.crossing = t;
+    }
     if (keep[k].take == Keep::Take::kSettlingTime) {
       a.t.push_back(t);
       a.v.push_back(v);
@@ -117,16 +120,15 @@ void KeptObserver::OnSample(const std::vector<double>& row) {
     a.last = v;
     a.prev_t = t;
     a.prev_v = v;
+    ++a.samples;
   }
-  if (samples_ == 0) t0_ = t;
-  ++samples_;
 }
 
 void KeptObserver::OnEvent(const EventRecord& event) {
   const std::vector<Keep>& keep = q_.keep();
   for (size_t k = 0; k < acc_.size(); ++k) {
     const Keep& kp = keep[k];
-    if (kp.take != Keep::Take::kEventTime || !std::isnan(acc_[k].event)) continue;
+    if (kp.take != Keep::Take::kEventTime || !std::isnan(acc_[k].event) || event.time < kp.from || event.time > kp.to) continue;
     if ((kp.of.empty() || kp.of == event.kind) && (kp.element.empty() || kp.element == event.element)) acc_[k].event = event.time;
   }
 }
@@ -140,11 +142,11 @@ std::vector<double> KeptObserver::Values() const {
       out.push_back(a.event);
       continue;
     }
-    if (samples_ == 0) {
+    if (a.samples == 0) {  // no sample in the run (or its window)
       out.push_back(kNaN);
       continue;
     }
-    const double span = a.prev_t - t0_;
+    const double span = a.prev_t - a.first_t;
     switch (keep[k].take) {
       case Keep::Take::kFinal: out.push_back(a.last); break;
       case Keep::Take::kMax: out.push_back(a.max); break;

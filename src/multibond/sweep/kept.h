@@ -4,7 +4,8 @@
 /// (core/expression's grammar, compiled once per sweep into a flat program over a result row,
 /// compile/expr_program.h) and a way to take it: its final value, maximum, minimum, time mean,
 /// RMS, settling time into a band around its final value, the first time it crosses a level, or
-/// the time of the first event of a kind. An observer computes them while the run goes, without
+/// the time of the first event of a kind; over the whole run or a window of it (the samples and
+/// events from Keep::from to Keep::to). An observer computes them while the run goes, without
 /// keeping its rows; one observer per thread, reused from run to run.
 
 #include <string>
@@ -57,13 +58,12 @@ class KeptObserver : public Observer {
  private:
   struct Accumulator {
     double last = 0.0, max = 0.0, min = 0.0, integral = 0.0, integral_sq = 0.0, crossing = 0.0, event = 0.0;
-    double prev_t = 0.0, prev_v = 0.0;
+    double prev_t = 0.0, prev_v = 0.0, first_t = 0.0;
+    long samples = 0;  ///< in the window
     std::vector<double> t, v;  ///< settling time: the series (its capacity kept across runs)
   };
   const KeptQuantities& q_;
   std::vector<Accumulator> acc_;
-  long samples_ = 0;
-  double t0_ = 0.0;
   RunSummary summary_;
   std::string column_problem_;
 };

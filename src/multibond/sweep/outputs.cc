@@ -154,6 +154,8 @@ std::string SweepJson(const Study& s, const SweepFacts& f, const std::vector<Sen
     nlohmann::json x{{"name", k.name}, {"take", TakeName(k.take)}, {"of", k.of}};
     if (k.take == Keep::Take::kSettlingTime) x["band"] = k.band;
     if (k.take == Keep::Take::kCrossingTime) x["level"] = k.level;
+    if (k.from != -HUGE_VAL) x["from"] = k.from;  // the window, when there is one (seconds)
+    if (k.to != HUGE_VAL) x["to"] = k.to;
     if (!k.element.empty()) x["element"] = k.element;
     keep.push_back(x);
   }
@@ -191,7 +193,15 @@ std::vector<std::string> WriteOutputs(const std::string& dir, const Study& s, co
   // Plots: one gnuplot script per quantity and parameter, run from the folder.
   std::vector<std::string> problems;
   fs::create_directories(fs::path(dir) / "plots");
-  for (size_t k = 0; k < s.keep.size(); ++k)
+  for (size_t k = 0; k < s.keep.size(); ++k) {
+    // A quantity no run has a value of (a level never crossed, a window past the end): nothing
+    // to draw; said once, instead of gnuplot's complaint for each parameter.
+    const bool any = std::any_of(results.begin(), results.end(),
+                                 [&](const RunResult& r) { return r.ok && k < r.values.size() && std::isfinite(r.values[k]); });
+    if (!any) {
+      problems.push_back(fmt::format("{}: not drawn: no run has a value of it (every one is NaN)", s.keep[k].name));
+      continue;
+    }
     for (size_t j = 0; j < s.axes.size(); ++j) {
       const Axis& a = s.axes[j];
       const bool log_x = (a.kind == Axis::Kind::kGrid && a.scale == Axis::Scale::kLog) ||
@@ -206,6 +216,7 @@ std::vector<std::string> WriteOutputs(const std::string& dir, const Study& s, co
       if (why.empty()) fs::remove(fs::path(dir) / "plots" / (name + ".log"));
       else problems.push_back(name + ": " + why);
     }
+  }
   return problems;
 }
 

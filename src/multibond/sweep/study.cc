@@ -253,6 +253,8 @@ class StudyReader : public ValueReader {
         }
     }
     std::vector<std::string> allowed = kTakes;
+    allowed.push_back("from");
+    allowed.push_back("to");
     if (k.take == Keep::Take::kSettlingTime) allowed.push_back("band");
     if (k.take == Keep::Take::kCrossingTime) allowed.push_back("level");
     if (k.take == Keep::Take::kEventTime) allowed.push_back("element");
@@ -271,6 +273,11 @@ class StudyReader : public ValueReader {
     else if (k.take == Keep::Take::kCrossingTime)
       sink_.Error(codes::kSweepKeep, Loc(v), k.name, "the crossing has no 'level'", "give the value crossed: 'level: 0.5'");
     if (v["element"]) k.element = Str(v["element"], k.name);
+    if (v["from"]) k.from = Num(v["from"], k.name);
+    if (v["to"]) k.to = Num(v["to"], k.name);
+    if (v["from"] && v["to"] && !(k.from < k.to))
+      sink_.Error(codes::kSweepKeep, Loc(v["to"]), k.name, fmt::format("the window from {:g} s to {:g} s is empty", k.from, k.to),
+                  "'to' after 'from', e.g. {max: spring.q, from: 0.5, to: 2}");
     s.keep.push_back(std::move(k));
   }
 
@@ -430,6 +437,23 @@ void AddKeepSpec(Study& study, const std::string& spec, DiagnosticSink& sink) {
   const size_t colon = rest.find(':');
   if (colon != std::string::npos) {
     std::string take = rest.substr(0, colon);
+    // A window: TAKE[FROM,TO] (either bound may be left out), after the take and its @ARG.
+    if (const size_t open = take.find('['); open != std::string::npos) {
+      const int window_col = col + static_cast<int>(open);
+      const size_t comma = take.find(',', open), close = take.find(']', open);
+      if (comma == std::string::npos || close == std::string::npos || close != take.size() - 1 || comma > close) {
+        sink.Error(codes::kSweepKeep, {kCommandLine, 1, window_col}, k.name, fmt::format("the window '{}' is not [FROM,TO]", take.substr(open)),
+                   "e.g. --keep x=max[0.5,2]:spring.q (seconds; a bound may be left out: [0.5,])");
+        return;
+      }
+      const std::string lo = take.substr(open + 1, comma - open - 1), hi = take.substr(comma + 1, close - comma - 1);
+      if (!lo.empty()) k.from = OptionNumber(lo, "--keep", window_col + 1, k.name, codes::kSweepKeep, sink).value_or(-HUGE_VAL);
+      if (!hi.empty()) k.to = OptionNumber(hi, "--keep", window_col + 2 + static_cast<int>(lo.size()), k.name, codes::kSweepKeep, sink).value_or(HUGE_VAL);
+      if (!(k.from < k.to))
+        sink.Error(codes::kSweepKeep, {kCommandLine, 1, window_col}, k.name, fmt::format("the window from {:g} s to {:g} s is empty", k.from, k.to),
+                   "TO after FROM, e.g. max[0.5,2]");
+      take = take.substr(0, open);
+    }
     const size_t at = take.find('@');
     std::string level;
     if (at != std::string::npos) {
@@ -532,7 +556,11 @@ std::string CanonicalText(const Study& s) {
   for (const Axis& a : s.axes)
     o += fmt::format("axis {} {} {} {} {} {} {} {} [{}]\n", a.name, static_cast<int>(a.kind), a.from, a.to, a.count, static_cast<int>(a.scale),
                      static_cast<int>(a.distribution), fmt::format("{} {}", a.a, a.b), fmt::join(a.values, ","));
-  for (const Keep& k : s.keep) o += fmt::format("keep {} {} {} {} {} {}\n", k.name, TakeName(k.take), k.of, k.band, k.level, k.element);
+  for (const Keep& k : s.keep) {
+    o += fmt::format("keep {} {} {} {} {} {}", k.name, TakeName(k.take), k.of, k.band, k.level, k.element);
+    if (k.windowed()) o += fmt::format(" window {} {}", k.from, k.to);  // only then: a journal of before resumes
+    o += "\n";
+  }
   o += fmt::format("t_end {} dt {} rtol {} atol {} solver {}\n", s.t_end.value_or(-1), s.dt.value_or(-1), s.rtol.value_or(-1),
                    s.atol.value_or(-1), s.solver.value_or(""));
   return o;

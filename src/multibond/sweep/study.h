@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <optional>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,10 @@ struct Keep {
   double band = 0.02;       ///< kSettlingTime: the relative band around the final value
   double level = 0.0;       ///< kCrossingTime: the level crossed
   std::string element;      ///< kEventTime: only events of this element ("" = any)
+  /// The window [from, to] (s) of the run the quantity is taken over: the output samples (and,
+  /// for kEventTime, the events) in it; the whole run by default.
+  double from = -HUGE_VAL, to = HUGE_VAL;
+  bool windowed() const { return from != -HUGE_VAL || to != HUGE_VAL; }
 };
 
 struct Study {
