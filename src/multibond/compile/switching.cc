@@ -401,10 +401,12 @@ std::vector<double> CompiledModel::Waypoints(double t0, double t1) const {
     if (in.op != Op::kSource) continue;
     for (int k = 0; k < in.n; ++k) {
       const TimeFunction& f = source_fns_[in.coef + k];
-      for (const double b : f.Waypoints())
+      // One pass over a table for both kinds of corner.
+      const TimeFunction::Corners c = f.kind == TimeFunction::Kind::kTable ? f.TableCorners() : TimeFunction::Corners{f.Breakpoints(), {}};
+      for (const double b : c.waypoints)
         if (b > t0 && b <= t1) out.push_back(b);
       // A corner at the very end of the run: a step past it and back would interpolate across it.
-      for (const double b : f.Breakpoints())
+      for (const double b : c.restarts)
         if (b == t1) out.push_back(b);
     }
   }

@@ -138,7 +138,6 @@ JointCoordinateSystem::JointCoordinateSystem(const CompiledModel& model, const J
       b.diagonal = b.inertia.isDiagonal(0.0);
       b.anchor = tb.anchor;
       b.anchored = !b.anchor.isZero(0.0);
-
       b.bearing = tb.bearing;
       const double norm = tb.axis.norm();
       if (!(norm > 0.0)) throw std::invalid_argument(fmt::format("joint coordinates: body '{}' has a zero axis", tb.name));
@@ -364,9 +363,9 @@ void JointCoordinateSystem::ToModel(const double* y, double* x) {
       // The stored rates are S k, k = M u, M = Q W Q^T (Q = R_P^T R; W the inertia about the
       // anchor averaged about the axis, SetWeight): the body's angular momentum about its anchor
       // relative to P, in P's frame, for a body symmetric about its axis.
-      const Mat3 q = Rp.transpose() * b.Rw;
+      b.q = Rp.transpose() * b.Rw;
       b.k = b.mix.transpose() * Eigen::Map<const Vec3>(yb + 3);
-      b.u = q * (b.weight_inv * (q.transpose() * b.k));
+      b.u = b.q * (b.weight_inv * (b.q.transpose() * b.k));
       b.ww = wp + Rp * b.u;
       Eigen::Map<RowMajor3>(x + b.R) = b.Rw;
       Out(x + b.h) = b.Rw * Inertia(b, b.Rw.transpose() * b.ww);
@@ -408,9 +407,8 @@ void JointCoordinateSystem::CalcDerivatives(double t, const double* y, double* y
       yd += 3;
       // u = R_P^T (w - w_P):  u' = R_P^T (w' - w_P' - w_P x (w - w_P)); k = M u with Q' = [u x] Q,
       // so M' u = u x M u and k' = M u' + u x k.
-      const Mat3 q = Rp.transpose() * b.Rw;
       const Vec3 u_dot = Rp.transpose() * (b.wdot - wdp - wp.cross(b.ww - wp));
-      Out(yd + 3) = b.mix * (q * (b.weight * (q.transpose() * u_dot)) + b.u.cross(b.k));
+      Out(yd + 3) = b.mix * (b.q * (b.weight * (b.q.transpose() * u_dot)) + b.u.cross(b.k));
     } else {
       b.wdot = Vec3::Zero();
     }
@@ -447,9 +445,9 @@ void JointCoordinateSystem::VelocitiesFromModel(const double* x, double* y) {
       b.ww = b.Rw * InverseInertia(b, b.Rw.transpose() * Eigen::Map<const Vec3>(x + b.h));
       arm = b.Rw * b.anchor;
       yb += 3;
-      const Mat3 q = Rp.transpose() * b.Rw;
+      b.q = Rp.transpose() * b.Rw;
       b.u = Rp.transpose() * (b.ww - wp);
-      b.k = q * (b.weight * (q.transpose() * b.u));
+      b.k = b.q * (b.weight * (b.q.transpose() * b.u));
       Out(yb + 3) = b.mix * b.k;
     }
     const Vec3 rel = b.rw + arm - rp;

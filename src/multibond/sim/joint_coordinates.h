@@ -99,7 +99,9 @@ class JointCoordinateSystem : public OdeSystem {
     Eigen::Matrix3d Rw = Eigen::Matrix3d::Identity();
     Eigen::Vector3d rw = Eigen::Vector3d::Zero(), vw = Eigen::Vector3d::Zero(), ww = Eigen::Vector3d::Zero();
     Eigen::Vector3d vdot = Eigen::Vector3d::Zero(), wdot = Eigen::Vector3d::Zero();
-    /// The relative angular velocity u and momentum k = M u about the anchor, in P's frame.
+    /// The relative orientation Q = R_P^T R, the relative angular velocity u and momentum
+    /// k = M u about the anchor, in P's frame (ToModel, VelocitiesFromModel).
+    Eigen::Matrix3d q = Eigen::Matrix3d::Identity();
     Eigen::Vector3d u = Eigen::Vector3d::Zero(), k = Eigen::Vector3d::Zero();
     /// [J_l(psi) e1, J_l(psi) e2, Exp(psi) n]^-1 on the basis (e1, e2, n) at the current y:
     /// (a', b', theta') from (e1.u, e2.u, n.u).

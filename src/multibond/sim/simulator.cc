@@ -560,13 +560,13 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
         integrator->Reset(reached, advanced.data());
         continue;
       }
-      if (stop && target < event_time) {  // a waypoint: the step ended there, nothing restarts
+      if (stop)
         while (next_waypoint < waypoints.size() && waypoints[next_waypoint] <= target) ++next_waypoint;
+      if (stop && target < event_time) {  // a waypoint: the step ended there, nothing restarts
         if (target < tout) continue;
         return;
       }
       if (stop) {
-        while (next_waypoint < waypoints.size() && waypoints[next_waypoint] <= target) ++next_waypoint;
         for (; next_time_event < time_events.size() && time_events[next_time_event].time == target; ++next_time_event) {
           const TimeEvent& e = time_events[next_time_event];
           record({target, e.kind, e.element, e.description}, /*scheduled=*/true);

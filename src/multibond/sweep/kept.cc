@@ -75,8 +75,8 @@ void KeptObserver::Reset() {
     a.v.clear();
     a.event = kNaN;
     a.crossing = kNaN;
+    a.samples = 0;
   }
-  for (Accumulator& a : acc_) a.samples = 0;
   summary_ = RunSummary{};
   column_problem_.clear();
 }
