@@ -24,6 +24,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include "built.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
 
@@ -33,20 +34,19 @@ namespace {
 
 const std::string kModel = std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml";
 
-std::shared_ptr<const mb::CompiledModel> Differential(bool generate_code) {
+mb::bench::Built Differential(bool generate_code) {
   const mb::LoadedModel lm = mb::LoadModelFile(kModel);
-  mb::CompileOptions co = lm.compile;
-  co.generate_code = generate_code;
-  return mb::CompiledModel::Compile(lm.graph, co);
+  return mb::bench::Build(lm.graph, lm.compile, generate_code);
 }
 
 /// range(0): 0 = interpreter, 1 = generated code; range(1): 0 = the integrator's entry point
 /// (CalcStateDerivatives: generated code keeps efforts and flows in registers), 1 = the one that
 /// also fills the workspace (CalcDerivatives, used at output times).
 void BM_DifferentialRhs(benchmark::State& state) {
-  const auto model = Differential(state.range(0) != 0);
+  const mb::bench::Built built = Differential(state.range(0) != 0);
+  const auto& model = built.model;
   const bool fill = state.range(1) != 0;
-  mb::Workspace ws = model->MakeWorkspace();
+  mb::Workspace ws = built.MakeWorkspace();
   Eigen::VectorXd x = model->MakeInitialState(), xdot(x.size());
   for (int i = 0; i < x.size(); ++i) x[i] += 1e-6 * (i % 5);
   double t = 0.0;
@@ -56,7 +56,7 @@ void BM_DifferentialRhs(benchmark::State& state) {
     benchmark::DoNotOptimize(xdot.data());
     t += 1e-9;
   }
-  state.SetLabel(std::string(model->uses_generated_code() ? "generated code" : "interpreter") +
+  state.SetLabel(std::string(built.generated() ? "generated code" : "interpreter") +
                  (fill ? ", filling the workspace" : ", integrator entry"));
   state.counters["states"] = static_cast<double>(model->num_states());
 }
@@ -65,22 +65,22 @@ BENCHMARK(BM_DifferentialRhs)->Args({0, 0})->Args({1, 0})->Args({1, 1});
 /// The example compiled to generated code, and its own run settings (solver, tolerances, times).
 std::pair<std::shared_ptr<const mb::CompiledModel>, mb::RunOptions> ExampleRun() {
   const mb::LoadedModel lm = mb::LoadModelFile(kModel);
-  mb::CompileOptions co = lm.compile;
-  co.generate_code = true;
+  const mb::bench::Built b = mb::bench::Build(lm.graph, lm.compile, true);
   mb::RunOptions o;
+  o.code = b.code;
   o.t_end = *lm.simulation.t_end;
   o.dt = *lm.simulation.dt;
   o.integrator.method = mb::ParseMethod(*lm.simulation.solver);
   o.integrator.rtol = *lm.simulation.rtol;
   o.integrator.atol = *lm.simulation.atol;
-  return {mb::CompiledModel::Compile(lm.graph, co), o};
+  return {b.model, o};
 }
 
 /// The whole 0-5 s run without file output. range(0): 0 = the example's solver settings,
 /// 1 = Dormand-Prince at the same tolerances.
 void BM_DifferentialRun(benchmark::State& state) {
   const auto [model, example_options] = ExampleRun();
-  if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
+  if (!example_options.code->ready()) state.SkipWithError(("no generated code: " + example_options.code->engine()).c_str());
   mb::RunOptions o = example_options;
   if (state.range(0) != 0) o.integrator.method = mb::Method::kDormandPrince;
   mb::RunSummary s;
@@ -107,9 +107,9 @@ BENCHMARK(BM_DifferentialRun)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->It
 /// and then the example's run (as BM_DifferentialRun/0), back to back.
 void BM_DifferentialRunVsReference(benchmark::State& state) {
   const auto [model, o] = ExampleRun();
-  if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
+  if (!o.code->ready()) state.SkipWithError(("no generated code: " + o.code->engine()).c_str());
   const int n = model->num_states();
-  mb::Workspace ws = model->MakeWorkspace();
+  mb::Workspace ws = model->MakeWorkspace(o.code.get());
   Eigen::VectorXd x(n), y(n), k1(n), k2(n), k3(n), k4(n);
   using Clock = std::chrono::steady_clock;
   double ref_s = 0.0, run_s = 0.0, best_ratio = 1e300;

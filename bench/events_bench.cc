@@ -29,6 +29,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include "built.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
 
@@ -81,14 +82,14 @@ simulation: {t_end: 20, dt: 1.0e-3, rtol: 1.0e-10, atol: 1.0e-12}
 
 struct Prepared {
   std::shared_ptr<const mb::CompiledModel> model;
-  mb::RunOptions options;
+  mb::RunOptions options;  ///< with the generated code (options.code)
 };
 
 /// Compiled to generated code (the interpreter when no compiler works), with the file's settings.
 Prepared Prepare(const mb::LoadedModel& lm, mb::Method method, double t_end) {
-  mb::CompileOptions co = lm.compile;
-  co.generate_code = true;
-  Prepared p{mb::CompiledModel::Compile(lm.graph, co), {}};
+  const mb::bench::Built b = mb::bench::Build(lm.graph, lm.compile, true);
+  Prepared p{b.model, {}};
+  p.options.code = b.code;
   p.options.t_end = t_end;
   p.options.dt = lm.simulation.dt.value_or(1e-3);
   p.options.integrator.method = method;
@@ -170,7 +171,7 @@ void BM_StickSlip(benchmark::State& state) {
   state.counters["slip_steps_per_s"] = slip_rate.first;
   state.counters["stick_rhs_per_s"] = stick_rate.second;
   state.counters["slip_rhs_per_s"] = slip_rate.second;
-  state.SetLabel(std::string(mb::MethodName(method)) + (p.model->uses_generated_code() ? ", generated code" : ", interpreter"));
+  state.SetLabel(std::string(mb::MethodName(method)) + (p.options.code->ready() ? ", generated code" : ", interpreter"));
 }
 BENCHMARK(BM_StickSlip)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(5);
 
@@ -193,7 +194,7 @@ void BM_BouncingBall(benchmark::State& state) {
   state.counters["flight_rhs_per_s"] = flight_rate.second;
   state.counters["rest_rhs_per_s"] = rest_rhs / (10.0 - bounced);
   state.counters["rest_steps_per_s"] = rest_steps / (10.0 - bounced);
-  state.SetLabel(std::string(mb::MethodName(method)) + (p.model->uses_generated_code() ? ", generated code" : ", interpreter"));
+  state.SetLabel(std::string(mb::MethodName(method)) + (p.options.code->ready() ? ", generated code" : ", interpreter"));
 }
 BENCHMARK(BM_BouncingBall)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(5);
 

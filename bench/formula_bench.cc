@@ -47,6 +47,7 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/core/expression.h"
 
 namespace mb = multibond;
@@ -185,6 +186,7 @@ std::vector<double> HandState(int n, bool account) {
 
 struct Setup {
   std::shared_ptr<const mb::CompiledModel> model;
+  std::shared_ptr<const mb::GeneratedRhs> code;  ///< null: the interpreter
   HandChain hand;
   std::vector<double> hand_x;
   Eigen::VectorXd model_x;
@@ -197,12 +199,14 @@ struct Setup {
 Setup Prepare(int n, bool generated, bool account) {
   const ChainCoefficients k(n);
   mb::CompileOptions co;
-  co.generate_code = generated;
   co.energy_account = account;
-  Setup s{mb::CompiledModel::Compile(MakeFormulaChain(k), co), HandChain(k), {}, {}, 0.0, {}};
-  if (generated && !s.model->uses_generated_code()) {
-    s.error = "no generated code: " + s.model->rhs_engine();
-    return s;
+  Setup s{mb::CompiledModel::Compile(MakeFormulaChain(k), co), nullptr, HandChain(k), {}, {}, 0.0, {}};
+  if (generated) {
+    s.code = mb::GeneratedRhs::Start(s.model);
+    if (!s.code->ready()) {
+      s.error = "no generated code: " + s.code->engine();
+      return s;
+    }
   }
   const std::vector<int> at = ModelIndexOfHandState(*s.model, n, account);
   s.hand_x = HandState(n, account);
@@ -210,7 +214,7 @@ Setup Prepare(int n, bool generated, bool account) {
   for (size_t j = 0; j < at.size(); ++j) s.model_x[at[j]] = s.hand_x[j];
   std::vector<double> hand_dot(s.hand_x.size());
   Eigen::VectorXd model_dot(s.model->num_states());
-  mb::Workspace ws = s.model->MakeWorkspace();
+  mb::Workspace ws = s.model->MakeWorkspace(s.code.get());
   s.model->CalcStateDerivatives(0.0, s.model_x.data(), model_dot.data(), ws);
   s.hand.Rhs(account, s.hand_x.data(), hand_dot.data());
   double largest = 0.0, worst = 0.0;
@@ -236,7 +240,7 @@ void BM_FormulaChainRhs(benchmark::State& state) {
     state.SkipWithError(s.error.c_str());
     return;
   }
-  mb::Workspace ws = s.model->MakeWorkspace();
+  mb::Workspace ws = s.model->MakeWorkspace(s.code.get());
   std::vector<double> hand_dot(s.hand_x.size());
   Eigen::VectorXd model_dot(s.model->num_states());
   double t = 0.0;
@@ -281,7 +285,7 @@ void BM_FormulaChainRatio(benchmark::State& state) {
       return;
     }
   const int calls = std::max(1, 200'000 / n), interp_calls = std::max(1, 2'000 / n);
-  mb::Workspace ws_gen = gen.model->MakeWorkspace(), ws_interp = interp.model->MakeWorkspace();
+  mb::Workspace ws_gen = gen.model->MakeWorkspace(gen.code.get()), ws_interp = interp.model->MakeWorkspace();
   std::vector<double> hand_dot(gen.hand_x.size());
   Eigen::VectorXd gen_dot(gen.model->num_states()), interp_dot(interp.model->num_states());
   std::vector<double> ns[3];

@@ -7,6 +7,7 @@
 #include <benchmark/benchmark.h>
 
 #include "multibond/io/model_loader.h"
+#include "built.h"
 #include "rhs_in_turn.h"
 #include "multibond/sim/joint_coordinates.h"
 #include "multibond/sim/simulator.h"
@@ -19,18 +20,17 @@ mb::LoadedModel LoadIdeal() {
   return mb::LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential_ideal.yaml");
 }
 
-std::shared_ptr<const mb::CompiledModel> IdealDifferential() {
+mb::bench::Built IdealDifferential() {
   const mb::LoadedModel lm = LoadIdeal();
-  mb::CompileOptions co = lm.compile;
-  co.generate_code = true;  // as the CLI does (--jit auto)
-  return mb::CompiledModel::Compile(lm.graph, co);
+  return mb::bench::Build(lm.graph, lm.compile, true);  // as the CLI does (--jit auto)
 }
 
 void BM_IdealDifferentialRhs(benchmark::State& state) {
-  const auto model = IdealDifferential();
-  if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
+  const mb::bench::Built built = IdealDifferential();
+  const auto& model = built.model;
+  if (!built.generated()) state.SkipWithError(("no generated code: " + built.engine()).c_str());
   // Two states that differ in an orientation, in turn (rhs_in_turn.h).
-  mb::bench::RhsInTurn(state, *model, "G.R", 1, 1e-9);
+  mb::bench::RhsInTurn(state, *model, "G.R", 1, 1e-9, built.code.get());
   state.counters["states"] = static_cast<double>(model->num_states());
   state.counters["multipliers"] = static_cast<double>(model->num_multipliers());
 }
@@ -39,9 +39,10 @@ BENCHMARK(BM_IdealDifferentialRhs);
 // The same right-hand side in joint coordinates (JointCoordinateSystem): the model's, plus the
 // map from joint coordinates to the model's state and the derivatives back.
 void BM_IdealDifferentialJointRhs(benchmark::State& state) {
-  const auto model = IdealDifferential();
-  if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
-  mb::ModelSystem system(*model);
+  const mb::bench::Built built = IdealDifferential();
+  const auto& model = built.model;
+  if (!built.generated()) state.SkipWithError(("no generated code: " + built.engine()).c_str());
+  mb::ModelSystem system(*model, nullptr, built.code.get());
   mb::JointCoordinateSystem jc(*model, LoadIdeal().mechanism->MakeJointTree(), &system);
   Eigen::VectorXd x = model->MakeInitialState();
   Eigen::VectorXd ys[2] = {Eigen::VectorXd(jc.num_states()), Eigen::VectorXd(jc.num_states())};
@@ -65,9 +66,11 @@ BENCHMARK(BM_IdealDifferentialJointRhs);
 /// example's), 0 = inertial; range(3): output rows (5,000: the example's 1 ms; 1: t_end only,
 /// the integration alone; each row evaluates the model with its reactions).
 void BM_IdealDifferentialRun(benchmark::State& state) {
-  const auto model = IdealDifferential();
-  if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
+  const mb::bench::Built built = IdealDifferential();
+  const auto& model = built.model;
+  if (!built.generated()) state.SkipWithError(("no generated code: " + built.engine()).c_str());
   mb::RunOptions o;
+  o.code = built.code;
   o.t_end = 5.0;
   o.dt = o.t_end / static_cast<double>(state.range(3));
   if (state.range(2) == 1) o.joint_coordinates = LoadIdeal().mechanism->MakeJointTree();

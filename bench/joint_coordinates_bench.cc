@@ -28,6 +28,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include "built.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/joint_coordinates.h"
 #include "multibond/sim/simulator.h"
@@ -44,11 +45,11 @@ const char* const kModels[] = {"spinning_top.yaml", "gyroscope.yaml", "different
 void BM_JointCoordinatesRun(benchmark::State& state) {
   const std::string file = std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + kModels[state.range(0)];
   const mb::LoadedModel lm = mb::LoadModelFile(file);
-  mb::CompileOptions co = lm.compile;
-  co.generate_code = true;
-  const auto model = mb::CompiledModel::Compile(lm.graph, co);
-  if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
+  const mb::bench::Built built = mb::bench::Build(lm.graph, lm.compile, true);
+  const auto& model = built.model;
+  if (!built.generated()) state.SkipWithError(("no generated code: " + built.engine()).c_str());
   mb::RunOptions o;
+  o.code = built.code;
   o.t_end = lm.simulation.t_end.value_or(1.0);
   o.dt = lm.simulation.dt.value_or(1e-3);
   o.integrator.method = state.range(2) == 1   ? mb::Method::kBdf
@@ -86,11 +87,10 @@ BENCHMARK(BM_JointCoordinatesRun)
 /// model's state alone (ToModel), 2 the model's right-hand side alone at that state.
 void BM_DifferentialJointRhs(benchmark::State& state) {
   const mb::LoadedModel lm = mb::LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml");
-  mb::CompileOptions co = lm.compile;
-  co.generate_code = true;
-  const auto model = mb::CompiledModel::Compile(lm.graph, co);
-  if (!model->uses_generated_code()) state.SkipWithError(("no generated code: " + model->rhs_engine()).c_str());
-  mb::ModelSystem system(*model);
+  const mb::bench::Built built = mb::bench::Build(lm.graph, lm.compile, true);
+  const auto& model = built.model;
+  if (!built.generated()) state.SkipWithError(("no generated code: " + built.engine()).c_str());
+  mb::ModelSystem system(*model, nullptr, built.code.get());
   mb::JointCoordinateSystem jc(*model, lm.mechanism->MakeJointTree(), &system);
   Eigen::VectorXd x = model->MakeInitialState(), xdot(x.size());
   Eigen::VectorXd y(jc.num_states()), ydot(jc.num_states());

@@ -11,8 +11,10 @@
 
 namespace multibond::bench {
 
-inline void RhsInTurn(benchmark::State& state, const CompiledModel& model, const std::string& variable, int component, double nudge) {
-  Workspace ws = model.MakeWorkspace();
+/// `code`: the model's generated code, null for the interpreter.
+inline void RhsInTurn(benchmark::State& state, const CompiledModel& model, const std::string& variable, int component, double nudge,
+                      const GeneratedRhs* code = nullptr) {
+  Workspace ws = model.MakeWorkspace(code);
   Eigen::VectorXd xs[2] = {model.MakeInitialState(), model.MakeInitialState()};
   xs[1][model.FindVariable(variable)->offset + component] += nudge;
   Eigen::VectorXd xdot(xs[0].size());

@@ -5,7 +5,7 @@
 // file's own simulation settings.
 //
 //   load (with the default InputLimits: file size, YAML nodes, depth, instances, elements, bonds)
-//   -> structure and causality checks, compile (interpreter: generate_code = false)
+//   -> structure and causality checks, compile (the interpreter: no generated code)
 //   -> run options from the file's 'simulation' section (solver, tolerances, step, coordinates)
 //   -> MakeColumns (the output layout) and CheckRunOptions (what Simulate would refuse)
 //   -> one right-hand side at the initial state, for models small enough to do it quickly.
@@ -26,9 +26,8 @@ namespace multibond::fuzz {
 
 inline void RunFrontEnd(const std::string& text, const std::string& file) {
   const LoadedModel lm = LoadModelString(text, file, InputLimits{});
-  CompileOptions co = lm.compile;
-  co.generate_code = false;  // as `run --jit off`: no compiler is started
-  const auto model = CompiledModel::Compile(lm.graph, co);
+  // As `run --jit off`: no generated code, no compiler started (RunOptions::code stays null).
+  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
   // The file's settings with the CLI's defaults (PrepareRun without command-line options).
   const SimulationDefaults& d = lm.simulation;
   RunOptions o;

@@ -124,9 +124,7 @@ int Suggest(const LoadedModel& lm, const CheckArgs& a) {
     std::cout << "the repaired graph is integrally causal; each coupling removes at least one derivative causality (greedy:\n"
                  "one coupling, then causality again), so none of them is redundant\n";
     try {
-      CompileOptions co = lm.compile;
-      co.generate_code = false;
-      const auto model = CompiledModel::Compile(r.repaired, co);
+      const auto model = CompiledModel::Compile(r.repaired, lm.compile);
       std::cout << fmt::format("it compiles: {} states\n", model->num_states());
     } catch (const ModelError& e) {
       ok = false;

@@ -101,7 +101,7 @@ Prepared Prepare(const LinearArgs& a, const std::vector<std::string>& argv, cons
   r.lm.steady = a.steady;
   r.record = MakeRunRecord(a.model, r.p.lm.text, r.p.lm.graph.name(), r.p.options, r.op.summary, argv);
   r.record["command"] = command;
-  r.record["rhs_engine"] = r.p.model->rhs_engine();
+  r.record["rhs_engine"] = r.p.engine();
   r.record["options"]["at"] = r.op.t;
   r.record["options"]["steady"] = a.steady;
   // An operating point on a kink: every linear command says so (linearize lists it among its

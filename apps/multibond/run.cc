@@ -104,12 +104,12 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   // cache, so that the next run of this model starts on the generated code (rhs_engine says so).
   if (a.run.jit == "auto") {
     if (const std::string program = JitFinisher(); !program.empty()) {
-      const std::string kept = model->HandOverCompile(program);
+      const std::string kept = p.code->HandOver(program);
       if (tty && !kept.empty()) std::fprintf(stderr, "note: the generated code: %s\n", kept.c_str());
     }
   }
   nlohmann::json record = MakeRunRecord(a.model, lm.text, lm.graph.name(), o, summary, argv);
-  record["rhs_engine"] = model->rhs_engine();
+  record["rhs_engine"] = p.engine();
   record["states"] = model->num_states();
   record["options"]["jit"] = a.run.jit;
   record["options"]["coordinates"] = p.coordinates;

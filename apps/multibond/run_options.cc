@@ -58,23 +58,26 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a, const std::vec
     mark = now;
     return seconds;
   };
-  PreparedRun p{Load(path, a.load, extra_sets, extra_option), nullptr, {}, {}, {}, {}, {}};
+  PreparedRun p{Load(path, a.load, extra_sets, extra_option), nullptr, {}, {}, {}, {}, {}, nullptr};
   p.phase_seconds.emplace_back("load", lap());
-  CompileOptions co = p.lm.compile;
-  co.generate_code = a.jit != "off";
-  // auto: the run starts on the interpreter and switches when the code is loaded (same bits);
-  // on: the code must be there before the run starts.
-  co.jit_background = a.jit == "auto";
-  p.model = CompiledModel::Compile(p.lm.graph, co);
+  p.model = CompiledModel::Compile(p.lm.graph, p.lm.compile);
   (void)lap();
   p.phase_seconds.insert(p.phase_seconds.end(), p.model->compile_seconds().begin(), p.model->compile_seconds().end());
+  if (a.jit != "off") {
+    // auto: the run starts on the interpreter and switches when the code is loaded (same bits);
+    // on: the code must be there before the run starts.
+    GenerateOptions go;
+    go.background = a.jit == "auto";
+    p.code = GeneratedRhs::Start(p.model, go);
+  }
+  p.phase_seconds.emplace_back("generate_code", lap());
   // --jit on for a model that generated code does not cover is a usage error; a compiler that fails is the machine's.
-  if (a.jit == "on" && !p.model->uses_generated_code())
-    throw CliExit{p.model->algebraic_loops().empty() ? kExitIo : kExitUsage, "--jit on, but " + p.model->rhs_engine()};
+  if (a.jit == "on" && !p.code->uses_generated_code())
+    throw CliExit{p.model->algebraic_loops().empty() ? kExitIo : kExitUsage, "--jit on, but " + p.code->engine()};
   // --jit auto falls back to the interpreter when the compiler fails: same numbers, slower; said
   // here, not only in run.json.
-  if (a.jit == "auto" && !p.model->uses_generated_code() && p.model->rhs_engine().find("code generation") != std::string::npos)
-    std::cerr << "warning: running on the interpreter: " << p.model->rhs_engine() << '\n';
+  if (a.jit == "auto" && !p.code->uses_generated_code() && p.code->engine().find("code generation") != std::string::npos)
+    std::cerr << "warning: running on the interpreter: " << p.code->engine() << '\n';
   const SimulationDefaults& d = p.lm.simulation;
   RunOptions& o = p.options;
   o.t_end = a.t_end.value_or(d.t_end.value_or(1.0));
@@ -110,6 +113,7 @@ PreparedRun PrepareRun(const std::string& path, const RunArgs& a, const std::vec
     std::cerr << fmt::format("warning: --jacobian {} has no effect with the explicit solver '{}' (only bdf and adams form a "
                              "Newton matrix)\n", a.jacobian, p.solver);
   o.stop = &StopFlag();
+  o.code = p.code;
   // A steady start: Newton's method (KINSOL) from the initial values at the start, the sources
   // held at their values there (docs/linear-analysis.md, "Steady states").
   p.initial = a.initial.value_or(d.initial.value_or("model"));

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "cli.h"
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/sim/simulator.h"
 
 namespace multibond::cli {
@@ -38,6 +39,10 @@ struct PreparedRun {
   /// The wall time of each phase so far, in order [s]: load (read, parse, expand the model),
   /// the compile passes (CompiledModel::compile_seconds), setup (the run's options and columns).
   std::vector<std::pair<std::string, double>> phase_seconds;
+  /// The model's generated code (--jit auto or on; also in options.code), null with --jit off.
+  std::shared_ptr<const GeneratedRhs> code;
+  /// How the right-hand side is evaluated (GeneratedRhs::engine), "interpreter" without code.
+  std::string engine() const { return RhsEngine(code.get()); }
 };
 
 /// Throws ModelError (bad model, bad output), CliExit 64 (unknown solver, options the run would

@@ -123,7 +123,7 @@ int RunSweepCommand(const SweepArgs& a, const std::vector<std::string>& argv) {
   const sweep::SweepFacts& f = out.facts;
   std::cout << fmt::format("sweep '{}': {} runs ({} failed{}) in {:.3g} s on {} rank{} x {} thread{}; model: {}\n", study.name, f.runs,
                            f.failed, f.resumed ? fmt::format(", {} from the journal", f.resumed) : "", f.wall_seconds, f.ranks,
-                           f.ranks == 1 ? "" : "s", f.threads, f.threads == 1 ? "" : "s", nominal.model->rhs_engine());
+                           f.ranks == 1 ? "" : "s", f.threads, f.threads == 1 ? "" : "s", nominal.engine());
   for (const sweep::RunResult& r : out.results)
     if (!r.ok) std::cerr << fmt::format("run {} failed: {}\n", r.run, r.reason);
   for (const std::string& p : out.plot_problems) std::cerr << "warning: plot " << p << '\n';

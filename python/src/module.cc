@@ -30,6 +30,7 @@
 #include "multibond/api/run_options.h"
 #include "multibond/compile/compiled_model.h"
 #include "multibond/compile/equations.h"
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/core/interrupt.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/io/results_writer.h"
@@ -217,7 +218,11 @@ struct PyModel {
   InputLimits limits;
   std::string jit = "auto";
   std::shared_ptr<const std::string> file, text;  ///< shared with the Results of its runs
-  std::shared_ptr<const CompiledModel> compiled;   ///< of lm.graph, made on first use
+  /// lm.graph compiled, with its generated code (jit auto or on), made on first use.
+  struct Built {
+    std::shared_ptr<const CompiledModel> model;
+    std::shared_ptr<const GeneratedRhs> code;
+  } built;
 };
 
 std::vector<ParameterOverride> Overrides(const std::vector<std::pair<std::string, std::string>>& values) {
@@ -245,21 +250,20 @@ std::unique_ptr<PyModel> MakeModel(LoadedModel lm, const std::string& jit, const
 
 /// Compiles `graph` as the model's options say, with the GIL released (a compile may run the
 /// system compiler for seconds).
-std::shared_ptr<const CompiledModel> Compile(const PyModel& m, BondGraph graph) {
-  CompileOptions co = m.lm.compile;
-  co.generate_code = m.jit != "off";
-  std::shared_ptr<const CompiledModel> c;
+PyModel::Built Compile(const PyModel& m, BondGraph graph) {
+  PyModel::Built b;
   {
     py::gil_scoped_release nogil;
-    c = CompiledModel::Compile(std::move(graph), co);
+    b.model = CompiledModel::Compile(std::move(graph), m.lm.compile);
+    if (m.jit != "off") b.code = GeneratedRhs::Start(b.model);
   }
-  if (m.jit == "on" && !c->uses_generated_code()) throw std::runtime_error("jit 'on', but " + c->rhs_engine());
-  return c;
+  if (m.jit == "on" && !b.code->uses_generated_code()) throw std::runtime_error("jit 'on', but " + b.code->engine());
+  return b;
 }
 
-const std::shared_ptr<const CompiledModel>& Compiled(PyModel& m) {
-  if (!m.compiled) m.compiled = Compile(m, m.lm.graph);
-  return m.compiled;
+const PyModel::Built& Compiled(PyModel& m) {
+  if (!m.built.model) m.built = Compile(m, m.lm.graph);
+  return m.built;
 }
 
 /// An element's parameter, as the C++ API's Model::SetParameter sets it: I inertia, C
@@ -343,15 +347,17 @@ bool SimulateReleased(const CompiledModel& model, RunOptions& o, Observer& obser
 
 py::object Run(py::object self, const RunArgs& a, const py::object& set) {
   PyModel& m = self.cast<PyModel&>();
-  std::shared_ptr<const CompiledModel> model;
+  PyModel::Built b;
   if (set.is_none() || py::len(set) == 0) {
-    model = Compiled(m);
+    b = Compiled(m);
   } else {  // this run only: the model keeps its own values
     BondGraph g = m.lm.graph;
     for (const auto& [k, v] : set.cast<py::dict>()) SetElementParameter(g, k.cast<std::string>(), v);
-    model = Compile(m, std::move(g));
+    b = Compile(m, std::move(g));
   }
+  const std::shared_ptr<const CompiledModel>& model = b.model;
   RunOptions o = ResolveRunOptions(m.lm, ToSimulationOptions(a), m.limits);
+  o.code = b.code;
   auto holder = std::make_unique<PyResults>();
   PyResults& r = *holder;
   r.model_file = m.file;
@@ -359,7 +365,7 @@ py::object Run(py::object self, const RunArgs& a, const py::object& set) {
   r.model_name = m.lm.graph.name();
   r.solver = a.solver.value_or(m.lm.simulation.solver.value_or(kDefaultSolver));
   r.coordinates = o.joint_coordinates.empty() ? "inertial" : "joint";
-  r.rhs_engine = model->rhs_engine();
+  r.rhs_engine = RhsEngine(b.code.get());
   r.parameters = nlohmann::json::object();
   for (const ModelParameter& q : m.lm.parameters) r.parameters[q.name] = {{"value", q.value}, {"unit", q.unit}, {"set", q.set}};
   CheckRunOptions(*model, o);  // before the rows are counted
@@ -388,8 +394,10 @@ py::object Run(py::object self, const RunArgs& a, const py::object& set) {
 /// The linear model about the state at `at` (a run from the start, as `multibond linearize --at`)
 /// or the initial state, then, with `steady`, the steady state found from there (--steady).
 linear::LinearModel LinearizeAt(PyModel& m, std::optional<double> at, bool steady, const RunArgs& a) {
-  const std::shared_ptr<const CompiledModel> model = Compiled(m);
+  const PyModel::Built& b = Compiled(m);
+  const std::shared_ptr<const CompiledModel> model = b.model;
   RunOptions o = ResolveRunOptions(m.lm, ToSimulationOptions(a), m.limits);
+  o.code = b.code;
   double t = o.t_start;
   Eigen::VectorXd x = model->MakeInitialState();
   if (at && *at != o.t_start) {
@@ -432,7 +440,7 @@ int FindName(const std::vector<std::string>& names, const std::string& name, con
 py::dict Check(PyModel& m) {
   py::dict out;
   try {
-    const std::shared_ptr<const CompiledModel> model = Compiled(m);
+    const std::shared_ptr<const CompiledModel> model = Compiled(m).model;
     (void)MakeColumns(*model, false);  // and the declared outputs, as `multibond check`
     py::list states;
     for (int i = 0; i < model->num_states(); ++i)
@@ -590,19 +598,19 @@ PYBIND11_MODULE(_multibond, mod) {
         for (const ModelParameter& q : m.lm.parameters) d[py::str(q.name)] = q.value;
         return d;
       })
-      .def_property_readonly("state_names", [](py::object self) { return Compiled(self.cast<PyModel&>())->state_names(); })
-      .def_property_readonly("rhs_engine", [](py::object self) { return Compiled(self.cast<PyModel&>())->rhs_engine(); })
+      .def_property_readonly("state_names", [](py::object self) { return Compiled(self.cast<PyModel&>()).model->state_names(); })
+      .def_property_readonly("rhs_engine", [](py::object self) { return RhsEngine(Compiled(self.cast<PyModel&>()).code.get()); })
       .def(
           "column_names", [](PyModel& m, bool all_variables) {
             std::vector<std::string> names;
-            for (const Column& c : MakeColumns(*Compiled(m), all_variables)) names.push_back(c.name);
+            for (const Column& c : MakeColumns(*Compiled(m).model, all_variables)) names.push_back(c.name);
             return names;
           },
           py::arg("all_variables") = false)
       .def(
           "set_parameter", [](PyModel& m, const std::string& element, const py::object& value) {
             SetElementParameter(m.lm.graph, element, value);
-            m.compiled.reset();
+            m.built = {};
           },
           py::arg("element"), py::arg("value"))
       .def(
@@ -619,7 +627,7 @@ PYBIND11_MODULE(_multibond, mod) {
       .def(
           "equations", [](PyModel& m, const std::string& format) {
             if (format != "text" && format != "latex") throw std::invalid_argument("format must be 'text' or 'latex' (got '" + format + "')");
-            return FormatEquations(*Compiled(m), format == "latex" ? EquationFormat::kLatex : EquationFormat::kText);
+            return FormatEquations(*Compiled(m).model, format == "latex" ? EquationFormat::kLatex : EquationFormat::kText);
           },
           py::arg("format") = "text")
       .def(

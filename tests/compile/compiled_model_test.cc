@@ -20,9 +20,11 @@
 
 #include "multibond/compile/compiled_model.h"
 #include "multibond/compile/exact_sum.h"
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/core/interrupt.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
+#include "support/example_runner.h"
 #include "support/rotation_graph.h"
 #include "support/temp_dir.h"
 
@@ -180,18 +182,20 @@ TEST(CompiledModel, SixDimensionalBondsEqualSixScalarCopies) {
 // ---------------------------------------------------------------------------------------------
 // One answer (issue 21): the interpreter and the generated code give the same bits.
 
+/// Two engines: a model on the interpreter, and a model (the same one, or another compile) on
+/// its generated code.
 struct Engines {
   std::shared_ptr<const CompiledModel> interpreter, generated;
+  std::shared_ptr<const GeneratedRhs> code;  ///< generated's
 };
 
+/// One compiled model of the example, evaluated by both engines: the model is immutable, the
+/// generated code is outside it.
 Engines CompileBoth(const std::string& example) {
   const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + example);
-  CompileOptions co = lm.compile;
-  co.generate_code = false;
   Engines e;
-  e.interpreter = CompiledModel::Compile(lm.graph, co);
-  co.generate_code = true;
-  e.generated = CompiledModel::Compile(lm.graph, co);
+  e.interpreter = e.generated = CompiledModel::Compile(lm.graph, lm.compile);
+  e.code = GeneratedRhs::Start(e.generated);
   return e;
 }
 
@@ -211,7 +215,7 @@ Engines CompileBoth(const std::string& example) {
 /// Both engines of one example at the initial state and at states nearby: the same bits in every
 /// state derivative and every slot.
 void ExpectSameBits(const std::string& example, const Engines& e) {
-  Workspace wi = e.interpreter->MakeWorkspace(), wg = e.generated->MakeWorkspace();
+  Workspace wi = e.interpreter->MakeWorkspace(), wg = e.generated->MakeWorkspace(e.code.get());
   const Eigen::VectorXd x0 = e.interpreter->MakeInitialState();
   const int n = static_cast<int>(x0.size());
   std::mt19937_64 rng(21);
@@ -237,7 +241,7 @@ class OneAnswer : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(OneAnswer, InterpreterAndGeneratedCodeGiveTheSameBits) {
   const Engines e = CompileBoth(GetParam());
-  if (!e.generated->uses_generated_code()) GTEST_SKIP() << e.generated->rhs_engine();
+  if (!e.code->ready()) GTEST_SKIP() << e.code->engine();
   ExpectSameBits(GetParam(), e);
 }
 
@@ -254,7 +258,7 @@ struct UnfusedSums {
 TEST_P(OneAnswer, WithoutFusedSumsTheEnginesStillAgree) {
   UnfusedSums unfused;
   const Engines e = CompileBoth(GetParam());
-  if (!e.generated->uses_generated_code()) GTEST_SKIP() << e.generated->rhs_engine();
+  if (!e.code->ready()) GTEST_SKIP() << e.code->engine();
   EXPECT_THAT(e.generated->GenerateSource(), ::testing::Not(::testing::HasSubstr("fma")));
   ExpectSameBits(GetParam(), e);
 }
@@ -295,11 +299,12 @@ TEST(OneAnswerRun, TheDifferentialGivesTheSameSamplesOnBothEngines) {
   const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml");
   std::vector<std::vector<double>> rows[2];
   for (int engine = 0; engine < 2; ++engine) {
-    CompileOptions co = lm.compile;
-    co.generate_code = engine == 1;
-    const auto model = CompiledModel::Compile(lm.graph, co);
-    ASSERT_EQ(model->uses_generated_code(), engine == 1) << model->rhs_engine();
-    const RunOptions o = ShortRun(lm);
+    const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+    RunOptions o = ShortRun(lm);
+    if (engine == 1) {
+      o.code = GeneratedRhs::Start(model);
+      ASSERT_TRUE(o.code->ready()) << o.code->engine();
+    }
     RecordingObserver rec;
     Simulate(*model, o, rec);
     rows[engine] = rec.rows();
@@ -323,15 +328,14 @@ TEST(OneAnswerRun, AStopWhileCompilingIsNotAFallback) {
   std::filesystem::permissions(script, std::filesystem::perms(0700));
   setenv("MULTIBOND_CXX", script.c_str(), 1);
   const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/mass_spring_damper.yaml");
-  CompileOptions co = lm.compile;
-  co.generate_code = true;
+  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
   ResetStop();
   std::thread stopper([] {
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     StopFlag().store(true);
   });
   const auto start = std::chrono::steady_clock::now();
-  EXPECT_THROW(CompiledModel::Compile(lm.graph, co), Interrupted);
+  EXPECT_THROW(GeneratedRhs::Start(model), Interrupted);
   EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2));
   stopper.join();
   ResetStop();
@@ -392,16 +396,14 @@ TEST(GeneratedCodeAtScale, TheTextDependsOnTheStructureNotOnTheParameterValues) 
   // Without the value table (one model's default) the numbers are literals: the texts differ.
   {
     const auto la = CompiledModel::Compile(a.graph, a.compile), lb = CompiledModel::Compile(b.graph, b.compile);
-    const CompiledModel::GeneratedUnits ta = la->GenerateUnits(CompileOptions::kDefaultUnitChars);
-    EXPECT_NE(ta.units, lb->GenerateUnits(CompileOptions::kDefaultUnitChars).units);
+    const CompiledModel::GeneratedUnits ta = la->GenerateUnits(GenerateOptions::kDefaultUnitChars);
+    EXPECT_NE(ta.units, lb->GenerateUnits(GenerateOptions::kDefaultUnitChars).units);
     EXPECT_TRUE(ta.values.empty());
     EXPECT_THAT(ta.units.front(), ::testing::HasSubstr(fmt::format("{:a}", 100.0)));
   }
-  CompileOptions table = a.compile;
-  table.jit_value_table = true;
-  const auto ma = CompiledModel::Compile(a.graph, table), mb = CompiledModel::Compile(b.graph, table);
-  const CompiledModel::GeneratedUnits ga = ma->GenerateUnits(CompileOptions::kDefaultUnitChars);
-  const CompiledModel::GeneratedUnits gb = mb->GenerateUnits(CompileOptions::kDefaultUnitChars);
+  const auto ma = CompiledModel::Compile(a.graph, a.compile), mb = CompiledModel::Compile(b.graph, b.compile);
+  const CompiledModel::GeneratedUnits ga = ma->GenerateUnits(GenerateOptions::kDefaultUnitChars, /*value_table=*/true);
+  const CompiledModel::GeneratedUnits gb = mb->GenerateUnits(GenerateOptions::kDefaultUnitChars, /*value_table=*/true);
   ASSERT_EQ(ga.units.size(), 1u);
   EXPECT_EQ(ga.units, gb.units);
   EXPECT_NE(ga.values, gb.values);
@@ -413,25 +415,26 @@ TEST(GeneratedCodeAtScale, TheTextDependsOnTheStructureNotOnTheParameterValues) 
   // The same cache entry: the second model reuses the library the first one loaded, and each
   // gives its interpreter's bits.
   FreshJitCache cache;
-  CompileOptions co = table;
-  co.generate_code = true;
-  const auto ja = CompiledModel::Compile(a.graph, co), jb = CompiledModel::Compile(b.graph, co);
-  ASSERT_TRUE(ja->uses_generated_code()) << ja->rhs_engine();
-  EXPECT_THAT(ja->rhs_engine(), ::testing::Not(::testing::HasSubstr("already loaded")));
-  EXPECT_THAT(jb->rhs_engine(), ::testing::HasSubstr("already loaded by this process"));
+  GenerateOptions table;
+  table.value_table = true;
+  const auto ja = GeneratedRhs::Start(ma, table), jb = GeneratedRhs::Start(mb, table);
+  ASSERT_TRUE(ja->ready()) << ja->engine();
+  EXPECT_THAT(ja->engine(), ::testing::Not(::testing::HasSubstr("already loaded")));
+  EXPECT_THAT(jb->engine(), ::testing::HasSubstr("already loaded by this process"));
   EXPECT_EQ(cache.Libraries(), 1);
-  ExpectSameBits("mass_spring_damper (a)", Engines{ma, ja});
-  ExpectSameBits("mass_spring_damper (b)", Engines{mb, jb});
+  ExpectSameBits("mass_spring_damper (a)", Engines{ma, ma, ja});
+  ExpectSameBits("mass_spring_damper (b)", Engines{mb, mb, jb});
 }
 
-/// An example compiled with its generated code split into units of about `unit_chars`.
-std::shared_ptr<const CompiledModel> CompileSplit(const std::string& example, std::size_t unit_chars, bool background = false) {
+/// An example compiled, with its generated code split into units of about `unit_chars`.
+testing::Built CompileSplit(const std::string& example, std::size_t unit_chars, bool background = false) {
   const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + example);
-  CompileOptions co = lm.compile;
-  co.generate_code = true;
-  co.jit_unit_chars = unit_chars;
-  co.jit_background = background;
-  return CompiledModel::Compile(lm.graph, co);
+  testing::Built b{CompiledModel::Compile(lm.graph, lm.compile), nullptr};
+  GenerateOptions go;
+  go.unit_chars = unit_chars;
+  go.background = background;
+  b.code = GeneratedRhs::Start(b.model, go);
+  return b;
 }
 
 TEST(GeneratedCodeAtScale, SplitUnitsGiveTheBitsOfOneUnitAndOfTheInterpreter) {
@@ -439,61 +442,69 @@ TEST(GeneratedCodeAtScale, SplitUnitsGiveTheBitsOfOneUnitAndOfTheInterpreter) {
       {"differential.yaml", 3000}, {"mass_spring_damper_3d.yaml", 300}, {"compliant_gear_pair.yaml", 300}};
   for (const auto& [example, unit_chars] : examples) {
     const Engines e = CompileBoth(example);
-    ASSERT_TRUE(e.generated->uses_generated_code()) << e.generated->rhs_engine();
-    const auto split = CompileSplit(example, unit_chars);
-    ASSERT_TRUE(split->uses_generated_code()) << split->rhs_engine();
-    EXPECT_GT(split->GenerateUnits(unit_chars).units.size(), 1u) << example;
-    EXPECT_THAT(split->rhs_engine(), ::testing::HasSubstr(" units in ")) << example;
-    ExpectSameBits(example + " (split, against the interpreter)", Engines{e.interpreter, split});
-    ExpectSameBits(example + " (split, against one unit)", Engines{e.generated, split});
+    ASSERT_TRUE(e.code->ready()) << e.code->engine();
+    const testing::Built split = CompileSplit(example, unit_chars);
+    ASSERT_TRUE(split.code->ready()) << split.engine();
+    EXPECT_GT(split.model->GenerateUnits(unit_chars).units.size(), 1u) << example;
+    EXPECT_THAT(split.engine(), ::testing::HasSubstr(" units in ")) << example;
+    ExpectSameBits(example + " (split, against the interpreter)", Engines{e.interpreter, split.model, split.code});
+    // One unit against the split units: each as the "interpreter" side's workspace has no code,
+    // so compare the two codes' workspaces directly.
+    Workspace w1 = e.generated->MakeWorkspace(e.code.get()), w2 = split.MakeWorkspace();
+    const Eigen::VectorXd x = e.generated->MakeInitialState();
+    Eigen::VectorXd d1(x.size()), d2(x.size());
+    e.generated->CalcDerivatives(0.01, x.data(), d1.data(), w1);
+    split.model->CalcDerivatives(0.01, x.data(), d2.data(), w2);
+    EXPECT_TRUE(SameBits("xdot (split, against one unit)", d1.data(), d2.data(), static_cast<int>(x.size()))) << example;
+    EXPECT_TRUE(SameBits("slot (split, against one unit)", w1.slots.data(), w2.slots.data(), static_cast<int>(w1.slots.size())))
+        << example;
   }
 }
 
 TEST(GeneratedCodeAtScale, ASecondModelOfTheSameTextLoadsNothingAgain) {
   FreshJitCache cache;
-  const auto first = CompileSplit("differential.yaml", 3000);
-  const int units = static_cast<int>(first->GenerateUnits(3000).units.size());
+  const testing::Built first = CompileSplit("differential.yaml", 3000);
+  const int units = static_cast<int>(first.model->GenerateUnits(3000).units.size());
   ASSERT_GT(units, 2);
-  EXPECT_THAT(first->rhs_engine(), ::testing::HasSubstr(fmt::format("{} units in {}: {} compiled, 0 from the cache, 0 already loaded",
+  EXPECT_THAT(first.engine(), ::testing::HasSubstr(fmt::format("{} units in {}: {} compiled, 0 from the cache, 0 already loaded",
                                                                     units, cache.dir.path().string(), units)));
   EXPECT_EQ(cache.Libraries(), units);  // each unit cached under its own hash
-  const auto second = CompileSplit("differential.yaml", 3000);
-  EXPECT_THAT(second->rhs_engine(), ::testing::HasSubstr(fmt::format("0 compiled, 0 from the cache, {} already loaded", units)));
+  const testing::Built second = CompileSplit("differential.yaml", 3000);
+  EXPECT_THAT(second.engine(), ::testing::HasSubstr(fmt::format("0 compiled, 0 from the cache, {} already loaded", units)));
 }
 
 /// Records the samples; at the first it notes whether the generated code is there yet, at
 /// `wait_at` it waits for it: the run switches engines between those two samples.
 class SwitchObserver : public RecordingObserver {
  public:
-  SwitchObserver(const CompiledModel& model, size_t wait_at) : model_(model), wait_at_(wait_at) {}
+  SwitchObserver(const GeneratedRhs& code, size_t wait_at) : code_(code), wait_at_(wait_at) {}
   void OnSample(const std::vector<double>& row) override {
     RecordingObserver::OnSample(row);
-    if (rows().size() == 1) ready_at_start = model_.generated_code_ready();
-    if (rows().size() == wait_at_) ready_after_wait = model_.WaitForGeneratedCode() && model_.generated_code_ready();
+    if (rows().size() == 1) ready_at_start = code_.ready();
+    if (rows().size() == wait_at_) ready_after_wait = code_.Wait() && code_.ready();
   }
   bool ready_at_start = true, ready_after_wait = false;
 
  private:
-  const CompiledModel& model_;
+  const GeneratedRhs& code_;
   size_t wait_at_;
 };
 
 TEST(GeneratedCodeAtScale, ARunThatSwitchesToTheGeneratedCodeMidwayGivesTheSameBits) {
   FreshJitCache cache;  // nothing cached: the compiler takes far longer than the first sample
   const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml");
-  const RunOptions o = ShortRun(lm);
-  CompileOptions co = lm.compile;
-  co.generate_code = false;
+  RunOptions o = ShortRun(lm);
   RecordingObserver interpreted;
-  Simulate(*CompiledModel::Compile(lm.graph, co), o, interpreted);
+  Simulate(*CompiledModel::Compile(lm.graph, lm.compile), o, interpreted);
   for (const std::size_t unit_chars : {std::size_t{0}, std::size_t{3000}}) {  // one unit; several
-    const auto model = CompileSplit("differential.yaml", unit_chars, /*background=*/true);
-    EXPECT_THAT(model->rhs_engine(), ::testing::HasSubstr("compiles in the background"));
-    SwitchObserver switched(*model, 5);
-    Simulate(*model, o, switched);
+    const testing::Built model = CompileSplit("differential.yaml", unit_chars, /*background=*/true);
+    EXPECT_THAT(model.engine(), ::testing::HasSubstr("compiles in the background"));
+    SwitchObserver switched(*model.code, 5);
+    o.code = model.code;
+    Simulate(*model.model, o, switched);
     EXPECT_FALSE(switched.ready_at_start) << "the generated code was there before the run: no switch to test";
-    EXPECT_TRUE(switched.ready_after_wait) << model->rhs_engine();
-    EXPECT_THAT(model->rhs_engine(), ::testing::StartsWith("generated code"));
+    EXPECT_TRUE(switched.ready_after_wait) << model.engine();
+    EXPECT_THAT(model.engine(), ::testing::StartsWith("generated code"));
     ASSERT_EQ(switched.rows().size(), interpreted.rows().size());
     for (size_t i = 0; i < interpreted.rows().size(); ++i)
       EXPECT_TRUE(SameBits("sample", interpreted.rows()[i].data(), switched.rows()[i].data(),
@@ -506,13 +517,12 @@ TEST(GeneratedCodeAtScale, ARunThatSwitchesToTheGeneratedCodeMidwayGivesTheSameB
 TEST(GeneratedCodeAtScale, ACompileOverItsBudgetLeavesTheInterpreter) {
   FreshJitCache cache;
   const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml");
-  CompileOptions co = lm.compile;
-  co.generate_code = true;
-  co.jit_background = true;
-  co.jit_budget_seconds = 1e-6;
-  const auto model = CompiledModel::Compile(lm.graph, co);
-  EXPECT_FALSE(model->WaitForGeneratedCode());
-  EXPECT_THAT(model->rhs_engine(), ::testing::HasSubstr("the compile time budget (1e-06 s) is spent"));
+  GenerateOptions go;
+  go.background = true;
+  go.budget_seconds = 1e-6;
+  const auto code = GeneratedRhs::Start(CompiledModel::Compile(lm.graph, lm.compile), go);
+  EXPECT_FALSE(code->Wait());
+  EXPECT_THAT(code->engine(), ::testing::HasSubstr("the compile time budget (1e-06 s) is spent"));
   ExpectSameBits("differential (over budget)", CompileBoth("differential.yaml"));
 }
 

@@ -48,8 +48,8 @@ const char* kOutputSignals = R"yaml(signals:
 outputs: [kinetic, phase, {name: w1, variable: j1.f}])yaml";
 
 RecordingObserver RunGears(const std::string& text, bool generate_code) {
-  const auto model = testing::CompileWith(LoadModelString(text, "<test>"), generate_code);
-  return testing::RunCompiled(*model, 2.0, 0.01, Method::kDormandPrince, 1e-10, 1e-12);
+  const testing::Built model = testing::CompileWith(LoadModelString(text, "<test>"), generate_code);
+  return testing::RunCompiled(model, 2.0, 0.01, Method::kDormandPrince, 1e-10, 1e-12);
 }
 
 /// The first of the compiler's diagnostics for `text` (a test failure if it has none).
@@ -121,12 +121,12 @@ std::string CoastingGears() {
 TEST(ConstraintFormulas, AGearRatioOfTimeKeepsTheEnergyOfTheCoastingPair) {
   for (const bool generate_code : {false, true}) {
     SCOPED_TRACE(generate_code ? "generated" : "interpreted");
-    const auto model = testing::CompileWith(LoadModelString(CoastingGears(), "<test>"), generate_code);
-    ASSERT_TRUE(model->has_constraints());
+    const testing::Built model = testing::CompileWith(LoadModelString(CoastingGears(), "<test>"), generate_code);
+    ASSERT_TRUE(model.model->has_constraints());
     if (generate_code) {
-      ASSERT_TRUE(model->uses_generated_code()) << model->rhs_engine();
+      ASSERT_TRUE(model.code->ready()) << model.engine();
     }
-    const RecordingObserver rec = testing::RunCompiled(*model, 4.0, 0.01, Method::kDormandPrince, 1e-11, 1e-13);
+    const RecordingObserver rec = testing::RunCompiled(model, 4.0, 0.01, Method::kDormandPrince, 1e-11, 1e-13);
     ASSERT_EQ(rec.summary().status, RunStatus::kOk) << rec.summary().message;
     const int p1 = rec.Index("J1.p"), p2 = rec.Index("J2.p");
     double worst = 0.0, slip = 0.0, lowest = 2.0, highest = 0.0;
@@ -150,9 +150,9 @@ TEST(ConstraintFormulas, AGearRatioOfTimeKeepsTheEnergyOfTheCoastingPair) {
 TEST(ConstraintFormulas, TheModulatedGearGivesTheSameBitsWithAndWithoutGeneratedCode) {
   const auto a = testing::CompileWith(LoadModelString(CoastingGears(), "<test>"), false);
   const auto b = testing::CompileWith(LoadModelString(CoastingGears(), "<test>"), true);
-  ASSERT_TRUE(b->uses_generated_code()) << b->rhs_engine();
-  const RecordingObserver ra = testing::RunCompiled(*a, 1.0, 0.01, Method::kBdf, 1e-9, 1e-11);
-  const RecordingObserver rb = testing::RunCompiled(*b, 1.0, 0.01, Method::kBdf, 1e-9, 1e-11);
+  ASSERT_TRUE(b.code->uses_generated_code()) << b.engine();
+  const RecordingObserver ra = testing::RunCompiled(a, 1.0, 0.01, Method::kBdf, 1e-9, 1e-11);
+  const RecordingObserver rb = testing::RunCompiled(b, 1.0, 0.01, Method::kBdf, 1e-9, 1e-11);
   ASSERT_EQ(ra.rows().size(), rb.rows().size());
   for (size_t i = 0; i < ra.rows().size(); ++i) ASSERT_EQ(ra.rows()[i], rb.rows()[i]) << "row " << i;
 }

@@ -10,6 +10,7 @@
 
 #include "multibond/compile/compiled_model.h"
 #include "multibond/compile/equations.h"
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/sim/simulator.h"
 
 namespace multibond {
@@ -23,8 +24,10 @@ Formula F(const std::string& text) {
   return Formula{text, r.root, SourceLocation{"model.yaml", 7, 20}};
 }
 
-RecordingObserver Simulated(const CompiledModel& m, double t_end, double dt, Method method = Method::kDormandPrince) {
+RecordingObserver Simulated(const CompiledModel& m, double t_end, double dt, Method method = Method::kDormandPrince,
+                            std::shared_ptr<const GeneratedRhs> code = nullptr) {
   RunOptions o;
+  o.code = std::move(code);
   o.t_end = t_end;
   o.dt = dt;
   o.integrator.method = method;
@@ -323,13 +326,11 @@ TEST(Formulas, APidsOutputStaysWithinItsLimits) {
 }
 
 TEST(Formulas, InterpreterAndGeneratedCodeGiveTheSameBits) {
-  CompileOptions jit;
-  jit.generate_code = true;
   for (BondGraph g : {Pendulum(2.0), Oscillator("1/2*q^2 + 5/2*q^4", true, 1.0, 1.0)}) {
-    const auto interpreted = CompiledModel::Compile(g);
-    const auto generated = CompiledModel::Compile(g, jit);
-    ASSERT_TRUE(generated->uses_generated_code()) << generated->rhs_engine();
-    const RecordingObserver a = Simulated(*interpreted, 3.0, 0.01), b = Simulated(*generated, 3.0, 0.01);
+    const auto model = CompiledModel::Compile(g);
+    const auto code = GeneratedRhs::Start(model);
+    ASSERT_TRUE(code->ready()) << code->engine();
+    const RecordingObserver a = Simulated(*model, 3.0, 0.01), b = Simulated(*model, 3.0, 0.01, Method::kDormandPrince, code);
     ASSERT_EQ(a.rows().size(), b.rows().size());
     for (size_t k = 0; k < a.rows().size(); ++k) EXPECT_EQ(a.rows()[k], b.rows()[k]) << "row " << k;
   }
@@ -338,21 +339,20 @@ TEST(Formulas, InterpreterAndGeneratedCodeGiveTheSameBits) {
 // Large models' generated code comes in units (docs/design.md, "Generated code at scale"): each
 // unit has the formulas' functions; the formulas' constants are read from the value table.
 TEST(Formulas, SplitUnitsGiveTheSameBitsAndTakeTheConstantsFromTheTable) {
-  CompileOptions jit;
-  jit.generate_code = true;
-  jit.jit_unit_chars = 1;  // every instruction a unit of its own (split units read the table always)
+  GenerateOptions jit;
+  jit.unit_chars = 1;  // every instruction a unit of its own (split units read the table always)
   for (BondGraph g : {Pendulum(2.0), Oscillator("1/2*q^2 + 5/2*q^4", true, 1.0, 1.0)}) {
-    const auto interpreted = CompiledModel::Compile(g);
-    const auto generated = CompiledModel::Compile(g, jit);
-    ASSERT_TRUE(generated->uses_generated_code()) << generated->rhs_engine();
-    EXPECT_THAT(generated->rhs_engine(), HasSubstr(" units in "));
-    const RecordingObserver a = Simulated(*interpreted, 3.0, 0.01), b = Simulated(*generated, 3.0, 0.01);
+    const auto model = CompiledModel::Compile(g);
+    const auto code = GeneratedRhs::Start(model, jit);
+    ASSERT_TRUE(code->ready()) << code->engine();
+    EXPECT_THAT(code->engine(), HasSubstr(" units in "));
+    const RecordingObserver a = Simulated(*model, 3.0, 0.01), b = Simulated(*model, 3.0, 0.01, Method::kDormandPrince, code);
     ASSERT_EQ(a.rows().size(), b.rows().size());
     for (size_t k = 0; k < a.rows().size(); ++k) EXPECT_EQ(a.rows()[k], b.rows()[k]) << "row " << k;
   }
-  CompileOptions table;
-  table.jit_value_table = true;  // one unit: the table when asked (a sweep)
-  const CompiledModel::GeneratedUnits units = CompiledModel::Compile(Pendulum(2.0), table)->GenerateUnits(CompileOptions::kDefaultUnitChars);
+  // One unit: the table when asked (a sweep).
+  const CompiledModel::GeneratedUnits units =
+      CompiledModel::Compile(Pendulum(2.0))->GenerateUnits(GenerateOptions::kDefaultUnitChars, /*value_table=*/true);
   ASSERT_EQ(units.units.size(), 1u);
   EXPECT_THAT(units.values, ::testing::Contains(-9.81));
   EXPECT_THAT(units.units.front(), ::testing::Not(HasSubstr("0x1.39eb851eb851fp+3")));  // 9.81 as a literal
@@ -419,10 +419,11 @@ TEST(Formulas, AResistorGivenTheOtherWayRoundIsSolvedForItsInput) {
     d.law_flow = F("1e-12*(exp(e/0.025) - 1)");
     g.Add(d);
     g.Connect("drive", "diode");
-    CompileOptions jit;
-    jit.generate_code = true;
-    for (const auto& model : {CompiledModel::Compile(g), CompiledModel::Compile(g, jit)}) {
-      Workspace ws = model->MakeWorkspace();
+    const auto model = CompiledModel::Compile(g);
+    const auto code = GeneratedRhs::Start(model);
+    ASSERT_TRUE(code->ready()) << code->engine();
+    for (const GeneratedRhs* engine : {static_cast<const GeneratedRhs*>(nullptr), code.get()}) {
+      Workspace ws = model->MakeWorkspace(engine);
       Eigen::VectorXd x = model->MakeInitialState(), xdot(model->num_states());
       model->CalcDerivatives(0.0, x.data(), xdot.data(), ws);
       double e = 0.0;
@@ -437,11 +438,11 @@ TEST(Formulas, TorricelliWithTheOrificeAsItsPressureDropSolvesForTheFlow) {
   // flow is solved for; the same closed form as with the flow law.
   const double A = 2.0, Cd = 0.6, a = 0.01, g0 = 9.81, V0 = 2.0;
   const BondGraph g = Tank(&Element::law_effort, "1000/2*f*abs(f)/(0.6*0.01)^2");
-  CompileOptions jit;
-  jit.generate_code = true;
-  const auto interpreted = CompiledModel::Compile(g), generated = CompiledModel::Compile(g, jit);
+  const auto model = CompiledModel::Compile(g);
+  const auto code = GeneratedRhs::Start(model);
+  ASSERT_TRUE(code->ready()) << code->engine();
   const double rate = Cd * a / 2.0 * std::sqrt(2.0 * g0 / A);
-  const RecordingObserver rec = Simulated(*interpreted, 100.0, 1.0), rec_jit = Simulated(*generated, 100.0, 1.0);
+  const RecordingObserver rec = Simulated(*model, 100.0, 1.0), rec_jit = Simulated(*model, 100.0, 1.0, Method::kDormandPrince, code);
   for (const auto& row : rec.rows()) {
     const double t = row[rec.Index("time")], v = row[rec.Index("tank.q")];
     EXPECT_NEAR(std::sqrt(v), std::sqrt(V0) - rate * t, 1e-8) << "t = " << t;

@@ -14,6 +14,7 @@
 #include <string>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/compile/equations.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
@@ -23,11 +24,9 @@ namespace {
 
 using ::testing::HasSubstr;
 
-std::shared_ptr<const CompiledModel> Compiled(const std::string& yaml, bool generate_code = false) {
+std::shared_ptr<const CompiledModel> Compiled(const std::string& yaml) {
   const LoadedModel lm = LoadModelString(yaml);
-  CompileOptions co = lm.compile;
-  co.generate_code = generate_code;
-  return CompiledModel::Compile(lm.graph, co);
+  return CompiledModel::Compile(lm.graph, lm.compile);
 }
 
 Diagnostic CompileError(const std::string& yaml) {
@@ -255,12 +254,12 @@ TEST(ModulatedStorage, AStiffnessReadThroughSignalsOfAStateIsOrderedAndItsRateFo
   EXPECT_NEAR(xdot[model->FindVariable("spring.modulation_work")->offset], 0.5 * q * q * 5 * 2 * pos * (0.5 + t), 1e-15);
   EXPECT_NEAR(model->StoredEnergy(model->graph().Find("spring"), t, x.data()), 0.5 * k * q * q, 1e-15);
   // And the same bits from generated code.
-  const auto generated = Compiled(yaml, true);
-  ASSERT_TRUE(generated->uses_generated_code()) << generated->rhs_engine();
+  const auto code = GeneratedRhs::Start(model);
+  ASSERT_TRUE(code->ready()) << code->engine();
   Eigen::VectorXd gdot(x.size());
-  Workspace gws = generated->MakeWorkspace();
-  generated->CalcDerivatives(t, x.data(), gdot.data(), gws);
-  for (int i = 0; i < x.size(); ++i) EXPECT_EQ(gdot[i], xdot[i]) << generated->state_names()[i];
+  Workspace gws = model->MakeWorkspace(code.get());
+  model->CalcDerivatives(t, x.data(), gdot.data(), gws);
+  for (int i = 0; i < x.size(); ++i) EXPECT_EQ(gdot[i], xdot[i]) << model->state_names()[i];
 }
 
 TEST(ModulatedStorage, AVariableMassBooksTheKineticEnergyItsModulationTakes) {

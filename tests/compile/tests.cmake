@@ -16,3 +16,4 @@ multibond_test(compile/constraint_formulas_test.cc LIBS multibond::analysis mult
 multibond_test(compile/kinks_test.cc LIBS multibond::compile LABELS unit)
 multibond_test(compile/modulated_storage_test.cc LIBS multibond::io LABELS unit)
 multibond_test(compile/multiport_energy_test.cc LIBS multibond::io multibond::sim LABELS unit)
+multibond_test(compile/generated_rhs_test.cc LIBS multibond::io multibond::sim LABELS unit)

@@ -157,15 +157,13 @@ TEST(IdealDifferential, ValidatesInInertialCoordinates) {
 /// without the multipliers.)
 TEST(IdealDifferential, GeneratedConstraintCodeMatchesTheInterpreter) {
   const LoadedModel lm = LoadModelFile(testing::ExamplePath("differential_ideal.yaml"));
-  CompileOptions gen = lm.compile, interp = lm.compile;
-  gen.generate_code = true;
-  interp.generate_code = false;
-  const auto generated = CompiledModel::Compile(lm.graph, gen), interpreted = CompiledModel::Compile(lm.graph, interp);
-  ASSERT_TRUE(generated->uses_generated_code()) << generated->rhs_engine();
-  ASSERT_EQ(interpreted->rhs_engine().find("generated code"), std::string::npos) << interpreted->rhs_engine();
+  // One model, two engines: its workspaces with and without the generated code.
+  const auto generated = CompiledModel::Compile(lm.graph, lm.compile), interpreted = generated;
+  const auto code = GeneratedRhs::Start(generated);
+  ASSERT_TRUE(code->ready()) << code->engine();
   const RecordingObserver rec = RunExample("differential_ideal.yaml", 0.4, 0, Method::kDormandPrince);
   ASSERT_EQ(rec.summary().status, RunStatus::kOk);
-  Workspace wg = generated->MakeWorkspace(), wi = interpreted->MakeWorkspace();
+  Workspace wg = generated->MakeWorkspace(code.get()), wi = interpreted->MakeWorkspace();
   const int n = generated->num_states();
   Eigen::VectorXd x(n), dg(n), di(n);
   double worst_rhs = 0.0, worst_lambda = 0.0, worst_slot = 0.0, worst_projection = 0.0, largest_lambda = 0.0;
@@ -206,15 +204,14 @@ TEST(IdealDifferential, GeneratedConstraintCodeMatchesTheInterpreter) {
 TEST(IdealDifferential, EvaluationAfterAProjectionReusesItsFactorExactly) {
   for (const bool generate : {true, false}) {
     const LoadedModel lm = LoadModelFile(testing::ExamplePath("differential_ideal.yaml"));
-    CompileOptions co = lm.compile;
-    co.generate_code = generate;
-    const auto model = CompiledModel::Compile(lm.graph, co);
-    ASSERT_EQ(model->uses_generated_code(), generate) << model->rhs_engine();
+    const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+    const auto code = generate ? GeneratedRhs::Start(model) : nullptr;
+    ASSERT_TRUE(!generate || code->ready()) << code->engine();
     const int n = model->num_states();
     Eigen::VectorXd x = model->MakeInitialState();
     for (int i = 0; i < n; ++i) x[i] += 1e-6 * ((i * 7) % 11 - 5);  // off the constraints
     const double t = 0.25;
-    Workspace reused = model->MakeWorkspace(), fresh = model->MakeWorkspace();
+    Workspace reused = model->MakeWorkspace(code.get()), fresh = model->MakeWorkspace(code.get());
     model->Project(t, x.data(), reused);
     ASSERT_TRUE(reused.con.factored) << "the projection left no factor to reuse";
     Eigen::VectorXd with(n), without(n);
@@ -225,7 +222,7 @@ TEST(IdealDifferential, EvaluationAfterAProjectionReusesItsFactorExactly) {
     for (size_t k = 0; k < fresh.slots.size(); ++k) EXPECT_EQ(reused.slots[k], fresh.slots[k]) << k;
     // A state that differs in one orientation entry is evaluated with B formed anew.
     x[model->FindVariable("G.R")->offset] += 1e-9;
-    Workspace unused = model->MakeWorkspace();
+    Workspace unused = model->MakeWorkspace(code.get());
     model->CalcDerivatives(t, x.data(), with.data(), reused);
     model->CalcDerivatives(t, x.data(), without.data(), unused);
     for (int i = 0; i < n; ++i) EXPECT_EQ(with[i], without[i]) << model->state_names()[i];

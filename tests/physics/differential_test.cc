@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "differential_checks.h"
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/io/results_writer.h"
 #include "multibond/sim/simulator.h"
@@ -25,10 +26,9 @@ const std::string kModel = std::string(MULTIBOND_SOURCE_DIR) + "/examples/differ
 /// Runs the differential with the file's settings (tolerances overridden when > 0) into `dir`.
 RunSummary RunInto(const fs::path& dir, double rtol = 0, double atol = 0, bool generate_code = true, double t_end = 0) {
   const LoadedModel lm = LoadModelFile(kModel);
-  CompileOptions co = lm.compile;
-  co.generate_code = generate_code;
-  const auto model = CompiledModel::Compile(lm.graph, co);
+  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
   RunOptions o;
+  if (generate_code) o.code = GeneratedRhs::Start(model);
   o.t_end = t_end > 0 ? t_end : *lm.simulation.t_end;
   o.dt = *lm.simulation.dt;
   o.integrator.method = ParseMethod(*lm.simulation.solver);
@@ -77,16 +77,15 @@ TEST(Differential, EnergyResidualFallsWithTheTolerance) {
 
 TEST(Differential, GeneratedCodeMatchesTheInterpreter) {
   const LoadedModel lm = LoadModelFile(kModel);
-  CompileOptions gen = lm.compile, interp = lm.compile;
-  gen.generate_code = true;
-  const auto generated = CompiledModel::Compile(lm.graph, gen), interpreted = CompiledModel::Compile(lm.graph, interp);
-  ASSERT_TRUE(generated->uses_generated_code()) << generated->rhs_engine();
+  const auto generated = CompiledModel::Compile(lm.graph, lm.compile), interpreted = CompiledModel::Compile(lm.graph, lm.compile);
+  const auto code = GeneratedRhs::Start(generated);
+  ASSERT_TRUE(code->ready()) << code->engine();
   // 1. The right-hand sides agree to rounding at states along the start transient, through both
   //    entry points of the generated code.
   const fs::path a = TempDir("generated");
   ASSERT_EQ(RunInto(a, 0, 0, true, 0.5).status, RunStatus::kOk);
   const ResultsTable ta = ReadResults((a / "results.csv").string());
-  Workspace wg = generated->MakeWorkspace(), wi = interpreted->MakeWorkspace();
+  Workspace wg = generated->MakeWorkspace(code.get()), wi = interpreted->MakeWorkspace();
   const int n = generated->num_states();
   Eigen::VectorXd x(n), dg(n), dg_fast(n), di(n);
   double worst_rhs = 0, worst_slot = 0;

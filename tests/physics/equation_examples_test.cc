@@ -36,14 +36,11 @@ struct ExampleRun {
 
 ExampleRun RunEquationExample(const std::string& file, const std::vector<ParameterOverride>& set = {}, bool generate_code = false) {
   ExampleRun r{LoadModelFile(testing::ExamplePath("equations/" + file), {}, set), {}};
-  CompileOptions co = r.model.compile;
-  co.generate_code = generate_code;
-  const auto model = CompiledModel::Compile(r.model.graph, co);
   // A test that asks for generated code must not pass on the interpreter's fallback.
-  if (generate_code && !model->uses_generated_code())
-    throw std::runtime_error("generated code was asked for and not built: " + model->rhs_engine());
+  const testing::Built b = testing::CompileWith(r.model, generate_code);
   const SimulationDefaults& s = r.model.simulation;
   RunOptions o;
+  o.code = b.code;
   o.t_end = s.t_end.value_or(1.0);
   o.dt = s.dt.value_or(1e-3);
   o.integrator.method = s.solver ? ParseMethod(*s.solver) : Method::kBdf;
@@ -51,7 +48,7 @@ ExampleRun RunEquationExample(const std::string& file, const std::vector<Paramet
   o.integrator.atol = s.atol.value_or(1e-10);
   o.integrator.fixed_step = s.step.value_or(0.0);
   o.integrator.max_step = s.max_step.value_or(0.0);
-  Simulate(*model, o, r.rec);
+  Simulate(*b.model, o, r.rec);
   return r;
 }
 

@@ -120,17 +120,17 @@ bonds: [motion -> lever, lever -> jm, jm -> mass, jm -> spring]
 )";
     const LoadedModel lm = LoadModelString(text, "<test>");
     const auto generated = testing::CompileWith(lm, true), interpreted = testing::CompileWith(lm, false);
-    ASSERT_EQ(generated->num_multipliers(), 1) << (cut ? "cut" : "explicit constraint");
-    Workspace wg = generated->MakeWorkspace(), wi = interpreted->MakeWorkspace();
-    const int n = generated->num_states();
+    ASSERT_EQ(generated.model->num_multipliers(), 1) << (cut ? "cut" : "explicit constraint");
+    Workspace wg = generated.MakeWorkspace(), wi = interpreted.MakeWorkspace();
+    const int n = generated.model->num_states();
     Eigen::VectorXd x(n), dg(n), di(n);
     double largest_lambda = 0.0;
     for (double t : {0.05, 0.3, 0.61, 0.9}) {
       for (int i = 0; i < n; ++i) x[i] = 0.1 * (i + 1) * std::cos(3.0 * t + i);
-      generated->CalcStateDerivatives(t, x.data(), dg.data(), wg);
-      interpreted->CalcStateDerivatives(t, x.data(), di.data(), wi);
+      generated.model->CalcStateDerivatives(t, x.data(), dg.data(), wg);
+      interpreted.model->CalcStateDerivatives(t, x.data(), di.data(), wi);
       for (int i = 0; i < n; ++i)
-        EXPECT_NEAR(dg[i], di[i], 1e-12 * (1.0 + std::abs(di[i]))) << generated->state_names()[i] << " at " << t << (cut ? " (cut)" : "");
+        EXPECT_NEAR(dg[i], di[i], 1e-12 * (1.0 + std::abs(di[i]))) << generated.model->state_names()[i] << " at " << t << (cut ? " (cut)" : "");
       EXPECT_NEAR(wg.lambda[0], wi.lambda[0], 1e-12 * (1.0 + std::abs(wi.lambda[0]))) << t << (cut ? " (cut)" : "");
       largest_lambda = std::max(largest_lambda, std::abs(wi.lambda[0]));
     }
@@ -542,17 +542,17 @@ TEST(IdealConstraints, GeneratedCodeSolvesACutComplianceAsTheInterpreterDoes) {
   for (const bool into : {false, true}) {
     const LoadedModel lm = LoadModelString(SeriesSprings(into), "<test>");
     const auto generated = testing::CompileWith(lm, true), interpreted = testing::CompileWith(lm, false);
-    Workspace wg = generated->MakeWorkspace(), wi = interpreted->MakeWorkspace();
-    const int n = generated->num_states();
+    Workspace wg = generated.MakeWorkspace(), wi = interpreted.MakeWorkspace();
+    const int n = generated.model->num_states();
     Eigen::VectorXd x(n), dg(n), di(n);
     for (double t : {0.0, 0.4, 1.3}) {
       for (int i = 0; i < n; ++i) x[i] = 0.2 * (i + 1) * std::cos(2.0 * t + i);
-      generated->CalcStateDerivatives(t, x.data(), dg.data(), wg);
-      interpreted->CalcStateDerivatives(t, x.data(), di.data(), wi);
+      generated.model->CalcStateDerivatives(t, x.data(), dg.data(), wg);
+      interpreted.model->CalcStateDerivatives(t, x.data(), di.data(), wi);
       for (int i = 0; i < n; ++i)
-        EXPECT_NEAR(dg[i], di[i], 1e-12 * (1.0 + std::abs(di[i]))) << generated->state_names()[i] << " at " << t;
+        EXPECT_NEAR(dg[i], di[i], 1e-12 * (1.0 + std::abs(di[i]))) << generated.model->state_names()[i] << " at " << t;
       // mu keeps the two forces' rates equal: k1 dq1/dt = k2 dq2/dt (in the bonds' sense).
-      const int q1 = interpreted->FindVariable("k1.q")->offset, q2 = interpreted->FindVariable("k2.q")->offset;
+      const int q1 = interpreted.model->FindVariable("k1.q")->offset, q2 = interpreted.model->FindVariable("k2.q")->offset;
       EXPECT_NEAR(30.0 * di[q1], 70.0 * di[q2], 1e-12 * (1.0 + std::abs(70.0 * di[q2]))) << t;
     }
   }

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
 #include "support/counting_new.h"
@@ -47,14 +48,14 @@ namespace {
 long AllocationsOfEvaluations(const std::string& example, bool generate_code, bool solve_loops = false) {
   const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/" + example);
   CompileOptions co = lm.compile;
-  co.generate_code = generate_code;
   co.solve_algebraic_loops = solve_loops;
   const auto model = CompiledModel::Compile(lm.graph, co);
-  if (generate_code && !model->uses_generated_code()) {  // else this would measure the interpreter
-    ADD_FAILURE() << model->rhs_engine();
+  const auto code = generate_code ? GeneratedRhs::Start(model) : nullptr;
+  if (generate_code && !code->ready()) {  // else this would measure the interpreter
+    ADD_FAILURE() << code->engine();
     return -1;
   }
-  Workspace ws = model->MakeWorkspace();
+  Workspace ws = model->MakeWorkspace(code.get());
   Eigen::VectorXd x = model->MakeInitialState(), xdot(x.size());
   for (int i = 0; i < x.size(); ++i) x[i] += 1e-6 * (i % 5);
   const long before = g_allocations;

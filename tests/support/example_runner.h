@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/sim/simulator.h"
 #include "support/temp_dir.h"
@@ -16,23 +17,39 @@ inline std::string ExamplePath(const std::string& name) { return std::string(MUL
 /// The text of examples/<name>.
 inline std::string ExampleText(const std::string& name) { return ReadFile(ExamplePath(name)); }
 
-/// Compiles a loaded model with its own options, as generated code when `generate_code` (a test
-/// that asks for generated code must not pass on the interpreter's fallback: throws if it is not
-/// built) or else interpreted.
-inline std::shared_ptr<const CompiledModel> CompileWith(const LoadedModel& lm, bool generate_code) {
-  CompileOptions co = lm.compile;
-  co.generate_code = generate_code;
-  auto model = CompiledModel::Compile(lm.graph, co);
-  if (generate_code && !model->uses_generated_code())
-    throw std::runtime_error("generated code was asked for and not built: " + model->rhs_engine());
-  return model;
+/// A compiled model and, when asked for, its generated code (compile/generated_rhs.h), loaded.
+struct Built {
+  std::shared_ptr<const CompiledModel> model;
+  std::shared_ptr<const GeneratedRhs> code;
+  /// A workspace that the generated code evaluates into (the interpreter without code).
+  Workspace MakeWorkspace() const { return model->MakeWorkspace(code.get()); }
+  std::string engine() const { return RhsEngine(code.get()); }
+};
+
+/// Generated code for `model`, loaded before it returns; throws if it is not (a test that asks
+/// for generated code must not pass on the interpreter's fallback).
+inline std::shared_ptr<const GeneratedRhs> GenerateLoaded(std::shared_ptr<const CompiledModel> model, const GenerateOptions& go = {}) {
+  auto code = GeneratedRhs::Start(std::move(model), go);
+  if (!code->Wait()) throw std::runtime_error("generated code was asked for and not built: " + code->engine());
+  return code;
 }
 
-/// Simulates a compiled model into memory over [0, t_end], samples every dt.
+/// Compiles a graph with `co`, with generated code when `generate_code` (GenerateLoaded).
+inline Built CompileGraph(BondGraph g, const CompileOptions& co, bool generate_code) {
+  Built b{CompiledModel::Compile(std::move(g), co), nullptr};
+  if (generate_code) b.code = GenerateLoaded(b.model);
+  return b;
+}
+
+/// Compiles a loaded model with its own options, with generated code when `generate_code`.
+inline Built CompileWith(const LoadedModel& lm, bool generate_code) { return CompileGraph(lm.graph, lm.compile, generate_code); }
+
+/// Simulates a compiled model into memory over [0, t_end], samples every dt; on `code` when given.
 inline RecordingObserver RunCompiled(const CompiledModel& model, double t_end, double dt,
                                      Method method = IntegratorOptions{}.method, double rtol = 1e-10, double atol = 1e-12,
-                                     bool project = true) {
+                                     bool project = true, std::shared_ptr<const GeneratedRhs> code = nullptr) {
   RunOptions o;
+  o.code = std::move(code);
   o.t_end = t_end;
   o.dt = dt;
   o.integrator.method = method;
@@ -44,6 +61,12 @@ inline RecordingObserver RunCompiled(const CompiledModel& model, double t_end, d
   return rec;
 }
 
+/// The same on a model's generated code, when it has one.
+inline RecordingObserver RunCompiled(const Built& b, double t_end, double dt, Method method = IntegratorOptions{}.method,
+                                     double rtol = 1e-10, double atol = 1e-12, bool project = true) {
+  return RunCompiled(*b.model, t_end, dt, method, rtol, atol, project, b.code);
+}
+
 /// Loads examples/<name>, compiles it and simulates it with the file's simulation settings,
 /// overridden by `t_end` and `dt` when they are > 0, and by `coordinates` ("joint" or
 /// "inertial") when given.
@@ -51,8 +74,9 @@ inline RecordingObserver RunExample(const std::string& name, double t_end = 0.0,
                                     Method method = Method::kBdf, bool generate_code = false,
                                     const std::string& coordinates = "") {
   const LoadedModel lm = LoadModelFile(ExamplePath(name));
-  const auto model = CompileWith(lm, generate_code);
+  const Built b = CompileWith(lm, generate_code);
   RunOptions o;
+  o.code = b.code;
   o.t_end = t_end > 0 ? t_end : lm.simulation.t_end.value_or(1.0);
   o.dt = dt > 0 ? dt : lm.simulation.dt.value_or(1e-3);
   o.integrator.method = method;
@@ -61,7 +85,7 @@ inline RecordingObserver RunExample(const std::string& name, double t_end = 0.0,
   if ((coordinates.empty() ? lm.simulation.coordinates.value_or("inertial") : coordinates) == "joint")
     o.joint_coordinates = lm.mechanism->MakeJointTree();
   RecordingObserver rec;
-  Simulate(*model, o, rec);
+  Simulate(*b.model, o, rec);
   return rec;
 }
 

@@ -122,15 +122,16 @@ void Model::Build(const BuildOptions& options) {
   CompileOptions co = m.lm.compile;
   if (options.ideal_constraints) co.ideal_constraints = *options.ideal_constraints;
   if (options.solve_algebraic_loops) co.solve_algebraic_loops = *options.solve_algebraic_loops;
-  co.generate_code = options.jit != "off";
-  auto compiled = CompiledModel::Compile(m.lm.graph, co);
-  if (options.jit == "on" && !compiled->uses_generated_code()) throw std::runtime_error("jit 'on', but " + compiled->rhs_engine());
+  std::shared_ptr<const CompiledModel> compiled = CompiledModel::Compile(m.lm.graph, co);
+  std::shared_ptr<const GeneratedRhs> code = options.jit != "off" ? GeneratedRhs::Start(compiled) : nullptr;
+  if (options.jit == "on" && !code->uses_generated_code()) throw std::runtime_error("jit 'on', but " + code->engine());
   m.lm.compile = co;
   m.compiled = std::move(compiled);
+  m.code = std::move(code);
 }
 
 bool Model::built() const { return impl_->compiled != nullptr; }
-const std::string& Model::rhs_engine() const { return impl_->Built().rhs_engine(); }
+const std::string& Model::rhs_engine() const { return impl_->Engine(); }
 const std::vector<std::string>& Model::state_names() const { return impl_->Built().state_names(); }
 
 std::vector<std::string> Model::column_names(bool all_variables) const {
@@ -174,7 +175,8 @@ Results::Status PublicStatus(RunStatus s) {
 
 Results Model::Simulate(const SimulationOptions& options) {
   if (!built()) Build(impl_->build);
-  const RunOptions run = ResolveRunOptions(impl_->lm, options, impl_->limits);
+  RunOptions run = ResolveRunOptions(impl_->lm, options, impl_->limits);
+  run.code = impl_->code;
   ColumnRecorder recorder;
   const RunSummary s = multibond::Simulate(*impl_->compiled, run, recorder);
   Results::Summary summary{PublicStatus(s.status), s.message, s.t_reached, s.stats.steps, s.stats.rhs_evals, s.wall_seconds,
@@ -192,7 +194,8 @@ Simulation Model::Start(const SimulationOptions& options) {
   sim->initial_graph = impl_->lm.graph;
   sim->compile = impl_->lm.compile;
   sim->initial_model = impl_->compiled;
-  sim->Start(impl_->compiled);
+  sim->initial_code = impl_->code;
+  sim->Start(impl_->compiled, impl_->code);
   return Simulation(std::move(sim));
 }
 

@@ -10,6 +10,7 @@
 
 #include "multibond/api/lookup.h"
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/multibond.h"
 
@@ -20,6 +21,7 @@ struct Model::Impl {
   InputLimits limits;
   BuildOptions build;
   std::shared_ptr<const CompiledModel> compiled;
+  std::shared_ptr<const GeneratedRhs> code;  ///< its generated code (jit auto or on), else null
 
   Element& FindElement(std::string_view name) {
     const int i = lm.graph.Find(std::string(name));
@@ -29,11 +31,17 @@ struct Model::Impl {
       ThrowUnknownName("element", name, names);
     }
     compiled.reset();  // every change unbuilds
+    code.reset();
     return lm.graph.element(i);
   }
   const CompiledModel& Built() const {
     if (!compiled) throw std::logic_error("the model is not built: call Build() first");
     return *compiled;
+  }
+  const std::string& Engine() const {
+    static const std::string kInterpreter = "interpreter";
+    (void)Built();
+    return code ? code->engine() : kInterpreter;
   }
 };
 

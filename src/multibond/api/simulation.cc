@@ -13,11 +13,12 @@
 
 namespace multibond {
 
-void Simulation::Impl::Start(std::shared_ptr<const CompiledModel> compiled) {
+void Simulation::Impl::Start(std::shared_ptr<const CompiledModel> compiled, std::shared_ptr<const GeneratedRhs> generated) {
   model = std::move(compiled);
+  code = std::move(generated);
   CheckIntegratorOptions(model->num_states(), UsesNewtonMatrix(options.integrator.method) ? model->jacobian_pattern() : nullptr,
                          options.integrator);
-  system = std::make_unique<ModelSystem>(*model);
+  system = std::make_unique<ModelSystem>(*model, nullptr, code.get());
   t = options.t_start;
   x = model->MakeInitialState();
   xdot.resize(x.size());
@@ -51,7 +52,7 @@ double Simulation::time() const { return impl_->t; }
 void Simulation::Reset() {
   Impl& s = *impl_;
   s.graph = s.initial_graph;
-  s.Start(s.initial_model);
+  s.Start(s.initial_model, s.initial_code);
 }
 
 void Simulation::AdvanceTo(double t) {
@@ -149,8 +150,17 @@ void Simulation::SetInput(std::string_view source, std::span<const double> value
   auto rebuilt = CompiledModel::Compile(s.graph, s.compile);  // checks the number of components (param.range)
   // A source's value changes no state: the state carries over to the rebuilt model.
   MB_ASSERT(rebuilt->state_names() == s.model->state_names(), "a source's value changed the state layout");
+  // Generated code as before, its numbers from a table: every later input reuses the library.
+  std::shared_ptr<const GeneratedRhs> code;
+  if (s.code) {
+    GenerateOptions go;
+    go.value_table = true;
+    code = GeneratedRhs::Start(rebuilt, go);
+  }
+  s.system.reset();  // it refers to the model it replaces
   s.model = std::move(rebuilt);
-  s.system = std::make_unique<ModelSystem>(*s.model);
+  s.code = std::move(code);
+  s.system = std::make_unique<ModelSystem>(*s.model, nullptr, s.code.get());
   s.Restart();
 }
 

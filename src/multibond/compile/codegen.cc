@@ -67,18 +67,18 @@ std::string CompiledModel::WrapSource(const std::string& body, bool with_fast) c
   return o;
 }
 
-CompiledModel::GeneratedUnits CompiledModel::GenerateUnits(std::size_t unit_chars) const {
+CompiledModel::GeneratedUnits CompiledModel::GenerateUnits(std::size_t unit_chars, bool value_table) const {
   GeneratedUnits g;
   // Every number from the table: the text is the structure's. A large model's units always read
   // it (one library for all its parameter values, where compiling costs most); one function
-  // keeps its numbers as literals, which the compiler folds, unless jit_value_table asks.
+  // keeps its numbers as literals, which the compiler folds, unless value_table asks.
   std::vector<std::vector<std::string>> units;
   {
     const code::ValueScope numbers(&g.values);
     units = GenerateBodies(unit_chars);
   }
   if (units.size() == 1 && units.front().size() == 1) {
-    if (!options_.jit_value_table) {
+    if (!value_table) {
       g.values.clear();
       units = GenerateBodies(unit_chars);
     }

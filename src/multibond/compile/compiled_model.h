@@ -3,21 +3,20 @@
 /// The compile/run contract (docs/design.md):
 ///   BondGraph (editable)  --Compile()-->  CompiledModel (immutable: state layout, evaluation plan)
 ///   CompiledModel::MakeWorkspace()  -->  Workspace (every effort/flow slot, allocated once)
+///   GeneratedRhs::Start(model)  -->  the model's generated code, outside it (compile/generated_rhs.h);
+///                                    MakeWorkspace(code) evaluates with it
 ///   CompiledModel::CalcDerivatives(t, x, xdot, workspace): the right-hand side; allocates nothing.
 /// Efforts at a 0-junction and flows at a 1-junction share one workspace slot, so junctions cost
 /// nothing but their sums. Every other computed variable is one instruction of the plan, in an
 /// order found by topological sort of the causal dependencies (a cycle is an algebraic loop).
 
-#include <atomic>
-#include <condition_variable>
 #include <cstddef>
 #include <functional>
 #include <memory>
-#include <mutex>
+#include <mutex>  // std::once_flag: the Jacobian pattern is found on first use
 #include <optional>
 #include <set>
 #include <string>
-#include <thread>
 #include <unordered_map>
 #include <utility>
 #include <vector>
@@ -37,34 +36,12 @@
 
 namespace multibond {
 
+class GeneratedRhs;
+struct GeneratedCode;
+
 struct CompileOptions {
   std::string default_domain;  ///< domain of bonds that no element names
   bool energy_account = true;  ///< integrate each source's work and each resistor's dissipation
-  /// Generate C++ for the right-hand side from the plan and compile it with the system's C++
-  /// compiler (cached by the source's hash; see compile/jit.h). Falls back to the plan
-  /// interpreter, with the reason in CompiledModel::rhs_engine(), if no compiler works.
-  bool generate_code = false;
-  /// With generate_code: Compile returns at once and the code is compiled in the background while
-  /// the interpreter evaluates; the evaluation switches to the generated code when it is loaded
-  /// (both give the same bits); a compile that fails says so on stderr. Models with ideal
-  /// constraints compile before Compile returns.
-  bool jit_background = false;
-  /// With generate_code: the generated code reads the model's numbers (coefficients, sources'
-  /// values, formulas' constants) from a table at run time instead of having them as literals,
-  /// so that its text depends on the model's structure only and models that differ in parameter
-  /// values share one compiled library (a sweep's runs: compiled once). Off, the default for one
-  /// model: literals, which the compiler folds into the code (the differential's right-hand side
-  /// 124 ns against 146 ns with the table; docs/design.md, "Generated code at scale"). A model
-  /// large enough to be split into units (jit_unit_chars) reads the table either way.
-  bool jit_value_table = false;
-  /// With jit_background: compilers still running after this many seconds are ended and the
-  /// interpreter goes on (what was built stays cached for the next run); 0: no limit.
-  double jit_budget_seconds = 60;
-  /// A generated right-hand side longer than CompiledModel::kOneFunctionChars (or than this) is
-  /// split into units of about this many characters, each its own shared object, compiled in
-  /// parallel (docs/design.md, "Generated code at scale"). 0: the default (kDefaultUnitChars).
-  std::size_t jit_unit_chars = 0;
-  static constexpr std::size_t kDefaultUnitChars = 128 * 1024;
   /// Solve algebraic loops instead of refusing them: each loop is torn at one variable, which
   /// every evaluation solves for from a small linear system (see docs/design.md).
   bool solve_algebraic_loops = false;
@@ -74,6 +51,9 @@ struct CompileOptions {
 /// Scratch of one evaluation: every effort and flow, and the moduli of the MTF/MGY. Made by
 /// CompiledModel::MakeWorkspace; the right-hand side writes here and nowhere else.
 struct Workspace {
+  /// The generated code that evaluates into this workspace once it is loaded (compile/
+  /// generated_rhs.h); null: the interpreter. Not owned: the run's system object keeps it alive.
+  const GeneratedRhs* code = nullptr;
   std::vector<double> slots;
   std::vector<double> moduli;
   /// Ideal constraints only (empty otherwise): the constraint efforts (multipliers) of the last
@@ -162,7 +142,9 @@ class CompiledModel {
   /// Names of the constraints ("S1_held.rigid", "J2.cut"), one per constraint group.
   std::vector<std::string> constraint_names() const;
 
-  Workspace MakeWorkspace() const;
+  /// A workspace of this model; evaluations into it run `code` once it is loaded (which must be
+  /// this model's and outlive the workspace), else the interpreter: the same bits either way.
+  Workspace MakeWorkspace(const GeneratedRhs* code = nullptr) const;
   Eigen::VectorXd MakeInitialState() const;
 
   /// C++ source of the right-hand side, generated from the plan: one straight-line function
@@ -174,12 +156,13 @@ class CompiledModel {
   /// as src->values), so that the text depends only on the model's structure (and on which
   /// coefficients are exactly 0 or +-1). One unit (`multibond_rhs` and `multibond_rhs_fast`)
   /// when the body is one function (GenerateBodies), else units at instruction boundaries, each
-  /// `multibond_part(t, x, xdot, w, moduli, ctx)`, to be called in order.
+  /// `multibond_part(t, x, xdot, w, moduli, ctx)`, to be called in order. One function keeps
+  /// its numbers as literals unless `value_table` (GenerateOptions::value_table).
   struct GeneratedUnits {
     std::vector<std::string> units;
     std::vector<double> values;
   };
-  GeneratedUnits GenerateUnits(std::size_t unit_chars) const;
+  GeneratedUnits GenerateUnits(std::size_t unit_chars, bool value_table = false) const;
   /// The body of the right-hand side (GenerateBody); when it is longer than kOneFunctionChars
   /// (the differential's is 33 KB; with values from a table GCC takes 1.5 times as long on one
   /// function as with literals) or than `unit_chars`, cut into units of about `unit_chars`, each into functions of about
@@ -197,25 +180,11 @@ class CompiledModel {
   /// of ConstraintSolver::Solve): `multibond_tangent` and `multibond_react`.
   std::string GenerateTangentSource() const;
   std::string GenerateReactSource() const;
-  /// How the right-hand side is evaluated: "generated code (<library>)" or "interpreter (<why>)";
-  /// while compiling in the background (CompileOptions::jit_background), says so.
-  const std::string& rhs_engine() const {
-    return jit_state_.load(std::memory_order_acquire) == JitState::kCompiling ? pending_engine_ : rhs_engine_;
-  }
-  /// True when the generated code evaluates, or is being compiled in the background to do so.
-  bool uses_generated_code() const {
-    return jit_ready_.load(std::memory_order_acquire) != nullptr || jit_state_.load(std::memory_order_acquire) == JitState::kCompiling;
-  }
-  /// Waits for a background compile to end; then true when the generated code evaluates.
-  bool WaitForGeneratedCode() const;
-  /// At the end of a run that a background compile did not catch up with: hands the units not
-  /// yet built over to `program jit-finish` (compile/jit.h, HandOverUnits), which fills the cache
-  /// for the next run of this model, and ends this process's compile. Returns what was done (also
-  /// in rhs_engine() from then on), "" when no compile was running.
-  std::string HandOverCompile(const std::string& program) const;
-  /// True when the generated code evaluates now (not still compiling in the background).
-  bool generated_code_ready() const { return jit_ready_.load(std::memory_order_acquire) != nullptr; }
-  ~CompiledModel();
+  /// Why generated code cannot evaluate this model ("" when it can): algebraic loops solved
+  /// around the plan, or a law used backwards that reaches the ideal constraints.
+  std::string GeneratedCodeRefusal() const;
+  /// With ideal constraints: the constraint system has an L D L^T of its own (GenerateFactorSource).
+  bool has_constraint_factor() const { return constraints_.factor().factor_size() > 0; }
   CompiledModel(const CompiledModel&) = delete;
   CompiledModel& operator=(const CompiledModel&) = delete;
 
@@ -399,9 +368,6 @@ class CompiledModel {
     std::vector<int> writes;
   };
   PlanDeps OrderPlan(const Draft& draft);
-  /// Compiles and loads the generated code when options_.generate_code asks (rhs_engine_ says how).
-  void GenerateCode();
-
   // --- Formulas (compile/formulas.cc; docs/model-format.md, "Expressions") ---
   /// Slot classes of one slot beyond the bonds': each signal, and the rates and outputs of the
   /// signal states (`pid.u`); made at the end of AssignSlots.
@@ -510,9 +476,10 @@ class CompiledModel {
   /// elastic structure would (ConstraintFactor::Share); the motion does not depend on it, so the
   /// integrator's evaluations skip it and the output times' do it.
   void CalcConstrained(double t, const double* x, double* xdot, Workspace& ws, bool share) const;
-  /// What the constraint solver reads of this model at run time; `sources` as Sources() makes it.
+  /// What the constraint solver reads of this model at run time; `sources` as Sources() makes it;
+  /// the generated steps of `code` when it is loaded.
   struct SourceTable;
-  ConstraintSolver::PlanView ConstraintPlan(const SourceTable* sources) const;
+  ConstraintSolver::PlanView ConstraintPlan(const SourceTable* sources, const GeneratedCode* code = nullptr) const;
   /// jacobian_pattern_ from the plan's reads and writes (compile/jacobian_pattern.cc).
   void BuildJacobianPattern() const;
 
@@ -553,36 +520,11 @@ class CompiledModel {
   /// The plan with the torn variables solved for (EvalPlan on a model with algebraic loops).
   void EvalTorn(double t, const double* x, Workspace& ws) const;
 
-  using GeneratedRhs = void (*)();  ///< cast to its real signature at the call (see codegen.cc)
-  /// The generated right-hand side: one unit's functions, or the parts of a split one; with ideal
-  /// constraints the plan at zero multipliers (rhs) and the constraint solver's steps 2-4 and
-  /// factor (constrained). Published once (jit_ready_), never changed after.
-  struct JitCode {
-    GeneratedRhs rhs = nullptr, fast = nullptr;
-    std::vector<GeneratedRhs> parts;
-    bool has_constrained = false;
-    ConstraintSolver::Generated constrained;
-    std::vector<std::shared_ptr<void>> libraries;  ///< keep the shared objects loaded
-  };
-  std::vector<double> jit_values_;  ///< the numbers the generated code reads (GenerateUnits)
-  std::unique_ptr<JitCode> jit_code_;
-  std::atomic<const JitCode*> jit_ready_{nullptr};  ///< null: the interpreter evaluates
-  enum class JitState { kNone, kCompiling, kDone };
-  std::atomic<JitState> jit_state_{JitState::kNone};
-  std::string pending_engine_;       ///< rhs_engine() while compiling in the background
-  mutable std::atomic<bool> jit_cancel_{false};
-  std::vector<std::string> jit_units_;   ///< the texts being compiled in the background
-  bool jit_light_ = false;               ///< they are compiled at -O1 (JitControl::light)
-  mutable std::string jit_handed_over_;  ///< HandOverCompile's note, written before the cancel
-  std::thread jit_thread_;
-  mutable std::mutex jit_mutex_;
-  mutable std::condition_variable jit_done_;
-  /// Compiles and loads `units`, then publishes the code and rhs_engine_ (the compile thread's
-  /// work, or Compile's own).
-  void LoadGeneratedRhs(const std::vector<std::string>& units);
   /// The generated right-hand side at (t, x), the moduli already in ws; `fast`: into registers
   /// where the code has a function for it.
-  void RunGenerated(const JitCode& g, bool fast, double t, const double* x, double* xdot, Workspace& ws) const;
+  /// The generated code that evaluates into `ws` now: null while it compiles, or without any.
+  static const GeneratedCode* Loaded(const Workspace& ws);
+  void RunGenerated(const GeneratedCode& g, bool fast, double t, const double* x, double* xdot, Workspace& ws) const;
   /// A state-reading instruction's kernel (the table's emit_state: the flow M^-1 of a momentum
   /// or displacement) as C++, from the input expressions src(k) to the outputs dst(k).
   void EmitStateKernel(const Instr& in, const std::function<std::string(int)>& src,
@@ -608,8 +550,8 @@ class CompiledModel {
     /// A formula's forward-mode derivative (expr::RunTangentIndexed), for the constraints' passes.
     double (*tangent)(const void*, int, double, const double*, const double*, double, const double*, const double*);
   };
-  SourceTable Sources() const;
-  std::string rhs_engine_ = "interpreter";
+  /// `values`: the numbers of the generated code that calls them (GeneratedCode::values).
+  SourceTable Sources(const double* values = nullptr) const;
 
   /// Switching elements (compile/switching.cc): the table from the constraints (after
   /// BuildConstraints), the modes' prescribed multipliers before each solve, dg/dt along the

@@ -23,6 +23,7 @@
 
 #include "multibond/causality/repair.h"
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/core/diagnostic_codes.h"
 
 namespace multibond {
@@ -105,7 +106,6 @@ void CompiledModel::PrepareConstraintGraph() {
     if (!causality_.derivative.empty() && !options_.ideal_constraints && only_derivative) {
       CompileOptions ideal = options_;
       ideal.ideal_constraints = true;
-      ideal.generate_code = false;
       std::string refused;
       try {
         (void)CompiledModel::Compile(g, ideal);
@@ -140,11 +140,10 @@ void CompiledModel::PrepareConstraintGraph() {
   }
 }
 
-ConstraintSolver::PlanView CompiledModel::ConstraintPlan(const SourceTable* sources) const {
+ConstraintSolver::PlanView CompiledModel::ConstraintPlan(const SourceTable* sources, const GeneratedCode* code) const {
   // The generated steps once the (background) compile has published them: the same bits.
-  const JitCode* g = jit_ready_.load(std::memory_order_acquire);
   return {plan_, tables(), moduli_, layout_.gathers(), &CompiledModel::EvalGather, sources, num_states(),
-          g && g->has_constrained ? &g->constrained : nullptr};
+          code && code->has_constrained ? &code->constrained : nullptr};
 }
 
 void CompiledModel::BuildConstraints(const std::vector<std::vector<int>>& plan_reads, const std::vector<int>& plan_writes) {
@@ -173,8 +172,9 @@ void CompiledModel::CalcConstrained(double t, const double* x, double* xdot, Wor
   EvalPlan(t, x, xdot, ws);
   if (!needed_moduli_.empty()) EvalModuli(xdot, ws.con.dmoduli.data(), true);
   PrescribeSwitches(t, ws);  // the multipliers the switching elements' modes fix
-  const SourceTable sources = Sources();
-  constraints_.Solve(ConstraintPlan(&sources), t, x, xdot, ws, share);
+  const GeneratedCode* code = Loaded(ws);
+  const SourceTable sources = Sources(code ? code->values : nullptr);
+  constraints_.Solve(ConstraintPlan(&sources, code), t, x, xdot, ws, share);
 }
 
 double CompiledModel::ConstraintResidual(double t, const double* x, Workspace& ws) const {
@@ -191,8 +191,9 @@ void CompiledModel::Project(double t, double* x, Workspace& ws) const {
   std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
   EvalPlan(t, x, ws.con.xdot.data(), ws);
   PrescribeSwitches(t, ws);  // only the constraints that hold
-  const SourceTable sources = Sources();
-  constraints_.ProjectMomenta(ConstraintPlan(&sources), t, x, ws);
+  const GeneratedCode* code = Loaded(ws);
+  const SourceTable sources = Sources(code ? code->values : nullptr);
+  constraints_.ProjectMomenta(ConstraintPlan(&sources, code), t, x, ws);
 }
 
 }  // namespace multibond

@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/compile/exact_sum.h"
 #include "multibond/compile/torn_jacobian.h"
 
@@ -32,8 +33,9 @@ void CompiledModel::Project(double* x) const {
   }
 }
 
-Workspace CompiledModel::MakeWorkspace() const {
+Workspace CompiledModel::MakeWorkspace(const GeneratedRhs* code) const {
   Workspace ws;
+  ws.code = code;
   ws.slots.assign(num_slots_, 0.0);
   ws.moduli.assign(num_moduli_, 0.0);
   if (num_tear_ > 0) {
@@ -131,10 +133,12 @@ double EvalSource(const void* fns, int i, double t) { return static_cast<const T
 double EvalSourceDerivative(const void* fns, int i, double t) { return static_cast<const TimeFunction*>(fns)[i].Derivative(t); }
 }  // namespace
 
-CompiledModel::SourceTable CompiledModel::Sources() const {
-  return {source_fns_.data(), &EvalSource, &EvalSourceDerivative, programs_.data(), &expr::SolveForIndexed, jit_values_.data(),
+CompiledModel::SourceTable CompiledModel::Sources(const double* values) const {
+  return {source_fns_.data(), &EvalSource, &EvalSourceDerivative, programs_.data(), &expr::SolveForIndexed, values,
           &expr::RunTangentIndexed};
 }
+
+const GeneratedCode* CompiledModel::Loaded(const Workspace& ws) { return ws.code ? ws.code->code() : nullptr; }
 
 void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot, Workspace& ws) const {
   if (!constraints_.empty()) {
@@ -142,7 +146,7 @@ void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot
     return;
   }
   // Read once per evaluation: the code compiled in the background may arrive between two.
-  const JitCode* g = jit_ready_.load(std::memory_order_acquire);
+  const GeneratedCode* g = Loaded(ws);
   if (!g || !slides_.empty()) {  // the fast code keeps its slots to itself: not the slide slots
     CalcDerivatives(t, x, xdot, ws);
     return;
@@ -151,8 +155,8 @@ void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot
   RunGenerated(*g, /*fast=*/true, t, x, xdot, ws);
 }
 
-void CompiledModel::RunGenerated(const JitCode& g, bool fast, double t, const double* x, double* xdot, Workspace& ws) const {
-  const SourceTable sources = Sources();
+void CompiledModel::RunGenerated(const GeneratedCode& g, bool fast, double t, const double* x, double* xdot, Workspace& ws) const {
+  const SourceTable sources = Sources(g.values);
   if (fast && g.fast) {
     reinterpret_cast<void (*)(double, const double*, double*, const double*, const SourceTable*)>(g.fast)(t, x, xdot, ws.moduli.data(),
                                                                                                          &sources);
@@ -163,7 +167,7 @@ void CompiledModel::RunGenerated(const JitCode& g, bool fast, double t, const do
     reinterpret_cast<Rhs>(g.rhs)(t, x, xdot, ws.slots.data(), ws.moduli.data(), &sources);
     return;
   }
-  for (GeneratedRhs part : g.parts) reinterpret_cast<Rhs>(part)(t, x, xdot, ws.slots.data(), ws.moduli.data(), &sources);
+  for (GeneratedCode::Fn part : g.parts) reinterpret_cast<Rhs>(part)(t, x, xdot, ws.slots.data(), ws.moduli.data(), &sources);
 }
 
 
@@ -185,7 +189,7 @@ void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace&
     for (const Gather& gt : layout_.gathers()) EvalGather(gt, x, w, xdot);
     return;
   }
-  if (const JitCode* g = jit_ready_.load(std::memory_order_acquire)) {
+  if (const GeneratedCode* g = Loaded(ws)) {
     RunGenerated(*g, /*fast=*/false, t, x, xdot, ws);
     return;
   }

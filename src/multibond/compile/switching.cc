@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/compile/constraint_factor.h"
 #include "multibond/core/diagnostic_codes.h"
 
@@ -270,8 +271,9 @@ double CompiledModel::ConstraintRate(double t, const double* x, Workspace& ws, i
 
 void CompiledModel::HandleEvents(double t, double* x, Workspace& ws, const int* roots, double rest_time,
                                  std::vector<EventRecord>& log) const {
-  const SourceTable sources = Sources();
-  const ConstraintSolver::PlanView view = ConstraintPlan(&sources);
+  const GeneratedCode* code = Loaded(ws);
+  const SourceTable sources = Sources(code ? code->values : nullptr);
+  const ConstraintSolver::PlanView view = ConstraintPlan(&sources, code);
   std::vector<double> xdot(num_states()), values(num_multipliers());
   auto evaluate = [&] {
     CalcDerivatives(t, x, xdot.data(), ws);

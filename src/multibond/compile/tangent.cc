@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "multibond/compile/compiled_model.h"
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/compile/torn_jacobian.h"
 #include "multibond/core/error.h"
 
@@ -119,8 +120,9 @@ void CompiledModel::CalcTangent(double t, const double* x, const double* dx, con
   std::vector<double> dmod_f(dws.moduli.size());
   TangentPass(t, x, rate.data(), /*time=*/true, nullptr, scratch_rate.data(), ws, df, dmod_f);
   TangentPass(t, x, u.data(), /*time=*/false, nullptr, scratch_rate.data(), ws, jyu, d_moduli);
-  const SourceTable sources = Sources();
-  const ConstraintSolver::PlanView view = ConstraintPlan(&sources);
+  const GeneratedCode* code = Loaded(ws);
+  const SourceTable sources = Sources(code ? code->values : nullptr);
+  const ConstraintSolver::PlanView view = ConstraintPlan(&sources, code);
   const plan::SecondTangentArgs second{t, x, dx, rate.data(), ws.slots.data(), dws.slots.data(), df.data(), dd.data(), tmp.data(),
                                        ws.moduli.data(), dws.moduli.data(), dmod_f.data(), ws.lambda.data(), tables(), moduli_.data()};
   for (int index : constraints_.tangent_plan()) plan::ExecSecondTangent(plan_[index], second);

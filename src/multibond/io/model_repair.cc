@@ -170,9 +170,7 @@ int CheckRepaired(const std::string& text, const std::string& file) {
     sink.ThrowIfErrors();
     const CausalAssignment c = AssignCausality(view, s);
     if (c.has_errors()) throw ModelError(c.diagnostics);
-    CompileOptions co = lm.compile;
-    co.generate_code = false;
-    return CompiledModel::Compile(lm.graph, co)->num_states();
+    return CompiledModel::Compile(lm.graph, lm.compile)->num_states();
   } catch (const ModelError& e) {
     std::string first;
     for (const auto& d : e.diagnostics())

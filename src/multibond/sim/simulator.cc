@@ -12,6 +12,7 @@
 
 #include <fmt/format.h>
 
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/sim/joint_coordinates.h"
 
 namespace multibond {
@@ -336,6 +337,8 @@ void CheckFixedStep(double fixed_step, double dt) {
 
 void CheckRunOptions(const CompiledModel& model, const RunOptions& options) {
   CheckOutputGrid(options.t_start, options.t_end, options.dt);
+  if (options.code && &options.code->model() != &model)
+    throw std::invalid_argument("the generated code given for the run (RunOptions::code) is another model's");
   if (options.initial_state.size() > 0 && (options.initial_state.size() != model.num_states() || !options.initial_state.allFinite()))
     throw std::invalid_argument(fmt::format("the initial state has {} entries{}, the model {} states", options.initial_state.size(),
                                             options.initial_state.allFinite() ? "" : " (not all finite)", model.num_states()));
@@ -377,7 +380,7 @@ RunSummary Simulate(const CompiledModel& model, const RunOptions& options, Obser
   CheckRunOptions(model, options);
   const auto wall_start = std::chrono::steady_clock::now();
   const Layout layout = MakeLayout(model, options.all_variables);
-  ModelSystem system(model, options.stop);
+  ModelSystem system(model, options.stop, options.code.get());
   Workspace& ws = system.workspace();
   Eigen::VectorXd x = options.initial_state.size() > 0 ? options.initial_state : model.MakeInitialState();
   Eigen::VectorXd xdot(x.size());

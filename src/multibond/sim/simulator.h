@@ -31,8 +31,10 @@ struct RunInterrupted : std::runtime_error {
 /// stops within a step, not at the end of an output interval that may take minutes.
 class ModelSystem : public OdeSystem {
  public:
-  explicit ModelSystem(const CompiledModel& model, const std::atomic<bool>* stop = nullptr)
-      : model_(model), ws_(model.MakeWorkspace()), stop_(stop) {}
+  /// `code`: the model's generated code (compile/generated_rhs.h), which evaluates once it is
+  /// loaded; null: the interpreter.
+  explicit ModelSystem(const CompiledModel& model, const std::atomic<bool>* stop = nullptr, const GeneratedRhs* code = nullptr)
+      : model_(model), ws_(model.MakeWorkspace(code)), stop_(stop) {}
   int num_states() const override { return model_.num_states(); }
   void CalcDerivatives(double t, const double* x, double* xdot) override {
     if (stop_ && stop_->load(std::memory_order_relaxed)) throw RunInterrupted();
@@ -97,6 +99,9 @@ struct RunOptions {
   /// Set from another thread or a signal handler to stop the run: at the next evaluation of the
   /// model, keeping the rows written until then.
   const std::atomic<bool>* stop = nullptr;
+  /// The model's generated code (GeneratedRhs::Start), which evaluates the run once it is
+  /// loaded (the same bits as the interpreter, faster); null: the interpreter.
+  std::shared_ptr<const GeneratedRhs> code;
   /// Called with the fraction done, at most a few times per second.
   std::function<void(double)> progress;
   /// Events (docs/events.md): a contact whose rebound would fly for less than this stays closed

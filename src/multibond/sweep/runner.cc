@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "multibond/compile/generated_rhs.h"
 #include "multibond/core/diagnostic_codes.h"
 #include "multibond/io/did_you_mean.h"
 
@@ -55,9 +56,7 @@ LoadedModel LoadNominal(const Study& s, const std::string& text, const InputLimi
 }
 
 KeptQuantities CompileKept(const Study& s, const LoadedModel& lm, DiagnosticSink& sink) {
-  CompileOptions co = lm.compile;
-  co.generate_code = false;  // the columns only: no need for generated code here
-  const auto compiled = CompiledModel::Compile(lm.graph, co);
+  const auto compiled = CompiledModel::Compile(lm.graph, lm.compile);  // the columns only: no generated code
   std::vector<std::string> columns, all;
   for (const Column& c : MakeColumns(*compiled, false)) columns.push_back(c.name);
   for (const Column& c : MakeColumns(*compiled, true)) all.push_back(c.name);
@@ -110,12 +109,14 @@ RunResult Runner::Run(long run, const std::vector<double>& values, RunWorkspace&
     LoadedModel lm = ws.parsed.Load(set);
     timing.load += Since(t0);
     t0 = Clock::now();
-    CompileOptions co = lm.compile;
-    co.generate_code = jit_ != "off";
-    co.jit_value_table = true;  // the runs' numbers from a table: one library for every run
-    const auto compiled = CompiledModel::Compile(std::move(lm.graph), co);
-    timing.compile += Since(t0);
+    const std::shared_ptr<const CompiledModel> compiled = CompiledModel::Compile(std::move(lm.graph), lm.compile);
     RunOptions o = options_;
+    if (jit_ != "off") {
+      GenerateOptions go;
+      go.value_table = true;  // the runs' numbers from a table: one library for every run
+      o.code = GeneratedRhs::Start(compiled, go);
+    }
+    timing.compile += Since(t0);
     o.stop = stop;
     kept.Reset();
     struct Both : Observer {
