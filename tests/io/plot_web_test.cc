@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include "multibond/io/plot_page.h"
+#include "multibond/mech/mechanism.h"
 #include "support/temp_dir.h"
 
 namespace multibond {
@@ -113,6 +114,110 @@ TEST(PlotWebTest, SceneOfTheDifferential) {
   EXPECT_EQ(s["points"][0], (nlohmann::json{{"name", "Q_P1"}, {"body", "P1"}, {"at", {0.0, 0.05, 0.0}}}));
 
   EXPECT_TRUE(SceneData(LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/mass_spring_damper.yaml")).is_null());
+}
+
+// A bevel gear's apex: the signed distance from its centre along its own axis (+x, +y or +z of
+// its body frame, the shape's "axis") to where the mesh's axes cross at t = 0.
+Eigen::Vector3d ApexPoint(const mech::Mechanism& m, const std::string& body, const nlohmann::json& shape) {
+  for (const mech::Body& b : m.bodies())
+    if (b.name == body) return b.position + shape["apex"].get<double>() * b.orientation.col(shape["axis"].get<int>());
+  ADD_FAILURE() << "no body " << body;
+  return Eigen::Vector3d::Constant(std::nan(""));
+}
+
+std::map<std::string, nlohmann::json> SceneShapes(const LoadedModel& m) {
+  std::map<std::string, nlohmann::json> shapes;
+  const nlohmann::json s = SceneData(m);
+  if (s.is_object())
+    for (const auto& b : s["bodies"]) shapes[b["name"]] = b["shape"];
+  return shapes;
+}
+
+TEST(PlotWebTest, BevelGearsOfTheDifferentialShareTheirConesApex) {
+  const LoadedModel m = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml");
+  ASSERT_TRUE(m.mechanism);
+  std::map<std::string, nlohmann::json> shapes = SceneShapes(m);
+  int bevel = 0;
+  for (const auto& [name, shape] : shapes) {
+    if (shape["type"] != "gear") continue;
+    EXPECT_EQ(shape["cone"], true) << name;
+    EXPECT_TRUE(shape.contains("apex") && shape["apex"].is_number()) << name << ": " << shape.dump();
+    ++bevel;
+  }
+  EXPECT_EQ(bevel, 6);  // G, A, P1, P2, S1, S2
+  // Each mesh's two pitch cones have one apex, where the axes cross.
+  for (const mech::GearMesh& g : m.mechanism->gears()) {
+    const Eigen::Vector3d a = ApexPoint(*m.mechanism, g.body_a, shapes[g.body_a]);
+    const Eigen::Vector3d b = ApexPoint(*m.mechanism, g.body_b, shapes[g.body_b]);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(a[k], b[k], 1e-12) << g.name << " component " << k;
+  }
+  // The crown wheel A (centre H + (0, 0, -0.1), axis z) and the pinion G (centre H + (-0.2, 0,
+  // -0.05), axis x) meet at H + (0, 0, -0.05): 0.05 along A's +z, 0.2 along G's +x, cone
+  // half-angles atan(0.2 / 0.05) + atan(0.05 / 0.2) = 90 deg. The planets (axis x of A, P2 turned
+  // half a turn about z) and the suns (z) meet at H: 0.1 inwards along each planet's own +x.
+  EXPECT_NEAR(shapes["A"]["apex"].get<double>(), 0.05, 1e-12);
+  EXPECT_NEAR(shapes["G"]["apex"].get<double>(), 0.2, 1e-12);
+  EXPECT_NEAR(shapes["P1"]["apex"].get<double>(), -0.1, 1e-12);
+  EXPECT_NEAR(shapes["P2"]["apex"].get<double>(), -0.1, 1e-12);
+  EXPECT_NEAR(shapes["S1"]["apex"].get<double>(), 0.05, 1e-12);
+  EXPECT_NEAR(shapes["S2"]["apex"].get<double>(), -0.05, 1e-12);
+  const Eigen::Vector3d H = m.mechanism->bodies()[0].position;
+  ASSERT_EQ(m.mechanism->bodies()[0].name, "H");
+  const Eigen::Vector3d crossing = ApexPoint(*m.mechanism, "G", shapes["G"]) - H;
+  EXPECT_NEAR(crossing.x(), 0.0, 1e-12);
+  EXPECT_NEAR(crossing.y(), 0.0, 1e-12);
+  EXPECT_NEAR(crossing.z(), -0.05, 1e-12);
+}
+
+TEST(PlotWebTest, BevelApexInTheCarriersFrameAndNoneWhenTheAxesDoNotCross) {
+  // Parallel axes (a spur pair): a gear, no cone, no apex.
+  std::map<std::string, nlohmann::json> spur =
+      SceneShapes(LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/gears/spur_pair.yaml"));
+  for (const char* name : {"pinion", "wheel"}) {
+    EXPECT_EQ(spur[name]["type"], "gear") << name;
+    EXPECT_EQ(spur[name]["cone"], false) << name;
+    EXPECT_FALSE(spur[name].contains("apex")) << name;
+  }
+  // A crown wheel and pinion on a carrier turned a quarter turn about x: the mesh's axes are in
+  // its frame (its z is the world's -y), the bodies turned with it. The axes cross at (0, -0.05, 0).
+  const auto pair = [](const std::string& pinion_at, const std::string& pinion_axis, const std::string& mesh_axis) {
+    return LoadModelString(R"(model: bevel
+bodies:
+  C: {mass: 1.0, inertia: [0.1, 0.1, 0.1], position: [0, 0, 0], orientation: {axis: x, degrees: 90}}
+  A: {shape: {disc: {diameter: 0.4, thickness: 0.01, axis: z}}, density: 2700, position: [0, 0, 0], orientation: {axis: x, degrees: 90}}
+  G: {shape: {disc: {diameter: 0.1, thickness: 0.01, axis: )" + pinion_axis + R"(}}, density: 2700, position: )" + pinion_at + R"(,
+      orientation: {axis: x, degrees: 90}}
+joints:
+  hold: {parent: ground, child: C, translation: {K: 1000, R: 1}, rotation: {axes: [x, y, z], frame: world, K: 1000, R: 1}}
+gears:
+  mesh: {carrier: C, a: {body: A, axis: z, teeth: 48}, b: {body: G, axis: )" + mesh_axis + R"(, teeth: 12}, K: 1000, R: 1}
+)");
+  };
+  const LoadedModel turned = pair("[-0.2, -0.05, 0]", "x", "x");
+  std::map<std::string, nlohmann::json> s = SceneShapes(turned);
+  ASSERT_TRUE(s["A"].contains("apex")) << s["A"].dump();
+  ASSERT_TRUE(s["G"].contains("apex")) << s["G"].dump();
+  EXPECT_NEAR(s["A"]["apex"].get<double>(), 0.05, 1e-12);  // along A's +z, the world's -y
+  EXPECT_NEAR(s["G"]["apex"].get<double>(), 0.2, 1e-12);
+  const Eigen::Vector3d at = ApexPoint(*turned.mechanism, "A", s["A"]);
+  EXPECT_NEAR(at.x(), 0.0, 1e-12);
+  EXPECT_NEAR(at.y(), -0.05, 1e-12);
+  EXPECT_NEAR(at.z(), 0.0, 1e-12);
+  const Eigen::Vector3d at_g = ApexPoint(*turned.mechanism, "G", s["G"]);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(at[k], at_g[k], 1e-12);
+
+  // Skew (a hypoid's offset): the pinion's axis 0.03 beside the crown's. A bevel gear as before, no apex.
+  s = SceneShapes(pair("[-0.2, -0.05, 0.03]", "x", "x"));
+  for (const char* name : {"A", "G"}) {
+    EXPECT_EQ(s[name]["type"], "gear") << name;
+    EXPECT_EQ(s[name]["cone"], true) << name;
+    EXPECT_FALSE(s[name].contains("apex")) << name << ": " << s[name].dump();
+  }
+  // The mesh's axis of G (x) is not the axis its disc is drawn about (y): no apex for G.
+  s = SceneShapes(pair("[-0.2, -0.05, 0]", "y", "x"));
+  EXPECT_EQ(s["G"]["cone"], true);
+  EXPECT_FALSE(s["G"].contains("apex")) << s["G"].dump();
+  EXPECT_TRUE(s["A"].contains("apex")) << s["A"].dump();
 }
 
 TEST(PlotWebTest, ShapesFromTheirMassProperties) {

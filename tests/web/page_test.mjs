@@ -7,8 +7,9 @@
 // checks: no console error and no page error; no request but file:, data: and blob: (any other
 // is aborted and fails the test); every plot's canvas and the 3D view's WebGL canvas drawn (not
 // blank); a click on an element of the bond graph adds its plot; the 3D scene's body transforms
-// at a chosen time equal the results' values bit for bit; the events marked on every plot
-// against time; the exports (CSV, SVG, PNG) give the data; hostile text shown as text only (no
+// at a chosen time equal the results' values bit for bit; the differential's pinion and crown
+// wheel drawn in mesh (their boxes overlap along the contact line); the events marked on every
+// plot against time; the exports (CSV, SVG, PNG) give the data; hostile text shown as text only (no
 // dialog, no element made from it); the large run ready in under two seconds.
 // Exit 77 (CTest: skipped) when Chromium or web/node_modules is missing.
 
@@ -230,6 +231,19 @@ const waitFile = async (name, ms = 10000) => {
       c('r.x'), c('r.y'), c('r.z'), 1];
     check(m && m.every((v, i) => v === want[i]), `differential: body ${body}'s transform at t = ${time[expectRow]} s equals results.csv's r and R`);
   }
+  // The bevel pair drawn in mesh: at t = 0 the line where the pinion's and the crown wheel's pitch
+  // cones touch, from the heel (the crown's pitch circle, H + (-0.2, 0, -0.1)) a third of the way
+  // (the face width) to the common apex H + (0, 0, -0.05), lies inside both bodies' boxes.
+  await page.evaluate(() => window.multibondPage.setTime(0));
+  const [boxG, boxA] = [await page.evaluate(() => window.multibondPage.bodyBox('G')), await page.evaluate(() => window.multibondPage.bodyBox('A'))];
+  const H = ['x', 'y', 'z'].map(a => csv.col(`H.r.${a}`)[0]);
+  const heel = [H[0] - 0.2, H[1], H[2] - 0.1], apex = [H[0], H[1], H[2] - 0.05];
+  const toe = heel.map((v, i) => apex[i] + (2 / 3) * (v - apex[i]));
+  const inside = (b, q) => b && q.every((v, i) => v > b[0][i] && v < b[1][i]);
+  const fmt = b => (b ? b.map(c => `[${c.map(v => v.toFixed(4)).join(', ')}]`).join('-') : 'none');
+  check([heel, toe].every(q => inside(boxG, q) && inside(boxA, q)),
+    `differential: the pinion G (${fmt(boxG)}) and the crown wheel A (${fmt(boxA)}) overlap along their contact line`);
+  await page.evaluate(x => window.multibondPage.setTime(x), t);
   const scrub = await page.$eval('#mb-scrub', e => Number(e.value));
   check(scrub === expectRow, 'differential: the scrub bar follows the time');
   const readout = await page.$eval('#mb-readout', e => e.textContent);

@@ -692,11 +692,51 @@ function gearGeometry(teeth, diameter, thickness, cone) {
   return geo;  // axis z
 }
 
+// A bevel gear on its pitch cone, about z: `apex` is the signed distance along z from the body's
+// centre to the cone's apex (where the mesh's axes cross). The heel's pitch circle, radius
+// R = diameter / 2, lies in the centre plane; towards the apex the gear tapers linearly over the
+// face width F = min(L / 3, 10 m) (L = sqrt(R^2 + apex^2) the cone distance, m = diameter / teeth
+// the module), so the toe's pitch radius is R (1 - f) at f apex along z, f = F / L. Every cross
+// section is the toothed profile scaled by its distance to the apex, the teeth half above and half
+// below the pitch cone along its normal: two gears in mesh share the apex, and their teeth overlap
+// along the line where their cones touch. One extrusion, mapped once (no cost per frame).
+function bevelGeometry(teeth, diameter, apex) {
+  const R = diameter / 2, n = Math.max(6, Math.min(400, Math.round(teeth)));
+  const depth = Math.min(R * 0.3, ((Math.PI * diameter) / n) * 0.35);
+  // An apex (nearly) in the centre plane: a face gear; kept a tooth's depth away so the caps stay apart.
+  const a = Math.max(Math.abs(apex), depth), L = Math.hypot(R, a);
+  const f = Math.min(L / 3, (10 * diameter) / n) / L;
+  const nr = a / L, nz = R / L;  // the pitch cone's outward normal, radial and axial
+  const shape = new THREE.Shape();
+  for (let k = 0; k < n; ++k) {
+    const a0 = (2 * Math.PI * k) / n, da = (2 * Math.PI) / n;
+    const pts = [[R - depth / 2, a0], [R + depth / 2, a0 + da * 0.25], [R + depth / 2, a0 + da * 0.5], [R - depth / 2, a0 + da * 0.75]];
+    pts.forEach(([rr, t], i) => (k === 0 && i === 0 ? shape.moveTo(rr * Math.cos(t), rr * Math.sin(t)) : shape.lineTo(rr * Math.cos(t), rr * Math.sin(t))));
+  }
+  shape.closePath();
+  const geo = new THREE.ExtrudeGeometry(shape, { depth: 1, bevelEnabled: false });
+  // (x, y, v), v from 0 (heel) to 1 (toe): the pitch point at s = 1 - f v of the heel's, moved by
+  // the profile's height h above the pitch circle along the normal (the map keeps the faces' sense).
+  const p = geo.attributes.position;
+  for (let i = 0; i < p.count; ++i) {
+    const x = p.getX(i), y = p.getY(i), v = p.getZ(i), rho = Math.hypot(x, y), h = rho - R, s = 1 - f * v;
+    const q = (s * (R + h * nr)) / rho;
+    p.setXYZ(i, x * q, y * q, f * v * a + s * h * nz);
+  }
+  if (apex < 0) geo.rotateX(Math.PI);  // the apex on -z (a turn, not a mirror: the faces stay outward)
+  geo.computeVertexNormals();
+  return geo;  // axis z
+}
+
+const finite = v => typeof v === 'number' && Number.isFinite(v);
+
 function bodyMesh(b, color) {
   const s = b.shape || {};
   let geo, axis = typeof s.axis === 'number' ? s.axis : 2;
   let translucent = false;
-  if (s.type === 'gear') geo = gearGeometry(s.teeth, s.diameter, Math.max(s.length, s.diameter * 0.05), s.cone);
+  const gear = s.type === 'gear' && finite(s.teeth) && finite(s.diameter) && s.diameter > 0 && finite(s.length);
+  if (gear && finite(s.apex)) geo = bevelGeometry(s.teeth, s.diameter, s.apex);
+  else if (gear) geo = gearGeometry(s.teeth, s.diameter, Math.max(s.length, s.diameter * 0.05), s.cone);
   else if (s.type === 'cylinder') { geo = new THREE.CylinderGeometry(s.diameter / 2, s.diameter / 2, s.length, 48); geo.rotateX(Math.PI / 2); }
   else if (s.type === 'box') { geo = new THREE.BoxGeometry(s.size[0], s.size[1], s.size[2]); axis = 2; }
   else if (s.type === 'sphere') geo = new THREE.SphereGeometry(s.diameter / 2, 32, 16);
@@ -964,6 +1004,12 @@ window.multibondPage = {
   xRanges: () => plots.map(p => [p.u.scales.x.min, p.u.scales.x.max]),
   eventLines: () => plots.filter(p => p.timeX).map(p => p.lines.eventLines),
   bodyMatrix: name => (scene3d && scene3d.objects.has(name) ? Array.from(scene3d.objects.get(name).matrix.elements) : null),
+  // A body's drawn mesh's box in the scene at the cursor's time: [[xmin, ymin, zmin], [xmax, ymax, zmax]].
+  bodyBox: name => {
+    if (!scene3d || !scene3d.objects.has(name)) return null;
+    const b = new THREE.Box3().setFromObject(scene3d.objects.get(name), true);
+    return [b.min.toArray(), b.max.toArray()];
+  },
   plotSvg: k => new XMLSerializer().serializeToString(plotSvg(plots[k])),
 };
 

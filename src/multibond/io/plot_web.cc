@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <optional>
 #include <regex>
 #include <sstream>
 #include <stdexcept>
@@ -285,6 +286,47 @@ nlohmann::json PageData(const PlotTable& table, const std::vector<PlotEvent>& ev
   return data;
 }
 
+namespace {
+
+/// The apex of a bevel gear: where the axes of mesh `g` cross at t = 0, as a signed distance
+/// along the body's own drawn axis (+e_axis of its frame, `axis` 0, 1, 2) from its centre; none
+/// when a body or the carrier is unknown, b is a rack, the mesh's axis of the body is not its
+/// drawn axis, or the axes pass each other (skew: farther apart than 1e-6 of the centres' distance).
+std::optional<double> BevelApex(const mech::Mechanism& m, const mech::GearMesh& g, const mech::Body& b, int axis) {
+  const auto find = [&](const std::string& name) -> const mech::Body* {
+    for (const mech::Body& x : m.bodies())
+      if (x.name == name) return &x;
+    return nullptr;
+  };
+  const mech::Body* a = find(g.body_a);
+  const mech::Body* c = find(g.body_b);
+  if (!a || !c || g.rack_b || axis < 0 || axis > 2) return std::nullopt;
+  Eigen::Matrix3d Rc = Eigen::Matrix3d::Identity();
+  if (g.carrier != mech::kGround) {
+    const mech::Body* carrier = find(g.carrier);
+    if (!carrier) return std::nullopt;
+    Rc = carrier->orientation;
+  }
+  // The axes as lines through the gears' centres, inertial frame: p + s w.
+  if (!(g.axis_a.norm() > 0) || !(g.axis_b.norm() > 0)) return std::nullopt;
+  const Eigen::Vector3d wa = (Rc * g.axis_a).normalized(), wb = (Rc * g.axis_b).normalized();
+  const Eigen::Vector3d pa = a->position, pb = c->position;
+  const double k = wa.dot(wb), denom = 1.0 - k * k;
+  if (!(denom > 1e-6)) return std::nullopt;
+  const Eigen::Vector3d d = pa - pb;
+  const double sa = (k * wb.dot(d) - wa.dot(d)) / denom, sb = (wb.dot(d) - k * wa.dot(d)) / denom;
+  const Eigen::Vector3d xa = pa + sa * wa, xb = pb + sb * wb;
+  if (!((xa - xb).norm() <= 1e-6 * d.norm() + 1e-12 * (pa.norm() + pb.norm()))) return std::nullopt;
+  // The body's drawn axis must be the mesh's axis of it.
+  const Eigen::Vector3d u = b.orientation.col(axis), w = g.body_a == b.name ? wa : wb;
+  if (!(u.cross(w).norm() <= 1e-6)) return std::nullopt;
+  const double apex = (0.5 * (xa + xb) - b.position).dot(u);
+  if (!std::isfinite(apex)) return std::nullopt;
+  return apex;
+}
+
+}  // namespace
+
 nlohmann::json SceneData(const LoadedModel& model) {
   if (!model.mechanism || model.mechanism->empty()) return nullptr;
   const mech::Mechanism& m = *model.mechanism;
@@ -306,6 +348,9 @@ nlohmann::json SceneData(const LoadedModel& model) {
       shape["type"] = "gear";
       shape["teeth"] = a ? g.teeth_a : g.teeth_b;
       shape["cone"] = std::abs(g.axis_a.normalized().dot(g.axis_b.normalized())) < 0.9;
+      // A bevel gear is drawn on its pitch cone, whose apex is where the two axes cross.
+      if (shape["cone"] == true)
+        if (const std::optional<double> apex = BevelApex(m, g, b, shape["axis"].get<int>())) shape["apex"] = *apex;
       break;
     }
     scene["bodies"].push_back({{"name", b.name}, {"shape", std::move(shape)}});

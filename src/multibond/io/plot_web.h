@@ -68,8 +68,9 @@ nlohmann::json PageData(const PlotTable& table, const std::vector<PlotEvent>& ev
 /// "points": [{"name", "body", "at"}]}. A body's shape is the model's (cylinder, with a disc's
 /// thickness as its length; box; sphere: "axis" 0, 1, 2 for x, y, z), a geared body's disc or
 /// cylinder is a gear with the mesh's tooth count ("cone" when the mesh's axes are not parallel:
-/// a bevel gear), and a body given by mass and inertia is the box of the same inertia ("type":
-/// "inertia", drawn see-through).
+/// a bevel gear, with "apex" when they cross at t = 0: the signed distance from the body's centre
+/// along its own axis to the crossing, its pitch cone's apex), and a body given by mass and
+/// inertia is the box of the same inertia ("type": "inertia", drawn see-through).
 nlohmann::json SceneData(const LoadedModel& model);
 
 /// The bond graph drawing from Graphviz's `-Tjson` output of MakeDot's graph `g` (its nodes
