@@ -111,6 +111,12 @@ int Run(const RunCommand& a, const std::vector<std::string>& argv) {
   nlohmann::json record = MakeRunRecord(a.model, lm.text, lm.graph.name(), o, summary, argv);
   record["rhs_engine"] = p.engine();
   record["states"] = model->num_states();
+  // What the model file was warned of as it was read (on the terminal too): a run whose numbers
+  // may not mean what the file meant says so in its record.
+  nlohmann::json model_warnings = nlohmann::json::array();
+  for (const Diagnostic& d : lm.warnings)
+    model_warnings.push_back({{"code", d.code}, {"where", d.where.ToString()}, {"element", d.element}, {"message", d.message}});
+  record["model_warnings"] = std::move(model_warnings);
   record["options"]["jit"] = a.run.jit;
   record["options"]["coordinates"] = p.coordinates;
   record["options"]["initial"] = p.initial;

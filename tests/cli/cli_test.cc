@@ -167,6 +167,25 @@ TEST_F(CliTest, RunIsDeterministic) {
   EXPECT_EQ(ReadFile(a / "results.csv"), ReadFile(b / "results.csv"));
 }
 
+// A model file's warnings are said on the terminal and kept in run.json (model_warnings): here an
+// angular frequency declared in Hz, which the units cannot tell from one in rad/s.
+TEST_F(CliTest, TheModelFilesWarningsAreInRunJson) {
+  const fs::path model = dir_.string() + "_hz.yaml";
+  std::ofstream(model) << "model: hz\nparameters:\n  k: {value: 400, unit: N/m}\n  m: {value: 1, unit: kg}\n"
+                          "  w0: {value: \"sqrt(k/m)\", unit: Hz}\n"
+                          "elements:\n  mass: {type: I, inertia: m}\n  spring: {type: C, stiffness: k, q0: 0.01}\n  j: {type: \"1\"}\n"
+                          "bonds: [j -> mass, j -> spring]\n";
+  const Result r = Cli("run " + model.string() + " -o " + dir_.string() + " --t-end 0.1 --dt 0.01");
+  fs::remove(model);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr(":5:16: warning: w0: 'w0' is declared in Hz"));
+  const auto run = nlohmann::json::parse(ReadFile(dir_ / "run.json"));
+  ASSERT_EQ(run["model_warnings"].size(), 1u) << run["model_warnings"];
+  EXPECT_EQ(run["model_warnings"][0]["code"], "expr.angular_frequency_in_hz");
+  EXPECT_EQ(run["model_warnings"][0]["element"], "w0");
+  EXPECT_THAT(run["model_warnings"][0]["where"].get<std::string>(), HasSubstr("_hz.yaml:5:16"));
+}
+
 TEST_F(CliTest, ModelErrorExitsOneAndCreatesNothing) {
   const fs::path bad = dir_.string() + "_bad.yaml";
   std::ofstream(bad) << "elements:\n  m: {type: I, inertia: -1}\n  s: {type: Se, effort: 1}\nbonds: [s -> m]\n";

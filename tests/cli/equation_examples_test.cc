@@ -80,7 +80,7 @@ TEST(EquationExamplesCli, SetReachesTheInitialValuesOfAPidAndALag) {
     EXPECT_NE(it, names.end()) << name << " in " << header;
     return static_cast<size_t>(it - names.begin());
   };
-  const size_t speed = column("speed [rad/s]"), torque = column("torque [N m]"), i = column("speed_control.i [-]");
+  const size_t speed = column("speed [rad/s]"), torque = column("torque [N m]"), i = column("speed_control.i [rad]");
   const size_t measured = column("measured [rad/s]");
   int rows = 0;
   while (std::getline(csv, line) && !line.empty()) {
@@ -168,7 +168,7 @@ TEST(EquationExamplesCli, SteadyStartsFromTheSteadyStateAndStaysThere) {
   for (const double w : Column(flag / "results.csv", "speed [rad/s]")) EXPECT_NEAR(w, 10.0, 1e-9);
   for (const double u : Column(flag / "results.csv", "torque [-]")) EXPECT_NEAR(u, 0.5, 1e-9);  // b w_ref: the friction (a pid output has no unit yet)
   for (const double x : Column(flag / "results.csv", "measured [rad/s]")) EXPECT_NEAR(x, 10.0, 1e-9);
-  for (const double i : Column(flag / "results.csv", "speed_control.i [-]")) EXPECT_NEAR(i, 0.25, 1e-9);  // b w_ref / ki
+  for (const double i : Column(flag / "results.csv", "speed_control.i [rad]")) EXPECT_NEAR(i, 0.25, 1e-9);  // b w_ref / ki
   const auto run = nlohmann::json::parse(ReadFile(flag / "run.json"));
   EXPECT_EQ(run["options"]["initial"], "steady");
   EXPECT_NEAR(run["initial_state"]["rotor.p"].get<double>(), 0.2, 1e-12);  // J w_ref

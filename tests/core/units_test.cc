@@ -406,5 +406,24 @@ TEST(FormulaUnits, ADeclaredUnitMatchesByDimensionAndKnownScale) {
   EXPECT_EQ(match("L", "km"), UnitMatch::kScale);
 }
 
+TEST(Units, TheIntegralOverTimeMultipliesBySeconds) {
+  EXPECT_EQ(TimeIntegralUnit("rad/s"), "rad");
+  EXPECT_EQ(TimeIntegralUnit("m/s"), "m");
+  EXPECT_EQ(TimeIntegralUnit("1/s"), "-");
+  EXPECT_EQ(TimeIntegralUnit("V"), "V s");
+  EXPECT_EQ(TimeIntegralUnit("N/m"), "N s/m");
+  EXPECT_EQ(TimeIntegralUnit("1/m"), "s/m");
+  EXPECT_EQ(TimeIntegralUnit("-"), "s");
+  EXPECT_EQ(TimeIntegralUnit(""), "");
+  // Each is a unit of the grammar, of the dimension times s.
+  for (const char* u : {"rad/s", "m/s", "V", "N/m", "1/m", "kg m^2/s^2"}) {
+    const std::string t = TimeIntegralUnit(u);
+    ASSERT_EQ(UnitProblem(t), "") << t;
+    Dimension want = ParseUnit(u)->dim;
+    want[2].num += want[2].den;  // s is the third base unit
+    EXPECT_EQ(ParseUnit(t)->dim, want) << u << " -> " << t;
+  }
+}
+
 }  // namespace
 }  // namespace multibond

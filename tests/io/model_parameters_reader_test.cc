@@ -241,6 +241,35 @@ TEST(ModelParametersReader, AModelWithConsistentUnitsLoads) {
   EXPECT_EQ(ds[0].message, "its formula 'm*9.81/k' gives s^2, not the unit declared for it, m");
 }
 
+// rad/s and Hz are both 1/s to the units (the radian is a number), so sqrt(k/m) declared in Hz
+// agrees with its unit and a 2 pi error would pass: it is said as a warning, and only there.
+TEST(ModelParametersReader, AnAngularFrequencyDeclaredInHzIsSaid) {
+  const std::string km = "  k: {value: 400, unit: N/m}\n  m: {value: 1, unit: kg}\n";
+  auto warnings = [&](const std::string& line) {
+    std::vector<std::string> codes;
+    for (const Diagnostic& d : LoadModelString(Model(km + line), "m.yaml").warnings) codes.push_back(d.code);
+    return codes;
+  };
+  const LoadedModel lm = LoadModelString(Model(km + "  w0: {value: \"sqrt(k/m)\", unit: Hz}\n"), "m.yaml");
+  ASSERT_EQ(lm.warnings.size(), 1u);
+  const Diagnostic& w = lm.warnings.front();
+  EXPECT_EQ(w.code, "expr.angular_frequency_in_hz");
+  EXPECT_EQ(w.severity, Diagnostic::Severity::kWarning);
+  EXPECT_EQ(w.element, "w0");
+  EXPECT_EQ(w.where.line, 5);
+  EXPECT_THAT(w.message, HasSubstr("rad/s"));
+  EXPECT_THAT(w.hint, HasSubstr("(sqrt(k/m))/(2*pi)"));
+  EXPECT_EQ(Param(lm, "w0").value, 20.0);  // the value is still the formula's
+  EXPECT_EQ(warnings("  w0: {value: \"k^0.5/m^0.5\", unit: Hz}\n"), std::vector<std::string>{"expr.angular_frequency_in_hz"});
+  // Not said: the same in rad/s, the frequency with its 2 pi, a period's inverse, a mean of
+  // frequencies in Hz, and 1/s written as such.
+  EXPECT_TRUE(warnings("  w0: {value: \"sqrt(k/m)\", unit: rad/s}\n").empty());
+  EXPECT_TRUE(warnings("  f0: {value: \"sqrt(k/m)/(2*pi)\", unit: Hz}\n").empty());
+  EXPECT_TRUE(warnings("  T: {value: 0.5, unit: s}\n  fT: {value: \"1/T\", unit: Hz}\n").empty());
+  EXPECT_TRUE(warnings("  f1: {value: 2, unit: Hz}\n  f2: {value: 8, unit: Hz}\n  fm: {value: \"sqrt(f1*f2)\", unit: Hz}\n").empty());
+  EXPECT_TRUE(warnings("  w0: {value: \"sqrt(k/m)\", unit: 1/s}\n").empty());
+}
+
 TEST(ModelParametersReader, AValueSetFromOutsideIsCheckedForUnitsToo) {
   const std::string yaml = Model("  L: {value: 1.0, unit: m}\n  T: {value: 2.0, unit: s}\n  v: {value: L/T, unit: m/s}\n");
   EXPECT_EQ(SetError(yaml, {{"v", "L + T"}}), "parameter 'v' set to 'L + T': the two sides of '+' have different units: 'L' is m, "

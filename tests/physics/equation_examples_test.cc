@@ -327,6 +327,35 @@ TEST(PiSteadyExample, WithoutItsInitialValueTheLoopStartsFromZeroTorqueAndSags) 
   EXPECT_LT(rec.At("speed", 0.1), 10.0 - 0.5);
 }
 
+// The controller's and the sensor's units follow from their formulas: the integral of an error in
+// rad/s is in rad, the lag of shaft.f in rad/s; a PID's own `unit` is its output's. (Before, every
+// signal state without a unit of its own was '-', and a PID's unit went to its integral.)
+TEST(PiSteadyExample, TheSignalStatesUnitsFollowFromTheirInputs) {
+  std::string text = testing::ExampleText("equations/pi_steady.yaml");
+  auto replace = [&text](const std::string& from, const std::string& to) {
+    ASSERT_NE(text.find(from), std::string::npos) << from;
+    text.replace(text.find(from), from.size(), to);
+  };
+  replace(", time_constant: T, initial: w_meas0, unit: rad/s}", ", time_constant: T, initial: w_meas0}");
+  replace("kp: kp, ki: ki, initial: \"b*w_ref/ki\"}", "kp: kp, ki: ki, kd: 0.01, tf: 0.01, initial: \"b*w_ref/ki\", unit: N m}");
+  replace("  - {name: measured, variable: sensor}", "  - {name: measured, variable: sensor}\n  - {name: command, variable: speed_control.u}");
+  const LoadedModel lm = LoadModelString(text, "pi_steady.yaml");
+  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+  auto unit_of = [&](const std::string& state) {
+    const auto& names = model->state_names();
+    const auto it = std::find(names.begin(), names.end(), state);
+    EXPECT_NE(it, names.end()) << state;
+    return it == names.end() ? std::string() : model->state_units()[it - names.begin()];
+  };
+  EXPECT_EQ(unit_of("speed_control.i"), "rad");    // the integral of w_ref - shaft.f [rad/s]
+  EXPECT_EQ(unit_of("speed_control.d"), "rad/s");  // the filtered error
+  EXPECT_EQ(unit_of("sensor"), "rad/s");           // a lag of shaft.f
+  std::string command;
+  for (const Column& c : MakeColumns(*model, false))
+    if (c.name == "command") command = c.unit;
+  EXPECT_EQ(command, "N m");
+}
+
 // --- speed_dependent_load.yaml: J dw/dt = tau0 - c w - d w^2 ---
 
 TEST(SpeedDependentLoadExample, SpeedFollowsTheRiccatiSolutionToItsSteadyValue) {

@@ -24,6 +24,7 @@ struct HandSlots {
   std::vector<int> effort_class, flow_class, class_offset, class_size;
   std::vector<std::string> class_units;
   std::unordered_map<std::string, int> signal_class, internal_class;
+  std::unordered_map<std::string, std::string> signal_state_units;
   int num_slots = 0;
 
   HandSlots(const BondGraph& g, const Structure& s) {
@@ -46,7 +47,8 @@ struct HandSlots {
   int OffsetOf(int cls) const { return class_offset[cls]; }
 
   StateLayout::Input Input(const BondGraph& g, const Structure& s, bool energy_account = true) const {
-    return {g, s, effort_class, flow_class, class_offset, class_size, class_units, signal_class, internal_class, energy_account};
+    return {g, s, effort_class, flow_class, class_offset, class_size, class_units, signal_class, internal_class, signal_state_units,
+            energy_account};
   }
 };
 

@@ -29,7 +29,7 @@ void CompiledModel::Build() {
   lap("causality");
   AssignSlots();             // slot classes, their names; the multipliers' offsets
   layout_ = StateLayout({graph_, structure_, effort_class_, flow_class_, class_offset_, class_size_, class_units_,
-                         signal_class_, internal_class_, options_.energy_account});  // blocks, x0, gathers, names
+                         signal_class_, internal_class_, signal_state_units_, options_.energy_account});  // blocks, x0, gathers, names
   AnalyzeModulatedStorage();  // modulated_storage.cc: storage laws that read t, signals, other states
   energy_ = EnergyAccount({graph_, layout_, [this](int element, int state) {
                              return StoredEnergyFormula(element, state);  // formulas.cc

@@ -373,6 +373,10 @@ class CompiledModel {
   /// signal states (`pid.u`); made at the end of AssignSlots.
   void AssignSignalSlots();
   int AddSignalClass(const std::string& name, const std::string& unit, bool visible);
+  /// The unit of a formula from the units its names have among the slot classes made so far
+  /// (signals, efforts and flows; core/units.h's analysis), "" when it cannot be told (a name of
+  /// no unit, a state, a unit mismatch, a scale that a number changed).
+  std::string FormulaUnitText(const Formula& f) const;
   /// A formula's own names (an element's law: q, p, e, f) and what it is, for messages.
   struct FormulaScope {
     const Formula* formula = nullptr;  ///< where it stands in the file
@@ -595,6 +599,10 @@ class CompiledModel {
   };
   std::vector<Passive> passive_;  ///< resistors given by formulas that must not deliver power
   std::unordered_map<std::string, int> signal_class_;  ///< signal name ("u", "pid.u") -> its slot class
+  /// The signal states' units found from their formulas (AssignSignalSlots): a PID's "pid.i"
+  /// (its input's times s) and "pid.d" (its input's), a lag's (its input's), an integral of a rate
+  /// (the rate's times s) when the file gives none.
+  std::unordered_map<std::string, std::string> signal_state_units_;
   std::unordered_map<std::string, int> internal_class_;  ///< the signal states' rates ("lag.rate") -> class
   std::vector<int> class_of_slot_;  ///< per workspace slot: its class (formulas' dependencies), -1 for scratch
   std::unordered_map<int, int> solve_slot_;  ///< resistor -> the scratch slot of its solved law's unknown

@@ -17,6 +17,7 @@
 #include "multibond/compile/multiport_energy.h"
 #include "multibond/compile/symbolic.h"
 #include "multibond/core/diagnostic_codes.h"
+#include "multibond/core/units.h"
 
 namespace multibond {
 namespace {
@@ -67,9 +68,45 @@ int CompiledModel::AddSignalClass(const std::string& name, const std::string& un
   return c;
 }
 
+std::string CompiledModel::FormulaUnitText(const Formula& f) const {
+  if (!f.given()) return "";
+  auto class_named = [&](const std::string& id) {
+    if (const auto it = signal_class_.find(id); it != signal_class_.end()) return it->second;
+    for (int c = 0; c < static_cast<int>(class_names_.size()); ++c)
+      if (class_names_[c] == id) return c;
+    return -1;
+  };
+  const FormulaUnits u = CheckFormulaUnits(
+      *f.root, f.text,
+      [&](const std::string& id) -> std::optional<DeclaredUnit> {
+        const int c = class_named(id);
+        if (c < 0 || class_units_[c] == "-") return std::nullopt;
+        const std::optional<Unit> unit = ParseUnit(class_units_[c]);
+        if (!unit) return std::nullopt;
+        return DeclaredUnit{*unit, class_units_[c]};
+      },
+      [](const std::string&) { return std::optional<double>(); });
+  if (u.mismatch || u.unit.kind != FormulaUnit::Kind::kUnit || !u.unit.scale_known) return "";
+  if (!u.unit.label.empty()) return u.unit.label;
+  return u.unit.unit.scale == 1.0 ? FormatDimension(u.unit.unit.dim) : "";
+}
+
 void CompiledModel::AssignSignalSlots() {
   const BondGraph& g = graph_;
   for (const Signal& s : g.signals()) AddSignalClass(s.name, s.unit, true);
+  // The signal states' units: the file's, else from their formulas' (signals, efforts and flows
+  // are known by now; a formula reading only states or unit-less names leaves it unknown, "-").
+  for (const AuxState& a : g.aux_states()) {
+    if (a.kind == AuxState::Kind::kPid) {
+      const std::string e = FormulaUnitText(a.input);
+      if (!e.empty()) signal_state_units_[a.name + ".i"] = TimeIntegralUnit(e);
+      if (!e.empty()) signal_state_units_[a.name + ".d"] = e;
+    } else if (a.kind == AuxState::Kind::kLag) {
+      signal_state_units_[a.name] = a.unit.empty() ? FormulaUnitText(a.input) : a.unit;
+    } else if (a.kind == AuxState::Kind::kIntegral && a.rate.given()) {
+      signal_state_units_[a.name] = a.unit.empty() ? TimeIntegralUnit(FormulaUnitText(a.rate)) : a.unit;
+    }
+  }
   for (const AuxState& a : g.aux_states()) {
     switch (a.kind) {
       case AuxState::Kind::kIntegral:
@@ -80,8 +117,8 @@ void CompiledModel::AssignSignalSlots() {
         break;
       case AuxState::Kind::kPid:
         AddSignalClass(a.name + ".e", "", false);
-        AddSignalClass(a.name + ".u_raw", "", false);
-        AddSignalClass(a.name + ".u", "", true);
+        AddSignalClass(a.name + ".u_raw", a.unit, false);
+        AddSignalClass(a.name + ".u", a.unit, true);  // a PID's unit is its output's
         AddSignalClass(a.name + ".i.rate", "", false);
         if (a.pid.kd > 0.0) AddSignalClass(a.name + ".d.rate", "", false);
         break;

@@ -60,7 +60,11 @@ void StateLayout::LayOut(const Input& in) {
         (s.kind == AuxState::Kind::kIntegral && s.rate.given())) {
       // A signal state: its derivative is a formula's slot (formulas.cc, AssignSignalSlots).
       auto signal_state = [&](const std::string& name, const std::string& rate, double initial) {
-        const int blk = add_block(StateBlock::Kind::kIntegral, static_cast<int>(a), 1, name, {}, s.unit.empty() ? "-" : s.unit);
+        const auto known = in.signal_state_units.find(name);
+        const std::string unit = known != in.signal_state_units.end() && !known->second.empty() ? known->second
+                                 : s.kind != AuxState::Kind::kPid && !s.unit.empty()                ? s.unit
+                                                                                                    : "-";
+        const int blk = add_block(StateBlock::Kind::kIntegral, static_cast<int>(a), 1, name, {}, unit);
         blocks_[blk].rate_class = in.internal_class.at(rate);
         x0.push_back(initial);
         return blk;

@@ -82,6 +82,9 @@ class StateLayout {
     const std::unordered_map<std::string, int>& signal_class;
     /// The signal states' rates ("lag.rate", "pid.i.rate") -> their slot class (StateBlock::rate_class).
     const std::unordered_map<std::string, int>& internal_class;
+    /// The signal states' units by state name ("pid.i", "lag"), where known; a PID's own `unit`
+    /// is its output's, so its states without an entry have none ("-").
+    const std::unordered_map<std::string, std::string>& signal_state_units;
       /// Add a work state per source and a dissipation state per resistor (the energy account),
     /// and a modulation work state per storage element with a modulation power class
     /// (ModulationPowerName, among internal_class).

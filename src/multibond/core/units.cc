@@ -546,6 +546,17 @@ class Checker {
 
 std::string UnitProblem(const std::string& unit) { return ReadUnit(unit, nullptr); }
 
+std::string TimeIntegralUnit(const std::string& unit) {
+  if (unit.empty()) return "";
+  if (unit == "-" || unit == "1") return "s";
+  if (unit == "1/s") return "-";
+  const std::size_t slash = unit.find('/');
+  if (slash == std::string::npos) return unit + " s";
+  const std::string num = unit.substr(0, slash), den = unit.substr(slash + 1);
+  if (den == "s") return num == "1" ? "-" : num;
+  return (num == "1" ? std::string("s") : num + " s") + "/" + den;
+}
+
 std::optional<Unit> ParseUnit(const std::string& unit) {
   Unit u;
   if (!ReadUnit(unit, &u).empty()) return std::nullopt;

@@ -64,6 +64,10 @@ std::optional<Unit> ParseUnit(const std::string& unit);
 /// True when every exponent is 0.
 bool IsDimensionless(const Dimension& d);
 
+/// The unit of the integral over time of a quantity in `unit` (a unit of the grammar): "rad/s"
+/// -> "rad", "1/s" -> "-", "V" -> "V s", "N/m" -> "N s/m", "-" -> "s"; "" for "".
+std::string TimeIntegralUnit(const std::string& unit);
+
 /// A dimension in SI base units, as the grammar writes a unit: "kg m^2/s^2", "1/s", "m"; "1" for
 /// none. A fractional exponent is written m^(1/2) (outside the grammar: for messages).
 std::string FormatDimension(const Dimension& d);

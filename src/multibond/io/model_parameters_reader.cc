@@ -183,6 +183,32 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
   // is consistent, and gives the unit declared for it. Checked once its dependencies have values
   // (the exponent of a power is one). A mismatch does not make the value unusable: what depends on
   // the parameter is still evaluated and checked.
+  // A frequency declared in Hz whose formula takes a square root without a 2 pi: sqrt(k/m) is an
+  // angular frequency, in rad/s, and has the dimension of Hz (1/s: the radian is a number), so
+  // the units agree and a 2 pi error would pass. Said, not refused (a square root of Hz
+  // products, or of a rate in 1/s^2 that is meant as cycles, is legitimate): when no name it
+  // reads is declared in Hz.
+  auto is_hz = [](const std::string& unit) { return unit.size() >= 2 && unit.compare(unit.size() - 2, 2, "Hz") == 0; };
+  auto WarnIfAngularFrequencyInHz = [&](const Entry& e, const FormulaUnit& got, const std::vector<Entry>& all) {
+    static const Dimension kPerSecond = ParseUnit("1/s")->dim;
+    if (!is_hz(e.p.unit) || !e.unit || e.unit->dim != kPerSecond || got.kind != FormulaUnit::Kind::kUnit || !e.root) return;
+    const std::string& text = e.p.text;
+    if (text.find("sqrt") == std::string::npos && text.find('^') == std::string::npos) return;
+    if (text.find("pi") != std::string::npos) return;
+    for (const std::size_t d : e.deps)
+      if (is_hz(all[d].p.unit)) return;
+    Diagnostic w;
+    w.severity = Diagnostic::Severity::kWarning;
+    w.code = codes::kExprAngularFrequencyInHz;
+    w.where = At(e.value, 0);
+    w.element = e.p.name;
+    w.message = fmt::format("'{}' is declared in {}, but its formula '{}' takes a square root and no 2*pi: a natural frequency "
+                            "sqrt(k/m) is an angular frequency, in rad/s (both are 1/s to the units, so they cannot tell)",
+                            e.p.name, e.p.unit, PrintableExcerpt(text));
+    w.hint = fmt::format("declare it rad/s, or divide by 2*pi for {}: {}", e.p.unit, PrintableExcerpt("(" + text + ")/(2*pi)"));
+    sink_.Add(w);
+  };
+
   auto check_units = [&](const Entry& e) {
     const FormulaUnits u = CheckFormulaUnits(
         *e.root, e.p.text,
@@ -203,7 +229,10 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
     }
     if (!e.unit) return;
     const UnitMatch match = MatchUnit(u.unit, *e.unit);
-    if (match == UnitMatch::kSame) return;
+    if (match == UnitMatch::kSame) {
+      WarnIfAngularFrequencyInHz(e, u.unit, entries);
+      return;
+    }
     const std::string declared = e.p.unit == "-" || e.p.unit == "1" ? fmt::format("{} (a number)", e.p.unit) : e.p.unit;
     const std::string what =
         match == UnitMatch::kDimension
