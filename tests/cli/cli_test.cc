@@ -167,23 +167,26 @@ TEST_F(CliTest, RunIsDeterministic) {
   EXPECT_EQ(ReadFile(a / "results.csv"), ReadFile(b / "results.csv"));
 }
 
-// A model file's warnings are said on the terminal and kept in run.json (model_warnings): here an
-// angular frequency declared in Hz, which the units cannot tell from one in rad/s.
+// A model file's warnings are said on the terminal and kept in run.json (model_warnings): here a
+// joint whose attachment points are apart at the start.
 TEST_F(CliTest, TheModelFilesWarningsAreInRunJson) {
-  const fs::path model = dir_.string() + "_hz.yaml";
-  std::ofstream(model) << "model: hz\nparameters:\n  k: {value: 400, unit: N/m}\n  m: {value: 1, unit: kg}\n"
-                          "  w0: {value: \"sqrt(k/m)\", unit: Hz}\n"
-                          "elements:\n  mass: {type: I, inertia: m}\n  spring: {type: C, stiffness: k, q0: 0.01}\n  j: {type: \"1\"}\n"
-                          "bonds: [j -> mass, j -> spring]\n";
-  const Result r = Cli("run " + model.string() + " -o " + dir_.string() + " --t-end 0.1 --dt 0.01");
+  const fs::path model = dir_.string() + "_gap.yaml";
+  std::ofstream(model) << "model: gap\nbodies:\n  b: {mass: 1, inertia: [1, 1, 1], position: [0, 0, 0]}\n"
+                          "joints:\n  j: {parent: ground, child: b, at: [0.1, 0, 0], child_at: [0, 0, 0], translation: {K: 100, R: 1}}\n";
+  const Result r = Cli("run " + model.string() + " -o " + dir_.string() + " --t-end 0.01 --dt 0.01");
   fs::remove(model);
   ASSERT_EQ(r.code, 0) << r.out;
-  EXPECT_THAT(r.out, HasSubstr(":5:16: warning: w0: 'w0' is declared in Hz"));
+  EXPECT_THAT(r.out, HasSubstr("warning: j: the attachment points are"));
   const auto run = nlohmann::json::parse(ReadFile(dir_ / "run.json"));
   ASSERT_EQ(run["model_warnings"].size(), 1u) << run["model_warnings"];
-  EXPECT_EQ(run["model_warnings"][0]["code"], "expr.angular_frequency_in_hz");
-  EXPECT_EQ(run["model_warnings"][0]["element"], "w0");
-  EXPECT_THAT(run["model_warnings"][0]["where"].get<std::string>(), HasSubstr("_hz.yaml:5:16"));
+  EXPECT_EQ(run["model_warnings"][0]["code"], "mech.initial_gap");
+  EXPECT_EQ(run["model_warnings"][0]["element"], "j");
+  EXPECT_THAT(run["model_warnings"][0]["where"].get<std::string>(), HasSubstr("_gap.yaml:5:"));
+  // A model without warnings records an empty list.
+  ASSERT_EQ(Cli("run " + Example("mass_spring_damper.yaml") + " -o " + dir_.string() + "_none --t-end 0.01 --dt 0.01").code, 0);
+  const auto none = nlohmann::json::parse(ReadFile(fs::path(dir_.string() + "_none") / "run.json"));
+  fs::remove_all(dir_.string() + "_none");
+  EXPECT_TRUE(none["model_warnings"].is_array() && none["model_warnings"].empty());
 }
 
 TEST_F(CliTest, ModelErrorExitsOneAndCreatesNothing) {

@@ -166,7 +166,7 @@ TEST(EquationExamplesCli, SteadyStartsFromTheSteadyStateAndStaysThere) {
   CliResult r = RunCli({"run", model.string(), "--steady", "--t-end", "1", "-o", flag.string(), "-q"});
   ASSERT_EQ(r.code, 0) << r.out;
   for (const double w : Column(flag / "results.csv", "speed [rad/s]")) EXPECT_NEAR(w, 10.0, 1e-9);
-  for (const double u : Column(flag / "results.csv", "torque [-]")) EXPECT_NEAR(u, 0.5, 1e-9);  // b w_ref: the friction (a pid output has no unit yet)
+  for (const double u : Column(flag / "results.csv", "torque [N m]")) EXPECT_NEAR(u, 0.5, 1e-9);  // b w_ref: the friction (the pid output takes the motor's unit)
   for (const double x : Column(flag / "results.csv", "measured [rad/s]")) EXPECT_NEAR(x, 10.0, 1e-9);
   for (const double i : Column(flag / "results.csv", "speed_control.i [rad]")) EXPECT_NEAR(i, 0.25, 1e-9);  // b w_ref / ki
   const auto run = nlohmann::json::parse(ReadFile(flag / "run.json"));

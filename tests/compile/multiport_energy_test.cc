@@ -189,5 +189,29 @@ bonds: [f -> c]
   }
 }
 
+// A vector bond whose components belong to different domains gives its states their units by
+// `units:` (the electrostatic transducer's charge in C and gap in m; they were '-'); a list of
+// the wrong length or a unit outside the grammar is refused where it is.
+TEST(MultiportEnergy, UnitsNameTheUnitOfEachComponentsState) {
+  const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/equations/electrostatic_transducer.yaml");
+  const auto model = CompiledModel::Compile(lm.graph, lm.compile);
+  const auto& names = model->state_names();
+  const auto at = [&](const std::string& n) { return model->state_units()[std::find(names.begin(), names.end(), n) - names.begin()]; };
+  EXPECT_EQ(at("plates.q.charge"), "C");
+  EXPECT_EQ(at("plates.q.gap"), "m");
+  auto refusal = [](const std::string& units, const std::string& dim) {
+    try {
+      (void)LoadModelString("model: m\nelements:\n  c: {type: C, " + dim + "energy: \"q1^2 + q2^2\", units: " + units +
+                            "}\n  z: {type: \"0\", dim: 2}\nbonds: [z -> c]\n");
+    } catch (const ModelError& e) {
+      return e.diagnostics().front().code + " " + e.diagnostics().front().message;
+    }
+    return std::string("loaded");
+  };
+  EXPECT_EQ(refusal("[C, m]", "dim: 2, "), "loaded");
+  EXPECT_THAT(refusal("[C]", "dim: 2, "), ::testing::HasSubstr("param.shape 'units' has 1 entries for 2 components"));
+  EXPECT_THAT(refusal("[C, furlong]", "dim: 2, "), ::testing::HasSubstr("unit.invalid the unit 'furlong' is refused"));
+}
+
 }  // namespace
 }  // namespace multibond

@@ -242,32 +242,35 @@ TEST(ModelParametersReader, AModelWithConsistentUnitsLoads) {
 }
 
 // rad/s and Hz are both 1/s to the units (the radian is a number), so sqrt(k/m) declared in Hz
-// agrees with its unit and a 2 pi error would pass: it is said as a warning, and only there.
-TEST(ModelParametersReader, AnAngularFrequencyDeclaredInHzIsSaid) {
+// agrees with its unit and a 2 pi error would pass: it is a located error with the fix.
+TEST(ModelParametersReader, AnAngularFrequencyDeclaredInHzIsAnError) {
   const std::string km = "  k: {value: 400, unit: N/m}\n  m: {value: 1, unit: kg}\n";
-  auto warnings = [&](const std::string& line) {
-    std::vector<std::string> codes;
-    for (const Diagnostic& d : LoadModelString(Model(km + line), "m.yaml").warnings) codes.push_back(d.code);
-    return codes;
+  auto loads = [&](const std::string& line) {
+    try {
+      (void)LoadModelString(Model(km + line), "m.yaml");
+      return true;
+    } catch (const ModelError&) {
+      return false;
+    }
   };
-  const LoadedModel lm = LoadModelString(Model(km + "  w0: {value: \"sqrt(k/m)\", unit: Hz}\n"), "m.yaml");
-  ASSERT_EQ(lm.warnings.size(), 1u);
-  const Diagnostic& w = lm.warnings.front();
-  EXPECT_EQ(w.code, "expr.angular_frequency_in_hz");
-  EXPECT_EQ(w.severity, Diagnostic::Severity::kWarning);
-  EXPECT_EQ(w.element, "w0");
-  EXPECT_EQ(w.where.line, 5);
-  EXPECT_THAT(w.message, HasSubstr("rad/s"));
-  EXPECT_THAT(w.hint, HasSubstr("(sqrt(k/m))/(2*pi)"));
-  EXPECT_EQ(Param(lm, "w0").value, 20.0);  // the value is still the formula's
-  EXPECT_EQ(warnings("  w0: {value: \"k^0.5/m^0.5\", unit: Hz}\n"), std::vector<std::string>{"expr.angular_frequency_in_hz"});
-  // Not said: the same in rad/s, the frequency with its 2 pi, a period's inverse, a mean of
-  // frequencies in Hz, and 1/s written as such.
-  EXPECT_TRUE(warnings("  w0: {value: \"sqrt(k/m)\", unit: rad/s}\n").empty());
-  EXPECT_TRUE(warnings("  f0: {value: \"sqrt(k/m)/(2*pi)\", unit: Hz}\n").empty());
-  EXPECT_TRUE(warnings("  T: {value: 0.5, unit: s}\n  fT: {value: \"1/T\", unit: Hz}\n").empty());
-  EXPECT_TRUE(warnings("  f1: {value: 2, unit: Hz}\n  f2: {value: 8, unit: Hz}\n  fm: {value: \"sqrt(f1*f2)\", unit: Hz}\n").empty());
-  EXPECT_TRUE(warnings("  w0: {value: \"sqrt(k/m)\", unit: 1/s}\n").empty());
+  const std::vector<Diagnostic> ds = LoadErrors(Model(km + "  w0: {value: \"sqrt(k/m)\", unit: Hz}\n"));
+  ASSERT_EQ(ds.size(), 1u);
+  EXPECT_EQ(ds[0].code, "expr.angular_frequency_in_hz");
+  EXPECT_EQ(ds[0].element, "w0");
+  EXPECT_EQ(ds[0].where.line, 5);
+  EXPECT_EQ(ds[0].where.column, 16);
+  EXPECT_THAT(ds[0].message, HasSubstr("rad/s"));
+  EXPECT_THAT(ds[0].hint, HasSubstr("(sqrt(k/m))/(2*pi)"));
+  EXPECT_FALSE(loads("  w0: {value: \"k^0.5/m^0.5\", unit: Hz}\n"));
+  // --set w0=... is checked the same way, as the caller's mistake.
+  EXPECT_THAT(SetError(Model(km + "  w0: {value: 3, unit: Hz}\n"), {{"w0", "sqrt(k/m)"}}), HasSubstr("an angular frequency is in rad/s"));
+  // Taken as written: the same in rad/s, the frequency with its 2 pi, a period's inverse, a mean
+  // of frequencies in Hz, and 1/s written as such.
+  EXPECT_EQ(Param(LoadModelString(Model(km + "  w0: {value: \"sqrt(k/m)\", unit: rad/s}\n"), "m.yaml"), "w0").value, 20.0);
+  EXPECT_TRUE(loads("  f0: {value: \"sqrt(k/m)/(2*pi)\", unit: Hz}\n"));
+  EXPECT_TRUE(loads("  T: {value: 0.5, unit: s}\n  fT: {value: \"1/T\", unit: Hz}\n"));
+  EXPECT_TRUE(loads("  f1: {value: 2, unit: Hz}\n  f2: {value: 8, unit: Hz}\n  fm: {value: \"sqrt(f1*f2)\", unit: Hz}\n"));
+  EXPECT_TRUE(loads("  w0: {value: \"sqrt(k/m)\", unit: 1/s}\n"));
 }
 
 TEST(ModelParametersReader, AValueSetFromOutsideIsCheckedForUnitsToo) {

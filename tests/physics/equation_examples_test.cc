@@ -354,6 +354,21 @@ TEST(PiSteadyExample, TheSignalStatesUnitsFollowFromTheirInputs) {
   for (const Column& c : MakeColumns(*model, false))
     if (c.name == "command") command = c.unit;
   EXPECT_EQ(command, "N m");
+  // Without a unit of its own, the PID's output takes the unit of the source it drives (motor:
+  // Se, effort "speed_control.u", rotation: N m); a PID whose output drives no source alone has none.
+  text = testing::ExampleText("equations/pi_steady.yaml");
+  replace("  - {name: measured, variable: sensor}", "  - {name: measured, variable: sensor}\n  - {name: command, variable: speed_control.u}");
+  const auto driven = CompiledModel::Compile(LoadModelString(text, "pi_steady.yaml").graph);
+  command.clear();
+  for (const Column& c : MakeColumns(*driven, false))
+    if (c.name == "command") command = c.unit;
+  EXPECT_EQ(command, "N m");
+  replace("effort: \"speed_control.u\"", "effort: \"2*speed_control.u\"");
+  const auto scaled = CompiledModel::Compile(LoadModelString(text, "pi_steady.yaml").graph);
+  command.clear();
+  for (const Column& c : MakeColumns(*scaled, false))
+    if (c.name == "command") command = c.unit;
+  EXPECT_EQ(command, "-");
 }
 
 // --- speed_dependent_load.yaml: J dw/dt = tau0 - c w - d w^2 ---

@@ -115,13 +115,26 @@ void CompiledModel::AssignSignalSlots() {
       case AuxState::Kind::kLag:
         AddSignalClass(a.name + ".rate", "", false);
         break;
-      case AuxState::Kind::kPid:
+      case AuxState::Kind::kPid: {
+        // A PID's unit is its output's: the file's, else that of the source it drives when a
+        // source's value is the output itself (supply: {type: Se, effort: "pid.u"}).
+        std::string unit = a.unit;
+        for (int i = 0; unit.empty() && i < g.num_elements(); ++i) {
+          const Element& e = g.element(i);
+          if ((e.kind != ElementKind::kSe && e.kind != ElementKind::kSf) || e.value.size() != 1 || !e.value.front().given()) continue;
+          const std::string& text = e.value.front().text;
+          const std::size_t first = text.find_first_not_of(" \t"), last = text.find_last_not_of(" \t");
+          if (first == std::string::npos || text.substr(first, last - first + 1) != a.name + ".u") continue;
+          const int c = (e.kind == ElementKind::kSe ? effort_class_ : flow_class_)[e.bonds.front()];
+          if (class_units_[c] != "-") unit = class_units_[c];
+        }
         AddSignalClass(a.name + ".e", "", false);
-        AddSignalClass(a.name + ".u_raw", a.unit, false);
-        AddSignalClass(a.name + ".u", a.unit, true);  // a PID's unit is its output's
+        AddSignalClass(a.name + ".u_raw", unit, false);
+        AddSignalClass(a.name + ".u", unit, true);
         AddSignalClass(a.name + ".i.rate", "", false);
         if (a.pid.kd > 0.0) AddSignalClass(a.name + ".d.rate", "", false);
         break;
+      }
       case AuxState::Kind::kOrientation:
         break;
     }

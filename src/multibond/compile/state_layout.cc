@@ -52,6 +52,8 @@ void StateLayout::LayOut(const Input& in) {
                                   e.state_name.empty() ? e.name + (inertia ? ".p" : ".q") : e.state_name,
                                   ComponentNames(n, e.components),
                                   inertia ? u.momentum : u.displacement);
+    if (static_cast<int>(e.state_units.size()) == n)  // `units:`, one per component (checked by the loader)
+      for (int k = 0; k < n; ++k) state_units_[blocks_[element_block_[i]].offset + k] = e.state_units[k];
     for (int k = 0; k < n; ++k) x0.push_back(e.initial.size() == n ? e.initial(k) : 0.0);
   }
   for (size_t a = 0; a < g.aux_states().size(); ++a) {

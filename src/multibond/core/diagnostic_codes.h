@@ -48,7 +48,7 @@ enum class Outcome {
     "time or a model variable in a formula where a constant is needed (a parameter, a number of an element)")                 \
   X(kExprUnits, "expr.units", kModelError,                                                                                     \
     "units that do not fit where they are declared: a sum of a length and a time, the sine of a length, a parameter whose formula gives another unit than its own") \
-  X(kExprAngularFrequencyInHz, "expr.angular_frequency_in_hz", kWarning,                                                     \
+  X(kExprAngularFrequencyInHz, "expr.angular_frequency_in_hz", kModelError,                                                     \
     "a parameter declared in Hz whose formula takes a square root and no 2 pi (sqrt(k/m) is rad/s): a 2 pi error that units cannot see") \
   X(kLimitFileSize, "limit.file-size", kModelError, "the limit file-size exceeded")                                          \
   X(kLimitYamlNodes, "limit.yaml-nodes", kModelError, "the limit yaml-nodes exceeded")                                       \

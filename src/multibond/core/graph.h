@@ -163,6 +163,9 @@ struct Element {
   std::string state_name;
   std::string domain;         ///< "translation", "rotation", "electrical", "hydraulic", ... ("" = infer)
   std::vector<std::string> components;  ///< component names of a multi-dimensional bond
+  /// I, C: the unit of each component's state (`units:`), for a vector bond whose components
+  /// belong to different domains (a multiport's charge and gap); empty: the bond's domain's.
+  std::vector<std::string> state_units;
   std::vector<int> bonds;     ///< filled by BondGraph::Connect, in order of connection
 };
 

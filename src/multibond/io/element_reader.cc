@@ -9,6 +9,7 @@
 #include "multibond/core/identifier.h"
 #include "multibond/core/structure.h"
 #include "multibond/core/diagnostic_codes.h"
+#include "multibond/core/units.h"
 #include "multibond/io/did_you_mean.h"
 
 namespace multibond {
@@ -245,6 +246,7 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
       }
       if (spec["p0"]) e.initial = Vector(spec["p0"], name, env);
       if (spec["rotation"]) e.rotation = Qualify(prefix, Str(spec["rotation"], name));
+      keys.push_back("units");
       break;
     }
     case ElementKind::kC:
@@ -286,6 +288,7 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
         e.param = ReadParam(spec["stiffness"], name, env);
       }
       if (spec["q0"]) e.initial = Vector(spec["q0"], name, env);
+      keys.push_back("units");
       break;
     case ElementKind::kR:
       keys.insert(keys.end(), {"resistance", "effort", "flow", "active"});
@@ -335,6 +338,25 @@ void ElementReader::ReadElement(const std::string& name, const YAML::Node& spec,
   if (spec["domain"]) e.domain = Domain(spec["domain"], name);
   if (spec["components"])
     e.components = Components(spec["components"], name);
+  if ((e.kind == ElementKind::kI || e.kind == ElementKind::kC) && spec["units"]) {
+    // One unit per component (they label columns and reach gnuplot and HTML: the grammar only).
+    const YAML::Node& list = spec["units"];
+    const std::vector<std::string> units = Words(list, name, "units");
+    bool good = list.IsSequence();
+    for (size_t k = 0; good && k < units.size() && k < list.size(); ++k)
+      if (const std::string problem = UnitProblem(units[k]); !problem.empty()) {
+        sink_.Error(codes::kUnitInvalid, Loc(list[k]), name, fmt::format("the unit '{}' is refused: {}", PrintableExcerpt(units[k]), problem),
+                    "a unit such as m, N s, rad/s or C (docs/model-format.md, \"Names and units\")");
+        good = false;
+      }
+    if (good && e.dim > 0 && static_cast<int>(units.size()) != e.dim)
+      sink_.Error(codes::kParamShape, Loc(list), name, fmt::format("'units' has {} entries for {} components", units.size(), e.dim),
+                  "give one unit per component, in the order of 'components'");
+    else if (good && e.dim <= 0)
+      sink_.Error(codes::kParamShape, Loc(list), name, "'units' needs 'dim': one unit per component", "add dim: n");
+    else if (good)
+      e.state_units = units;
+  }
   // A law relates one effort and one flow: its bond is scalar (what fixes another dimension here is
   // said here; one inferred through a junction is said when the model is compiled).
   if (law_key && std::string(law_key) == "energy" && e.dim > 1) {

@@ -185,11 +185,10 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
   // the parameter is still evaluated and checked.
   // A frequency declared in Hz whose formula takes a square root without a 2 pi: sqrt(k/m) is an
   // angular frequency, in rad/s, and has the dimension of Hz (1/s: the radian is a number), so
-  // the units agree and a 2 pi error would pass. Said, not refused (a square root of Hz
-  // products, or of a rate in 1/s^2 that is meant as cycles, is legitimate): when no name it
-  // reads is declared in Hz.
+  // the units agree and a 2 pi error would pass: refused, with the fix. Only when no name it
+  // reads is declared in Hz (a square root of products of frequencies, sqrt(f1*f2), is one).
   auto is_hz = [](const std::string& unit) { return unit.size() >= 2 && unit.compare(unit.size() - 2, 2, "Hz") == 0; };
-  auto WarnIfAngularFrequencyInHz = [&](const Entry& e, const FormulaUnit& got, const std::vector<Entry>& all) {
+  auto RefuseAngularFrequencyInHz = [&](const Entry& e, const FormulaUnit& got, const std::vector<Entry>& all) {
     static const Dimension kPerSecond = ParseUnit("1/s")->dim;
     if (!is_hz(e.p.unit) || !e.unit || e.unit->dim != kPerSecond || got.kind != FormulaUnit::Kind::kUnit || !e.root) return;
     const std::string& text = e.p.text;
@@ -197,16 +196,12 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
     if (text.find("pi") != std::string::npos) return;
     for (const std::size_t d : e.deps)
       if (is_hz(all[d].p.unit)) return;
-    Diagnostic w;
-    w.severity = Diagnostic::Severity::kWarning;
-    w.code = codes::kExprAngularFrequencyInHz;
-    w.where = At(e.value, 0);
-    w.element = e.p.name;
-    w.message = fmt::format("'{}' is declared in {}, but its formula '{}' takes a square root and no 2*pi: a natural frequency "
+    if (e.p.set) set_error(e, fmt::format("'{}' in {} takes a square root and no 2*pi: an angular frequency is in rad/s", e.p.name, e.p.unit));
+    sink_.Error(codes::kExprAngularFrequencyInHz, At(e.value, 0), e.p.name,
+                fmt::format("'{}' is declared in {}, but its formula '{}' takes a square root and no 2*pi: a natural frequency "
                             "sqrt(k/m) is an angular frequency, in rad/s (both are 1/s to the units, so they cannot tell)",
-                            e.p.name, e.p.unit, PrintableExcerpt(text));
-    w.hint = fmt::format("declare it rad/s, or divide by 2*pi for {}: {}", e.p.unit, PrintableExcerpt("(" + text + ")/(2*pi)"));
-    sink_.Add(w);
+                            e.p.name, e.p.unit, PrintableExcerpt(text)),
+                fmt::format("declare it rad/s, or divide by 2*pi for {}: {}", e.p.unit, PrintableExcerpt("(" + text + ")/(2*pi)")));
   };
 
   auto check_units = [&](const Entry& e) {
@@ -230,7 +225,7 @@ void ModelParametersReader::Read(const YAML::Node& n, const std::vector<Paramete
     if (!e.unit) return;
     const UnitMatch match = MatchUnit(u.unit, *e.unit);
     if (match == UnitMatch::kSame) {
-      WarnIfAngularFrequencyInHz(e, u.unit, entries);
+      RefuseAngularFrequencyInHz(e, u.unit, entries);
       return;
     }
     const std::string declared = e.p.unit == "-" || e.p.unit == "1" ? fmt::format("{} (a number)", e.p.unit) : e.p.unit;
