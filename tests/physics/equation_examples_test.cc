@@ -350,25 +350,19 @@ TEST(PiSteadyExample, TheSignalStatesUnitsFollowFromTheirInputs) {
   EXPECT_EQ(unit_of("speed_control.i"), "rad");    // the integral of w_ref - shaft.f [rad/s]
   EXPECT_EQ(unit_of("speed_control.d"), "rad/s");  // the filtered error
   EXPECT_EQ(unit_of("sensor"), "rad/s");           // a lag of shaft.f
-  std::string command;
-  for (const Column& c : MakeColumns(*model, false))
-    if (c.name == "command") command = c.unit;
-  EXPECT_EQ(command, "N m");
+  auto command_unit = [](const CompiledModel& m) {
+    for (const Column& c : MakeColumns(m, false))
+      if (c.name == "command") return c.unit;
+    return std::string("no column 'command'");
+  };
+  EXPECT_EQ(command_unit(*model), "N m");
   // Without a unit of its own, the PID's output takes the unit of the source it drives (motor:
   // Se, effort "speed_control.u", rotation: N m); a PID whose output drives no source alone has none.
   text = testing::ExampleText("equations/pi_steady.yaml");
   replace("  - {name: measured, variable: sensor}", "  - {name: measured, variable: sensor}\n  - {name: command, variable: speed_control.u}");
-  const auto driven = CompiledModel::Compile(LoadModelString(text, "pi_steady.yaml").graph);
-  command.clear();
-  for (const Column& c : MakeColumns(*driven, false))
-    if (c.name == "command") command = c.unit;
-  EXPECT_EQ(command, "N m");
+  EXPECT_EQ(command_unit(*CompiledModel::Compile(LoadModelString(text, "pi_steady.yaml").graph)), "N m");
   replace("effort: \"speed_control.u\"", "effort: \"2*speed_control.u\"");
-  const auto scaled = CompiledModel::Compile(LoadModelString(text, "pi_steady.yaml").graph);
-  command.clear();
-  for (const Column& c : MakeColumns(*scaled, false))
-    if (c.name == "command") command = c.unit;
-  EXPECT_EQ(command, "-");
+  EXPECT_EQ(command_unit(*CompiledModel::Compile(LoadModelString(text, "pi_steady.yaml").graph)), "-");
 }
 
 // --- speed_dependent_load.yaml: J dw/dt = tau0 - c w - d w^2 ---
