@@ -41,12 +41,18 @@ struct Fixture {
 
 std::string Read(const std::filesystem::path& p) { return testing::ReadFile(p); }
 
+/// A sweep into `dir` on `threads` threads.
+SweepOptions Into(const testing::TempDir& dir, int threads) {
+  SweepOptions o;
+  o.dir = dir.path().string();
+  o.threads = threads;
+  return o;
+}
+
 TEST(Sweep, MassSpringDamperMatchesTheClosedForms) {
   Fixture f(ReadStudyFile(kStudy));
   testing::TempDir one, two;
-  SweepOptions o;
-  o.dir = one.path().string();
-  o.threads = 1;
+  SweepOptions o = Into(one, 1);
   const SweepOutcome a = RunSweep(f.s, f.runner, f.text, o, nullptr);
   ASSERT_EQ(a.results.size(), 20u);
   const auto design = Design(f.s);
@@ -85,9 +91,7 @@ TEST(Sweep, AFailedRunIsRecordedAndTheOthersGoOn) {
   s.keep_results = true;
   Fixture f(std::move(s));
   testing::TempDir dir;
-  SweepOptions o;
-  o.dir = dir.path().string();
-  o.threads = 2;
+  SweepOptions o = Into(dir, 2);
   const SweepOutcome out = RunSweep(f.s, f.runner, f.text, o, nullptr);
   ASSERT_EQ(out.results.size(), 3u);
   EXPECT_TRUE(out.results[0].ok);
@@ -117,9 +121,7 @@ TEST(Sweep, AWindowedQuantityAndOneThatNoRunHas) {
   ASSERT_FALSE(sink.has_errors());
   Fixture f(std::move(s));
   testing::TempDir dir;
-  SweepOptions o;
-  o.dir = dir.path().string();
-  o.threads = 1;
+  SweepOptions o = Into(dir, 1);
   const SweepOutcome out = RunSweep(f.s, f.runner, f.text, o, nullptr);
   ASSERT_EQ(out.results.size(), 2u);
   for (const RunResult& r : out.results) {
@@ -136,9 +138,7 @@ TEST(Sweep, AWindowedQuantityAndOneThatNoRunHas) {
 TEST(Sweep, ResumeRunsOnlyWhatTheJournalLacks) {
   Fixture f(ListStudy("100,200,400"));
   testing::TempDir dir;
-  SweepOptions o;
-  o.dir = dir.path().string();
-  o.threads = 1;
+  SweepOptions o = Into(dir, 1);
   RunSweep(f.s, f.runner, f.text, o, nullptr);
   const std::string full = Read(dir.path() / "sweep.csv");
   // As if interrupted after run 1: the journal's header and its first two runs.
@@ -165,9 +165,7 @@ TEST(Sweep, ResumeRunsOnlyWhatTheJournalLacks) {
 TEST(Sweep, LinksInTheFolderAreNotFollowedAndABusyFolderIsRefused) {
   Fixture f(ListStudy("100,200"));
   testing::TempDir dir, elsewhere;
-  SweepOptions o;
-  o.dir = dir.path().string();
-  o.threads = 1;
+  SweepOptions o = Into(dir, 1);
   RunSweep(f.s, f.runner, f.text, o, nullptr);
   const std::string journal = Read(dir.path() / "sweep.journal");
   std::filesystem::rename(dir.path() / "sweep.journal", elsewhere.path() / "journal");

@@ -671,17 +671,22 @@ function sceneTransform(name, r) {
   return m;
 }
 
-function gearGeometry(teeth, diameter, thickness, cone) {
-  const R = diameter / 2, depth = Math.min(R * 0.12, (Math.PI * diameter) / teeth * 0.35);
+// A gear's outline in the x-y plane: n trapezoidal teeth from the root radius to the tip radius.
+function toothedShape(root, tip, n) {
   const shape = new THREE.Shape();
-  const n = Math.max(6, Math.min(400, Math.round(teeth)));
   for (let k = 0; k < n; ++k) {
     const a0 = (2 * Math.PI * k) / n, da = (2 * Math.PI) / n;
-    const pts = [[R - depth, a0], [R, a0 + da * 0.25], [R, a0 + da * 0.5], [R - depth, a0 + da * 0.75]];
+    const pts = [[root, a0], [tip, a0 + da * 0.25], [tip, a0 + da * 0.5], [root, a0 + da * 0.75]];
     pts.forEach(([rr, a], i) => (k === 0 && i === 0 ? shape.moveTo(rr * Math.cos(a), rr * Math.sin(a)) : shape.lineTo(rr * Math.cos(a), rr * Math.sin(a))));
   }
   shape.closePath();
-  const geo = new THREE.ExtrudeGeometry(shape, { depth: thickness, bevelEnabled: false });
+  return shape;
+}
+
+function gearGeometry(teeth, diameter, thickness, cone) {
+  const R = diameter / 2, depth = Math.min(R * 0.12, (Math.PI * diameter) / teeth * 0.35);
+  const n = Math.max(6, Math.min(400, Math.round(teeth)));
+  const geo = new THREE.ExtrudeGeometry(toothedShape(R - depth, R, n), { depth: thickness, bevelEnabled: false });
   geo.translate(0, 0, -thickness / 2);
   if (cone) {
     // A bevel gear: the teeth taper towards the apex (scale x, y along z).
@@ -707,14 +712,7 @@ function bevelGeometry(teeth, diameter, apex) {
   const a = Math.max(Math.abs(apex), depth), L = Math.hypot(R, a);
   const f = Math.min(L / 3, (10 * diameter) / n) / L;
   const nr = a / L, nz = R / L;  // the pitch cone's outward normal, radial and axial
-  const shape = new THREE.Shape();
-  for (let k = 0; k < n; ++k) {
-    const a0 = (2 * Math.PI * k) / n, da = (2 * Math.PI) / n;
-    const pts = [[R - depth / 2, a0], [R + depth / 2, a0 + da * 0.25], [R + depth / 2, a0 + da * 0.5], [R - depth / 2, a0 + da * 0.75]];
-    pts.forEach(([rr, t], i) => (k === 0 && i === 0 ? shape.moveTo(rr * Math.cos(t), rr * Math.sin(t)) : shape.lineTo(rr * Math.cos(t), rr * Math.sin(t))));
-  }
-  shape.closePath();
-  const geo = new THREE.ExtrudeGeometry(shape, { depth: 1, bevelEnabled: false });
+  const geo = new THREE.ExtrudeGeometry(toothedShape(R - depth / 2, R + depth / 2, n), { depth: 1, bevelEnabled: false });
   // (x, y, v), v from 0 (heel) to 1 (toe): the pitch point at s = 1 - f v of the heel's, moved by
   // the profile's height h above the pitch circle along the normal (the map keeps the faces' sense).
   const p = geo.attributes.position;
