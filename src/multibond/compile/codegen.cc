@@ -57,12 +57,12 @@ std::string CompiledModel::WrapSource(const std::string& body, bool with_fast) c
   // Two functions from one body: multibond_rhs writes every slot into the caller's workspace
   // (for outputs); multibond_rhs_fast keeps the slots in a local array that the compiler turns
   // into registers, for the integrator, which needs only xdot.
-  std::string o = UnitHeader(graph_.name(), !programs_.empty()) + RhsFunction("multibond_rhs", body);
+  std::string o = UnitHeader(graph_.name(), !plan_.programs.empty()) + RhsFunction("multibond_rhs", body);
   if (!with_fast) return o;
   o += "extern \"C\" void multibond_rhs_fast(double t, const double* __restrict x, double* __restrict xdot,\n"
        "                                   const double* __restrict mod, const MbSources* src) {\n";
   o += fmt::format("  (void)t; (void)mod; (void)src;\n  const double* __restrict val = src->values;\n  (void)val;\n  double w[{}];\n",
-                   std::max(num_slots_, 1)) +
+                   std::max(slots_.num_slots, 1)) +
        body + "}\n";
   return o;
 }
@@ -87,7 +87,7 @@ CompiledModel::GeneratedUnits CompiledModel::GenerateUnits(std::size_t unit_char
   }
   // Each unit: its functions (GCC compiles many short functions much faster than one long one)
   // and multibond_part, which calls them in order.
-  const std::string header = UnitHeader(graph_.name(), !programs_.empty());
+  const std::string header = UnitHeader(graph_.name(), !plan_.programs.empty());
   for (const std::vector<std::string>& functions : units) {
     std::string o = header, calls;
     for (size_t f = 0; f < functions.size(); ++f) {
@@ -104,7 +104,7 @@ void CompiledModel::EmitStateKernel(const Instr& in, const std::function<std::st
                                     const std::function<std::string(int)>& dst, std::string& o) const {
   const plan::EmitStateFn emit = plan::Traits(in.op).emit_state;
   MB_ASSERT(emit != nullptr, "a state kernel for an instruction that does not read a state");
-  emit(in, coef_.data(), src, dst, o);
+  emit(in, plan_.coef.data(), src, dst, o);
 }
 
 void CompiledModel::EmitInstr(const Instr& in, std::string& o, std::set<std::string>& levers_done, const CodeNames& names) const {
@@ -202,10 +202,10 @@ std::vector<std::vector<std::string>> CompiledModel::GenerateBodies(std::size_t 
     EmitGather(layout_.gathers()[k], gathers[k], &gather_reads[k]);
     total += gathers[k].size();
   }
-  std::vector<std::string> pieces(plan_.size() + 1);
+  std::vector<std::string> pieces(plan_.instrs.size() + 1);
   std::set<std::string> levers_done;
   const size_t numbers = code::value_table ? code::value_table->size() : 0;
-  for (size_t i = 0; i < plan_.size(); ++i) EmitInstr(plan_[i], pieces[i + 1], levers_done);
+  for (size_t i = 0; i < plan_.instrs.size(); ++i) EmitInstr(plan_.instrs[i], pieces[i + 1], levers_done);
   for (const std::string& piece : pieces) total += piece.size();
   std::vector<int> unit_of(pieces.size(), 0), function_of(pieces.size(), 0);
   if (total > std::min(unit_chars, kOneFunctionChars)) {
@@ -213,7 +213,7 @@ std::vector<std::vector<std::string>> CompiledModel::GenerateBodies(std::size_t 
     if (code::value_table) code::value_table->resize(numbers);  // written again below
     levers_done.clear();
     std::size_t unit_size = 0, function_size = 0;
-    for (size_t i = 0; i < plan_.size(); ++i) {
+    for (size_t i = 0; i < plan_.instrs.size(); ++i) {
       unit_of[i + 1] = unit_of[i];
       function_of[i + 1] = function_of[i];
       if (unit_size >= unit_chars) {
@@ -226,7 +226,7 @@ std::vector<std::vector<std::string>> CompiledModel::GenerateBodies(std::size_t 
         function_size = 0;
         levers_done.clear();
       }
-      EmitInstr(plan_[i], pieces[i + 1], levers_done);
+      EmitInstr(plan_.instrs[i], pieces[i + 1], levers_done);
       unit_size += pieces[i + 1].size();
       function_size += pieces[i + 1].size();
     }
@@ -234,7 +234,7 @@ std::vector<std::vector<std::string>> CompiledModel::GenerateBodies(std::size_t 
   // Which piece writes each slot: "w[k] = " at the start of one of its lines (the plan writes
   // each slot once; were it written twice, the last writer would count).
   const int num_pieces = static_cast<int>(pieces.size());
-  std::vector<int> written_by(std::max(num_slots_, 1), -1);
+  std::vector<int> written_by(std::max(slots_.num_slots, 1), -1);
   for (int p = 1; p < num_pieces; ++p) {
     const std::string& piece = pieces[p];
     for (size_t pos = 0; pos < piece.size();) {
@@ -288,10 +288,10 @@ std::string CompiledModel::GenerateColumnsSource() const {
       const int col = cg.lambda + k;
       line(fmt::format("{{  // {} [{}]", CommentText(cg.name), k));
       for (int st : cg.starts)
-        for (int j = 0; j < cg.size; ++j) line(fmt::format("w[{}] = {};", plan_[st].dst + j, j == k ? "1.0" : "0.0"));
+        for (int j = 0; j < cg.size; ++j) line(fmt::format("w[{}] = {};", plan_.instrs[st].dst + j, j == k ? "1.0" : "0.0"));
       std::set<std::string> levers_done;
       for (int q : cg.closure) {
-        const Instr& in = plan_[q];
+        const Instr& in = plan_.instrs[q];
         if (in.op != Op::kExpr) {
           EmitInstr(in, o, levers_done);
           continue;
@@ -309,14 +309,14 @@ std::string CompiledModel::GenerateColumnsSource() const {
           line(fmt::format("b[{}] = {};", off + r, gt.sign == 1.0 ? e : gt.sign == -1.0 ? "-" + e : Num(gt.sign) + " * " + e));
         }
         // v = M^-1 b with the I's flow instruction (StateKernel in compiled_model.cc).
-        EmitStateKernel(plan_[constraints_.flow_instr_of_block()[gi]], [&](int k) { return fmt::format("b[{}]", off + k); },
+        EmitStateKernel(plan_.instrs[constraints_.flow_instr_of_block()[gi]], [&](int k) { return fmt::format("b[{}]", off + k); },
                         [&](int k) { return fmt::format("v[{}]", off + k); }, o);
         off += gt.size;
       }
       for (int q : cg.closure)
-        for (int r = 0; r < plan_[q].n; ++r) line(fmt::format("w[{}] = 0.0;", plan_[q].dst + r));
+        for (int r = 0; r < plan_.instrs[q].n; ++r) line(fmt::format("w[{}] = 0.0;", plan_.instrs[q].dst + r));
       for (int st : cg.starts)
-        for (int j = 0; j < cg.size; ++j) line(fmt::format("w[{}] = 0.0;", plan_[st].dst + j));
+        for (int j = 0; j < cg.size; ++j) line(fmt::format("w[{}] = 0.0;", plan_.instrs[st].dst + j));
       line("}");
     }
     o += "}\n";
@@ -337,9 +337,9 @@ std::string CompiledModel::GenerateTangentSource() const {
   o += "extern \"C\" void multibond_tangent(double t, const double* __restrict x, const double* __restrict xd,\n"
        "    const double* __restrict w, double* __restrict d, const double* __restrict mod, const double* __restrict dmod,\n"
        "    const MbSources* src) {\n";
-  o += fmt::format("  (void)t; (void)x; (void)xd; (void)w; (void)mod; (void)dmod; (void)src;\n  double tmp[{}];\n", std::max(num_slots_, 1));
+  o += fmt::format("  (void)t; (void)x; (void)xd; (void)w; (void)mod; (void)dmod; (void)src;\n  double tmp[{}];\n", std::max(slots_.num_slots, 1));
   auto line = [&](const std::string& s) { o += "  " + s + "\n"; };
-  const double* c = coef_.data();
+  const double* c = plan_.coef.data();
   std::set<std::string> levers_done;
   const CodeNames same{"x", "d", "d", "mod", false};       // K(R) du
   const CodeNames rate{"xd", "w", "tmp", "mod", false};    // K(dR) u
@@ -348,11 +348,11 @@ std::string CompiledModel::GenerateTangentSource() const {
     for (int k = 0; k < in.n; ++k) line(fmt::format("d[{}] += tmp[{}];", in.dst + k, in.dst + k));
   };
   for (int index : constraints_.tangent_plan()) {
-    const Instr& in = plan_[index];
+    const Instr& in = plan_.instrs[index];
     switch (plan::Traits(in.op).tangent) {
       case plan::Tangent::kSourceRate:
         for (int k = 0; k < in.n; ++k) {
-          const TimeFunction& f = source_fns_[in.coef + k];
+          const TimeFunction& f = plan_.source_fns[in.coef + k];
           const bool zero = f.kind == TimeFunction::Kind::kConstant || f.kind == TimeFunction::Kind::kStep;
           line(fmt::format("d[{}] = {};", in.dst + k, zero ? std::string("0.0") : fmt::format("src->deriv(src->fns, {}, t)", in.coef + k)));
         }
@@ -406,7 +406,7 @@ std::string CompiledModel::GenerateTangentSource() const {
           add_tmp(in);
         } else {
           // y = M^-1 u (mode 2) or M^-T u (mode 3): dy = M^-1 (du - dM y) (or transposed).
-          const ModulusEval& me = moduli_[in.modulus];
+          const ModulusEval& me = plan_.moduli[in.modulus];
           line("{");
           for (int r = 0; r < in.m; ++r) {
             std::string e = fmt::format("d[{}]", in.src + r);
@@ -450,7 +450,7 @@ std::string CompiledModel::GenerateReactSource() const {
   std::set<std::string> levers_done;
   CodeNames names;
   names.multipliers = true;
-  for (int k : constraints_.reaction_plan()) EmitInstr(plan_[k], o, levers_done, names);
+  for (int k : constraints_.reaction_plan()) EmitInstr(plan_.instrs[k], o, levers_done, names);
   for (int gi : constraints_.reaction_gathers()) EmitGather(layout_.gathers()[gi], o);
   o += "}\n";
   return o;

@@ -28,24 +28,24 @@ void CompiledModel::Build() {
   PrepareConstraintGraph();  // structure, causality; ideal constraints become effort sources
   lap("causality");
   AssignSlots();             // slot classes, their names; the multipliers' offsets
-  layout_ = StateLayout({graph_, structure_, effort_class_, flow_class_, class_offset_, class_size_, class_units_,
-                         signal_class_, internal_class_, signal_state_units_, options_.energy_account});  // blocks, x0, gathers, names
+  layout_ = StateLayout({graph_, structure_, slots_.effort_class, slots_.flow_class, slots_.class_offset, slots_.class_size, slots_.class_units,
+                         slots_.signal_class, slots_.internal_class, slots_.signal_state_units, options_.energy_account});  // blocks, x0, gathers, names
   AnalyzeModulatedStorage();  // modulated_storage.cc: storage laws that read t, signals, other states
   energy_ = EnergyAccount({graph_, layout_, [this](int element, int state) {
                              return StoredEnergyFormula(element, state);  // formulas.cc
                            }});  // each I's and C's stored energy
   const std::vector<int> modulus_of = PlanModuli();
-  const PlanDeps deps = OrderPlan(EmitInstructions(modulus_of));  // plan_, tears_, tear_closure_
-  for (int at : tear_closure_) tear_nonlinear_ = tear_nonlinear_ || plan_[at].op == Op::kExpr || plan_[at].op == Op::kSolve;
+  const PlanDeps deps = OrderPlan(EmitInstructions(modulus_of));  // plan_.instrs, loops_.tears, loops_.closure
+  for (int at : loops_.closure) loops_.nonlinear = loops_.nonlinear || plan_.instrs[at].op == Op::kExpr || plan_.instrs[at].op == Op::kSolve;
   RefuseUnbookedModulation();  // modulated_storage.cc: after the order, so that a loop is reported as one
-  needed_moduli_ = plan::Specialize(plan_, coef_, sum_terms_, sum_signs_, moduli_);
-  if (!tears_.empty() && !constraints_.empty()) {
+  plan_.needed_moduli = plan::Specialize(plan_.instrs, plan_.coef, plan_.sum_terms, plan_.sum_signs, plan_.moduli);
+  if (!loops_.tears.empty() && !constraints_.empty()) {
     Diagnostic d;
     d.code = codes::kCausalityAlgebraicLoop;
-    d.where = graph_.element(algebraic_loops_.front().element).where;
-    d.element = graph_.element(algebraic_loops_.front().element).name;
+    d.where = graph_.element(loops_.loops.front().element).where;
+    d.element = graph_.element(loops_.loops.front().element).name;
     d.message = "algebraic loops are not solved in a model with ideal constraints (yet)";
-    for (const AlgebraicLoop& loop : algebraic_loops_) d.details.push_back("loop: " + loop.path);
+    for (const AlgebraicLoop& loop : loops_.loops) d.details.push_back("loop: " + loop.path);
     d.hint = "add a storage element in the loop, or use compliant joints";
     throw ModelError(d);
   }
@@ -59,7 +59,7 @@ void CompiledModel::Build() {
 std::string CompiledModel::GeneratedCodeRefusal() const {
   if (!constraints_.empty() && !constraints_.formulas_emittable())
     return "a resistor's law used backwards reaches the ideal constraints, which the generated code does not differentiate";
-  if (!tears_.empty()) return "algebraic loops are solved around the plan, which the generated code does not do";
+  if (!loops_.tears.empty()) return "algebraic loops are solved around the plan, which the generated code does not do";
   return "";
 }
 

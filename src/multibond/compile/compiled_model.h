@@ -26,10 +26,12 @@
 #include "multibond/causality/causality.h"
 #include "multibond/compile/constraint_solver.h"
 #include "multibond/compile/energy_account.h"
-#include "multibond/compile/kinks.h"
 #include "multibond/compile/operations.h"
+#include "multibond/compile/plan.h"
+#include "multibond/compile/slot_table.h"
 #include "multibond/compile/state_layout.h"
-#include "multibond/compile/switching.h"
+#include "multibond/compile/switch_set.h"
+#include "multibond/compile/torn_loops.h"
 #include "multibond/core/graph.h"
 #include "multibond/core/ode_system.h"
 #include "multibond/core/structure.h"
@@ -92,20 +94,6 @@ struct Workspace {
     double scale = 0.0;  ///< the largest |z| or |c(z)| solved in this run
     std::vector<double> d, tmp, dx, dmod;
   } tear;
-};
-
-/// One step of the plan, described symbolically for `multibond equations`.
-struct Definition {
-  enum class Kind { kSource, kMomentumFlow, kStiffnessEffort, kLinear, kSum, kFormula };
-  Kind kind;
-  int element;  ///< the element that computes it
-  struct Term {
-    int slot_class;  ///< input (kLinear, kSum)
-    double sign;
-    std::string coef;  ///< symbol of the coefficient ("" = 1)
-  };
-  std::vector<Term> terms;
-  std::string formula = {};  ///< kFormula: the formula as evaluated (core/expression.h Format)
 };
 
 class CompiledModel {
@@ -189,13 +177,18 @@ class CompiledModel {
   CompiledModel& operator=(const CompiledModel&) = delete;
 
   const BondGraph& graph() const { return graph_; }
+  // --- the parts, read-only (docs/design.md, "The compiled model's parts and passes") ---
+  const SlotTable& slot_table() const { return slots_; }
+  const plan::Plan& plan() const { return plan_; }
+  const TornLoops& torn_loops() const { return loops_; }
+  const SwitchSet& switch_set() const { return events_; }
   const Structure& structure() const { return structure_; }
   const CausalAssignment& causality() const { return causality_; }
   // --- the state layout (compile/state_layout.h) ---
   const std::vector<std::string>& state_names() const { return layout_.state_names(); }
   const std::vector<std::string>& state_units() const { return layout_.state_units(); }
   const std::vector<StateBlock>& state_blocks() const { return layout_.blocks(); }
-  int num_instructions() const { return static_cast<int>(plan_.size()); }
+  int num_instructions() const { return static_cast<int>(plan_.instrs.size()); }
   /// Which state derivatives can depend on which states, from the plan (an instruction's outputs
   /// depend on all its inputs, component by component for sums, copies and diagonal
   /// coefficients): the structure of the Jacobian, never missing an entry that the numbers can
@@ -210,18 +203,13 @@ class CompiledModel {
   const std::vector<std::pair<std::string, double>>& compile_seconds() const { return compile_seconds_; }
   /// The algebraic loops solved at every evaluation (CompileOptions::solve_algebraic_loops): each
   /// by its elements and the variable it is torn at, the unknown of its linear system.
-  struct AlgebraicLoop {
-    std::string path;  ///< "R1 -> n0 -> R2 -> ..."
-    std::string torn;  ///< the slot class solved for, "n0.e"
-    int element = -1;     ///< the loop's first element (index in graph())
-    int slot_class = -1;  ///< of the torn variable
-  };
-  const std::vector<AlgebraicLoop>& algebraic_loops() const { return algebraic_loops_; }
+  using AlgebraicLoop = TornLoops::Loop;
+  const std::vector<AlgebraicLoop>& algebraic_loops() const { return loops_.loops; }
   /// How many of the plan's instructions depend on the loops' unknowns: each evaluation runs the
   /// plan once and these once more per unknown, plus once.
-  int num_loop_instructions() const { return static_cast<int>(tear_closure_.size()); }
+  int num_loop_instructions() const { return static_cast<int>(loops_.closure.size()); }
   /// A solved loop runs through a formula: each evaluation solves it by Newton's method.
-  bool has_nonlinear_loops() const { return tear_nonlinear_; }
+  bool has_nonlinear_loops() const { return loops_.nonlinear; }
 
   /// Looks up "<element>.e|f|e1|f1|e2|f2|p|q" or an auxiliary state's name (StateLayout::FindVariable).
   std::optional<VariableRef> FindVariable(const std::string& name) const { return layout_.FindVariable(name); }
@@ -231,7 +219,7 @@ class CompiledModel {
   }
 
   // --- formulas (compile/formulas.cc) ---
-  bool has_formulas() const { return !programs_.empty(); }
+  bool has_formulas() const { return !plan_.programs.empty(); }
   /// Evaluates the plan at (t, x) with the interpreter and names the first formula whose value is
   /// not finite although what it reads is: "the formula of spring (effort law) `k/q` gives inf at
   /// t = 1.5 s (reads spring.q = 0)". Empty if none (the cause is elsewhere). Allocates: for the
@@ -242,16 +230,16 @@ class CompiledModel {
   std::string FindActiveResistor(const Workspace& ws) const;
 
   // --- switching elements and events (compile/switching.cc; docs/events.md) ---
-  const SwitchTable& switches() const { return switches_; }
+  const SwitchTable& switches() const { return events_.switches; }
   /// The event functions: the switching elements' (SwitchTable::Roots, 2 per element, events
   /// where they cross downwards), then the switching functions of formulas that are not of time
   /// alone (KinkTable::Roots, events where they cross either way).
-  int num_event_functions() const { return switches_.num_roots() + kinks_.num_roots(); }
-  int num_switch_event_functions() const { return switches_.num_roots(); }
+  int num_event_functions() const { return events_.switches.num_roots() + events_.kinks.num_roots(); }
+  int num_switch_event_functions() const { return events_.switches.num_roots(); }
   /// Their values at (t, x) in the modes of `ws` (an evaluation fills ws).
   void CalcEventFunctions(double t, const double* x, Workspace& ws, double* g) const;
   /// The kinks and switches of formulas (compile/kinks.h; docs/events.md).
-  const KinkTable& kinks() const { return kinks_; }
+  const KinkTable& kinks() const { return events_.kinks; }
   /// The kinks whose switching function is zero (within 1e-12) at (t, x), each described (the
   /// formula, where it is, the switching function): an operating point on a kink, where a
   /// tangent is the mean of the one-sided slopes. Evaluates ws at (t, x); allocates.
@@ -333,12 +321,12 @@ class CompiledModel {
   bool has_energy_account() const { return options_.energy_account; }
 
   // --- symbolic view of the plan, for `multibond equations` ---
-  int slot_class_of_effort(int bond) const { return effort_class_[bond]; }
-  int slot_class_of_flow(int bond) const { return flow_class_[bond]; }
-  int num_slot_classes() const { return static_cast<int>(class_offset_.size()); }
-  const Definition& definition(int slot_class) const { return definitions_[slot_class]; }
+  int slot_class_of_effort(int bond) const { return slots_.effort_class[bond]; }
+  int slot_class_of_flow(int bond) const { return slots_.flow_class[bond]; }
+  int num_slot_classes() const { return static_cast<int>(slots_.class_offset.size()); }
+  const Definition& definition(int slot_class) const { return plan_.definitions[slot_class]; }
   /// A readable name for a slot class: "j.f", "spring.e", "gear.f2".
-  const std::string& slot_class_name(int slot_class) const { return class_names_[slot_class]; }
+  const std::string& slot_class_name(int slot_class) const { return slots_.class_names[slot_class]; }
   /// The slot class each state block's derivative reads (e for I, f for C and integrals).
   int derivative_source(const StateBlock& b) const { return layout_.derivative_source(b); }
   double derivative_sign(const StateBlock& b) const { return layout_.derivative_sign(b); }
@@ -350,18 +338,18 @@ class CompiledModel {
   /// Slot classes: the efforts and flows that share a workspace slot (0- and 1-junctions,
   /// identity transformers), their offsets, sizes, units and names; the multipliers' offsets.
   void AssignSlots();
-  /// The moduli of the MTF and MGY; returns per element its index in moduli_ or -1 (plan_builder.cc).
+  /// The moduli of the MTF and MGY; returns per element its index in plan_.moduli or -1 (plan_builder.cc).
   std::vector<int> PlanModuli();
   /// One instruction per computed slot class, unordered, with the classes each reads and the
-  /// instruction that writes each class (plan_builder.cc); fills definitions_.
+  /// instruction that writes each class (plan_builder.cc); fills plan_.definitions.
   struct Draft {
     std::vector<plan::Instr> instrs;
     std::vector<std::vector<int>> reads;
     std::vector<int> writer;
   };
   Draft EmitInstructions(const std::vector<int>& modulus_of);
-  /// Orders a draft by the causal dependencies into plan_ (throws on an algebraic loop, or tears
-  /// it with solve_algebraic_loops: tears_, tear_closure_, algebraic_loops_). Returns per plan
+  /// Orders a draft by the causal dependencies into plan_.instrs (throws on an algebraic loop, or tears
+  /// it with solve_algebraic_loops: loops_.tears, loops_.closure, loops_.loops). Returns per plan
   /// instruction the slot classes it reads and the one it writes (plan_builder.cc).
   struct PlanDeps {
     std::vector<std::vector<int>> reads;
@@ -384,10 +372,10 @@ class CompiledModel {
     std::string what;  ///< "the effort law of spring"
   };
   /// Compiles a tree (own names already substituted) into a program reading what the resolver
-  /// of formulas' names finds; CompileFormula appends it to programs_ and returns its index.
+  /// of formulas' names finds; CompileFormula appends it to plan_.programs and returns its index.
   expr::Program CompileFormulaProgram(const expr::NodePtr& root, const FormulaScope& scope) const;
   int CompileFormula(const expr::NodePtr& root, const FormulaScope& scope);
-  /// The switching functions of the tree's kinks into kinks_ (compile/kinks.h); returns the tree
+  /// The switching functions of the tree's kinks into events_.kinks (compile/kinks.h); returns the tree
   /// to compile, its `sign`s of the state reading their slide slots (compile/sliding.cc).
   expr::NodePtr CollectKinks(const expr::NodePtr& root, const FormulaScope& scope);
   /// A name of the engine's trees ("#x3", "#w12") as the variable it is, for messages.
@@ -436,7 +424,6 @@ class CompiledModel {
   /// Throws the first refusal of modulation_ (after OrderPlan, which reports algebraic loops).
   void RefuseUnbookedModulation() const;
   std::unordered_map<int, Modulation> modulation_;  ///< per modulated C or I
-  std::unordered_map<int, int> modulation_class_;   ///< modulated C or I -> the slot class of its power
 
   // The plan's data and its operation table (operations.h).
   using Op = plan::Op;
@@ -460,9 +447,7 @@ class CompiledModel {
   /// One state block's derivative's derivative along dx, from the slots w and their derivatives d.
   static void TangentGather(const Gather& gt, const double* x, const double* dx, const double* w, const double* d, double* dxdot);
   /// The tables the plan's instructions refer to (coefficients, sum terms, source functions).
-  plan::Tables tables() const {
-    return {coef_.data(), sum_terms_.data(), sum_signs_.data(), source_fns_.data(), programs_.data()};
-  }
+  plan::Tables tables() const { return plan_.tables(); }
   /// One instruction of the plan (the operation table's interpreter kernel): reads slots from
   /// `win`, writes its output slot in `wout` (the same array in the plain pass).
   void Exec(const Instr& in, double t, const double* x, const double* win, double* wout, const double* mod,
@@ -491,36 +476,15 @@ class CompiledModel {
   CompileOptions options_;
   Structure structure_;
   CausalAssignment causality_;
+  SlotTable slots_;  ///< the slot classes (compile/slot_table.h)
+  plan::Plan plan_;  ///< the instructions and their tables (compile/plan.h)
 
-  std::vector<int> effort_class_, flow_class_;  ///< per bond
-  std::vector<int> class_offset_, class_size_;
-  std::vector<std::string> class_names_, class_units_;
-  std::vector<Definition> definitions_;
-  int num_slots_ = 0;
-  int num_moduli_ = 0;
-
-  std::vector<Instr> plan_;
-  std::vector<double> coef_;
-  std::vector<int> sum_terms_;      ///< kSum: workspace offsets of the terms
-  std::vector<double> sum_signs_;  ///< kSum: their signs (parallel to sum_terms_)
-  std::vector<ModulusEval> moduli_;
-  std::vector<int> needed_moduli_;  ///< indices of moduli_ that EvalModuli must compute
-  std::vector<TimeFunction> source_fns_;
   std::vector<std::pair<std::string, double>> compile_seconds_;
   mutable std::once_flag jacobian_once_;
   mutable JacobianPattern jacobian_pattern_;
-  /// Algebraic loops torn (solve_algebraic_loops): per torn variable, its slot (which holds the
-  /// unknown), its size and the slot its writer writes to instead (beyond the classes' slots).
-  struct Tear {
-    int slot, size, shadow;
-  };
-  std::vector<Tear> tears_;
-  int num_tear_ = 0;
-  std::vector<int> tear_closure_;  ///< plan indices that depend on an unknown, in order
-  std::vector<AlgebraicLoop> algebraic_loops_;
-  /// A torn variable's closure runs through a formula (kExpr, kSolve): the loop is nonlinear, and
-  /// EvalTorn solves it by Newton's method instead of one linear solve.
-  bool tear_nonlinear_ = false;
+  /// Algebraic loops torn (solve_algebraic_loops; compile/torn_loops.h).
+  using Tear = TornLoops::Tear;
+  TornLoops loops_;
   /// The plan with the torn variables solved for (EvalPlan on a model with algebraic loops).
   void EvalTorn(double t, const double* x, Workspace& ws) const;
 
@@ -564,9 +528,6 @@ class CompiledModel {
   void PrescribeSwitches(double t, Workspace& ws) const;
   double ConstraintRate(double t, const double* x, Workspace& ws, int lambda) const;
   double StoredEnergyTotal(const double* x) const;
-  SwitchTable switches_;
-  KinkTable kinks_;
-  std::vector<int> slides_;  ///< the kinks that may slide (a sign of the state), by index in kinks_
   /// Sliding (compile/sliding.cc): whether some sign slides in `ws`; the slide slots of one;
   /// the rates of switching functions along the motion; the equivalent values of those that
   /// slide, into their slots.
@@ -581,6 +542,7 @@ class CompiledModel {
   /// locked at -1).
   std::pair<double, double> RatesEitherSide(double t, const double* x, Workspace& ws, int kink) const;
   void SolveSliding(double t, const double* x, Workspace& ws) const;
+  SwitchSet events_;  ///< switching elements, kinks and sliding signs (compile/switch_set.h)
 
   /// Ideal constraints: their declarations, tables and solver (compile/constraint_solver.h);
   /// empty without constraints. Its generated code (GenerateCode) is its own.
@@ -592,20 +554,11 @@ class CompiledModel {
   StateLayout layout_;
   /// Each I's and C's stored energy, the work and dissipation totals (compile/energy_account.h).
   EnergyAccount energy_;
-  std::vector<expr::Program> programs_;  ///< the formulas' programs (kExpr, kSolve)
   struct Passive {
     int element, effort, flow;  ///< effort and flow slots of its bond
     double sigma;
   };
   std::vector<Passive> passive_;  ///< resistors given by formulas that must not deliver power
-  std::unordered_map<std::string, int> signal_class_;  ///< signal name ("u", "pid.u") -> its slot class
-  /// The signal states' units found from their formulas (AssignSignalSlots): a PID's "pid.i"
-  /// (its input's times s) and "pid.d" (its input's), a lag's (its input's), an integral of a rate
-  /// (the rate's times s) when the file gives none.
-  std::unordered_map<std::string, std::string> signal_state_units_;
-  std::unordered_map<std::string, int> internal_class_;  ///< the signal states' rates ("lag.rate") -> class
-  std::vector<int> class_of_slot_;  ///< per workspace slot: its class (formulas' dependencies), -1 for scratch
-  std::unordered_map<int, int> solve_slot_;  ///< resistor -> the scratch slot of its solved law's unknown
 };
 
 }  // namespace multibond

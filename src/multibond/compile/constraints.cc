@@ -142,13 +142,13 @@ void CompiledModel::PrepareConstraintGraph() {
 
 ConstraintSolver::PlanView CompiledModel::ConstraintPlan(const SourceTable* sources, const GeneratedCode* code) const {
   // The generated steps once the (background) compile has published them: the same bits.
-  return {plan_, tables(), moduli_, layout_.gathers(), &CompiledModel::EvalGather, sources, num_states(),
+  return {plan_.instrs, tables(), plan_.moduli, layout_.gathers(), &CompiledModel::EvalGather, sources, num_states(),
           code && code->has_constrained ? &code->constrained : nullptr};
 }
 
 void CompiledModel::BuildConstraints(const std::vector<std::vector<int>>& plan_reads, const std::vector<int>& plan_writes) {
-  constraints_.Build({graph_, plan_, plan_reads, plan_writes, layout_.blocks(), layout_.gathers(), class_offset_, class_size_,
-                      class_names_, flow_class_, effort_class_, num_slots_, programs_, layout_.state_names(), num_states()});
+  constraints_.Build({graph_, plan_.instrs, plan_reads, plan_writes, layout_.blocks(), layout_.gathers(), slots_.class_offset, slots_.class_size,
+                      slots_.class_names, slots_.flow_class, slots_.effort_class, slots_.num_slots, plan_.programs, layout_.state_names(), num_states()});
 }
 
 void CompiledModel::FindIndependentConstraints() {
@@ -170,7 +170,7 @@ void CompiledModel::CalcConstrained(double t, const double* x, double* xdot, Wor
   // (every modulus is linear in its orientation state: dM/dt is M evaluated at dR/dt).
   std::fill(ws.lambda.begin(), ws.lambda.end(), 0.0);
   EvalPlan(t, x, xdot, ws);
-  if (!needed_moduli_.empty()) EvalModuli(xdot, ws.con.dmoduli.data(), true);
+  if (!plan_.needed_moduli.empty()) EvalModuli(xdot, ws.con.dmoduli.data(), true);
   PrescribeSwitches(t, ws);  // the multipliers the switching elements' modes fix
   const GeneratedCode* code = Loaded(ws);
   const SourceTable sources = Sources(code ? code->values : nullptr);

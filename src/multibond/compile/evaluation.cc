@@ -36,39 +36,39 @@ void CompiledModel::Project(double* x) const {
 Workspace CompiledModel::MakeWorkspace(const GeneratedRhs* code) const {
   Workspace ws;
   ws.code = code;
-  ws.slots.assign(num_slots_, 0.0);
-  ws.moduli.assign(num_moduli_, 0.0);
-  if (num_tear_ > 0) {
+  ws.slots.assign(slots_.num_slots, 0.0);
+  ws.moduli.assign(plan_.num_moduli, 0.0);
+  if (loops_.num_unknowns > 0) {
     Workspace::TearScratch& s = ws.tear;
-    s.a.setZero(num_tear_, num_tear_);
-    s.c0.setZero(num_tear_);
-    s.z.setZero(num_tear_);
-    s.lu = Eigen::PartialPivLU<Eigen::MatrixXd>(num_tear_);
-    if (tear_nonlinear_) {
-      s.last.setZero(num_tear_);
-      s.r.setZero(num_tear_);
-      s.dz.setZero(num_tear_);
-      s.trial.setZero(num_tear_);
+    s.a.setZero(loops_.num_unknowns, loops_.num_unknowns);
+    s.c0.setZero(loops_.num_unknowns);
+    s.z.setZero(loops_.num_unknowns);
+    s.lu = Eigen::PartialPivLU<Eigen::MatrixXd>(loops_.num_unknowns);
+    if (loops_.nonlinear) {
+      s.last.setZero(loops_.num_unknowns);
+      s.r.setZero(loops_.num_unknowns);
+      s.dz.setZero(loops_.num_unknowns);
+      s.trial.setZero(loops_.num_unknowns);
       s.d.assign(ws.slots.size(), 0.0);
       s.tmp.assign(ws.slots.size(), 0.0);
       s.dx.assign(static_cast<size_t>(num_states()), 0.0);
       s.dmod.assign(ws.moduli.size(), 0.0);
     }
   }
-  if (!constraints_.empty()) constraints_.SizeScratch(ws, num_slots_, num_moduli_, num_states());
-  ws.modes.assign(switches_.size(), SwitchTable::kOpen);
-  if (kinks_.num_roots() > 0) ws.event_xdot.assign(num_states(), 0.0);
-  ws.kink_modes.assign(slides_.size(), Workspace::kFree);
-  for (const int k : slides_) SetSlide(ws, k, Workspace::kFree, 0.0);
-  if (!slides_.empty()) {
+  if (!constraints_.empty()) constraints_.SizeScratch(ws, slots_.num_slots, plan_.num_moduli, num_states());
+  ws.modes.assign(events_.switches.size(), SwitchTable::kOpen);
+  if (events_.kinks.num_roots() > 0) ws.event_xdot.assign(num_states(), 0.0);
+  ws.kink_modes.assign(events_.slides.size(), Workspace::kFree);
+  for (const int k : events_.slides) SetSlide(ws, k, Workspace::kFree, 0.0);
+  if (!events_.slides.empty()) {
     Workspace::SlideScratch& s = ws.slide;
     s.xdot.assign(num_states(), 0.0);
     s.rate.assign(num_states(), 0.0);
     s.d_slots.assign(ws.slots.size(), 0.0);
     s.d_moduli.assign(ws.moduli.size(), 0.0);
     s.tmp.assign(ws.slots.size(), 0.0);
-    s.active.reserve(slides_.size());
-    const auto m = static_cast<Eigen::Index>(slides_.size());
+    s.active.reserve(events_.slides.size());
+    const auto m = static_cast<Eigen::Index>(events_.slides.size());
     s.r0.setZero(m);
     s.r1.setZero(m);
     s.sigma.setZero(m);
@@ -78,8 +78,8 @@ Workspace CompiledModel::MakeWorkspace(const GeneratedRhs* code) const {
 }
 
 void CompiledModel::EvalModuli(const double* x, double* out, bool derivative) const {
-  for (int index : needed_moduli_) {
-    const ModulusEval& me = moduli_[index];
+  for (int index : plan_.needed_moduli) {
+    const ModulusEval& me = plan_.moduli[index];
     if (derivative && me.kind == Modulus::Kind::kConstant) {
       std::fill(out + me.out, out + me.out + me.rows * me.cols, 0.0);
       continue;
@@ -101,15 +101,15 @@ void CompiledModel::EvalModuli(const double* x, double* out, bool derivative) co
       // The constant factor has the modulus' columns and as many rows as `left` has columns.
       if (me.left >= 0) {
         const int inner = me.constant_rows;
-        m.noalias() = me.scale * Eigen::Map<const RowMajor>(coef_.data() + me.left, me.rows, inner) *
-                      Eigen::Map<const RowMajor>(coef_.data() + me.constant, inner, me.cols);
+        m.noalias() = me.scale * Eigen::Map<const RowMajor>(plan_.coef.data() + me.left, me.rows, inner) *
+                      Eigen::Map<const RowMajor>(plan_.coef.data() + me.constant, inner, me.cols);
       } else {
-        m = me.scale * Eigen::Map<const RowMajor>(coef_.data() + me.constant, me.rows, me.cols);
+        m = me.scale * Eigen::Map<const RowMajor>(plan_.coef.data() + me.constant, me.rows, me.cols);
       }
     } else {
-      if (me.right >= 0) core = core * Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(coef_.data() + me.right);
+      if (me.right >= 0) core = core * Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(plan_.coef.data() + me.right);
       if (me.left >= 0)
-        m.noalias() = me.scale * Eigen::Map<const RowMajor>(coef_.data() + me.left, me.rows, 3) *
+        m.noalias() = me.scale * Eigen::Map<const RowMajor>(plan_.coef.data() + me.left, me.rows, 3) *
                       core.leftCols(me.cols);
       else
         m = me.scale * core.leftCols(me.cols);
@@ -134,7 +134,7 @@ double EvalSourceDerivative(const void* fns, int i, double t) { return static_ca
 }  // namespace
 
 CompiledModel::SourceTable CompiledModel::Sources(const double* values) const {
-  return {source_fns_.data(), &EvalSource, &EvalSourceDerivative, programs_.data(), &expr::SolveForIndexed, values,
+  return {plan_.source_fns.data(), &EvalSource, &EvalSourceDerivative, plan_.programs.data(), &expr::SolveForIndexed, values,
           &expr::RunTangentIndexed};
 }
 
@@ -147,11 +147,11 @@ void CompiledModel::CalcStateDerivatives(double t, const double* x, double* xdot
   }
   // Read once per evaluation: the code compiled in the background may arrive between two.
   const GeneratedCode* g = Loaded(ws);
-  if (!g || !slides_.empty()) {  // the fast code keeps its slots to itself: not the slide slots
+  if (!g || !events_.slides.empty()) {  // the fast code keeps its slots to itself: not the slide slots
     CalcDerivatives(t, x, xdot, ws);
     return;
   }
-  if (!needed_moduli_.empty()) EvalModuli(x, ws.moduli.data());
+  if (!plan_.needed_moduli.empty()) EvalModuli(x, ws.moduli.data());
   RunGenerated(*g, /*fast=*/true, t, x, xdot, ws);
 }
 
@@ -176,15 +176,15 @@ void CompiledModel::CalcDerivatives(double t, const double* x, double* xdot, Wor
     CalcConstrained(t, x, xdot, ws, /*share=*/true);
     return;
   }
-  if (!slides_.empty() && Sliding(ws)) SolveSliding(t, x, ws);
+  if (!events_.slides.empty() && Sliding(ws)) SolveSliding(t, x, ws);
   EvalPlan(t, x, xdot, ws);
 }
 
 void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace& ws) const {
   double* w = ws.slots.data();
   double* mod = ws.moduli.data();
-  if (!needed_moduli_.empty()) EvalModuli(x, mod);
-  if (!tears_.empty()) {
+  if (!plan_.needed_moduli.empty()) EvalModuli(x, mod);
+  if (!loops_.tears.empty()) {
     EvalTorn(t, x, ws);
     for (const Gather& gt : layout_.gathers()) EvalGather(gt, x, w, xdot);
     return;
@@ -194,7 +194,7 @@ void CompiledModel::EvalPlan(double t, const double* x, double* xdot, Workspace&
     return;
   }
   const plan::ExecArgs args{t, x, w, w, mod, ws.lambda.data(), tables()};
-  for (const Instr& in : plan_) plan::Exec(in, args);
+  for (const Instr& in : plan_.instrs) plan::Exec(in, args);
   for (const Gather& gt : layout_.gathers()) EvalGather(gt, x, w, xdot);
 }
 
@@ -204,10 +204,10 @@ void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
     Exec(in, t, x, w, w, ws.moduli.data(), ws.lambda.data());
   };
   auto run = [&] {
-    for (const Instr& in : plan_) exec(in);
+    for (const Instr& in : plan_.instrs) exec(in);
   };
   auto run_closure = [&] {  // what depends on the unknowns; every other slot keeps its value
-    for (int at : tear_closure_) exec(plan_[at]);
+    for (int at : loops_.closure) exec(plan_.instrs[at]);
   };
   // Every instruction is linear in the slots it reads, so what the torn variables' writers compute
   // is affine in the unknowns z: c(z) = c0 + A z. One pass of the plan at z = 0 and one of the
@@ -215,23 +215,23 @@ void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
   // closure with z makes every slot consistent.
   auto set_unknowns = [&](const double* z) {
     int k = 0;
-    for (const Tear& tr : tears_)
+    for (const Tear& tr : loops_.tears)
       for (int i = 0; i < tr.size; ++i) w[tr.slot + i] = z ? z[k++] : 0.0;
   };
   auto computed = [&](double* out) {
     int k = 0;
-    for (const Tear& tr : tears_)
+    for (const Tear& tr : loops_.tears)
       for (int i = 0; i < tr.size; ++i) out[k++] = w[tr.shadow + i];
   };
   Workspace::TearScratch& s = ws.tear;
-  if (tear_nonlinear_) {
+  if (loops_.nonlinear) {
     // A loop through a formula: Newton's method on r(z) = z - c(z), started from the last
     // evaluation's solution, with the exact Jacobian I - dc/dz (the closure's tangent pass along
     // each unknown) and a step halved while it does not lower |r|. Converged when |r| is below
     // 1e-10 of the unknowns' scale and the step below 1e-13 of it (the iteration then sits at
     // rounding, quadratically) or no step lowers |r| further, or when r is exactly 0.
     const plan::TangentArgs args{t, x, s.dx.data(), w, s.d.data(), s.tmp.data(), ws.moduli.data(), s.dmod.data(), ws.lambda.data(),
-                                 tables(), moduli_.data(), /*source_rate=*/false};
+                                 tables(), plan_.moduli.data(), /*source_rate=*/false};
     s.z = s.last;
     set_unknowns(s.z.data());
     run();
@@ -242,8 +242,8 @@ void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
     int iteration = 0;
     const char* why = "after 60 Newton iterations";
     for (; iteration < kMaxIterations && std::isfinite(norm) && norm > 0.0; ++iteration) {
-      TornJacobian(tears_, s.d, s.a, [&] {
-        for (int at : tear_closure_) plan::ExecTangent(plan_[at], args);
+      TornJacobian(loops_.tears, s.d, s.a, [&] {
+        for (int at : loops_.closure) plan::ExecTangent(plan_.instrs[at], args);
       });
       s.lu.compute(s.a);
       s.dz.noalias() = s.lu.solve(s.r);
@@ -278,10 +278,10 @@ void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
     }
     if (s.z.allFinite() && s.c0.allFinite() && iteration >= kMaxIterations) {
       std::string names;
-      for (const AlgebraicLoop& loop : algebraic_loops_) names += (names.empty() ? "" : "; ") + loop.path;
+      for (const AlgebraicLoop& loop : loops_.loops) names += (names.empty() ? "" : "; ") + loop.path;
       throw std::runtime_error(fmt::format("the nonlinear algebraic loop {} does not converge at t = {}: |z - c(z)| = {:.3g} for the "
                                            "torn {}, {} (the loop may have no solution there, or several)",
-                                           names, t, norm, algebraic_loops_.front().torn, why));
+                                           names, t, norm, loops_.loops.front().torn, why));
     }
     if (s.z.allFinite()) {
       s.last = s.z;  // the next evaluation's start
@@ -292,7 +292,7 @@ void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
   set_unknowns(nullptr);
   run();
   computed(s.c0.data());
-  for (int j = 0; j < num_tear_; ++j) {
+  for (int j = 0; j < loops_.num_unknowns; ++j) {
     // Probed at the scale of the unknown, so that c(probe) - c0 keeps its digits whatever the units.
     const double probe = std::max(1.0, std::abs(s.c0[j]));
     s.z.setZero();
@@ -313,7 +313,7 @@ void CompiledModel::EvalTorn(double t, const double* x, Workspace& ws) const {
     const auto pivots = s.lu.matrixLU().diagonal().cwiseAbs();
     if (!(pivots.minCoeff() > 1e-13 * std::max(1.0, pivots.maxCoeff()))) {
       std::string names;
-      for (const AlgebraicLoop& loop : algebraic_loops_) names += (names.empty() ? "" : ", ") + loop.torn;
+      for (const AlgebraicLoop& loop : loops_.loops) names += (names.empty() ? "" : ", ") + loop.torn;
       throw std::runtime_error(fmt::format("the algebraic loop through {} has no unique solution at t = {} (its "
                                            "linear system is singular: smallest pivot {:.3g})", names, t, pivots.minCoeff()));
     }

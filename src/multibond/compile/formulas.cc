@@ -58,32 +58,32 @@ bool CompiledModel::HasFormulas(const Element& e) {
 }
 
 int CompiledModel::AddSignalClass(const std::string& name, const std::string& unit, bool visible) {
-  const int c = static_cast<int>(class_offset_.size());
-  class_offset_.push_back(num_slots_);
-  class_size_.push_back(1);
-  class_units_.push_back(unit.empty() ? "-" : unit);
-  class_names_.push_back(name);
-  num_slots_ += 1;
-  (visible ? signal_class_ : internal_class_).emplace(name, c);
+  const int c = static_cast<int>(slots_.class_offset.size());
+  slots_.class_offset.push_back(slots_.num_slots);
+  slots_.class_size.push_back(1);
+  slots_.class_units.push_back(unit.empty() ? "-" : unit);
+  slots_.class_names.push_back(name);
+  slots_.num_slots += 1;
+  (visible ? slots_.signal_class : slots_.internal_class).emplace(name, c);
   return c;
 }
 
 std::string CompiledModel::FormulaUnitText(const Formula& f) const {
   if (!f.given()) return "";
   auto class_named = [&](const std::string& id) {
-    if (const auto it = signal_class_.find(id); it != signal_class_.end()) return it->second;
-    for (int c = 0; c < static_cast<int>(class_names_.size()); ++c)
-      if (class_names_[c] == id) return c;
+    if (const auto it = slots_.signal_class.find(id); it != slots_.signal_class.end()) return it->second;
+    for (int c = 0; c < static_cast<int>(slots_.class_names.size()); ++c)
+      if (slots_.class_names[c] == id) return c;
     return -1;
   };
   const FormulaUnits u = CheckFormulaUnits(
       *f.root, f.text,
       [&](const std::string& id) -> std::optional<DeclaredUnit> {
         const int c = class_named(id);
-        if (c < 0 || class_units_[c] == "-") return std::nullopt;
-        const std::optional<Unit> unit = ParseUnit(class_units_[c]);
+        if (c < 0 || slots_.class_units[c] == "-") return std::nullopt;
+        const std::optional<Unit> unit = ParseUnit(slots_.class_units[c]);
         if (!unit) return std::nullopt;
-        return DeclaredUnit{*unit, class_units_[c]};
+        return DeclaredUnit{*unit, slots_.class_units[c]};
       },
       [](const std::string&) { return std::optional<double>(); });
   if (u.mismatch || u.unit.kind != FormulaUnit::Kind::kUnit || !u.unit.scale_known) return "";
@@ -99,12 +99,12 @@ void CompiledModel::AssignSignalSlots() {
   for (const AuxState& a : g.aux_states()) {
     if (a.kind == AuxState::Kind::kPid) {
       const std::string e = FormulaUnitText(a.input);
-      if (!e.empty()) signal_state_units_[a.name + ".i"] = TimeIntegralUnit(e);
-      if (!e.empty()) signal_state_units_[a.name + ".d"] = e;
+      if (!e.empty()) slots_.signal_state_units[a.name + ".i"] = TimeIntegralUnit(e);
+      if (!e.empty()) slots_.signal_state_units[a.name + ".d"] = e;
     } else if (a.kind == AuxState::Kind::kLag) {
-      signal_state_units_[a.name] = a.unit.empty() ? FormulaUnitText(a.input) : a.unit;
+      slots_.signal_state_units[a.name] = a.unit.empty() ? FormulaUnitText(a.input) : a.unit;
     } else if (a.kind == AuxState::Kind::kIntegral && a.rate.given()) {
-      signal_state_units_[a.name] = a.unit.empty() ? TimeIntegralUnit(FormulaUnitText(a.rate)) : a.unit;
+      slots_.signal_state_units[a.name] = a.unit.empty() ? TimeIntegralUnit(FormulaUnitText(a.rate)) : a.unit;
     }
   }
   for (const AuxState& a : g.aux_states()) {
@@ -125,8 +125,8 @@ void CompiledModel::AssignSignalSlots() {
           const std::string& text = e.value.front().text;
           const std::size_t first = text.find_first_not_of(" \t"), last = text.find_last_not_of(" \t");
           if (first == std::string::npos || text.substr(first, last - first + 1) != a.name + ".u") continue;
-          const int c = (e.kind == ElementKind::kSe ? effort_class_ : flow_class_)[e.bonds.front()];
-          if (class_units_[c] != "-") unit = class_units_[c];
+          const int c = (e.kind == ElementKind::kSe ? slots_.effort_class : slots_.flow_class)[e.bonds.front()];
+          if (slots_.class_units[c] != "-") unit = slots_.class_units[c];
         }
         AddSignalClass(a.name + ".e", "", false);
         AddSignalClass(a.name + ".u_raw", unit, false);
@@ -145,11 +145,11 @@ void CompiledModel::AssignSignalSlots() {
     const Element& e = g.element(i);
     if (e.kind != ElementKind::kR || !HasFormulas(e)) continue;
     const bool effort_out = !causality_.EffortInto(g, e.bonds.front(), i);
-    if (!(effort_out ? e.law_effort : e.law_flow).given()) solve_slot_.emplace(i, num_slots_++);
+    if (!(effort_out ? e.law_effort : e.law_flow).given()) slots_.solve_slot.emplace(i, slots_.num_slots++);
   }
-  class_of_slot_.assign(num_slots_, -1);
+  slots_.class_of_slot.assign(slots_.num_slots, -1);
   for (int c = 0; c < num_slot_classes(); ++c)
-    for (int k = 0; k < class_size_[c]; ++k) class_of_slot_[class_offset_[c] + k] = c;
+    for (int k = 0; k < slots_.class_size[c]; ++k) slots_.class_of_slot[slots_.class_offset[c] + k] = c;
 }
 
 expr::Program CompiledModel::CompileFormulaProgram(const NodePtr& root, const FormulaScope& scope) const {
@@ -171,8 +171,8 @@ expr::Program CompiledModel::CompileFormulaProgram(const NodePtr& root, const Fo
     }
     if (name == "t") return {expr::Input::In::kTime, 0, 0.0};
     if (name == "pi") return {expr::Input::In::kConstant, 0, M_PI};
-    if (const auto it = signal_class_.find(name); it != signal_class_.end())
-      return {expr::Input::In::kSlot, class_offset_[it->second], 0.0};
+    if (const auto it = slots_.signal_class.find(name); it != slots_.signal_class.end())
+      return {expr::Input::In::kSlot, slots_.class_offset[it->second], 0.0};
     auto read = [&](const VariableRef& v, int k) {
       return expr::Input{v.in == VariableRef::In::kState ? expr::Input::In::kState : expr::Input::In::kSlot, v.offset + k, 0.0};
     };
@@ -201,15 +201,15 @@ expr::Program CompiledModel::CompileFormulaProgram(const NodePtr& root, const Fo
 }
 
 int CompiledModel::CompileFormula(const NodePtr& root, const FormulaScope& scope) {
-  programs_.push_back(CompileFormulaProgram(CollectKinks(root, scope), scope));
-  return static_cast<int>(programs_.size()) - 1;
+  plan_.programs.push_back(CompileFormulaProgram(CollectKinks(root, scope), scope));
+  return static_cast<int>(plan_.programs.size()) - 1;
 }
 
 std::string CompiledModel::InternalName(const std::string& internal) const {
   const int offset = std::stoi(internal.substr(2));
   if (internal[1] == 'x') return layout_.state_names()[offset];
-  const int c = class_of_slot_[offset];
-  return c >= 0 ? class_names_[c] : "u";  // the unknown of a resistor's law solved backwards
+  const int c = slots_.class_of_slot[offset];
+  return c >= 0 ? slots_.class_names[c] : "u";  // the unknown of a resistor's law solved backwards
 }
 
 NodePtr CompiledModel::CollectKinks(const NodePtr& root, const FormulaScope& scope) {
@@ -242,15 +242,15 @@ NodePtr CompiledModel::CollectKinks(const NodePtr& root, const FormulaScope& sco
       k.formula = formula;
       k.function = Readable(*g, name_of);
       k.program = CompileFormulaProgram(g, scope);
-      const int index = kinks_.Add(std::move(k));
-      if (index < 0 || n->fn != expr::Fn::kSign || kinks_.kinks()[static_cast<size_t>(index)].time_only) continue;
-      if (kinks_.kinks()[static_cast<size_t>(index)].slide_slot < 0) {
-        kinks_.SetSlideSlot(index, num_slots_, static_cast<int>(slides_.size()));
-        num_slots_ += 2;
-        class_of_slot_.resize(static_cast<size_t>(num_slots_), -1);
-        slides_.push_back(index);
+      const int index = events_.kinks.Add(std::move(k));
+      if (index < 0 || n->fn != expr::Fn::kSign || events_.kinks.kinks()[static_cast<size_t>(index)].time_only) continue;
+      if (events_.kinks.kinks()[static_cast<size_t>(index)].slide_slot < 0) {
+        events_.kinks.SetSlideSlot(index, slots_.num_slots, static_cast<int>(events_.slides.size()));
+        slots_.num_slots += 2;
+        slots_.class_of_slot.resize(static_cast<size_t>(slots_.num_slots), -1);
+        events_.slides.push_back(index);
       }
-      const int slot = kinks_.kinks()[static_cast<size_t>(index)].slide_slot;
+      const int slot = events_.kinks.kinks()[static_cast<size_t>(index)].slide_slot;
       out = expr::Binary(Node::Kind::kAdd, expr::Binary(Node::Kind::kMul, out, SlotRef(slot)), SlotRef(slot + 1));
     }
     return out;
@@ -268,8 +268,8 @@ CompiledModel::FormulaInstr CompiledModel::MakeFormulaInstr(int element, int out
   fi.in.coef = first;
   fi.out_class = out_class;
   for (int k = 0; k < n; ++k)
-    for (const expr::Input& put : programs_[first + k].inputs)
-      if (put.in == expr::Input::In::kSlot && class_of_slot_[put.offset] >= 0) fi.reads.push_back(class_of_slot_[put.offset]);
+    for (const expr::Input& put : plan_.programs[first + k].inputs)
+      if (put.in == expr::Input::In::kSlot && slots_.class_of_slot[put.offset] >= 0) fi.reads.push_back(slots_.class_of_slot[put.offset]);
   fi.def.kind = Definition::Kind::kFormula;
   fi.def.element = element;
   return fi;
@@ -283,14 +283,14 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
   auto name_of = [&](const std::string& internal) -> std::string {
     const int offset = std::stoi(internal.substr(2));
     if (internal[1] == 'x') return layout_.state_names()[offset];
-    return class_names_[class_of_slot_[offset]];
+    return slots_.class_names[slots_.class_of_slot[offset]];
   };
   // One program per output component, from `tree(k)`, into class `out_class`.
   // `shown`: how `multibond equations` writes it ("" = the compiled tree, parameters as numbers);
   // a formula used as written is shown as written, parameters by name.
   auto emit = [&](int out_class, int n, const std::function<NodePtr(int)>& tree, const Formula* f, const std::string& what,
                   std::string shown = {}) {
-    const int first = static_cast<int>(programs_.size());
+    const int first = static_cast<int>(plan_.programs.size());
     for (int k = 0; k < n; ++k) {
       const NodePtr t = tree(k);
       CompileFormula(t, FormulaScope{f, i, what});
@@ -315,7 +315,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
     case ElementKind::kSe:
     case ElementKind::kSf: {
       const int b = e.bonds.front();
-      const int cls = e.kind == ElementKind::kSe ? effort_class_[b] : flow_class_[b];
+      const int cls = e.kind == ElementKind::kSe ? slots_.effort_class[b] : slots_.flow_class[b];
       const std::string what = fmt::format("the {} of {}", e.kind == ElementKind::kSe ? "effort" : "flow", e.name);
       // A list may mix formulas and time functions: a constant is a number of the program; other
       // time functions (steps, ramps, tables) do not mix with formulas in one source.
@@ -351,7 +351,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
         const MultiportEnergy m = BuildMultiportEnergy(e, layout_.state_names(), state);
         const double sigma = inertia ? 1.0 : g.PowerSign(b, i);
         const std::vector<std::string> own = OwnVariables(e);
-        emit(inertia ? flow_class_[b] : effort_class_[b], e.dim, [&](int k) { return Signed(sigma, m.gradient[static_cast<size_t>(k)]); },
+        emit(inertia ? slots_.flow_class[b] : slots_.effort_class[b], e.dim, [&](int k) { return Signed(sigma, m.gradient[static_cast<size_t>(k)]); },
              &e.energy, fmt::format("the {} law of {}", inertia ? "flow" : "effort", e.name),
              fmt::format("{}grad({}) in ({} ... {})", sigma < 0 ? "-" : "", e.energy.text, own.front(), own.back()));
         break;
@@ -383,7 +383,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
       const std::string what = fmt::format("the {} law of {}", inertia ? "flow" : "effort", e.name);
       const std::string law_text = e.energy.given() ? fmt::format("d({})/d{}", e.energy.text, own) : given.text;
       const std::string shown = fmt::format("{}({} at {} = {})", sigma < 0 ? "-" : "", law_text, own, layout_.state_names()[state]);
-      emit(inertia ? flow_class_[b] : effort_class_[b], 1, [&](int) { return tree; }, &given, what, shown);
+      emit(inertia ? slots_.flow_class[b] : slots_.effort_class[b], 1, [&](int) { return tree; }, &given, what, shown);
       if (std::optional<FormulaInstr> power = ModulationPowerInstr(i, state, given)) out.push_back(std::move(*power));
       break;
     }
@@ -397,21 +397,21 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
       const Formula& inverse = effort_out ? e.law_flow : e.law_effort;
       const Formula& law = direct.given() ? direct : inverse;
       scalar_only(b, law);
-      if (!e.active) passive_.push_back({i, class_offset_[effort_class_[b]], class_offset_[flow_class_[b]], sigma});
+      if (!e.active) passive_.push_back({i, slots_.class_offset[slots_.effort_class[b]], slots_.class_offset[slots_.flow_class[b]], sigma});
       // The resistor sees the effort sigma e and the flow f (graph.h's sign rules).
-      const int e_slot = class_offset_[effort_class_[b]], f_slot = class_offset_[flow_class_[b]];
+      const int e_slot = slots_.class_offset[slots_.effort_class[b]], f_slot = slots_.class_offset[slots_.flow_class[b]];
       if (direct.given() && effort_out) {
         const NodePtr tree = Signed(sigma, Replace(law.root, "f", SlotRef(f_slot)));
-        emit(effort_class_[b], 1, [&](int) { return tree; }, &law, "the effort law of " + e.name,
+        emit(slots_.effort_class[b], 1, [&](int) { return tree; }, &law, "the effort law of " + e.name,
              fmt::format("{}({} at f = {})", sigma < 0 ? "-" : "", law.text, name_of("#w" + std::to_string(f_slot))));
       } else if (direct.given()) {
         const NodePtr tree = Replace(law.root, "e", Signed(sigma, SlotRef(e_slot)));
-        emit(flow_class_[b], 1, [&](int) { return tree; }, &law, "the flow law of " + e.name,
+        emit(slots_.flow_class[b], 1, [&](int) { return tree; }, &law, "the flow law of " + e.name,
              fmt::format("({} at e = {}{})", law.text, sigma < 0 ? "-" : "", name_of("#w" + std::to_string(e_slot))));
       } else {
         // effort out: g(u) = f, e = sigma u; flow out: r(u) = sigma e, f = u.
         const char* own = effort_out ? "e" : "f";
-        const int unknown = solve_slot_.at(i);
+        const int unknown = slots_.solve_slot.at(i);
         const FormulaScope scope{&law, i, fmt::format("the {} law of {}", effort_out ? "flow" : "effort", e.name)};
         FormulaInstr fi;
         fi.in = Instr{};
@@ -425,10 +425,10 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
         fi.in.src = effort_out ? f_slot : e_slot;
         fi.in.transpose = !effort_out && sigma < 0;
         fi.in.scale = effort_out ? sigma : 1.0;
-        fi.out_class = effort_out ? effort_class_[b] : flow_class_[b];
-        fi.reads.push_back(effort_out ? flow_class_[b] : effort_class_[b]);
-        for (const expr::Input& put : programs_[fi.in.coef].inputs)
-          if (put.in == expr::Input::In::kSlot && class_of_slot_[put.offset] >= 0) fi.reads.push_back(class_of_slot_[put.offset]);
+        fi.out_class = effort_out ? slots_.effort_class[b] : slots_.flow_class[b];
+        fi.reads.push_back(effort_out ? slots_.flow_class[b] : slots_.effort_class[b]);
+        for (const expr::Input& put : plan_.programs[fi.in.coef].inputs)
+          if (put.in == expr::Input::In::kSlot && slots_.class_of_slot[put.offset] >= 0) fi.reads.push_back(slots_.class_of_slot[put.offset]);
         fi.def.kind = Definition::Kind::kFormula;
         fi.def.element = i;
         fi.def.formula = fmt::format("{} solved from {} = {}", effort_out ? e.name + ".e" : e.name + ".f",
@@ -448,16 +448,16 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
       struct Eq { int out, in; };
       Eq eq[2];
       if (!gyrator) {
-        eq[0] = forward ? Eq{flow_class_[b2], flow_class_[b1]} : Eq{effort_class_[b2], effort_class_[b1]};
-        eq[1] = forward ? Eq{effort_class_[b1], effort_class_[b2]} : Eq{flow_class_[b1], flow_class_[b2]};
+        eq[0] = forward ? Eq{slots_.flow_class[b2], slots_.flow_class[b1]} : Eq{slots_.effort_class[b2], slots_.effort_class[b1]};
+        eq[1] = forward ? Eq{slots_.effort_class[b1], slots_.effort_class[b2]} : Eq{slots_.flow_class[b1], slots_.flow_class[b2]};
       } else {
-        eq[0] = forward ? Eq{effort_class_[b2], flow_class_[b1]} : Eq{flow_class_[b2], effort_class_[b1]};
-        eq[1] = forward ? Eq{effort_class_[b1], flow_class_[b2]} : Eq{flow_class_[b1], effort_class_[b2]};
+        eq[0] = forward ? Eq{slots_.effort_class[b2], slots_.flow_class[b1]} : Eq{slots_.flow_class[b2], slots_.effort_class[b1]};
+        eq[1] = forward ? Eq{slots_.effort_class[b1], slots_.flow_class[b2]} : Eq{slots_.flow_class[b1], slots_.effort_class[b2]};
       }
       for (const Eq& q : eq) {
-        const int n = class_size_[q.out];
+        const int n = slots_.class_size[q.out];
         emit(q.out, n, [&](int k) {
-          const NodePtr u = SlotRef(class_offset_[q.in] + k);
+          const NodePtr u = SlotRef(slots_.class_offset[q.in] + k);
           return forward ? expr::Binary(Node::Kind::kMul, r, u) : expr::Binary(Node::Kind::kDiv, u, r);
         }, &e.value.front(), "the ratio of " + e.name);
       }
@@ -485,11 +485,11 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
       struct Eq { int out, in; bool transpose; };
       Eq eq[2];
       if (!gyrator) {
-        eq[0] = forward ? Eq{flow_class_[b2], flow_class_[b1], false} : Eq{effort_class_[b2], effort_class_[b1], false};
-        eq[1] = forward ? Eq{effort_class_[b1], effort_class_[b2], true} : Eq{flow_class_[b1], flow_class_[b2], true};
+        eq[0] = forward ? Eq{slots_.flow_class[b2], slots_.flow_class[b1], false} : Eq{slots_.effort_class[b2], slots_.effort_class[b1], false};
+        eq[1] = forward ? Eq{slots_.effort_class[b1], slots_.effort_class[b2], true} : Eq{slots_.flow_class[b1], slots_.flow_class[b2], true};
       } else {
-        eq[0] = forward ? Eq{effort_class_[b2], flow_class_[b1], false} : Eq{flow_class_[b2], effort_class_[b1], false};
-        eq[1] = forward ? Eq{effort_class_[b1], flow_class_[b2], true} : Eq{flow_class_[b1], effort_class_[b2], true};
+        eq[0] = forward ? Eq{slots_.effort_class[b2], slots_.flow_class[b1], false} : Eq{slots_.flow_class[b2], slots_.effort_class[b1], false};
+        eq[1] = forward ? Eq{slots_.effort_class[b1], slots_.flow_class[b2], true} : Eq{slots_.flow_class[b1], slots_.effort_class[b2], true};
       }
       // Shown as "arm.M^T arm.e2, M = [[-L*sin(angle)], [L*cos(angle)]]".
       std::string matrix;
@@ -503,19 +503,19 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
       }
       matrix = "[" + matrix + "]" + (mod.scale != 1.0 ? fmt::format(" * {}", mod.scale) : "");
       for (const Eq& q : eq) {
-        const int n = class_size_[q.out];
+        const int n = slots_.class_size[q.out];
         const std::string shown = fmt::format("{}.M{} {}, M = {}", e.name, forward ? (q.transpose ? "^T" : "") : "^-1",
-                                              class_names_[q.in], matrix);
+                                              slots_.class_names[q.in], matrix);
         emit(q.out, n, [&](int k) -> NodePtr {
           if (!forward) {  // 1 x 1 (Modulus::invertible): u / M
-            return expr::Binary(Node::Kind::kDiv, SlotRef(class_offset_[q.in]), entry(0, 0));
+            return expr::Binary(Node::Kind::kDiv, SlotRef(slots_.class_offset[q.in]), entry(0, 0));
           }
           NodePtr sum;
           const int terms = q.transpose ? rows : cols;
           for (int j = 0; j < terms; ++j) {
             const NodePtr mij = q.transpose ? entry(j, k) : entry(k, j);
             if (!mij) continue;
-            const NodePtr term = expr::Binary(Node::Kind::kMul, mij, SlotRef(class_offset_[q.in] + j));
+            const NodePtr term = expr::Binary(Node::Kind::kMul, mij, SlotRef(slots_.class_offset[q.in] + j));
             sum = sum ? expr::Binary(Node::Kind::kAdd, sum, term) : term;
           }
           return sum ? sum : expr::Number(0.0);
@@ -538,11 +538,11 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::FormulaInstructions(int 
 std::vector<CompiledModel::FormulaInstr> CompiledModel::SignalInstructions() {
   const BondGraph& g = graph_;
   std::vector<FormulaInstr> out;
-  auto cls = [&](const std::string& name) { return internal_class_.at(name); };
+  auto cls = [&](const std::string& name) { return slots_.internal_class.at(name); };
   auto name_of = [&](const std::string& internal) -> std::string {
     const int offset = std::stoi(internal.substr(2));
     if (internal[1] == 'x') return layout_.state_names()[offset];
-    return class_names_[class_of_slot_[offset]];
+    return slots_.class_names[slots_.class_of_slot[offset]];
   };
   auto emit = [&](int out_class, const NodePtr& tree, const Formula* f, const std::string& what) {
     const int first = CompileFormula(tree, FormulaScope{f, -1, what});
@@ -552,7 +552,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::SignalInstructions() {
   };
   using K = Node::Kind;
   auto num = [](double v) { return expr::Number(v); };
-  for (const Signal& s : g.signals()) emit(signal_class_.at(s.name), s.value.root, &s.value, "the signal " + s.name);
+  for (const Signal& s : g.signals()) emit(slots_.signal_class.at(s.name), s.value.root, &s.value, "the signal " + s.name);
   for (size_t a = 0; a < g.aux_states().size(); ++a) {
     const AuxState& s = g.aux_states()[a];
     const StateBlock& blk = layout_.blocks()[layout_.aux_block(a)];
@@ -568,9 +568,9 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::SignalInstructions() {
       }
       case AuxState::Kind::kPid: {
         const AuxState::Pid& p = s.pid;
-        const int c_e = cls(s.name + ".e"), c_raw = cls(s.name + ".u_raw"), c_u = signal_class_.at(s.name + ".u");
+        const int c_e = cls(s.name + ".e"), c_raw = cls(s.name + ".u_raw"), c_u = slots_.signal_class.at(s.name + ".u");
         emit(c_e, s.input.root, &s.input, "the input of " + s.name);
-        const NodePtr e = SlotRef(class_offset_[c_e]);
+        const NodePtr e = SlotRef(slots_.class_offset[c_e]);
         NodePtr raw = expr::Binary(K::kAdd, expr::Binary(K::kMul, num(p.kp), e), expr::Binary(K::kMul, num(p.ki), self));
         NodePtr d_rate;
         if (p.kd > 0.0) {
@@ -579,7 +579,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::SignalInstructions() {
           raw = expr::Binary(K::kAdd, raw, expr::Binary(K::kMul, num(p.kd), d_rate));
         }
         emit(c_raw, raw, &s.input, "the controller " + s.name);
-        const NodePtr r = SlotRef(class_offset_[c_raw]);
+        const NodePtr r = SlotRef(slots_.class_offset[c_raw]);
         const bool lo = std::isfinite(p.u_min), hi = std::isfinite(p.u_max);
         const NodePtr u = lo && hi ? expr::Call(expr::Fn::kClamp, {r, num(p.u_min), num(p.u_max)})
                           : lo     ? expr::Call(expr::Fn::kMax, {r, num(p.u_min)})
@@ -590,7 +590,7 @@ std::vector<CompiledModel::FormulaInstr> CompiledModel::SignalInstructions() {
         // 1 / tt (Astrom and Hagglund); tt defaults to sqrt(Ti Td) = sqrt(kd / ki), else Ti = kp / ki.
         const double tt = p.tt > 0.0 ? p.tt : p.kd > 0.0 && p.ki > 0.0 ? std::sqrt(p.kd / p.ki) : p.ki > 0.0 && p.kp > 0.0 ? p.kp / p.ki : 1.0;
         const NodePtr i_rate =
-            p.ki > 0.0 ? expr::Binary(K::kAdd, e, expr::Binary(K::kDiv, expr::Binary(K::kSub, SlotRef(class_offset_[c_u]), r), num(p.ki * tt)))
+            p.ki > 0.0 ? expr::Binary(K::kAdd, e, expr::Binary(K::kDiv, expr::Binary(K::kSub, SlotRef(slots_.class_offset[c_u]), r), num(p.ki * tt)))
                        : num(0.0);
         emit(blk.rate_class, i_rate, &s.input, "the integral of " + s.name);
         if (p.kd > 0.0) emit(layout_.blocks()[layout_.aux_block(a) + 1].rate_class, d_rate, &s.input, "the derivative filter of " + s.name);
@@ -625,14 +625,14 @@ std::optional<EnergyAccount::FormulaEnergy> CompiledModel::StoredEnergyFormula(i
 
 std::string CompiledModel::DiagnoseFormulas(double t, const double* x, Workspace& ws) const {
   double* w = ws.slots.data();
-  if (!needed_moduli_.empty()) EvalModuli(x, ws.moduli.data());
+  if (!plan_.needed_moduli.empty()) EvalModuli(x, ws.moduli.data());
   const plan::ExecArgs args{t, x, w, w, ws.moduli.data(), ws.lambda.data(), tables()};
-  for (const Instr& in : plan_) {
+  for (const Instr& in : plan_.instrs) {
     plan::Exec(in, args);
     if (in.op != Op::kExpr && in.op != Op::kSolve) continue;
     for (int k = 0; k < in.n; ++k) {
       if (std::isfinite(w[in.dst + k])) continue;
-      const expr::Program& p = programs_[in.coef + k];
+      const expr::Program& p = plan_.programs[in.coef + k];
       std::string reads;
       bool inputs_finite = true;
       for (const expr::Input& put : p.inputs) {
@@ -641,15 +641,15 @@ std::string CompiledModel::DiagnoseFormulas(double t, const double* x, Workspace
         const double v = state ? x[put.offset] : w[put.offset];
         inputs_finite = inputs_finite && std::isfinite(v);
         const std::string name = state                              ? layout_.state_names()[put.offset]
-                                 : class_of_slot_[put.offset] >= 0 ? class_names_[class_of_slot_[put.offset]]
+                                 : slots_.class_of_slot[put.offset] >= 0 ? slots_.class_names[slots_.class_of_slot[put.offset]]
                                                                    : std::string("the unknown");
         reads += fmt::format("{}{} = {:.9g}", reads.empty() ? "" : ", ", name, v);
       }
       if (!inputs_finite) continue;  // a diverging state: not this formula's fault
-      const int cls = class_of_slot_[in.dst];
-      const std::string who = in.element >= 0 ? graph_.element(in.element).name : class_names_[cls];
-      return fmt::format("the formula of {} for {} `{}` gives {} at t = {:.9g} s{}", who, class_names_[cls],
-                         definitions_[cls].formula, w[in.dst + k], t, reads.empty() ? "" : " (it reads " + reads + ")");
+      const int cls = slots_.class_of_slot[in.dst];
+      const std::string who = in.element >= 0 ? graph_.element(in.element).name : slots_.class_names[cls];
+      return fmt::format("the formula of {} for {} `{}` gives {} at t = {:.9g} s{}", who, slots_.class_names[cls],
+                         plan_.definitions[cls].formula, w[in.dst + k], t, reads.empty() ? "" : " (it reads " + reads + ")");
     }
   }
   return {};

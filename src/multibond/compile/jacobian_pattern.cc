@@ -45,7 +45,7 @@ void CompiledModel::BuildJacobianPattern() const {
   // dissipation), which the plan writes and never reads: their columns are their diagonal alone
   // (a dense Jacobian then evaluates them all at once, and the linear solver leaves them out of
   // its factorisation). Without such integrals there is no pattern.
-  if (!constraints_.empty() || !tears_.empty()) {
+  if (!constraints_.empty() || !loops_.tears.empty()) {
     std::vector<bool> alone(n, false);
     bool any = false;
     for (const StateBlock& b : layout_.blocks())
@@ -63,20 +63,20 @@ void CompiledModel::BuildJacobianPattern() const {
     }
     return;
   }
-  std::vector<Deps> slot(num_slots_);  // what each slot depends on, once written
+  std::vector<Deps> slot(slots_.num_slots);  // what each slot depends on, once written
   auto slots = [&](int first, int count) {
     Deps d;
     for (int k = 0; k < count; ++k) Merge(d, slot[first + k]);
     return d;
   };
   auto modulus = [&](int index) {
-    const ModulusEval& me = moduli_[index];
+    const ModulusEval& me = plan_.moduli[index];
     return me.kind == Modulus::Kind::kConstant ? Deps{} : Range(me.rotation, 9);
   };
   // What each instruction's outputs depend on, from its row of the operation table: its inputs
   // (a state block, slots, a junction's terms; a source reads none), component by component or
   // all of them, plus the orientation or modulus it reads.
-  for (const Instr& in : plan_) {
+  for (const Instr& in : plan_.instrs) {
     const plan::OpTraits& op = plan::Traits(in.op);
     MB_ASSERT(op.reads != plan::Reads::kMultipliers, "multipliers in a plan without constraints");
     auto input = [&](int k) {  // input component k
@@ -84,7 +84,7 @@ void CompiledModel::BuildJacobianPattern() const {
       if (op.reads == plan::Reads::kState) d = {in.src + k};
       else if (op.reads == plan::Reads::kSlots) d = slot[in.src + k];
       else if (op.reads == plan::Reads::kSumTerms)
-        for (int j = 0; j < in.count; ++j) Merge(d, slot[sum_terms_[in.coef + j] + k]);
+        for (int j = 0; j < in.count; ++j) Merge(d, slot[plan_.sum_terms[in.coef + j] + k]);
       return d;
     };
     if (op.coupling == plan::Coupling::kComponentwise && op.reads != plan::Reads::kNothing) {
@@ -96,13 +96,13 @@ void CompiledModel::BuildJacobianPattern() const {
     else if (op.reads == plan::Reads::kSlots) all = slots(in.src, in.m);
     else if (op.reads == plan::Reads::kSolve) {  // a law solved for its input: what it reads, and its target
       Merge(all, slot[in.src]);
-      for (const expr::Input& put : programs_[in.coef].inputs) {
+      for (const expr::Input& put : plan_.programs[in.coef].inputs) {
         if (put.in == expr::Input::In::kState) Merge(all, {put.offset});
         else if (put.in == expr::Input::In::kSlot) Merge(all, slot[put.offset]);
       }
     } else if (op.reads == plan::Reads::kProgram)  // a formula: every state and slot it reads
       for (int k = 0; k < in.n; ++k)
-        for (const expr::Input& put : programs_[in.coef + k].inputs) {
+        for (const expr::Input& put : plan_.programs[in.coef + k].inputs) {
           if (put.in == expr::Input::In::kState) Merge(all, {put.offset});
           else if (put.in == expr::Input::In::kSlot) Merge(all, slot[put.offset]);
         }

@@ -77,9 +77,9 @@ bool CompiledModel::IsModulated(const Element& e) {
 void CompiledModel::AssignModulationSlots() {
   if (!options_.energy_account) return;
   for (int i = 0; i < graph_.num_elements(); ++i)
-    if (IsModulated(graph_.element(i))) modulation_class_.emplace(i, AddSignalClass(ModulationPowerName(graph_.element(i).name), "W", false));
-  class_of_slot_.resize(num_slots_, -1);
-  for (const auto& [element, c] : modulation_class_) class_of_slot_[class_offset_[c]] = c;
+    if (IsModulated(graph_.element(i))) slots_.modulation_class.emplace(i, AddSignalClass(ModulationPowerName(graph_.element(i).name), "W", false));
+  slots_.class_of_slot.resize(slots_.num_slots, -1);
+  for (const auto& [element, c] : slots_.modulation_class) slots_.class_of_slot[slots_.class_offset[c]] = c;
 }
 
 void CompiledModel::AnalyzeModulatedStorage() {
@@ -275,8 +275,8 @@ void CompiledModel::AnalyzeModulatedStorage() {
 }
 
 std::optional<CompiledModel::FormulaInstr> CompiledModel::ModulationPowerInstr(int element, int state, const Formula& given) {
-  const auto c = modulation_class_.find(element);
-  if (c == modulation_class_.end()) return std::nullopt;
+  const auto c = slots_.modulation_class.find(element);
+  if (c == slots_.modulation_class.end()) return std::nullopt;
   const Element& e = graph_.element(element);
   const Modulation& m = modulation_.at(element);
   // A refused one computes 0 until RefuseUnbookedModulation throws (after the plan is ordered).
@@ -287,14 +287,14 @@ std::optional<CompiledModel::FormulaInstr> CompiledModel::ModulationPowerInstr(i
   const NodePtr shown = Substitute(tree, [&](const Node& n) -> NodePtr {
     if (n.name.size() < 3 || n.name[0] != '#') return nullptr;
     const int offset = std::stoi(n.name.substr(2));
-    return expr::Name(n.name[1] == 'x' ? layout_.state_names()[offset] : class_names_[class_of_slot_[offset]]);
+    return expr::Name(n.name[1] == 'x' ? layout_.state_names()[offset] : slots_.class_names[slots_.class_of_slot[offset]]);
   });
   fi.def.formula = fmt::format("d/dt of the stored energy of {} at fixed {}: {}", e.name, OwnName(e), expr::Format(*shown));
   return fi;
 }
 
 void CompiledModel::BookModulationJumps(double t, double* x) const {
-  if (modulation_class_.empty()) return;
+  if (slots_.modulation_class.empty()) return;
   const double before = std::nextafter(t, -HUGE_VAL), after = std::nextafter(t, HUGE_VAL);
   for (const StateBlock& blk : layout_.blocks())
     if (blk.kind == StateBlock::Kind::kWork && blk.rate_class >= 0)

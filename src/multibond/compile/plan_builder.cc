@@ -46,44 +46,44 @@ void CompiledModel::AssignSlots() {
     }
   }
   std::vector<int> class_of_root(2 * nb, -1);
-  effort_class_.resize(nb);
-  flow_class_.resize(nb);
+  slots_.effort_class.resize(nb);
+  slots_.flow_class.resize(nb);
   for (int s = 0; s < 2 * nb; ++s) {
     const int root = uf.Root(s);
     if (class_of_root[root] < 0) {
-      class_of_root[root] = static_cast<int>(class_offset_.size());
-      class_offset_.push_back(num_slots_);
-      class_size_.push_back(dim[s / 2]);
-      num_slots_ += dim[s / 2];
+      class_of_root[root] = static_cast<int>(slots_.class_offset.size());
+      slots_.class_offset.push_back(slots_.num_slots);
+      slots_.class_size.push_back(dim[s / 2]);
+      slots_.num_slots += dim[s / 2];
       const DomainUnits u = UnitsOf(structure_.bond_domain[s / 2]);
-      class_units_.push_back(s % 2 == 0 ? u.effort : u.flow);
-      class_names_.emplace_back();
+      slots_.class_units.push_back(s % 2 == 0 ? u.effort : u.flow);
+      slots_.class_names.emplace_back();
     }
-    (s % 2 == 0 ? effort_class_ : flow_class_)[s / 2] = class_of_root[root];
+    (s % 2 == 0 ? slots_.effort_class : slots_.flow_class)[s / 2] = class_of_root[root];
   }
   auto name_class = [&](int c, const std::string& n) {
-    if (class_names_[c].empty()) class_names_[c] = n;
+    if (slots_.class_names[c].empty()) slots_.class_names[c] = n;
   };
   for (int i = 0; i < g.num_elements(); ++i) {
     const Element& e = g.element(i);
-    if (e.kind == ElementKind::kZero) name_class(effort_class_[e.bonds.front()], e.name + ".e");
-    if (e.kind == ElementKind::kOne) name_class(flow_class_[e.bonds.front()], e.name + ".f");
+    if (e.kind == ElementKind::kZero) name_class(slots_.effort_class[e.bonds.front()], e.name + ".e");
+    if (e.kind == ElementKind::kOne) name_class(slots_.flow_class[e.bonds.front()], e.name + ".f");
   }
   for (int i = 0; i < g.num_elements(); ++i) {
     const Element& e = g.element(i);
     if (IsOnePort(e.kind)) {
-      name_class(effort_class_[e.bonds.front()], e.name + ".e");
-      name_class(flow_class_[e.bonds.front()], e.name + ".f");
+      name_class(slots_.effort_class[e.bonds.front()], e.name + ".e");
+      name_class(slots_.flow_class[e.bonds.front()], e.name + ".f");
     } else if (IsTwoPort(e.kind)) {
-      name_class(effort_class_[structure_.port_in[i]], e.name + ".e1");
-      name_class(flow_class_[structure_.port_in[i]], e.name + ".f1");
-      name_class(effort_class_[structure_.port_out[i]], e.name + ".e2");
-      name_class(flow_class_[structure_.port_out[i]], e.name + ".f2");
+      name_class(slots_.effort_class[structure_.port_in[i]], e.name + ".e1");
+      name_class(slots_.flow_class[structure_.port_in[i]], e.name + ".f1");
+      name_class(slots_.effort_class[structure_.port_out[i]], e.name + ".e2");
+      name_class(slots_.flow_class[structure_.port_out[i]], e.name + ".f2");
     }
   }
   for (int b = 0; b < nb; ++b) {
-    name_class(effort_class_[b], g.bond(b).name + ".e");
-    name_class(flow_class_[b], g.bond(b).name + ".f");
+    name_class(slots_.effort_class[b], g.bond(b).name + ".e");
+    name_class(slots_.flow_class[b], g.bond(b).name + ".f");
   }
 
   AssignSignalSlots();      // formulas.cc: signals, signal states' rates
@@ -106,34 +106,34 @@ std::vector<int> CompiledModel::PlanModuli() {
     if (e.kind != ElementKind::kMTF && e.kind != ElementKind::kMGY) continue;
     if (HasFormulas(e)) continue;  // its entries are formulas: FormulaInstructions writes M u out
     const Modulus& mod = e.modulus;
-    ModulusEval me{mod.kind, mod.rows(), mod.cols(), num_moduli_, -1, -1, -1, -1, -1, mod.scale, mod.transpose, mod.lever};
-    num_moduli_ += me.rows * me.cols;
+    ModulusEval me{mod.kind, mod.rows(), mod.cols(), plan_.num_moduli, -1, -1, -1, -1, -1, mod.scale, mod.transpose, mod.lever};
+    plan_.num_moduli += me.rows * me.cols;
     if (mod.kind != Modulus::Kind::kConstant) me.rotation = aux_offset(mod.rotation);
     if (mod.left.size() > 0) {
-      me.left = static_cast<int>(coef_.size());
-      AppendRowMajor(coef_, mod.left);
+      me.left = static_cast<int>(plan_.coef.size());
+      AppendRowMajor(plan_.coef, mod.left);
     }
     if (mod.right.size() > 0) {
       // Stored padded to 3x3 so that the evaluation multiplies fixed-size matrices.
       MB_ASSERT(mod.right.rows() == 3 && mod.right.cols() <= 3, "a modulus' right factor is 3 x n with n <= 3");
       Eigen::Matrix3d padded = Eigen::Matrix3d::Zero();
       padded.leftCols(mod.right.cols()) = mod.right;
-      me.right = static_cast<int>(coef_.size());
-      AppendRowMajor(coef_, padded);
+      me.right = static_cast<int>(plan_.coef.size());
+      AppendRowMajor(plan_.coef, padded);
     }
     if (mod.kind == Modulus::Kind::kConstant) {
       me.constant_rows = static_cast<int>(mod.constant.rows());
-      me.constant = static_cast<int>(coef_.size());
-      AppendRowMajor(coef_, mod.constant);
+      me.constant = static_cast<int>(plan_.coef.size());
+      AppendRowMajor(plan_.coef, mod.constant);
     }
     // The inverse is needed when the effort enters at port 1 (backward transformer) or a
     // gyrator is driven by efforts.
     if (effort_into(structure_.port_in[i], i)) {
-      me.out_inverse = num_moduli_;
-      num_moduli_ += me.rows * me.cols;
+      me.out_inverse = plan_.num_moduli;
+      plan_.num_moduli += me.rows * me.cols;
     }
-    modulus_of[i] = static_cast<int>(moduli_.size());
-    moduli_.push_back(me);
+    modulus_of[i] = static_cast<int>(plan_.moduli.size());
+    plan_.moduli.push_back(me);
   }
 
   return modulus_of;
@@ -148,24 +148,24 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
 
   // --- Instructions: one per computed slot class. ---
   const int nclasses = num_slot_classes();
-  definitions_.assign(nclasses, Definition{Definition::Kind::kSource, -1, {}});
+  plan_.definitions.assign(nclasses, Definition{Definition::Kind::kSource, -1, {}});
   std::vector<int> writer(nclasses, -1);
   std::vector<std::vector<int>> reads;  // per instruction: slot classes read
   std::vector<Instr> instrs;
   auto emit = [&](Instr in, int out_class, std::vector<int> in_classes, Definition def) {
     if (writer[out_class] >= 0) {
       throw ModelError(Diagnostic{Diagnostic::Severity::kError, g.element(in.element).where, g.element(in.element).name,
-                                  fmt::format("variable '{}' is computed twice (by {} and {})", class_names_[out_class],
+                                  fmt::format("variable '{}' is computed twice (by {} and {})", slots_.class_names[out_class],
                                               Describe(g, instrs[writer[out_class]].element), Describe(g, in.element)),
                                   "this is a causality conflict the analysis did not catch; please report it", {},
                                   codes::kInternalDoubleWriter});
     }
-    in.dst = class_offset_[out_class];
+    in.dst = slots_.class_offset[out_class];
     writer[out_class] = static_cast<int>(instrs.size());
     instrs.push_back(in);
     reads.push_back(std::move(in_classes));
     def.element = in.element;
-    definitions_[out_class] = std::move(def);
+    plan_.definitions[out_class] = std::move(def);
   };
   // dst = sign * A src. The numbers carry the sign; the definition keeps it apart from the
   // coefficient's symbol so that `multibond equations` shows "- damper.R f" whatever the values.
@@ -173,17 +173,17 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
                          const std::string& symbol) {
     Instr in{};
     in.element = element;
-    in.n = class_size_[out_class];
-    in.m = class_size_[in_class];
-    in.src = class_offset_[in_class];
-    in.coef = static_cast<int>(coef_.size());
+    in.n = slots_.class_size[out_class];
+    in.m = slots_.class_size[in_class];
+    in.src = slots_.class_offset[in_class];
+    in.coef = static_cast<int>(plan_.coef.size());
     const bool scalar = a.rows() == a.cols() && a.isApprox(a(0, 0) * Eigen::MatrixXd::Identity(a.rows(), a.cols()), 0.0);
     if (scalar) {
       in.op = Op::kScale;
-      coef_.push_back(sign * a(0, 0));
+      plan_.coef.push_back(sign * a(0, 0));
     } else {
       in.op = Op::kMatrix;
-      AppendRowMajor(coef_, sign * a);
+      AppendRowMajor(plan_.coef, sign * a);
     }
     emit(in, out_class, {in_class}, {Definition::Kind::kLinear, element, {{in_class, sign, symbol}}});
   };
@@ -191,10 +191,10 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
     Instr in{};
     in.op = Op::kModulated;
     in.element = element;
-    in.n = class_size_[out_class];
-    in.m = class_size_[in_class];
-    in.src = class_offset_[in_class];
-    const ModulusEval& me = moduli_[modulus_of[element]];
+    in.n = slots_.class_size[out_class];
+    in.m = slots_.class_size[in_class];
+    in.src = slots_.class_offset[in_class];
+    const ModulusEval& me = plan_.moduli[modulus_of[element]];
     in.coef = mode >= 2 ? me.out_inverse : me.out;
     in.count = mode;
     in.modulus = modulus_of[element];
@@ -220,16 +220,16 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
           in.element = i;
           in.n = n;
           in.coef = constraints_.MultiplierOf(b);
-          emit(in, e.kind == ElementKind::kSe ? effort_class_[b] : flow_class_[b], {}, {Definition::Kind::kSource, i, {}});
+          emit(in, e.kind == ElementKind::kSe ? slots_.effort_class[b] : slots_.flow_class[b], {}, {Definition::Kind::kSource, i, {}});
           break;
         }
         Instr in{};
         in.op = Op::kSource;
         in.element = i;
         in.n = n;
-        in.coef = static_cast<int>(source_fns_.size());
-        for (int k = 0; k < n; ++k) source_fns_.push_back(e.source.components.size() == 1 ? e.source.components[0] : e.source.components[k]);
-        emit(in, e.kind == ElementKind::kSe ? effort_class_[b] : flow_class_[b], {}, {Definition::Kind::kSource, i, {}});
+        in.coef = static_cast<int>(plan_.source_fns.size());
+        for (int k = 0; k < n; ++k) plan_.source_fns.push_back(e.source.components.size() == 1 ? e.source.components[0] : e.source.components[k]);
+        emit(in, e.kind == ElementKind::kSe ? slots_.effort_class[b] : slots_.flow_class[b], {}, {Definition::Kind::kSource, i, {}});
         break;
       }
       case ElementKind::kI: {
@@ -238,19 +238,19 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
         in.element = i;
         in.n = n;
         in.src = state_offset(layout_.element_block(i));
-        in.coef = static_cast<int>(coef_.size());
+        in.coef = static_cast<int>(plan_.coef.size());
         if (!e.rotation.empty()) {
           in.op = Op::kIFlowRotated;
           in.aux = aux_offset(e.rotation);
-          AppendRowMajor(coef_, Eigen::MatrixXd(e.param.AsMatrix(n, n).inverse()));  // Ib^-1
+          AppendRowMajor(plan_.coef, Eigen::MatrixXd(e.param.AsMatrix(n, n).inverse()));  // Ib^-1
         } else if (e.param.is_scalar) {
           in.op = Op::kStateScale;
-          coef_.push_back(1.0 / e.param.scalar);
+          plan_.coef.push_back(1.0 / e.param.scalar);
         } else {
           in.op = Op::kStateMatrix;
-          AppendRowMajor(coef_, Eigen::MatrixXd(e.param.AsMatrix(n, n).inverse()));
+          AppendRowMajor(plan_.coef, Eigen::MatrixXd(e.param.AsMatrix(n, n).inverse()));
         }
-        emit(in, flow_class_[b], {}, {Definition::Kind::kMomentumFlow, i, {}});
+        emit(in, slots_.flow_class[b], {}, {Definition::Kind::kMomentumFlow, i, {}});
         break;
       }
       case ElementKind::kC: {
@@ -260,15 +260,15 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
         in.element = i;
         in.n = n;
         in.src = state_offset(layout_.element_block(i));
-        in.coef = static_cast<int>(coef_.size());
+        in.coef = static_cast<int>(plan_.coef.size());
         if (e.param.is_scalar) {
           in.op = Op::kStateScale;
-          coef_.push_back(sigma * e.param.scalar);
+          plan_.coef.push_back(sigma * e.param.scalar);
         } else {
           in.op = Op::kStateMatrix;
-          AppendRowMajor(coef_, sigma * e.param.matrix);
+          AppendRowMajor(plan_.coef, sigma * e.param.matrix);
         }
-        emit(in, effort_class_[b], {}, {Definition::Kind::kStiffnessEffort, i, {}});
+        emit(in, slots_.effort_class[b], {}, {Definition::Kind::kStiffnessEffort, i, {}});
         break;
       }
       case ElementKind::kR: {
@@ -276,7 +276,7 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
         const double sigma = g.PowerSign(b, i);
         const Eigen::MatrixXd r = e.param.AsMatrix(n, n);
         if (!effort_into(b, i)) {
-          emit_linear(i, effort_class_[b], flow_class_[b], sigma, r, e.name + ".R");
+          emit_linear(i, slots_.effort_class[b], slots_.flow_class[b], sigma, r, e.name + ".R");
         } else {
           Eigen::FullPivLU<Eigen::MatrixXd> lu(r);
           if (!lu.isInvertible())
@@ -284,7 +284,7 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
                                         "resistor in conductance causality (effort in, flow out) has a singular resistance",
                                         "give it a non-zero resistance, or change the structure so that its flow is imposed", {},
                                         codes::kParamSingular});
-          emit_linear(i, flow_class_[b], effort_class_[b], sigma, Eigen::MatrixXd(lu.inverse()),
+          emit_linear(i, slots_.flow_class[b], slots_.effort_class[b], sigma, Eigen::MatrixXd(lu.inverse()),
                       e.param.is_scalar ? "1/" + e.name + ".R" : e.name + ".R^-1");
         }
         break;
@@ -300,21 +300,21 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
         in.op = Op::kSum;
         in.element = i;
         in.n = dim[strong];
-        in.coef = static_cast<int>(sum_terms_.size());
+        in.coef = static_cast<int>(plan_.sum_terms.size());
         Definition def{Definition::Kind::kSum, i, {}};
         std::vector<int> in_classes;
         const double s_strong = g.PowerSign(strong, i);
         for (int b : e.bonds) {
           if (b == strong) continue;
-          const int c = zero ? flow_class_[b] : effort_class_[b];
+          const int c = zero ? slots_.flow_class[b] : slots_.effort_class[b];
           const double sign = -s_strong * g.PowerSign(b, i);
-          sum_terms_.push_back(class_offset_[c]);
-          sum_signs_.push_back(sign);
+          plan_.sum_terms.push_back(slots_.class_offset[c]);
+          plan_.sum_signs.push_back(sign);
           in_classes.push_back(c);
           def.terms.push_back({c, sign, ""});
         }
         in.count = static_cast<int>(in_classes.size());
-        emit(in, zero ? flow_class_[strong] : effort_class_[strong], in_classes, def);
+        emit(in, zero ? slots_.flow_class[strong] : slots_.effort_class[strong], in_classes, def);
         break;
       }
       case ElementKind::kTF:
@@ -332,11 +332,11 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
         struct Eq { int out, in, mode; };
         Eq eq[2];
         if (!gyrator) {
-          eq[0] = forward ? Eq{flow_class_[b2], flow_class_[b1], 0} : Eq{effort_class_[b2], effort_class_[b1], 3};
-          eq[1] = forward ? Eq{effort_class_[b1], effort_class_[b2], 1} : Eq{flow_class_[b1], flow_class_[b2], 2};
+          eq[0] = forward ? Eq{slots_.flow_class[b2], slots_.flow_class[b1], 0} : Eq{slots_.effort_class[b2], slots_.effort_class[b1], 3};
+          eq[1] = forward ? Eq{slots_.effort_class[b1], slots_.effort_class[b2], 1} : Eq{slots_.flow_class[b1], slots_.flow_class[b2], 2};
         } else {
-          eq[0] = forward ? Eq{effort_class_[b2], flow_class_[b1], 0} : Eq{flow_class_[b2], effort_class_[b1], 3};
-          eq[1] = forward ? Eq{effort_class_[b1], flow_class_[b2], 1} : Eq{flow_class_[b1], effort_class_[b2], 2};
+          eq[0] = forward ? Eq{slots_.effort_class[b2], slots_.flow_class[b1], 0} : Eq{slots_.flow_class[b2], slots_.effort_class[b1], 3};
+          eq[1] = forward ? Eq{slots_.effort_class[b1], slots_.flow_class[b2], 1} : Eq{slots_.flow_class[b1], slots_.effort_class[b2], 2};
         }
         static const char* kSuffix[] = {"", "^T", "^-1", "^-T"};
         for (const Eq& q : eq) {
@@ -363,7 +363,7 @@ CompiledModel::Draft CompiledModel::EmitInstructions(const std::vector<int>& mod
   }
   for (FormulaInstr& fi : SignalInstructions()) emit_formula(fi);
   for (int c = 0; c < nclasses; ++c)
-    MB_ASSERT(writer[c] >= 0, "slot '" + class_names_[c] + "' has no writer after causality");
+    MB_ASSERT(writer[c] >= 0, "slot '" + slots_.class_names[c] + "' has no writer after causality");
 
   return {std::move(instrs), std::move(reads), std::move(writer)};
 }
@@ -425,14 +425,14 @@ CompiledModel::PlanDeps CompiledModel::OrderPlan(const Draft& draft) {
     // first, natural for a power variable at rest, not for a signal such as a temperature).
     auto rank = [&](int cls) {
       if (instrs[writer[cls]].op == Op::kSum) return 2;
-      return signal_class_.count(class_names_[cls]) || internal_class_.count(class_names_[cls]) ? 0 : 1;
+      return slots_.signal_class.count(slots_.class_names[cls]) || slots_.internal_class.count(slots_.class_names[cls]) ? 0 : 1;
     };
     int tear = -1;
     for (int c : cycle) {
       elements.push_back(instrs[c].element);
       for (int cls = 0; cls < nclasses; ++cls)
         if (writer[cls] == c) {
-          vars += (vars.empty() ? "" : ", ") + class_names_[cls];
+          vars += (vars.empty() ? "" : ", ") + slots_.class_names[cls];
           if (tear < 0 || rank(cls) > rank(tear)) tear = cls;
         }
     }
@@ -444,7 +444,7 @@ CompiledModel::PlanDeps CompiledModel::OrderPlan(const Draft& draft) {
       if (first < 0 && e >= 0) first = e;
     if (options_.solve_algebraic_loops && tear >= 0) {
       torn[tear] = 1;
-      algebraic_loops_.push_back({FormatPath(g, elements), class_names_[tear], first, tear});
+      loops_.loops.push_back({FormatPath(g, elements), slots_.class_names[tear], first, tear});
       continue;
     }
     Diagnostic d;
@@ -465,19 +465,19 @@ CompiledModel::PlanDeps CompiledModel::OrderPlan(const Draft& draft) {
              "one, or let multibond solve it (algebraic_loops: solve in the model file, --algebraic-loops solve)";
     throw ModelError(d);
   }
-  for (int k : order) plan_.push_back(instrs[k]);
+  for (int k : order) plan_.instrs.push_back(instrs[k]);
   std::vector<int> out_class(ni, -1);  // per instruction: the class it writes
   for (int cls = 0; cls < nclasses; ++cls) out_class[writer[cls]] = cls;
   // Torn variables: the slot of each keeps the unknown; its writer writes to a slot of its own.
   for (int cls = 0; cls < nclasses; ++cls) {
     if (!torn[cls]) continue;
     const int at = static_cast<int>(std::find(order.begin(), order.end(), writer[cls]) - order.begin());
-    tears_.push_back({class_offset_[cls], class_size_[cls], num_slots_});
-    plan_[at].dst = num_slots_;
-    num_slots_ += class_size_[cls];
-    num_tear_ += class_size_[cls];
+    loops_.tears.push_back({slots_.class_offset[cls], slots_.class_size[cls], slots_.num_slots});
+    plan_.instrs[at].dst = slots_.num_slots;
+    slots_.num_slots += slots_.class_size[cls];
+    loops_.num_unknowns += slots_.class_size[cls];
   }
-  if (!tears_.empty()) {
+  if (!loops_.tears.empty()) {
     // The instructions that depend on an unknown (through the slots they read, in plan order):
     // the only ones the probes and the last pass of EvalTorn need to run again.
     std::vector<char> reached(torn.begin(), torn.end());
@@ -486,7 +486,7 @@ CompiledModel::PlanDeps CompiledModel::OrderPlan(const Draft& draft) {
       bool depends = false;
       for (int c : reads[k]) depends = depends || reached[c];
       if (!depends) continue;
-      tear_closure_.push_back(at);
+      loops_.closure.push_back(at);
       reached[out_class[k]] = 1;
     }
   }

@@ -23,7 +23,7 @@ bool CompiledModel::Sliding(const Workspace& ws) const {
 }
 
 void CompiledModel::SetSlide(Workspace& ws, int kink, Workspace::KinkMode mode, double value) const {
-  const KinkTable::Kink& k = kinks_.kinks()[static_cast<size_t>(kink)];
+  const KinkTable::Kink& k = events_.kinks.kinks()[static_cast<size_t>(kink)];
   ws.kink_modes[static_cast<size_t>(k.slide)] = mode;
   ws.slots[static_cast<size_t>(k.slide_slot)] = mode == Workspace::kFree ? 1.0 : 0.0;
   ws.slots[static_cast<size_t>(k.slide_slot) + 1] = mode == Workspace::kFree ? 0.0 : value;
@@ -39,7 +39,7 @@ double CompiledModel::SwitchingRate(double t, const double* x, Workspace& ws, in
     TangentPass(t, x, s.xdot.data(), /*time=*/true, nullptr, s.rate.data(), ws, s.d_slots, s.d_moduli, &s.tmp);
     return 0.0;
   }
-  return expr::RunTangent(kinks_.kinks()[static_cast<size_t>(kink)].program, t, x, ws.slots.data(), 1.0, s.xdot.data(),
+  return expr::RunTangent(events_.kinks.kinks()[static_cast<size_t>(kink)].program, t, x, ws.slots.data(), 1.0, s.xdot.data(),
                           s.d_slots.data());
 }
 
@@ -49,11 +49,11 @@ void CompiledModel::SolveSliding(double t, const double* x, Workspace& ws) const
   // evaluation at sigma = 0 and one more per sliding sign; then B sigma = -r0.
   Workspace::SlideScratch& s = ws.slide;
   s.active.clear();
-  for (const int k : slides_)
-    if (ws.kink_modes[static_cast<size_t>(kinks_.kinks()[static_cast<size_t>(k)].slide)] == Workspace::kSliding) s.active.push_back(k);
+  for (const int k : events_.slides)
+    if (ws.kink_modes[static_cast<size_t>(events_.kinks.kinks()[static_cast<size_t>(k)].slide)] == Workspace::kSliding) s.active.push_back(k);
   const auto m = static_cast<Eigen::Index>(s.active.size());
   auto held = [&](Eigen::Index i) -> double& {
-    return ws.slots[static_cast<size_t>(kinks_.kinks()[static_cast<size_t>(s.active[static_cast<size_t>(i)])].slide_slot) + 1];
+    return ws.slots[static_cast<size_t>(events_.kinks.kinks()[static_cast<size_t>(s.active[static_cast<size_t>(i)])].slide_slot) + 1];
   };
   auto rates = [&](Eigen::VectorXd& out) {
     SwitchingRate(t, x, ws, -1);
@@ -98,10 +98,10 @@ std::pair<double, double> CompiledModel::RatesEitherSide(double t, const double*
 }
 
 EventRecord CompiledModel::HandleKink(double t, const double* x, Workspace& ws, int r) const {
-  const KinkTable::Kink& k = kinks_.root_kink(r);
+  const KinkTable::Kink& k = events_.kinks.root_kink(r);
   EventRecord rec{t, "kink", k.owner, KinkTable::Describe(k)};
   if (k.slide < 0) return rec;
-  const int index = slides_[static_cast<size_t>(k.slide)];
+  const int index = events_.slides[static_cast<size_t>(k.slide)];
   const auto mode = static_cast<Workspace::KinkMode>(ws.kink_modes[static_cast<size_t>(k.slide)]);
   const double held = ws.slots[static_cast<size_t>(k.slide_slot) + 1];
   if (mode == Workspace::kSliding) {  // the equivalent value reached an end of its range: that side's branch
@@ -129,13 +129,13 @@ EventRecord CompiledModel::HandleKink(double t, const double* x, Workspace& ws, 
 }
 
 void CompiledModel::InitializeKinks(double t, const double* x, Workspace& ws, double hysteresis) const {
-  if (slides_.empty()) return;
+  if (events_.slides.empty()) return;
   ws.kink_hysteresis = hysteresis;
   std::vector<double> xdot(num_states());
-  for (const int index : slides_) SetSlide(ws, index, Workspace::kFree, 0.0);
+  for (const int index : events_.slides) SetSlide(ws, index, Workspace::kFree, 0.0);
   CalcDerivatives(t, x, xdot.data(), ws);
-  for (const int index : slides_) {
-    const KinkTable::Kink& k = kinks_.kinks()[static_cast<size_t>(index)];
+  for (const int index : events_.slides) {
+    const KinkTable::Kink& k = events_.kinks.kinks()[static_cast<size_t>(index)];
     const double g = expr::Run(k.program, t, x, ws.slots.data());
     if (g != 0.0) {
       SetSlide(ws, index, Workspace::kLocked, g > 0.0 ? 1.0 : -1.0);

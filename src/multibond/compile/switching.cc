@@ -153,16 +153,16 @@ void CompiledModel::BuildSwitches() {
     constraints.push_back({g.element, g.lambda});
     sizes.push_back(g.size);
   }
-  switches_.Build({graph_, std::move(constraints), std::move(sizes),
+  events_.switches.Build({graph_, std::move(constraints), std::move(sizes),
                    [this](const std::string& name) { return layout_.FindVariable(name); },
                    [this](const std::string& name) {
-                     const auto it = signal_class_.find(name);
-                     return it == signal_class_.end() ? -1 : class_offset_[it->second];
+                     const auto it = slots_.signal_class.find(name);
+                     return it == slots_.signal_class.end() ? -1 : slots_.class_offset[it->second];
                    },
                    layout_.blocks()});
   // A contact's gap that integrates the very flow its constraint holds must open with g, the
   // separation velocity: a bond turned the other way would make every approach a separation.
-  for (const SwitchTable::Entry& e : switches_.entries()) {
+  for (const SwitchTable::Entry& e : events_.switches.entries()) {
     if (e.kind != Switching::Kind::kContact || e.gap.in != VariableRef::In::kState) continue;
     const ConstraintSolver::Group* group = nullptr;
     for (const ConstraintSolver::Group& g : constraints_.groups())
@@ -183,28 +183,28 @@ void CompiledModel::BuildSwitches() {
 }
 
 void CompiledModel::PrescribeSwitches(double t, Workspace& ws) const {
-  if (!switches_.empty()) switches_.Prescribe(t, ws.slots.data(), ws.modes.data(), ws.con);
+  if (!events_.switches.empty()) events_.switches.Prescribe(t, ws.slots.data(), ws.modes.data(), ws.con);
 }
 
 void CompiledModel::CalcEventFunctions(double t, const double* x, Workspace& ws, double* g) const {
   if (num_event_functions() == 0) return;
-  if (switches_.empty()) {
+  if (events_.switches.empty()) {
     CalcDerivatives(t, x, ws.event_xdot.data(), ws);
   } else {
     std::vector<double>& xdot = ws.con.xdot;
     CalcDerivatives(t, x, xdot.data(), ws);
     std::vector<double>& values = ws.con.rhs;  // free after the solve
     constraints_.Values(t, ws.slots.data(), values.data());
-    switches_.Roots(t, x, ws.slots.data(), ws.lambda.data(), values.data(), ws.modes.data(), g);
+    events_.switches.Roots(t, x, ws.slots.data(), ws.lambda.data(), values.data(), ws.modes.data(), g);
   }
-  kinks_.Roots(t, x, ws.slots.data(), g + switches_.num_roots());
+  events_.kinks.Roots(t, x, ws.slots.data(), g + events_.switches.num_roots());
   // A locked sign: its switching function on its side, past the hysteresis; a sliding one: how
   // far its equivalent value is from the end of its range.
-  for (int r = 0; !slides_.empty() && r < kinks_.num_roots(); ++r) {
-    const KinkTable::Kink& k = kinks_.root_kink(r);
+  for (int r = 0; !events_.slides.empty() && r < events_.kinks.num_roots(); ++r) {
+    const KinkTable::Kink& k = events_.kinks.root_kink(r);
     if (k.slide < 0) continue;
     const double held = ws.slots[static_cast<size_t>(k.slide_slot) + 1];
-    double& out = g[switches_.num_roots() + r];
+    double& out = g[events_.switches.num_roots() + r];
     switch (ws.kink_modes[static_cast<size_t>(k.slide)]) {
       case Workspace::kLocked: out = held * out + ws.kink_hysteresis; break;
       case Workspace::kSliding: out = 1.0 - std::abs(held); break;
@@ -232,10 +232,10 @@ double CompiledModel::StoredEnergyTotal(const double* x) const {
 }
 
 void CompiledModel::InitializeModes(double t, double* x, Workspace& ws) const {
-  if (switches_.empty()) return;
+  if (events_.switches.empty()) return;
   std::vector<double> xdot(num_states()), values(num_multipliers());
-  for (int i = 0; i < switches_.size(); ++i) {
-    const SwitchTable::Entry& e = switches_.entries()[i];
+  for (int i = 0; i < events_.switches.size(); ++i) {
+    const SwitchTable::Entry& e = events_.switches.entries()[i];
     if (e.kind == Switching::Kind::kContact) {
       const double gap = e.gap.in == VariableRef::In::kState ? e.gap_scale * x[e.gap.offset] + e.gap_offset : 0.0;
       ws.modes[i] = gap > 0.0 || e.gap.in != VariableRef::In::kState ? SwitchTable::kOpen : SwitchTable::kClosed;
@@ -246,17 +246,17 @@ void CompiledModel::InitializeModes(double t, double* x, Workspace& ws) const {
   // Frictions that slide at the start slip; the others stick if they can.
   CalcDerivatives(t, x, xdot.data(), ws);
   constraints_.Values(t, ws.slots.data(), values.data());
-  for (int i = 0; i < switches_.size(); ++i) {
-    const SwitchTable::Entry& e = switches_.entries()[i];
+  for (int i = 0; i < events_.switches.size(); ++i) {
+    const SwitchTable::Entry& e = events_.switches.entries()[i];
     if (e.kind != Switching::Kind::kFriction) continue;
     const double g = values[e.lambda];
     if (g != 0.0) ws.modes[i] = g > 0.0 ? SwitchTable::kSlipPositive : SwitchTable::kSlipNegative;
   }
   CalcDerivatives(t, x, xdot.data(), ws);
-  for (int i = 0; i < switches_.size(); ++i) {
-    const SwitchTable::Entry& e = switches_.entries()[i];
+  for (int i = 0; i < events_.switches.size(); ++i) {
+    const SwitchTable::Entry& e = events_.switches.entries()[i];
     if (e.kind == Switching::Kind::kFriction && ws.modes[i] == SwitchTable::kStick)
-      ws.modes[i] = AfterZeroCrossing(ws.lambda[e.lambda], e.mu_s * switches_.Normal(e, t, ws.slots.data()));
+      ws.modes[i] = AfterZeroCrossing(ws.lambda[e.lambda], e.mu_s * events_.switches.Normal(e, t, ws.slots.data()));
   }
 }
 
@@ -280,9 +280,9 @@ void CompiledModel::HandleEvents(double t, double* x, Workspace& ws, const int* 
     constraints_.Values(t, ws.slots.data(), values.data());
   };
   bool impulse = false;  // an impact changed the flows at once: slipping frictions may now slide the other way
-  for (int i = 0; i < switches_.size(); ++i) {
+  for (int i = 0; i < events_.switches.size(); ++i) {
     if (!roots[2 * i] && !roots[2 * i + 1]) continue;
-    const SwitchTable::Entry& e = switches_.entries()[i];
+    const SwitchTable::Entry& e = events_.switches.entries()[i];
     const auto mode = static_cast<SwitchTable::Mode>(ws.modes[i]);
     impulse = impulse || mode == SwitchTable::kOpen;
     evaluate();
@@ -335,7 +335,7 @@ void CompiledModel::HandleEvents(double t, double* x, Workspace& ws, const int* 
         ws.modes[i] = lambda > 0.0 ? SwitchTable::kSlipNegative : SwitchTable::kSlipPositive;
         rec.kind = e.capacity ? "unlock" : "slip";
         rec.description = fmt::format("the force {:.6g} reached the static limit {:.6g}", lambda,
-                                      e.mu_s * switches_.Normal(e, t, ws.slots.data()));
+                                      e.mu_s * events_.switches.Normal(e, t, ws.slots.data()));
         break;
       }
       case SwitchTable::kSlipPositive:
@@ -343,7 +343,7 @@ void CompiledModel::HandleEvents(double t, double* x, Workspace& ws, const int* 
         ws.modes[i] = SwitchTable::kStick;
         evaluate();
         const double hold = ws.lambda[e.lambda];
-        const double limit = e.mu_s * switches_.Normal(e, t, ws.slots.data());
+        const double limit = e.mu_s * events_.switches.Normal(e, t, ws.slots.data());
         ws.modes[i] = AfterZeroCrossing(hold, limit);
         if (ws.modes[i] == SwitchTable::kStick) {
           rec.kind = e.capacity ? "lock" : "stick";
@@ -360,8 +360,8 @@ void CompiledModel::HandleEvents(double t, double* x, Workspace& ws, const int* 
   // A slipping friction whose relative flow an impact reversed (a slider rebounding from its stop)
   // slips the new way; one the impact brought to rest sticks if it can. Its flow jumped across zero
   // without crossing it, so no root reported it.
-  for (int i = 0; impulse && i < switches_.size(); ++i) {
-    const SwitchTable::Entry& e = switches_.entries()[i];
+  for (int i = 0; impulse && i < events_.switches.size(); ++i) {
+    const SwitchTable::Entry& e = events_.switches.entries()[i];
     const auto mode = static_cast<SwitchTable::Mode>(ws.modes[i]);
     if (e.kind != Switching::Kind::kFriction || (mode != SwitchTable::kSlipPositive && mode != SwitchTable::kSlipNegative)) continue;
     evaluate();
@@ -375,7 +375,7 @@ void CompiledModel::HandleEvents(double t, double* x, Workspace& ws, const int* 
       ws.modes[i] = SwitchTable::kStick;
       evaluate();
       const double hold = ws.lambda[e.lambda];
-      const double limit = e.mu_s * switches_.Normal(e, t, ws.slots.data());
+      const double limit = e.mu_s * events_.switches.Normal(e, t, ws.slots.data());
       ws.modes[i] = AfterZeroCrossing(hold, limit);
       if (ws.modes[i] == SwitchTable::kStick) rec.kind = e.capacity ? "lock" : "stick";
       rec.description = fmt::format("stopped by an impact: holding takes {:.6g}, static limit {:.6g}", hold, limit);
@@ -387,11 +387,11 @@ void CompiledModel::HandleEvents(double t, double* x, Workspace& ws, const int* 
 
 std::vector<std::string> CompiledModel::KinksAt(double t, const double* x, Workspace& ws) const {
   std::vector<std::string> out;
-  if (kinks_.empty()) return out;
+  if (events_.kinks.empty()) return out;
   std::vector<double> xdot(num_states());
   CalcDerivatives(t, x, xdot.data(), ws);
   constexpr double kTie = 1e-12;
-  for (const KinkTable::Kink& k : kinks_.kinks())
+  for (const KinkTable::Kink& k : events_.kinks.kinks())
     if (std::abs(expr::Run(k.program, t, x, ws.slots.data())) <= kTie)
       out.push_back(fmt::format("`{}` in {} ({} = 0 there)", k.formula, k.what, k.function));
   return out;
@@ -399,10 +399,10 @@ std::vector<std::string> CompiledModel::KinksAt(double t, const double* x, Works
 
 std::vector<double> CompiledModel::Waypoints(double t0, double t1) const {
   std::vector<double> out;
-  for (const Instr& in : plan_) {
+  for (const Instr& in : plan_.instrs) {
     if (in.op != Op::kSource) continue;
     for (int k = 0; k < in.n; ++k) {
-      const TimeFunction& f = source_fns_[in.coef + k];
+      const TimeFunction& f = plan_.source_fns[in.coef + k];
       // One pass over a table for both kinds of corner.
       const TimeFunction::Corners c = f.kind == TimeFunction::Kind::kTable ? f.TableCorners() : TimeFunction::Corners{f.Breakpoints(), {}};
       for (const double b : c.waypoints)
@@ -418,16 +418,16 @@ std::vector<double> CompiledModel::Waypoints(double t0, double t1) const {
 }
 
 std::vector<TimeEvent> CompiledModel::TimeEvents(double t0, double t1, double resolution) const {
-  std::vector<std::pair<double, std::string>> jumps = switches_.TimeEvents(t0, t1);
-  for (const Instr& in : plan_) {
+  std::vector<std::pair<double, std::string>> jumps = events_.switches.TimeEvents(t0, t1);
+  for (const Instr& in : plan_.instrs) {
     if (in.op != Op::kSource) continue;
     for (int k = 0; k < in.n; ++k)
-      for (const double b : source_fns_[in.coef + k].Breakpoints())
+      for (const double b : plan_.source_fns[in.coef + k].Breakpoints())
         if (b > t0 && b < t1) jumps.push_back({b, graph_.element(in.element).name});
   }
   std::sort(jumps.begin(), jumps.end());
   jumps.erase(std::unique(jumps.begin(), jumps.end()), jumps.end());
-  std::vector<TimeEvent> out = kinks_.TimeEvents(t0, t1, resolution);
+  std::vector<TimeEvent> out = events_.kinks.TimeEvents(t0, t1, resolution);
   for (auto& [t, element] : jumps)
     out.push_back({t, "time", std::move(element), "a source's value or slope jumps: the integration restarts"});
   std::stable_sort(out.begin(), out.end());

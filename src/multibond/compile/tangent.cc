@@ -31,14 +31,14 @@ bool IsSourceInstruction(const plan::Instr& in, const BondGraph& g) {
 
 std::vector<CompiledModel::SourceInput> CompiledModel::SourceInputs() const {
   std::vector<SourceInput> inputs;
-  for (int i = 0; i < static_cast<int>(plan_.size()); ++i) {
-    const Instr& in = plan_[i];
+  for (int i = 0; i < static_cast<int>(plan_.instrs.size()); ++i) {
+    const Instr& in = plan_.instrs[i];
     if (!IsSourceInstruction(in, graph_)) continue;
     const Element& e = graph_.element(in.element);
-    const int cls = class_of_slot_.empty() ? -1 : class_of_slot_[in.dst];
+    const int cls = slots_.class_of_slot.empty() ? -1 : slots_.class_of_slot[in.dst];
     const std::vector<std::string> comps = ComponentNames(in.n);
     for (int k = 0; k < in.n; ++k)
-      inputs.push_back({in.n == 1 ? e.name : e.name + "." + comps[k], cls >= 0 ? class_units_[cls] : "", in.element, i, k});
+      inputs.push_back({in.n == 1 ? e.name : e.name + "." + comps[k], cls >= 0 ? slots_.class_units[cls] : "", in.element, i, k});
   }
   return inputs;
 }
@@ -47,8 +47,8 @@ bool CompiledModel::can_linearize(std::string* why) const {
   // The linearisation of ideal constraints differentiates the constraint equations twice
   // (ExecSecondTangent): a formula's by hyper-dual numbers, but not a law used backwards.
   for (int k : constraints_.tangent_plan())
-    if (plan_[k].op == Op::kSolve) {
-      const std::string& name = plan_[k].element >= 0 ? graph_.element(plan_[k].element).name : class_names_[class_of_slot_[plan_[k].dst]];
+    if (plan_.instrs[k].op == Op::kSolve) {
+      const std::string& name = plan_.instrs[k].element >= 0 ? graph_.element(plan_.instrs[k].element).name : slots_.class_names[slots_.class_of_slot[plan_.instrs[k].dst]];
       if (why)
         *why = fmt::format("ideal constraints whose equations read a law used backwards (that of '{}'): the "
                            "linearisation of such a constraint needs the inverse law's second derivatives, which are not derived",
@@ -67,40 +67,40 @@ void CompiledModel::TangentPass(double t, const double* x, const double* dx, boo
   std::vector<double> own;
   std::vector<double>& tmp = scratch ? *scratch : own;
   tmp.assign(d_slots.size(), 0.0);
-  if (!needed_moduli_.empty()) EvalModuli(dx, d_moduli.data(), /*derivative=*/true);
-  const plan::TangentArgs args{t, x, dx, w, d, tmp.data(), ws.moduli.data(), d_moduli.data(), ws.lambda.data(), tables(), moduli_.data(),
+  if (!plan_.needed_moduli.empty()) EvalModuli(dx, d_moduli.data(), /*derivative=*/true);
+  const plan::TangentArgs args{t, x, dx, w, d, tmp.data(), ws.moduli.data(), d_moduli.data(), ws.lambda.data(), tables(), plan_.moduli.data(),
                                /*source_rate=*/time};
   int input = 0;
-  for (const Instr& in : plan_) {
+  for (const Instr& in : plan_.instrs) {
     plan::ExecTangent(in, args);
     if (IsSourceInstruction(in, graph_)) {
       for (int k = 0; k < in.n; ++k, ++input)
         if (du) d[in.dst + k] += du[input];
     }
   }
-  if (!tears_.empty()) {
+  if (!loops_.tears.empty()) {
     // The pass took the torn variables' derivatives as 0, so each writer's own slot holds dc0, the
     // derivative of c(z) along the direction at fixed z. The loop's solution z = c(z) moves by
     // dz = (I - dc/dz)^-1 dc0 (the implicit function theorem; dc/dz column by column, as Newton's
     // method takes it in EvalTorn), and the closure runs again with dz: every slot's derivative is
     // then that of the solved loop. Not on the hot path (linearisation, sliding modes): it allocates.
-    const int n = num_tear_;
+    const int n = loops_.num_unknowns;
     Eigen::VectorXd dc0(n);
     int k = 0;
-    for (const Tear& tr : tears_)
+    for (const Tear& tr : loops_.tears)
       for (int i = 0; i < tr.size; ++i) dc0[k++] = d[tr.shadow + i];
     std::vector<double> dj(d_slots.size()), tj(d_slots.size(), 0.0), zero_x(static_cast<size_t>(num_states()), 0.0), zero_mod(d_moduli.size(), 0.0);
     const plan::TangentArgs along_z{t, x, zero_x.data(), ws.slots.data(), dj.data(), tj.data(), ws.moduli.data(), zero_mod.data(),
-                                    ws.lambda.data(), tables(), moduli_.data(), /*source_rate=*/false};
+                                    ws.lambda.data(), tables(), plan_.moduli.data(), /*source_rate=*/false};
     Eigen::MatrixXd a(n, n);
-    TornJacobian(tears_, dj, a, [&] {
-      for (int at : tear_closure_) plan::ExecTangent(plan_[at], along_z);
+    TornJacobian(loops_.tears, dj, a, [&] {
+      for (int at : loops_.closure) plan::ExecTangent(plan_.instrs[at], along_z);
     });
     const Eigen::VectorXd dz = a.partialPivLu().solve(dc0);
     k = 0;
-    for (const Tear& tr : tears_)
+    for (const Tear& tr : loops_.tears)
       for (int i = 0; i < tr.size; ++i) d[tr.slot + i] = dz[k++];
-    for (int at : tear_closure_) plan::ExecTangent(plan_[at], args);
+    for (int at : loops_.closure) plan::ExecTangent(plan_.instrs[at], args);
   }
   for (const Gather& gt : layout_.gathers()) TangentGather(gt, x, dx, w, d, dxdot);
 }
@@ -124,8 +124,8 @@ void CompiledModel::CalcTangent(double t, const double* x, const double* dx, con
   const SourceTable sources = Sources(code ? code->values : nullptr);
   const ConstraintSolver::PlanView view = ConstraintPlan(&sources, code);
   const plan::SecondTangentArgs second{t, x, dx, rate.data(), ws.slots.data(), dws.slots.data(), df.data(), dd.data(), tmp.data(),
-                                       ws.moduli.data(), dws.moduli.data(), dmod_f.data(), ws.lambda.data(), tables(), moduli_.data()};
-  for (int index : constraints_.tangent_plan()) plan::ExecSecondTangent(plan_[index], second);
+                                       ws.moduli.data(), dws.moduli.data(), dmod_f.data(), ws.lambda.data(), tables(), plan_.moduli.data()};
+  for (int index : constraints_.tangent_plan()) plan::ExecSecondTangent(plan_.instrs[index], second);
   std::vector<double> r1(m), r2(m), r(m), dlambda(m), lin(dws.slots.size(), 0.0);
   constraints_.ConstraintRates(jyu.data(), r1.data());
   constraints_.ConstraintRates(dd.data(), r2.data());
