@@ -188,7 +188,7 @@ class CompiledModel {
   const std::vector<std::string>& state_names() const { return layout_.state_names(); }
   const std::vector<std::string>& state_units() const { return layout_.state_units(); }
   const std::vector<StateBlock>& state_blocks() const { return layout_.blocks(); }
-  int num_instructions() const { return static_cast<int>(plan_.instrs.size()); }
+  int num_instructions() const { return plan_.size(); }
   /// Which state derivatives can depend on which states, from the plan (an instruction's outputs
   /// depend on all its inputs, component by component for sums, copies and diagonal
   /// coefficients): the structure of the Jacobian, never missing an entry that the numbers can
@@ -323,7 +323,7 @@ class CompiledModel {
   // --- symbolic view of the plan, for `multibond equations` ---
   int slot_class_of_effort(int bond) const { return slots_.effort_class[bond]; }
   int slot_class_of_flow(int bond) const { return slots_.flow_class[bond]; }
-  int num_slot_classes() const { return static_cast<int>(slots_.class_offset.size()); }
+  int num_slot_classes() const { return slots_.num_classes(); }
   const Definition& definition(int slot_class) const { return plan_.definitions[slot_class]; }
   /// A readable name for a slot class: "j.f", "spring.e", "gear.f2".
   const std::string& slot_class_name(int slot_class) const { return slots_.class_names[slot_class]; }

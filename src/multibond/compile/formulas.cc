@@ -58,7 +58,7 @@ bool CompiledModel::HasFormulas(const Element& e) {
 }
 
 int CompiledModel::AddSignalClass(const std::string& name, const std::string& unit, bool visible) {
-  const int c = static_cast<int>(slots_.class_offset.size());
+  const int c = slots_.num_classes();
   slots_.class_offset.push_back(slots_.num_slots);
   slots_.class_size.push_back(1);
   slots_.class_units.push_back(unit.empty() ? "-" : unit);

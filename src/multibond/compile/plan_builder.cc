@@ -51,7 +51,7 @@ void CompiledModel::AssignSlots() {
   for (int s = 0; s < 2 * nb; ++s) {
     const int root = uf.Root(s);
     if (class_of_root[root] < 0) {
-      class_of_root[root] = static_cast<int>(slots_.class_offset.size());
+      class_of_root[root] = slots_.num_classes();
       slots_.class_offset.push_back(slots_.num_slots);
       slots_.class_size.push_back(dim[s / 2]);
       slots_.num_slots += dim[s / 2];

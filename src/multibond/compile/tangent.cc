@@ -31,7 +31,7 @@ bool IsSourceInstruction(const plan::Instr& in, const BondGraph& g) {
 
 std::vector<CompiledModel::SourceInput> CompiledModel::SourceInputs() const {
   std::vector<SourceInput> inputs;
-  for (int i = 0; i < static_cast<int>(plan_.instrs.size()); ++i) {
+  for (int i = 0; i < plan_.size(); ++i) {
     const Instr& in = plan_.instrs[i];
     if (!IsSourceInstruction(in, graph_)) continue;
     const Element& e = graph_.element(in.element);
