@@ -44,14 +44,15 @@ int Plot(const PlotArgs& a, const std::vector<std::string>& argv) {
   po.limits = ParseLimits(a.limits);
   const bool tty = ::isatty(STDERR_FILENO) != 0;
   if (tty) po.progress = [](std::size_t done, std::size_t total) { std::fprintf(stderr, "\r  figure %zu of %zu", done, total); };
-  const PlotReport report = MakeFigures(a.dir, po);
+  const PlotInputs inputs(a.dir, po);  // read once, for the figures and the page
+  const PlotReport report = MakeFigures(inputs, po);
   if (tty) std::fprintf(stderr, "\r%*s\r", 40, "");  // the progress line goes
   for (const auto& w : report.warnings) std::cerr << "warning: " << w << '\n';
   if (report.files.empty()) {
     std::cerr << fmt::format("error: no figure drawn from '{}' (see the warnings above); nothing was written\n", a.dir);
     return kExitIo;
   }
-  WriteResultsPage(a.dir, report, po.limits, a.model);
+  WriteResultsPage(inputs, report);
   std::cout << fmt::format("wrote {} figure files in {}/figures and {}/index.html\n", report.files.size(), a.dir, a.dir);
   return kExitOk;
 }

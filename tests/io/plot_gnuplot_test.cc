@@ -13,7 +13,11 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <string>
 #include <thread>
+#include <vector>
+
+#include <fmt/format.h>
 
 #include "multibond/core/interrupt.h"
 #include "support/temp_dir.h"
@@ -43,12 +47,37 @@ TEST(PlotGnuplotTest, ScriptReadsTheColumnsByNumberAndEscapesText) {
   p.curves = {{{"b"}, "b_{1}", "#000000", true, 1000.0}, {{"a"}, "a", "#ffffff"}};
   f.panels = {p};
   const std::string gp = GnuplotScript(t, f);
-  EXPECT_THAT(gp, HasSubstr("plot \"results.csv\" using (strcol(1)):(strcol(3)):(strcol(2)) with table"));
+  // The columns it draws are in it (time, b, a), as results.csv has them: gnuplot does not read
+  // the file again.
+  EXPECT_THAT(gp, HasSubstr("$d << EOD\n0,2,1\n1,5,3\nEOD\n"));
+  EXPECT_THAT(gp, HasSubstr("#   $d column 2 = results.csv column 3: b [m\xef\xbf\xbdx\xef\xbf\xbd]"));
+  EXPECT_EQ(gp.find("\"results.csv\""), std::string::npos);
   EXPECT_THAT(gp, HasSubstr("set multiplot layout 1,1 title 'Fig. 1. it''s \xef\xbf\xbd" "b\xef\xbf\xbd'"));
   EXPECT_THAT(gp, HasSubstr("set title 'panel !touch x'"));
   EXPECT_THAT(gp, HasSubstr("$d using 1:(($2 - (2))*1000) lw 1.5 lc rgb \"#000000\" title 'b_{1}'"));
   EXPECT_THAT(gp, HasSubstr("set print \"plots/fig.ranges\""));
   EXPECT_EQ(gp.find('`'), std::string::npos);
+}
+
+TEST(PlotGnuplotTest, TheDatablockHoldsEveryValueAsResultsCsvWritesIt) {
+  TempDir dir;
+  // Values that a short format would change, and values that are not numbers.
+  const std::vector<std::string> a = {"0.1", "0.30000000000000004", "1e-300", "-2.2250738585072014e-308", "nan", "inf", "-inf",
+                                      "1.2345678901234568e+17"};
+  std::string csv = "time [s],a [m]\n";
+  for (size_t r = 0; r < a.size(); ++r) csv += fmt::format("{},{}\n", r, a[r]);
+  std::ofstream(dir.path() / "results.csv") << csv;
+  struct stat st {};
+  const PlotTable t = PlotTable::Load(ResultsFolder(dir.path().string()), 1 << 20, &st);
+  Figure f;
+  f.name = "fig";
+  Panel p;
+  p.id = "a";
+  p.curves = {{{"a"}, "a", "#000000"}};
+  f.panels = {p};
+  const std::string gp = GnuplotScript(t, f);
+  // results.csv without its header is the block, character for character.
+  EXPECT_THAT(gp, HasSubstr("$d << EOD\n" + csv.substr(csv.find('\n') + 1) + "EOD\n"));
 }
 
 TEST(PlotGnuplotTest, EventsAreMarkedOnEveryTimePanelInItsWindow) {

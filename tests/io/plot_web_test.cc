@@ -304,7 +304,8 @@ TEST(PlotWebTest, PreparePageLaysOutTheGraphAndCopiesTheFilesWithoutFollowingLin
   fs::create_symlink(d.path() / "victim", dir / kPageScript);
   const PlotTable t = TableOf(dir, "time [s],spring.q [m]\n0,0\n1,1\n");
   const ResultsFolder folder(dir.string());
-  const PageApp app = PreparePage(folder, t, {}, std::string(MULTIBOND_SOURCE_DIR) + "/examples/mass_spring_damper.yaml", {}, assets.string());
+  const PageApp app = PreparePage(folder, t, {}, PlotModel::Read(std::string(MULTIBOND_SOURCE_DIR) + "/examples/mass_spring_damper.yaml", {}), "",
+                                    assets.string());
   EXPECT_TRUE(app.assets);
   EXPECT_EQ(ReadFile(d.path() / "victim"), "precious");
   EXPECT_TRUE(fs::is_regular_file(fs::symlink_status(dir / kPageScript)));
@@ -318,7 +319,7 @@ TEST(PlotWebTest, PreparePageLaysOutTheGraphAndCopiesTheFilesWithoutFollowingLin
   for (const auto& e : fs::directory_iterator(dir)) EXPECT_NE(e.path().filename().string().rfind(".multibond-plot-", 0), 0u) << e.path();
 
   // No assets: the page says so, and has no script.
-  const PageApp bare = PreparePage(folder, t, {}, "", {}, "");
+  const PageApp bare = PreparePage(folder, t, {}, PlotModel{}, "", "");
   EXPECT_FALSE(bare.assets);
   ASSERT_FALSE(bare.notes.empty());
   const std::string html = ResultsPageHtml(t, nlohmann::json::object(), FigureList{}, {}, -1, {}, &bare);
@@ -333,9 +334,9 @@ TEST(PlotWebTest, PreparePageLaysOutTheGraphAndCopiesTheFilesWithoutFollowingLin
 TEST(PlotWebTest, ARunTooLargeForThePageKeepsTheGalleryWithANote) {
   const multibond::testing::TempDir d("multibond-plot-web");
   const PlotTable t = TableOf(d.path(), "time [s],x [m]\n0,1\n1,2\n2,3\n");  // 6 values
-  const PageApp at = PreparePage(ResultsFolder(d.path().string()), t, {}, "", {}, "", 6);
+  const PageApp at = PreparePage(ResultsFolder(d.path().string()), t, {}, PlotModel{}, "", "", 6);
   EXPECT_FALSE(at.data_json.empty());
-  const PageApp over = PreparePage(ResultsFolder(d.path().string()), t, {}, "", {}, "", 5);
+  const PageApp over = PreparePage(ResultsFolder(d.path().string()), t, {}, PlotModel{}, "", "", 5);
   EXPECT_TRUE(over.data_json.empty());
   ASSERT_EQ(over.notes.size(), 1u);
   EXPECT_THAT(over.notes[0], HasSubstr("3 rows of 2 columns, more than the page holds (5 values)"));

@@ -21,6 +21,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -263,9 +264,10 @@ TEST(PlotsTest, EveryFigureFromTheRightColumns) {
   EXPECT_EQ(report.files.size(), 2 * PaperFigureNames().size());
   EXPECT_EQ(ReadFile(dir.path() / "figures" / "fig05-G-momentum.png").substr(1, 3), "PNG");
   EXPECT_NE(ReadFile(dir.path() / "figures" / "fig05-G-momentum.svg").find("<svg"), std::string::npos);
-  // The scripts are kept, read results.csv directly and say which columns they use.
+  // The scripts are kept, hold the columns they draw and say which columns those are.
   const std::string gp = ReadFile(dir.path() / "plots" / "fig05-G-momentum.gp");
-  EXPECT_NE(gp.find("plot \"results.csv\" using"), std::string::npos) << gp;
+  EXPECT_NE(gp.find("$d << EOD\n"), std::string::npos) << gp;
+  EXPECT_EQ(gp.find("\"results.csv\""), std::string::npos) << gp;
   EXPECT_NE(gp.find("G.h.x [N m s]"), std::string::npos) << gp;
   EXPECT_NE(gp.find("Fig. 5. Variation of components of momentum of link G with time"), std::string::npos) << gp;
   EXPECT_NE(ReadFile(dir.path() / "plots" / "fig02-bond-graph.dot").find("cluster_G_bearing"), std::string::npos);
@@ -402,6 +404,42 @@ TEST(PlotsTest, BondGraphGroupedByLink) {
   const DotOptions plain = LinkGrouping(LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/mass_spring_damper.yaml"));
   EXPECT_TRUE(plain.nest.empty());
   EXPECT_TRUE(plain.bond_names);
+}
+
+// Each input is read once for the figures and the page, and each drawing made once: with
+// results.csv gone once the inputs are read, every figure and the page are drawn (gnuplot reads the
+// columns from its script, the page from the table read), and Graphviz runs once for the bond
+// graph's PNG, SVG and the page's layout (a `dot` on the PATH that logs its runs).
+TEST(PlotsTest, EachInputIsReadOnceAndTheBondGraphLaidOutOnce) {
+  TempDir dir;
+  const fs::path results = dir.path() / "run", bin = dir.path() / "bin", log = dir.path() / "dot-runs.log";
+  fs::create_directory(results);
+  SyntheticRun().Write(results);
+  fs::create_directory(bin);
+  std::ofstream(bin / "dot") << fmt::format("#!/bin/sh\necho \"$*\" >> '{}'\nexec /usr/bin/dot \"$@\"\n", log.string());
+  fs::permissions(bin / "dot", fs::perms::owner_all);
+  const char* old = std::getenv("PATH");
+  const std::string saved = old ? old : "";
+  setenv("PATH", (bin.string() + ":" + saved).c_str(), 1);
+
+  const PlotInputs inputs(results.string(), Options());
+  fs::remove(results / "results.csv");
+  const PlotReport report = MakeFigures(inputs, Options());
+  WriteResultsPage(inputs, report);
+  setenv("PATH", saved.c_str(), 1);
+
+  for (const std::string& w : report.warnings) ADD_FAILURE() << "warning: " << w;
+  EXPECT_EQ(report.files.size(), 2 * PaperFigureNames().size());
+  for (const std::string& name : PaperFigureNames())
+    for (const char* ext : {".png", ".svg"}) EXPECT_TRUE(Exists(results / "figures" / (name + ext))) << name << ext;
+  const std::string page = ReadFile(results / "index.html");
+  EXPECT_THAT(page, HasSubstr(fmt::format("{} rows in results.csv", SyntheticRun::kRows)));
+  EXPECT_THAT(page, HasSubstr("\"graph\":{\"bb\""));  // the bond graph, laid out
+  const std::string runs = ReadFile(log);
+  EXPECT_EQ(std::count(runs.begin(), runs.end(), '\n'), 1) << runs;
+  EXPECT_THAT(runs, HasSubstr("-Tpng"));
+  EXPECT_THAT(runs, HasSubstr("-Tsvg"));
+  EXPECT_THAT(runs, HasSubstr("-Tjson"));
 }
 
 TEST(PlotsTest, PageShowsEveryFigureAndRendersInChromium) {

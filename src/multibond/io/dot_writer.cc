@@ -217,16 +217,23 @@ std::string MakeDot(const BondGraph& g, const Structure* structure, const Causal
   return DotWriter(g, structure, causality, options).Run();
 }
 
-bool RenderWithGraphviz(const std::string& dot_path, const std::string& out_path, const std::string& format,
-                        std::string* error) {
+bool RenderWithGraphviz(const std::string& dot_path, const std::vector<GraphvizOutput>& outputs, std::string* error) {
   auto fail = [&](std::string message) {
     if (error) *error = std::move(message);
     return false;
   };
-  const bool format_ok = !format.empty() && std::all_of(format.begin(), format.end(), [](char c) {
-    return std::isalnum(static_cast<unsigned char>(c)) || c == ':' || c == '_';
-  });
-  if (!format_ok) return fail(fmt::format("invalid Graphviz output format '{}' (expected e.g. svg or png)", format));
+  if (outputs.empty()) return fail("no Graphviz output asked for");
+  std::vector<std::string> argv = {"dot"};
+  std::string formats;
+  for (const GraphvizOutput& o : outputs) {
+    const bool format_ok = !o.format.empty() && std::all_of(o.format.begin(), o.format.end(), [](char c) {
+      return std::isalnum(static_cast<unsigned char>(c)) || c == ':' || c == '_';
+    });
+    if (!format_ok) return fail(fmt::format("invalid Graphviz output format '{}' (expected e.g. svg or png)", o.format));
+    argv.insert(argv.end(), {"-T" + o.format, "-o", SafeArg(o.path)});
+    formats += (formats.empty() ? "-T" : " -T") + o.format;
+  }
+  argv.push_back(SafeArg(dot_path));
 
   // dot's messages go to a temporary file of our own (a unique name, created by mkstemp: not a
   // link someone planted), quoted on failure.
@@ -234,14 +241,19 @@ bool RenderWithGraphviz(const std::string& dot_path, const std::string& out_path
   const int log_fd = mkstemp(log.data());
   if (log_fd < 0) return fail(fmt::format("cannot create a temporary file for dot's messages: {}", std::strerror(errno)));
   close(log_fd);
-  const std::string failure = RunProcess({"dot", "-T" + format, "-o", SafeArg(out_path), SafeArg(dot_path)}, "", log);
+  const std::string failure = RunProcess(argv, "", log);
   std::remove(log.c_str());
   if (!failure.empty()) {
     if (failure.find("not installed") != std::string::npos)
       return fail("cannot run 'dot': Graphviz is not installed (or not on PATH)");
-    return fail(fmt::format("'dot -T{}' failed on '{}': {}", format, MessageText(dot_path), MessageText(failure)));
+    return fail(fmt::format("'dot {}' failed on '{}': {}", formats, MessageText(dot_path), MessageText(failure)));
   }
   return true;
+}
+
+bool RenderWithGraphviz(const std::string& dot_path, const std::string& out_path, const std::string& format,
+                        std::string* error) {
+  return RenderWithGraphviz(dot_path, {{format, out_path}}, error);
 }
 
 }  // namespace multibond

@@ -8,6 +8,7 @@
 
 #include <map>
 #include <string>
+#include <vector>
 
 #include "multibond/causality/causality.h"
 #include "multibond/core/graph.h"
@@ -34,6 +35,16 @@ struct DotOptions {
 /// The output is deterministic: nodes in element order, edges in bond order.
 std::string MakeDot(const BondGraph& g, const Structure* structure, const CausalAssignment* causality,
                     const DotOptions& options = {});
+
+/// One output of a Graphviz run: its format (e.g. "svg", "png", "json") and file.
+struct GraphvizOutput {
+  std::string format, path;
+};
+
+/// Runs `dot -T<format> -o <path> ... <dot_path>` once for every output (no shell involved): the
+/// graph is laid out once and written in each format. Returns false with a message in `error` (if
+/// non-null) when `dot` is missing or fails, or a format is not a plain word.
+bool RenderWithGraphviz(const std::string& dot_path, const std::vector<GraphvizOutput>& outputs, std::string* error);
 
 /// Runs `dot -T<format> -o <out_path> <dot_path>` (no shell involved). `format` is e.g. "svg" or
 /// "png". Returns false with a message in `error` (if non-null) when `dot` is missing or fails.

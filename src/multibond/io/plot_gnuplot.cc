@@ -8,9 +8,12 @@
 #include <cmath>
 #include <deque>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include "multibond/core/interrupt.h"
@@ -46,6 +49,21 @@ std::pair<double, double> DataRange(const PlotTable& t, const std::vector<Curve>
   return {lo, hi};
 }
 
+/// Rows of the columns `cols`, comma-separated, each value written as results.csv writes it (the
+/// shortest text that reads back as the same double: fmt's "{}"; nan, inf, -inf).
+std::string DataBlock(const std::vector<const std::vector<double>*>& cols) {
+  fmt::memory_buffer out;
+  const std::size_t rows = cols.empty() ? 0 : cols.front()->size();
+  for (std::size_t r = 0; r < rows; ++r) {
+    for (std::size_t c = 0; c < cols.size(); ++c) {
+      if (c) out.push_back(',');
+      fmt::format_to(std::back_inserter(out), FMT_COMPILE("{}"), (*cols[c])[r]);
+    }
+    out.push_back('\n');
+  }
+  return fmt::to_string(out);
+}
+
 class ScriptWriter {
  public:
   ScriptWriter(const PlotTable& t, const Figure& f, const ScriptSettings& o, const std::vector<PlotEvent>& events)
@@ -65,21 +83,18 @@ class ScriptWriter {
       << ".ranges (each panel's data extent: panel, xmin, xmax, ymin, ymax[, zmin, zmax]).\n";
     s << "set encoding utf8\n";
     s << "set datafile separator \",\"\n";
-    s << "set datafile columnheaders\n";
-    s << "# results.csv columns used (1-based), read once into the datablock $d (as text: no digit lost):\n";
-    std::string using_spec = "(strcol(1))";
+    s << "# results.csv columns used (1-based), in the datablock $d below (the values as results.csv has them):\n";
+    std::vector<const std::vector<double>*> block = {&t_.Col(t_.names().front())};
     s << "#   $d column 1 = results.csv column 1: time [" << GnuplotComment(t_.Unit("time")) << "]\n";
     int next = 2;
     for (const std::string& col : f_.Columns()) {
       block_[col] = next;
-      using_spec += fmt::format(":(strcol({}))", t_.Find(col) + 1);
+      block.push_back(&t_.Col(col));
       s << fmt::format("#   $d column {} = results.csv column {}: {} [{}]\n", next, t_.Find(col) + 1, GnuplotComment(col),
                        GnuplotComment(t_.Unit(col)));
       ++next;
     }
-    s << "set table $d separator comma\n";
-    s << "plot \"results.csv\" using " << using_spec << " with table\n";
-    s << "unset table\n";
+    s << "$d << EOD\n" << DataBlock(block) << "EOD\n";
     s << "set datafile nocolumnheaders\n";
     s << fmt::format("set print \"plots/{}.ranges\"\n", name);
     s << "set style data lines\n";

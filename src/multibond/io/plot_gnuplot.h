@@ -2,8 +2,9 @@
 /// \file
 /// gnuplot for `plot`: a figure's script, and running gnuplot on many scripts a few at a time.
 ///
-/// A script reads results.csv directly, by column number (found from the header), into a
-/// datablock, and writes figures/<name>.png and .svg and plots/<name>.ranges (each panel's data
+/// A script holds the columns of results.csv that it draws, in a datablock (each value as
+/// results.csv writes it, so no digit is lost; its comments say which column is which), so that
+/// gnuplot does not parse the whole file again for every figure; it writes figures/<name>.png and .svg and plots/<name>.ranges (each panel's data
 /// extent as gnuplot saw it: panel, x min/max, y min/max[, z min/max]). It runs from the results
 /// folder: `gnuplot plots/<name>.gp`. Every text in it is an escaped gnuplot string or comment
 /// (safe_text.h); units from results.csv are shown as they are (GnuplotLiteralText). A run's

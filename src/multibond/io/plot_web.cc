@@ -22,7 +22,7 @@
 #include "multibond/core/error.h"
 #include "multibond/core/structure.h"
 #include "multibond/io/dot_writer.h"
-#include "multibond/io/plots.h"
+#include "multibond/io/plot_model.h"
 #include "multibond/io/safe_text.h"
 
 #ifndef MULTIBOND_WEB_BUILD_DIR
@@ -196,25 +196,24 @@ double Inches(const nlohmann::json& v) {
 }
 
 /// The bond graph drawing of `model`, laid out by Graphviz in `work`.
-nlohmann::json GraphOf(const LoadedModel& lm, const WorkFolder& work, std::vector<std::string>& notes) {
-  DiagnosticSink sink;
-  const Structure s = AnalyzeStructure(lm.graph, lm.compile.default_domain, sink);
-  if (sink.has_errors()) {
+/// The page's bond graph from the model's DOT, laid out by Graphviz here unless `layout` (its
+/// -Tjson output, e.g. from drawing the bond graph figure) is given.
+nlohmann::json GraphOf(const PlotModel& model, const WorkFolder& work, const std::string& layout, std::vector<std::string>& notes) {
+  if (model.dot.empty()) {
     notes.push_back("No bond graph: the model has structural errors (see 'multibond check').");
     return nullptr;
   }
-  const CausalAssignment c = AssignCausality(lm.graph, s);
-  work.Write("plots/page-graph.dot", MakeDot(lm.graph, &s, &c, LinkGrouping(lm)));
-  std::string error;
-  const std::string out = work.path() + "/plots/page-graph.json";
-  if (!RenderWithGraphviz(work.path() + "/plots/page-graph.dot", out, "json", &error)) {
-    notes.push_back(fmt::format("No bond graph: Graphviz did not lay it out ({}).", MessageText(error)));
-    return nullptr;
+  std::optional<std::string> text = layout;
+  if (layout.empty()) {
+    std::string error;
+    text = LayOutBondGraph(model, work, "page-graph", {}, &error);
+    if (!text) {
+      notes.push_back(fmt::format("No bond graph: Graphviz did not lay it out ({}).", MessageText(error)));
+      return nullptr;
+    }
   }
-  const std::optional<std::string> text = ReadBounded(out, kMaxLayoutBytes);
   try {
-    if (!text) throw std::runtime_error("no layout");
-    return GraphDrawing(nlohmann::json::parse(*text), lm.graph);
+    return GraphDrawing(nlohmann::json::parse(*text), model.loaded->graph);
   } catch (const std::exception& e) {
     notes.push_back(fmt::format("No bond graph: Graphviz's layout does not read ({}).", MessageText(e.what())));
     return nullptr;
@@ -222,6 +221,19 @@ nlohmann::json GraphOf(const LoadedModel& lm, const WorkFolder& work, std::vecto
 }
 
 }  // namespace
+
+std::optional<std::string> LayOutBondGraph(const PlotModel& model, const WorkFolder& work, const std::string& name,
+                                           const std::vector<GraphvizOutput>& pictures, std::string* error) {
+  const std::string dot = work.path() + "/plots/" + name + ".dot", layout = work.path() + "/plots/" + name + ".json";
+  work.Write("plots/" + name + ".dot", model.dot);
+  std::vector<GraphvizOutput> outputs;
+  for (const GraphvizOutput& p : pictures) outputs.push_back({p.format, work.path() + "/" + p.path});
+  outputs.push_back({"json", layout});
+  if (!RenderWithGraphviz(dot, outputs, error)) return std::nullopt;
+  std::optional<std::string> text = ReadBounded(layout, kMaxLayoutBytes);
+  if (!text && error) *error = fmt::format("its layout is missing or larger than {} bytes", kMaxLayoutBytes);
+  return text;
+}
 
 std::string Base64Doubles(const std::vector<double>& v) {
   static_assert(std::endian::native == std::endian::little, "the page reads little-endian doubles");
@@ -410,8 +422,8 @@ nlohmann::json GraphDrawing(const nlohmann::json& dot_json, const BondGraph& g) 
   return out;
 }
 
-PageApp PreparePage(const ResultsFolder& folder, const PlotTable& table, const std::vector<PlotEvent>& events,
-                    const std::string& model_path, const InputLimits& limits, const std::string& assets_dir, std::size_t max_values) {
+PageApp PreparePage(const ResultsFolder& folder, const PlotTable& table, const std::vector<PlotEvent>& events, const PlotModel& model,
+                    const std::string& layout, const std::string& assets_dir, std::size_t max_values) {
   PageApp app;
   if (table.rows() * table.names().size() > max_values) {
     app.notes.push_back(fmt::format("No interactive view: the run has {} rows of {} columns, more than the page holds ({} values); "
@@ -423,19 +435,24 @@ PageApp PreparePage(const ResultsFolder& folder, const PlotTable& table, const s
   data["graph"] = nullptr;
   data["scene"] = nullptr;
   const WorkFolder work(folder);
-  if (model_path.empty()) {
+  if (!model.given()) {
     data["graph_note"] = "No bond graph: give the model file with 'multibond plot DIR --model MODEL' (run.json names it, but plot does "
                          "not open a file because a results folder names it).";
     data["scene_note"] = "No 3D view: give the model file with --model MODEL for the bodies' shapes.";
   } else {
-    try {
-      const LoadedModel lm = LoadModelFile(model_path, limits);
-      data["graph"] = GraphOf(lm, work, app.notes);
-      data["scene"] = SceneData(lm);
-      if (data["scene"].is_null()) data["scene_note"] = "No 3D view: the model has no bodies.";
-    } catch (const ModelError&) {
-      app.notes.push_back(fmt::format("No bond graph and no 3D view: the model '{}' does not load (see 'multibond check' on it).",
-                                      MessageText(model_path)));
+    const std::string does_not_load = fmt::format(
+        "No bond graph and no 3D view: the model '{}' does not load (see 'multibond check' on it).", MessageText(model.path));
+    if (!model.loaded) {
+      app.notes.push_back(does_not_load);
+    } else {
+      try {
+        data["graph"] = GraphOf(model, work, layout, app.notes);
+        data["scene"] = SceneData(*model.loaded);
+        if (data["scene"].is_null()) data["scene_note"] = "No 3D view: the model has no bodies.";
+      } catch (const ModelError&) {
+        data["graph"] = nullptr;
+        app.notes.push_back(does_not_load);
+      }
     }
     if (!app.notes.empty()) data["graph_note"] = app.notes.front();
   }

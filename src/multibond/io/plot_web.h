@@ -25,6 +25,7 @@
 #include "multibond/io/limits.h"
 #include "multibond/io/model_loader.h"
 #include "multibond/io/plot_events.h"
+#include "multibond/io/plot_model.h"
 #include "multibond/io/plot_table.h"
 #include "multibond/io/results_folder.h"
 
@@ -80,6 +81,13 @@ nlohmann::json SceneData(const LoadedModel& model);
 /// when `dot_json` is not Graphviz's layout.
 nlohmann::json GraphDrawing(const nlohmann::json& dot_json, const BondGraph& g);
 
+/// Writes the model's DOT (PlotModel::dot, not empty) as plots/<name>.dot in `work` and has
+/// Graphviz lay it out once, writing its layout (-Tjson) as plots/<name>.json and each of
+/// `pictures` (a format and a path in `work`, e.g. {"svg", "figures/bond-graph.svg"}) from the same
+/// layout. Returns the layout's text, or nullopt with the reason in `error` (if non-null).
+std::optional<std::string> LayOutBondGraph(const PlotModel& model, const WorkFolder& work, const std::string& name,
+                                           const std::vector<GraphvizOutput>& pictures, std::string* error);
+
 /// What the page's interactive part needs, gathered by PreparePage.
 struct PageApp {
   std::string data_json;   ///< JsonForScript of the data
@@ -87,13 +95,14 @@ struct PageApp {
   std::vector<std::string> notes;  ///< what is left out and why (printable text)
 };
 
-/// Gathers the page's data from the folder's table and events and the model file `model_path`
-/// (may be ""; a model that does not load leaves out the graph and the scene with a note), and
-/// copies the assets from `assets_dir` (FindPageAssets(); "" for none) into the folder, through a
-/// private work folder and a rename (a planted link is replaced, not followed). A table of more
-/// than `max_values` values gets no interactive part (a note says why).
-PageApp PreparePage(const ResultsFolder& folder, const PlotTable& table, const std::vector<PlotEvent>& events,
-                    const std::string& model_path, const InputLimits& limits, const std::string& assets_dir,
-                    std::size_t max_values = kMaxPageValues);
+/// Gathers the page's data from the folder's table and events and the model (PlotModel: none
+/// given leaves out the graph and the scene with a note saying how to get them, one that does not
+/// load with a note saying so), and copies the assets from `assets_dir` (FindPageAssets(); "" for
+/// none) into the folder, through a private work folder and a rename (a planted link is replaced,
+/// not followed). The bond graph is laid out by Graphviz from the model's DOT unless `layout`, the
+/// layout of that DOT (`dot -Tjson`), is given. A table of more than `max_values` values gets no
+/// interactive part (a note says why).
+PageApp PreparePage(const ResultsFolder& folder, const PlotTable& table, const std::vector<PlotEvent>& events, const PlotModel& model,
+                    const std::string& layout, const std::string& assets_dir, std::size_t max_values = kMaxPageValues);
 
 }  // namespace multibond

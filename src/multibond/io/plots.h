@@ -10,22 +10,31 @@
 /// bond graph with Graphviz when the model file is given:
 ///
 ///     DIR/figures/<name>.png and .svg   the pictures
-///     DIR/plots/<name>.gp               the gnuplot script of each; run it again from DIR with
-///                                       `gnuplot plots/<name>.gp`
+///     DIR/plots/<name>.gp               the gnuplot script of each, with the columns it draws
+///                                       in it; run it again from DIR with `gnuplot plots/<name>.gp`
 ///     DIR/plots/<name>.ranges           what each panel plotted: its data extent as gnuplot saw
 ///                                       it (panel, x, y, z min/max)
 ///
-/// WriteResultsPage then writes DIR/index.html (plot_page.h).
+/// WriteResultsPage then writes DIR/index.html (plot_page.h). Each input is read once (PlotInputs)
+/// and each drawing made once: results.csv is parsed once and each figure's script holds the
+/// columns it draws (gnuplot does not read the whole file again), and the model's bond graph is
+/// laid out by Graphviz once for its PNG, its SVG and the page.
+
+#include <sys/stat.h>
 
 #include <cstddef>
 #include <functional>
 #include <string>
 #include <vector>
 
-#include "multibond/io/dot_writer.h"
+#include <nlohmann/json.hpp>
+
 #include "multibond/io/limits.h"
-#include "multibond/io/model_loader.h"
+#include "multibond/io/plot_events.h"
 #include "multibond/io/plot_figures.h"
+#include "multibond/io/plot_model.h"
+#include "multibond/io/plot_table.h"
+#include "multibond/io/results_folder.h"
 
 namespace multibond {
 
@@ -63,14 +72,27 @@ struct PlotReport {
   std::vector<std::string> files;     ///< every picture written (PNG and SVG), in figure order
   std::vector<std::string> warnings;  ///< figures left out and why (missing columns, gnuplot errors)
   FigureList figures;                 ///< the figures it was to draw (the page shows those drawn)
+  /// Graphviz's layout of the model's bond graph (-Tjson), when a bond graph figure was drawn:
+  /// the page's bond graph is drawn from it, not laid out again.
+  std::string graph_layout;
 };
 
-/// Drawing options for a mechanism's bond graph, grouped by link: each joint's and drive's
-/// elements inside its child link's cluster, each gear mesh inside its gear `a`'s, each relative
-/// velocity "X~Y" inside X's; bonds labelled by dimension only. The links come from the model
-/// file's mechanism sections (bodies, joints, gears, drives); a model without them gets the plain
-/// grouping by name prefix.
-DotOptions LinkGrouping(const LoadedModel& model);
+/// What one `plot` reads, read once and shared by the figures and the page: the figure list,
+/// results.csv, run.json, events.csv and the model file. The figure list is read first: a wrong
+/// one is said before anything else is read or written.
+struct PlotInputs {
+  /// Reads `results_dir` and the files `options` names (figures_path, model_path) within
+  /// `options.limits`. Throws as MakeFigures does.
+  PlotInputs(const std::string& results_dir, const PlotOptions& options);
+
+  FigureList figures;   ///< the figure list (none: the general figures are drawn)
+  ResultsFolder folder;
+  struct stat csv_status {};  ///< results.csv's status when it was read
+  PlotTable table;
+  nlohmann::json run;   ///< run.json ({} when absent)
+  PlotEvents events;    ///< events.csv
+  PlotModel model;      ///< the model file, loaded and drawn as DOT once
+};
 
 /// Draws the figures (see the file comment). Throws ModelError when the figure list is wrong
 /// (nothing is written then), std::runtime_error when results.csv cannot be read or gnuplot
@@ -83,15 +105,19 @@ DotOptions LinkGrouping(const LoadedModel& model);
 /// plots/ are refused when they are links, and every file is written in a private work folder and
 /// renamed into place. No text of the folder or of the figure list reaches gnuplot but as an
 /// escaped string or comment (safe_text.h), and warnings hold only printable text.
+PlotReport MakeFigures(const PlotInputs& inputs, const PlotOptions& options);
+/// The same, reading the inputs first.
 PlotReport MakeFigures(const std::string& results_dir, const PlotOptions& options = {});
 
-/// Writes `results_dir`/index.html: the run's record, its events (events.csv) and every figure of
-/// `report.figures` found in `results_dir`/figures (the general figures when `report` has none),
-/// with `report`'s warnings, after the interactive view of every column (plot_web.h: its data in
-/// the page, its script and style copied next to it from FindPageAssets(); the bond graph and the
-/// 3D view from `model_path` when given). Throws std::runtime_error when results.csv cannot be
-/// read or the page cannot be written. Figures are shown only when they are regular files (not
-/// links) in figures/.
+/// Writes `inputs.folder`/index.html: the run's record, its events (events.csv) and every figure
+/// of `report.figures` found in figures/ (the general figures when `report` has none), with
+/// `report`'s warnings, after the interactive view of every column (plot_web.h: its data in the
+/// page, its script and style copied next to it from FindPageAssets(); the bond graph and the 3D
+/// view from the inputs' model when one was given: the bond graph's layout is the report's when
+/// MakeFigures drew it). Throws std::runtime_error when the page cannot be written. Figures are
+/// shown only when they are regular files (not links) in figures/.
+void WriteResultsPage(const PlotInputs& inputs, const PlotReport& report);
+/// The same, reading the folder and the model file (`model_path`, may be "") first.
 void WriteResultsPage(const std::string& results_dir, const PlotReport& report = {}, const InputLimits& limits = {},
                       const std::string& model_path = "");
 
