@@ -383,29 +383,6 @@ TEST(PlotsTest, Errors) {
   EXPECT_TRUE(Exists(dir.path() / "plots" / "fig03-G-orientation.gp"));
 }
 
-TEST(PlotsTest, BondGraphGroupedByLink) {
-  const LoadedModel lm = LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/differential.yaml");
-  const DotOptions o = LinkGrouping(lm);
-  EXPECT_EQ(o.nest.at("G_bearing"), "G");
-  EXPECT_EQ(o.nest.at("S1_held"), "S1");
-  EXPECT_EQ(o.nest.at("drive"), "G");
-  EXPECT_EQ(o.nest.at("mesh_P2S1"), "P2");
-  EXPECT_EQ(o.nest.at("G~H"), "G");
-  EXPECT_FALSE(o.bond_names);
-  const std::string dot = MakeDot(lm.graph, nullptr, nullptr, o);
-  // The bearing's cluster opens inside G's, before G's closes.
-  const size_t g = dot.find("subgraph cluster_G {"), bearing = dot.find("subgraph cluster_G_bearing {");
-  const size_t h = dot.find("subgraph cluster_H {");
-  ASSERT_NE(g, std::string::npos);
-  ASSERT_NE(bearing, std::string::npos);
-  EXPECT_LT(g, bearing);
-  EXPECT_TRUE(h < g || h > bearing);
-  // A model without mechanism sections: the plain grouping.
-  const DotOptions plain = LinkGrouping(LoadModelFile(std::string(MULTIBOND_SOURCE_DIR) + "/examples/mass_spring_damper.yaml"));
-  EXPECT_TRUE(plain.nest.empty());
-  EXPECT_TRUE(plain.bond_names);
-}
-
 // Each input is read once for the figures and the page, and each drawing made once: with
 // results.csv gone once the inputs are read, every figure and the page are drawn (gnuplot reads the
 // columns from its script, the page from the table read), and Graphviz runs once for the bond

@@ -36,3 +36,4 @@ multibond_test_setting(io DEFINITIONS
   MULTIBOND_SYSTEM_PYTHON="$<$<BOOL:${MULTIBOND_SYSTEM_PYTHON}>:${MULTIBOND_SYSTEM_PYTHON}>"
   MULTIBOND_OCTAVE="$<$<BOOL:${MULTIBOND_OCTAVE}>:${MULTIBOND_OCTAVE}>")
 multibond_test(io/plot_web_test.cc LIBS multibond::io LABELS unit)
+multibond_test(io/plot_model_test.cc LIBS multibond::io LABELS unit)
